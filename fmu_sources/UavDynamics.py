@@ -1,0 +1,113 @@
+"""UavDynamics FMU shell (pythonfmu): maps FMI variables to uavsim.dynamics.Dynamics.
+
+Connectors: docs/uav_connectors.md; model and parameter sources: docs/uav_models.md.
+"""
+import os
+import sys
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:           # inside the FMU this is resources/, which holds uavsim/
+    sys.path.insert(0, _HERE)
+
+from pythonfmu import Fmi2Slave  # noqa: E402
+
+from uavsim import params as P  # noqa: E402
+from uavsim.dynamics import Dynamics, DynamicsParams  # noqa: E402
+from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.geodesy import geodetic_from_enu  # noqa: E402
+
+_PARAMS = [  # name, unit, default, description
+    ("origin_lat", "deg", -7.2153, "latitude of the ENU origin (base), WGS84"),
+    ("origin_lon", "deg", -35.9098, "longitude of the ENU origin (base), WGS84"),
+    ("origin_alt", "m", 550.0, "ellipsoidal altitude of the ENU origin"),
+    ("home_x", "m", 0.0, "initial (home) east position"),
+    ("home_y", "m", 0.0, "initial (home) north position"),
+    ("takeoff_altitude", "m", P.TAKEOFF_ALTITUDE, "takeoff altitude above the origin"),
+    ("mass", "kg", P.MASS, "take-off mass"),
+    ("flat_plate_area", "m2", P.FLAT_PLATE_AREA, "equivalent flat-plate drag area Cd*A"),
+    ("rho", "kg/m3", P.RHO_SL, "air density"),
+    ("max_tilt_deg", "deg", P.MAX_TILT_DEG, "lean-angle limit (ANGLE_MAX)"),
+    ("speed", "m/s", P.WP_SPEED, "horizontal waypoint speed (WPNAV_SPEED)"),
+    ("accel", "m/s2", P.WP_ACCEL, "horizontal acceleration limit (WPNAV_ACCEL)"),
+    ("speed_up", "m/s", P.SPEED_UP, "climb rate (WPNAV_SPEED_UP)"),
+    ("speed_dn", "m/s", P.SPEED_DN, "descent rate (WPNAV_SPEED_DN)"),
+    ("accel_z", "m/s2", P.ACCEL_Z, "vertical acceleration limit (WPNAV_ACCEL_Z)"),
+    ("land_speed", "m/s", P.LAND_SPEED, "final landing descent rate (LAND_SPEED)"),
+    ("land_alt_low", "m", P.LAND_ALT_LOW, "altitude below which land_speed applies (LAND_ALT_LOW)"),
+    ("pos_p", "1/s", P.POS_XY_P, "horizontal position gain (PSC_POSXY_P)"),
+    ("pos_z_p", "1/s", P.POS_Z_P, "vertical position gain (PSC_POSZ_P)"),
+    ("vel_p", "1/s", P.VEL_XY_P, "velocity-loop P gain (PSC_VELXY_P)"),
+    ("vel_i", "1/s2", P.VEL_XY_I, "velocity-loop I gain (PSC_VELXY_I)"),
+    ("preflight_time", "s", P.PREFLIGHT_TIME, "duration of the preflight check"),
+    ("substep", "s", P.SUBSTEP, "internal integration sub-step"),
+]
+_OUT_REAL = [
+    ("x", "m", "east position"), ("y", "m", "north position"), ("z", "m", "height above origin (up)"),
+    ("vx", "m/s", "east velocity"), ("vy", "m/s", "north velocity"), ("vz", "m/s", "up velocity"),
+    ("lat", "deg", "WGS84 latitude"), ("lon", "deg", "WGS84 longitude"),
+    ("alt", "m", "altitude above the WGS84 ellipsoid"),
+    ("airspeed", "m/s", "horizontal air-relative speed |v_xy - wind_xy|"),
+    ("groundspeed", "m/s", "horizontal ground speed"),
+    ("tilt", "deg", "lean angle of the horizontal thrust demand"),
+]
+
+
+class UavDynamics(UnitsMixin, Fmi2Slave):
+    author = "cosim-master"
+    description = "Quadcopter (3DR Iris+ class) point-mass dynamics with ArduPilot-like position control"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        for name, unit, default, desc in _PARAMS:
+            setattr(self, name, float(default))
+            self.par_real(name, unit, desc)
+        self.cmd = 0
+        self.in_int("cmd", "0 idle/hold, 1 takeoff, 2 goto setpoint, 3 land")
+        for name, unit, desc in [("sp_x", "m", "setpoint east"), ("sp_y", "m", "setpoint north"),
+                                 ("sp_z", "m", "setpoint up"), ("wind_x", "m/s", "wind (air velocity) east"),
+                                 ("wind_y", "m/s", "wind (air velocity) north"),
+                                 ("wind_z", "m/s", "wind (air velocity) up")]:
+            setattr(self, name, 0.0)
+            self.in_real(name, unit, desc)
+        for name, unit, desc in _OUT_REAL:
+            setattr(self, name, 0.0)
+            self.out_real(name, unit, desc)
+        self.phase = 0
+        self.out_int("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed")
+        self.ready = 0
+        self.out_int("ready", "1 once the preflight check has passed")
+        self._model = None
+        self._publish()
+
+    def _build(self):
+        names = DynamicsParams.__dataclass_fields__
+        kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}
+        self._model = Dynamics(DynamicsParams(**kw))
+
+    def exit_initialization_mode(self):
+        self._build()
+        self._publish()
+
+    def _publish(self):
+        m = self._model
+        if m is None:
+            self.x, self.y, self.z = self.home_x, self.home_y, 0.0
+            self.vx = self.vy = self.vz = 0.0
+            self.airspeed = self.groundspeed = self.tilt = 0.0
+            self.phase, self.ready = 0, 0
+        else:
+            self.x, self.y, self.z = m.pos
+            self.vx, self.vy, self.vz = m.vel
+            self.airspeed, self.groundspeed, self.tilt = m.airspeed, m.groundspeed, m.tilt_deg
+            self.phase, self.ready = int(m.phase), int(m.ready)
+        lat, lon, alt = geodetic_from_enu(self.x, self.y, self.z, self.origin_lat, self.origin_lon,
+                                          self.origin_alt)
+        self.lat, self.lon, self.alt = float(lat), float(lon), float(alt)
+
+    def do_step(self, current_time, step_size):
+        if self._model is None:
+            self._build()
+        self._model.step(step_size, int(self.cmd), (self.sp_x, self.sp_y, self.sp_z),
+                         (self.wind_x, self.wind_y, self.wind_z))
+        self._publish()
+        return True

@@ -1,0 +1,113 @@
+"""UavStrategy FMU shell (pythonfmu): maps FMI variables to uavsim.strategy.Strategy.
+
+On do_step(t, h) the logic is evaluated on the inputs sampled at t (photo times are t); the new
+commands are the outputs for the next step.
+Connectors: docs/uav_connectors.md; model and parameter sources: docs/uav_models.md.
+"""
+import os
+import sys
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:           # inside the FMU this is resources/, which holds uavsim/
+    sys.path.insert(0, _HERE)
+
+from pythonfmu import Fmi2Slave  # noqa: E402
+
+from uavsim import params as P  # noqa: E402
+from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.strategy import Strategy, StrategyParams  # noqa: E402
+
+_REAL = [  # name, unit, default, description
+    ("lookahead", "m", P.LOOKAHEAD, "restricted-zone look-ahead distance"),
+    ("home_x", "m", 0.0, "base east position"),
+    ("home_y", "m", 0.0, "base north position"),
+    ("cruise_altitude", "m", P.CRUISE_ALTITUDE, "flight altitude"),
+    ("return_threshold", "1", P.RETURN_THRESHOLD, "consumed fraction: return to base"),
+    ("land_threshold", "1", P.LAND_THRESHOLD, "consumed fraction: land immediately"),
+    ("arrival_radius", "m", P.ARRIVAL_RADIUS, "target / waypoint acceptance radius"),
+    ("avoid_margin", "m", P.AVOID_MARGIN, "outward offset of detour vertices"),
+]
+_STR = [
+    ("strategy", "A", "A: defined order, B: nearest remaining target first"),
+    ("assignment", "equal", "equal (contiguous blocks), roundrobin (k mod N) or spatial (sectors)"),
+    ("targets", "", "targets 'x1,y1;x2,y2;...' ENU m"),
+    ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';'"),
+]
+
+
+class UavStrategy(UnitsMixin, Fmi2Slave):
+    author = "cosim-master"
+    description = "Surveillance mission logic of one UAV (paper's Strategy A / B)"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        for name, unit, default, desc in _REAL:
+            setattr(self, name, float(default))
+            self.par_real(name, unit, desc)
+        for name, default, desc in _STR:
+            setattr(self, name, default)
+            self.par_str(name, desc)
+        self.uav_index = 0
+        self.par_int("uav_index", "index of this UAV, 0..uav_count-1")
+        self.uav_count = 1
+        self.par_int("uav_count", "number of UAVs sharing the targets")
+        for name, unit, desc in [("x", "m", "east position"), ("y", "m", "north position"),
+                                 ("z", "m", "up position"), ("vx", "m/s", "east velocity"),
+                                 ("vy", "m/s", "north velocity"),
+                                 ("consumed", "1", "battery fraction consumed")]:
+            setattr(self, name, 0.0)
+            self.in_real(name, unit, desc)
+        self.phase = 0
+        self.in_int("phase", "vehicle phase")
+        self.cmd = 1
+        self.out_int("cmd", "0 idle/hold, 1 takeoff, 2 goto setpoint, 3 land")
+        for name, desc in [("sp_x", "setpoint east"), ("sp_y", "setpoint north"), ("sp_z", "setpoint up")]:
+            setattr(self, name, 0.0)
+            self.out_real(name, "m", desc)
+        for name, desc in [("mission_state", "see docs/uav_models.md"),
+                           ("targets_assigned", "number of targets assigned to this UAV"),
+                           ("targets_visited", "number of assigned targets photographed"),
+                           ("photo_count", "photos taken"),
+                           ("last_photo_target", "global index of the last photographed target (-1 none)"),
+                           ("current_target", "global index of the target being flown to (-1 none)"),
+                           ("avoiding", "1 while flying a zone detour"),
+                           ("avoid_count", "number of detours planned")]:
+            setattr(self, name, 0)
+            self.out_int(name, desc)
+        self.last_photo_target = -1
+        self.current_target = -1
+        for name, unit, desc in [("last_photo_time", "s", "time of the last photo"),
+                                 ("last_photo_x", "m", "east position of the last photo"),
+                                 ("last_photo_y", "m", "north position of the last photo")]:
+            setattr(self, name, 0.0)
+            self.out_real(name, unit, desc)
+        self._model = None
+
+    def _build(self):
+        kw = {n: getattr(self, n) for n, *_ in _REAL}
+        kw.update({n: str(getattr(self, n)) for n, *_ in _STR})
+        self._model = Strategy(StrategyParams(uav_index=int(self.uav_index),
+                                              uav_count=int(self.uav_count), **kw))
+
+    def exit_initialization_mode(self):
+        self._build()
+        self._publish()
+
+    def _publish(self):
+        m = self._model
+        self.cmd = int(m.cmd)
+        self.sp_x, self.sp_y, self.sp_z = m.sp
+        self.mission_state = int(m.state)
+        self.targets_assigned, self.targets_visited = m.targets_assigned, m.targets_visited
+        self.photo_count, self.last_photo_target = m.photo_count, m.last_photo_target
+        self.current_target, self.avoiding, self.avoid_count = m.current_target, int(m.avoiding), m.avoid_count
+        self.last_photo_time, self.last_photo_x, self.last_photo_y = (
+            m.last_photo_time, m.last_photo_x, m.last_photo_y)
+
+    def do_step(self, current_time, step_size):
+        if self._model is None:
+            self._build()
+        self._model.step(current_time, self.x, self.y, self.z, self.vx, self.vy,
+                         int(self.phase), self.consumed)
+        self._publish()
+        return True

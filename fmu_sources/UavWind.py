@@ -1,0 +1,84 @@
+"""UavWind FMU shell (pythonfmu): maps FMI variables to uavsim.wind.Wind.
+
+Outputs at the end of a step [t, t+h] are the wind at t+h (a function of time only).
+Connectors: docs/uav_connectors.md; model and parameter sources: docs/uav_models.md.
+"""
+import os
+import sys
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:           # inside the FMU this is resources/, which holds uavsim/
+    sys.path.insert(0, _HERE)
+
+from pythonfmu import Fmi2Slave  # noqa: E402
+
+from uavsim import params as P  # noqa: E402
+from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.wind import Wind, WindParams  # noqa: E402
+
+_PARAMS = [  # name, unit, default, description
+    ("probability", "1", P.WIND_PROBABILITY, "probability of wind per decision interval"),
+    ("direction_deg", "deg", P.WIND_DIRECTION_DEG,
+     "direction the wind comes FROM, clockwise from north (90 = from east, blows east->west)"),
+    ("decision_interval", "s", P.WIND_DECISION_INTERVAL, "interval between wind draws"),
+    ("duration", "s", P.WIND_DURATION, "episode duration (capped at decision_interval)"),
+    ("ramp", "s", P.WIND_RAMP, "episode onset/decay ramp"),
+    ("speed_weak", "m/s", P.WIND_SPEED_WEAK, "weak wind speed (Beaufort 3)"),
+    ("speed_moderate", "m/s", P.WIND_SPEED_MODERATE, "moderate wind speed (Beaufort 4)"),
+    ("speed_strong", "m/s", P.WIND_SPEED_STRONG, "strong wind speed (Beaufort 6)"),
+    ("p_weak", "1", P.WIND_P_WEAK, "P(weak | wind)"),
+    ("p_moderate", "1", P.WIND_P_MODERATE, "P(moderate | wind); P(strong) = 1 - p_weak - p_moderate"),
+    ("turb_dt", "s", P.TURB_DT, "Dryden noise sample interval"),
+    ("turb_altitude", "m", P.TURB_ALTITUDE, "altitude for the Dryden length scales"),
+    ("gust_amplitude", "1", P.GUST_AMPLITUDE, "1-cosine gust amplitude / episode speed"),
+    ("gust_length", "s", P.GUST_LENGTH, "1-cosine gust duration"),
+]
+
+
+class UavWind(UnitsMixin, Fmi2Slave):
+    author = "cosim-master"
+    description = "Paper's stochastic east-to-west wind with optional Dryden turbulence and 1-cosine gusts"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        for name, unit, default, desc in _PARAMS:
+            setattr(self, name, float(default))
+            self.par_real(name, unit, desc)
+        self.seed = 0
+        self.par_int("seed", "seed of the PCG64 generators")
+        self.turbulence = False
+        self.par_bool("turbulence", "enable Dryden turbulence")
+        self.gusts = False
+        self.par_bool("gusts", "enable discrete 1-cosine gusts")
+        for name, desc in [("wind_x", "air velocity east"), ("wind_y", "air velocity north"),
+                           ("wind_z", "air velocity up"), ("wind_speed", "horizontal wind speed")]:
+            setattr(self, name, 0.0)
+            self.out_real(name, "m/s", desc)
+        self.wind_level = 0
+        self.out_int("wind_level", "0 none, 1 weak, 2 moderate, 3 strong")
+        self._model = None
+        self._t = 0.0
+
+    def _build(self):
+        kw = {n: getattr(self, n) for n, *_ in _PARAMS}
+        self._model = Wind(WindParams(seed=int(self.seed), turbulence=bool(self.turbulence),
+                                      gusts=bool(self.gusts), **kw))
+
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        self._t = float(start_time or 0.0)
+
+    def exit_initialization_mode(self):
+        self._build()
+        self._publish(self._t)
+
+    def _publish(self, t):
+        wx, wy, wz, lvl = self._model.at(t)
+        self.wind_x, self.wind_y, self.wind_z = wx, wy, wz
+        self.wind_speed = (wx * wx + wy * wy) ** 0.5
+        self.wind_level = int(lvl)
+
+    def do_step(self, current_time, step_size):
+        if self._model is None:
+            self._build()
+        self._publish(current_time + step_size)
+        return True

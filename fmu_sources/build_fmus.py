@@ -1,0 +1,125 @@
+"""Build the four UAV FMUs (pythonfmu) into fmus/, bundling the uavsim package.
+
+    python fmu_sources/build_fmus.py [--dest DIR] [--check]
+
+Each FMU's resources/ holds the shell script (e.g. UavDynamics.py), the package uavsim/ (all its
+*.py files; the shells put resources/ first on sys.path, so the bundled copy is used) and
+``sources.sha256``: one line "<sha256>  <path relative to fmu_sources/>" per bundled source file.
+``stale_fmus(fmu_dir, src_dir)`` compares those lists with the current files, so a test can detect
+a shipped FMU that was not rebuilt after a source change (``--check`` does the same from the
+command line and exits 1 when something is stale).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import shutil
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy")
+HASH_FILE = "sources.sha256"
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
+    """Paths (relative to src_dir, '/'-separated) of the source files bundled into FMU ``name``."""
+    src_dir = Path(src_dir)
+    files = [f"{name}.py"]
+    files += sorted(f"uavsim/{p.name}" for p in (src_dir / "uavsim").glob("*.py"))
+    return files
+
+
+def source_hashes(name: str, src_dir: Path | str = HERE) -> dict[str, str]:
+    src_dir = Path(src_dir)
+    return {rel: _sha256(src_dir / rel) for rel in bundled_sources(name, src_dir)}
+
+
+def format_hashes(hashes: dict[str, str]) -> str:
+    return "".join(f"{h}  {rel}\n" for rel, h in sorted(hashes.items()))
+
+
+def parse_hashes(text: str) -> dict[str, str]:
+    out = {}
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        h, rel = line.split(None, 1)
+        out[rel.strip()] = h
+    return out
+
+
+def shipped_hashes(fmu: Path | str) -> dict[str, str] | None:
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            return parse_hashes(z.read(f"resources/{HASH_FILE}").decode("utf-8"))
+    except (FileNotFoundError, KeyError, zipfile.BadZipFile):
+        return None
+
+
+def stale_fmus(fmu_dir: Path | str = REPO / "fmus", src_dir: Path | str = HERE) -> list[str]:
+    """Names (e.g. "UavDynamics.fmu") of the FMUs in fmu_dir that are missing, carry no
+    sources.sha256, or whose bundled sources differ from the current files in src_dir."""
+    stale = []
+    for name in FMU_NAMES:
+        fmu = Path(fmu_dir) / f"{name}.fmu"
+        shipped = shipped_hashes(fmu)
+        if shipped is None or shipped != source_hashes(name, src_dir):
+            stale.append(fmu.name)
+    return stale
+
+
+def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
+    """Build one FMU into dest/<name>.fmu and return its path."""
+    from pythonfmu.builder import FmuBuilder
+
+    src_dir = Path(src_dir).resolve()
+    dest = Path(dest).resolve()
+    dest.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=f"build_{name}_") as tmp:
+        stage = Path(tmp)
+        pkg = stage / "uavsim"
+        pkg.mkdir()
+        for rel in bundled_sources(name, src_dir):
+            if rel.startswith("uavsim/"):
+                shutil.copy2(src_dir / rel, pkg / Path(rel).name)
+        (stage / HASH_FILE).write_text(format_hashes(source_hashes(name, src_dir)))
+        if str(src_dir) not in sys.path:
+            sys.path.insert(0, str(src_dir))
+        out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
+                                   project_files=[pkg, stage / HASH_FILE])
+    return Path(out)
+
+
+def build_all(dest: Path | str = REPO / "fmus", src_dir: Path | str = HERE) -> list[Path]:
+    return [build_fmu(n, dest, src_dir) for n in FMU_NAMES]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dest", default=str(REPO / "fmus"), help="output folder (default fmus/)")
+    ap.add_argument("--check", action="store_true", help="only report stale FMUs (exit 1 if any)")
+    a = ap.parse_args(argv)
+    if a.check:
+        stale = stale_fmus(a.dest, HERE)
+        print("stale: " + (", ".join(stale) if stale else "none"))
+        return 1 if stale else 0
+    for p in build_all(a.dest, HERE):
+        print(f"built {p}")
+    stale = stale_fmus(a.dest, HERE)
+    if stale:
+        print("still stale after build: " + ", ".join(stale), file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,183 @@
+"""Rotary-wing propulsion power (Zeng, Xu, Zhang 2019) and a LiPo battery (coulomb counting,
+open-circuit-voltage table, internal resistance).
+
+Propulsion shaft power at horizontal airspeed V [ZENG eq. (12)]:
+
+    P_shaft(V) = P0 (1 + 3 V^2 / U_tip^2)
+               + Pi sqrt( sqrt(1 + V^4 / (4 v0^4)) - V^2 / (2 v0^2) )
+               + 0.5 d0 rho s A V^3
+
+with, for the whole vehicle (all rotors), A = n_rotors pi R^2 the total disc area,
+s the rotor solidity, W = m g,
+    P0 = delta/8 rho s A U_tip^3          (blade profile power in hover)
+    Pi = (1 + k) W^1.5 / sqrt(2 rho A)    (induced power in hover)
+    v0 = sqrt(W / (2 rho A))              (mean induced velocity in hover)
+    d0 s A = S_FP                          (fuselage equivalent flat-plate area, the same S_FP as
+                                            the drag of the dynamics model).
+
+Electrical power drawn from the pack:
+
+    P = P_shaft(V) / eta + max(0, m g v_z) / eta + P_avionics     (motors running: phases 1-3)
+    P = P_avionics                                                  (on ground: phases 0 and 4)
+
+Battery: E = n_cells * OCV(soc) (linear interpolation in a per-cell table), terminal voltage
+U = E - I R; the current follows from P = U I = E I - R I^2:
+
+    I = (E - sqrt(E^2 - 4 R P)) / (2 R)           (I = P / E when R = 0)
+
+(if E^2 < 4 R P the pack cannot deliver P; the current is then capped at the maximum-power
+current E / (2R) and ``overload`` is set).  Coulomb counting: dQ/dt = I,
+consumed = Q / C, soc = 1 - consumed (clamped at 0), energy_used = integral of U I dt.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+
+from . import params as P
+
+
+@dataclass
+class PowerParams:
+    mass: float = P.MASS                          # kg
+    rho: float = P.RHO_SL                         # kg/m^3
+    g: float = P.G0                               # m/s^2
+    rotor_count: int = P.ROTOR_COUNT
+    rotor_radius: float = P.ROTOR_RADIUS          # m
+    solidity: float = P.ROTOR_SOLIDITY            # 1
+    tip_speed: float = P.TIP_SPEED                # m/s
+    profile_drag_coef: float = P.PROFILE_DRAG_COEF  # 1 (delta)
+    induced_correction: float = P.INDUCED_CORRECTION  # 1 (k)
+    flat_plate_area: float = P.FLAT_PLATE_AREA    # m^2 (d0 s A)
+    efficiency: float = P.PROPULSION_EFFICIENCY   # 1
+    avionics_power: float = P.AVIONICS_POWER      # W
+
+    @property
+    def disc_area(self) -> float:
+        return self.rotor_count * math.pi * self.rotor_radius ** 2
+
+    @property
+    def weight(self) -> float:
+        return self.mass * self.g
+
+    @property
+    def p0(self) -> float:
+        return self.profile_drag_coef / 8.0 * self.rho * self.solidity * self.disc_area * self.tip_speed ** 3
+
+    @property
+    def pi(self) -> float:
+        return (1.0 + self.induced_correction) * self.weight ** 1.5 / math.sqrt(2.0 * self.rho * self.disc_area)
+
+    @property
+    def v0(self) -> float:
+        return math.sqrt(self.weight / (2.0 * self.rho * self.disc_area))
+
+
+def shaft_power(v: float, p: PowerParams) -> float:
+    """Zeng et al. (2019) eq. (12): propulsion (shaft) power at horizontal airspeed v [W]."""
+    v2 = v * v
+    v0 = p.v0
+    blade = p.p0 * (1.0 + 3.0 * v2 / p.tip_speed ** 2)
+    induced = p.pi * math.sqrt(max(0.0, math.sqrt(1.0 + v2 * v2 / (4.0 * v0 ** 4)) - v2 / (2.0 * v0 * v0)))
+    parasite = 0.5 * p.rho * p.flat_plate_area * v2 * abs(v)
+    return blade + induced + parasite
+
+
+def electrical_power(airspeed: float, vz: float, motors_on: bool, p: PowerParams) -> float:
+    """Electrical power drawn from the pack [W]."""
+    if not motors_on:
+        return p.avionics_power
+    climb = max(0.0, p.weight * vz)
+    return (shaft_power(airspeed, p) + climb) / p.efficiency + p.avionics_power
+
+
+@dataclass
+class BatteryParams:
+    cells: int = P.CELLS
+    capacity_ah: float = P.CAPACITY_AH            # Ah
+    cell_resistance: float = P.CELL_RESISTANCE    # ohm
+    initial_soc: float = 1.0                      # 1
+    ocv_soc: tuple = P.OCV_SOC
+    ocv_cell: tuple = P.OCV_CELL                  # V per cell
+    substep: float = P.BATTERY_SUBSTEP            # s
+
+    @property
+    def resistance(self) -> float:
+        return self.cells * self.cell_resistance
+
+    @property
+    def capacity_c(self) -> float:
+        return self.capacity_ah * 3600.0
+
+
+def ocv_cell(soc: float, bp: BatteryParams) -> float:
+    xs, ys = bp.ocv_soc, bp.ocv_cell
+    if soc <= xs[0]:
+        return ys[0]
+    if soc >= xs[-1]:
+        return ys[-1]
+    i = bisect.bisect_right(xs, soc) - 1
+    f = (soc - xs[i]) / (xs[i + 1] - xs[i])
+    return ys[i] + f * (ys[i + 1] - ys[i])
+
+
+def current_for_power(power: float, emf: float, r: float) -> tuple[float, bool]:
+    """Current I drawn at electrical power ``power`` from a source emf - r I. Returns (I, overload)."""
+    if r <= 0.0:
+        return power / emf, False
+    disc = emf * emf - 4.0 * r * power
+    if disc < 0.0:
+        return emf / (2.0 * r), True
+    return (emf - math.sqrt(disc)) / (2.0 * r), False
+
+
+@dataclass
+class Battery:
+    power_params: PowerParams = field(default_factory=PowerParams)
+    params: BatteryParams = field(default_factory=BatteryParams)
+
+    def __post_init__(self):
+        bp = self.params
+        self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
+        self.energy_used = 0.0                                        # J
+        self.power = 0.0
+        self.current = 0.0
+        self.overload = False
+        self.voltage = bp.cells * ocv_cell(self.soc, bp)
+        self._update(0.0, 0.0, False)
+
+    @property
+    def consumed(self) -> float:
+        return self.charge_used / self.params.capacity_c
+
+    @property
+    def soc(self) -> float:
+        return max(0.0, 1.0 - self.consumed)
+
+    @property
+    def depleted(self) -> bool:
+        return self.consumed >= 1.0
+
+    def _update(self, airspeed, vz, motors_on):
+        bp = self.params
+        emf = bp.cells * ocv_cell(self.soc, bp)
+        self.power = electrical_power(airspeed, vz, motors_on, self.power_params)
+        self.current, self.overload = current_for_power(self.power, emf, bp.resistance)
+        self.voltage = emf - self.current * bp.resistance
+        self.power = self.voltage * self.current
+
+    def step(self, dt: float, airspeed: float, vz: float, phase: int) -> None:
+        if dt <= 0.0:
+            return
+        motors_on = int(phase) in (1, 2, 3)
+        h0 = self.params.substep
+        n = max(1, int(round(dt / h0)))
+        if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
+            n = int(math.ceil(dt / h0 - 1e-9))
+        h = dt / n
+        for _ in range(n):
+            self._update(airspeed, vz, motors_on)
+            self.charge_used += self.current * h
+            self.energy_used += self.power * h
+        self._update(airspeed, vz, motors_on)

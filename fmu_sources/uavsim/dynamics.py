@@ -1,0 +1,244 @@
+"""Translational point-mass quadcopter with an ArduPilot-like position/velocity controller.
+
+State: ENU position p (m), ENU velocity v (m/s), reference ("target") velocity v_t, velocity-loop
+integrator.  Per fixed sub-step h (default 0.01 s), horizontally:
+
+    e        = goal_xy - p_xy,  d = |e|
+    |v_des|  = min(V_max, sqrt_controller(d, K_pos, A_max))          (ArduPilot AC_PosControl)
+    v_t     <- v_t + clip(v_des - v_t, |.| <= A_max h)                (acceleration-limited reference)
+    a_cmd    = a_ff + K_vp (v_t - v) + K_vi * I + D_still(v)          (PI velocity loop + feed-forward)
+    |a_cmd| <= g tan(theta_max)                                       (thrust-limited lean angle)
+    a        = a_cmd - (rho S_FP / 2m) |v - w| (v - w)               (quadratic drag on airspeed)
+    v       <- v + a h ;  p <- p + v h                                (semi-implicit Euler)
+
+where sqrt_controller(d) = K d for d <= A/K^2 and sqrt(2 A (d - A/(2K^2))) beyond (the braking
+profile that stops at the goal without overshoot), a_ff = (v_t,new - v_t,old)/h and
+D_still(v) = (rho S_FP/2m)|v| v is the still-air drag feed-forward (the autopilot knows its own
+drag curve, not the wind: wind is rejected by the integrator, so a wind step produces a transient
+drift).  Vertically the thrust authority is ample, so v_z follows an acceleration-limited
+(ACCEL_Z) reference bounded by SPEED_UP / SPEED_DN (or LAND_SPEED below LAND_ALT_LOW when landing).
+
+Phases (output ``phase``): 0 preflight (on ground; the check takes ``preflight_time`` from power-on),
+1 takeoff (vertical climb to ``takeoff_altitude``), 2 fly, 3 land, 4 landed.
+Commands (input ``cmd``): 0 idle / hold, 1 takeoff, 2 go to setpoint, 3 land.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from . import params as P
+
+PREFLIGHT, TAKEOFF, FLY, LAND, LANDED = 0, 1, 2, 3, 4
+CMD_IDLE, CMD_TAKEOFF, CMD_GOTO, CMD_LAND = 0, 1, 2, 3
+
+
+def sqrt_controller(error: float, p: float, accel: float) -> float:
+    """ArduPilot's sqrt_controller: speed demanded at distance ``error`` (>= 0) from the goal.
+
+    Linear (gain p) within accel/p^2 of the goal, else the constant-deceleration braking curve
+    sqrt(2 accel (error - accel/(2 p^2))), continuous in value and slope at the junction.
+    """
+    if error <= 0.0:
+        return 0.0
+    linear_dist = accel / (p * p)
+    if error <= linear_dist:
+        return p * error
+    return math.sqrt(2.0 * accel * (error - 0.5 * linear_dist))
+
+
+@dataclass
+class DynamicsParams:
+    mass: float = P.MASS                      # kg
+    flat_plate_area: float = P.FLAT_PLATE_AREA  # m^2
+    rho: float = P.RHO_SL                     # kg/m^3
+    max_tilt_deg: float = P.MAX_TILT_DEG      # deg
+    speed: float = P.WP_SPEED                 # m/s
+    accel: float = P.WP_ACCEL                 # m/s^2
+    speed_up: float = P.SPEED_UP              # m/s
+    speed_dn: float = P.SPEED_DN              # m/s
+    accel_z: float = P.ACCEL_Z                # m/s^2
+    land_speed: float = P.LAND_SPEED          # m/s
+    land_alt_low: float = P.LAND_ALT_LOW      # m
+    pos_p: float = P.POS_XY_P                 # 1/s
+    pos_z_p: float = P.POS_Z_P                # 1/s
+    vel_p: float = P.VEL_XY_P                 # 1/s
+    vel_i: float = P.VEL_XY_I                 # 1/s^2
+    preflight_time: float = P.PREFLIGHT_TIME  # s
+    takeoff_altitude: float = P.TAKEOFF_ALTITUDE  # m
+    home_x: float = 0.0                       # m
+    home_y: float = 0.0                       # m
+    substep: float = P.SUBSTEP                # s
+    g: float = P.G0                           # m/s^2
+
+    @property
+    def drag_k(self) -> float:
+        """Drag acceleration coefficient rho S_FP / (2 m) [1/m]."""
+        return 0.5 * self.rho * self.flat_plate_area / self.mass
+
+    @property
+    def max_horizontal_accel(self) -> float:
+        return self.g * math.tan(math.radians(self.max_tilt_deg))
+
+    @property
+    def max_wind_hold(self) -> float:
+        """Largest wind speed in which the vehicle can hold position [m/s]:
+        drag at full lean equals the thrust's horizontal component, k W^2 = g tan(theta_max)."""
+        return math.sqrt(self.max_horizontal_accel / self.drag_k)
+
+
+@dataclass
+class Dynamics:
+    params: DynamicsParams = field(default_factory=DynamicsParams)
+
+    def __post_init__(self):
+        p = self.params
+        self.time = 0.0
+        self.pos = [p.home_x, p.home_y, 0.0]
+        self.vel = [0.0, 0.0, 0.0]
+        self.vt = [0.0, 0.0]          # horizontal reference velocity
+        self.vtz = 0.0                # vertical reference velocity
+        self.integ = [0.0, 0.0]       # velocity-loop integrator (m/s^2 units after gain)
+        self.phase = PREFLIGHT
+        self.hold = [p.home_x, p.home_y]
+        self.a_cmd = [0.0, 0.0]
+        self.wind = (0.0, 0.0, 0.0)
+        self.preflight_elapsed = 0.0
+        self.ready = False
+        self.mode = "hold"            # FLY sub-mode: "goto" (setpoint) or "hold" (position hold)
+        self.hold_z = 0.0
+
+    # ------------------------------------------------------------------ outputs
+    @property
+    def airspeed(self) -> float:
+        """Horizontal air-relative speed |v_xy - w_xy| [m/s] (input of the Zeng power model)."""
+        return math.hypot(self.vel[0] - self.wind[0], self.vel[1] - self.wind[1])
+
+    @property
+    def groundspeed(self) -> float:
+        return math.hypot(self.vel[0], self.vel[1])
+
+    @property
+    def tilt_deg(self) -> float:
+        """Lean angle needed for the current horizontal thrust acceleration [deg]."""
+        return math.degrees(math.atan2(math.hypot(*self.a_cmd), self.params.g))
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, dt: float, cmd: int, sp=(0.0, 0.0, 0.0), wind=(0.0, 0.0, 0.0)) -> None:
+        """Advance by ``dt`` seconds with inputs held constant (fixed internal sub-steps)."""
+        if dt <= 0.0:
+            return
+        h0 = self.params.substep
+        n = max(1, int(round(dt / h0)))
+        if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
+            n = int(math.ceil(dt / h0 - 1e-9))
+        h = dt / n
+        self.wind = (float(wind[0]), float(wind[1]), float(wind[2]))
+        for _ in range(n):
+            self._substep(h, int(cmd), sp)
+        self.time += dt
+
+    def _set_hold_here(self):
+        self.hold = [self.pos[0], self.pos[1]]
+
+    def _substep(self, h: float, cmd: int, sp) -> None:
+        p = self.params
+        # ---------------- phase logic
+        if self.phase == PREFLIGHT:
+            self.preflight_elapsed += h
+            if self.preflight_elapsed >= p.preflight_time - 1e-9:
+                self.ready = True
+            if self.ready and cmd in (CMD_TAKEOFF, CMD_GOTO):
+                self.phase = TAKEOFF
+                self._set_hold_here()
+            else:
+                return
+        if self.phase == LANDED:
+            if cmd == CMD_TAKEOFF:
+                self.phase = TAKEOFF
+                self._set_hold_here()
+            else:
+                return
+        if self.phase in (TAKEOFF, FLY) and cmd == CMD_LAND:
+            self.phase = LAND
+            self._set_hold_here()
+        # ---------------- goals
+        if self.phase == FLY:
+            if cmd == CMD_GOTO:
+                self.mode = "goto"
+            elif self.mode == "goto":      # goto released: hold where we are
+                self.mode = "hold"
+                self._set_hold_here()
+                self.hold_z = self.pos[2]
+        if self.phase == FLY and self.mode == "goto":
+            gx, gy, gz = float(sp[0]), float(sp[1]), float(sp[2])
+        else:
+            gx, gy = self.hold
+            if self.phase == TAKEOFF:
+                gz = p.takeoff_altitude
+            elif self.phase == FLY:
+                gz = self.hold_z
+            else:
+                gz = self.pos[2]
+        # ---------------- horizontal controller
+        ex, ey = gx - self.pos[0], gy - self.pos[1]
+        d = math.hypot(ex, ey)
+        vmag = min(p.speed, sqrt_controller(d, p.pos_p, p.accel))
+        if d > 1e-9:
+            vdx, vdy = vmag * ex / d, vmag * ey / d
+        else:
+            vdx = vdy = 0.0
+        dvx, dvy = vdx - self.vt[0], vdy - self.vt[1]
+        dvm = math.hypot(dvx, dvy)
+        lim = p.accel * h
+        if dvm > lim:
+            dvx, dvy = dvx * lim / dvm, dvy * lim / dvm
+        self.vt[0] += dvx
+        self.vt[1] += dvy
+        aff_x, aff_y = dvx / h, dvy / h
+        k = p.drag_k
+        sx = math.hypot(self.vel[0], self.vel[1])
+        evx, evy = self.vt[0] - self.vel[0], self.vt[1] - self.vel[1]
+        ax = aff_x + p.vel_p * evx + p.vel_i * self.integ[0] + k * sx * self.vel[0]
+        ay = aff_y + p.vel_p * evy + p.vel_i * self.integ[1] + k * sx * self.vel[1]
+        amax = p.max_horizontal_accel
+        am = math.hypot(ax, ay)
+        saturated = am > amax
+        if saturated:
+            ax, ay = ax * amax / am, ay * amax / am
+        else:  # conditional integration (anti-windup)
+            self.integ[0] += evx * h
+            self.integ[1] += evy * h
+        self.a_cmd = [ax, ay]
+        wx, wy, wz = self.wind
+        vax, vay = self.vel[0] - wx, self.vel[1] - wy
+        va = math.hypot(vax, vay)
+        self.vel[0] += (ax - k * va * vax) * h
+        self.vel[1] += (ay - k * va * vay) * h
+        # ---------------- vertical (kinematic, acceleration-limited reference)
+        ez = gz - self.pos[2]
+        if self.phase == LAND:
+            vzd = -(p.land_speed if self.pos[2] <= p.land_alt_low else p.speed_dn)
+        else:
+            vzd = math.copysign(sqrt_controller(abs(ez), p.pos_z_p, p.accel_z), ez)
+            vzd = max(-p.speed_dn, min(p.speed_up, vzd))
+        dvz = max(-p.accel_z * h, min(p.accel_z * h, vzd - self.vtz))
+        self.vtz += dvz
+        self.vel[2] = self.vtz
+        # ---------------- integrate position
+        self.pos[0] += self.vel[0] * h
+        self.pos[1] += self.vel[1] * h
+        self.pos[2] += self.vel[2] * h
+        # ---------------- transitions
+        if self.phase == TAKEOFF and self.pos[2] >= p.takeoff_altitude - 0.2:
+            self.phase = FLY
+            self.mode = "hold"
+            self.hold_z = p.takeoff_altitude
+        if self.phase == LAND and self.pos[2] <= 0.0:
+            self.pos[2] = 0.0
+            self.vel = [0.0, 0.0, 0.0]
+            self.vt = [0.0, 0.0]
+            self.vtz = 0.0
+            self.integ = [0.0, 0.0]
+            self.a_cmd = [0.0, 0.0]
+            self.phase = LANDED

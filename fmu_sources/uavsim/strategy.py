@@ -1,0 +1,396 @@
+"""Mission logic of one UAV: target assignment, Strategy A / B, photos, battery rules, zone fly-around.
+
+Target assignment (targets are numbered 0..n-1 in the order they are given = defined on the map):
+
+* ``equal`` (default): contiguous blocks in map order, sizes as equal as possible (the first
+  n mod N UAVs get one extra): UAV i gets targets [start_i, start_i + size_i).  With 24 targets and
+  1..4 UAVs every UAV gets 24/N targets ("divided equally for each drone", the paper).
+* ``roundrobin``: target k goes to UAV k mod N.
+* ``spatial``: angular sectors around the base: targets sorted by the bearing
+  atan2(y - home_y, x - home_x) in [0, 2 pi) (ties: distance, then index) and split into contiguous
+  blocks as in ``equal``; deterministic, no random initialisation.
+
+Visiting order: Strategy A visits its targets in ascending global index (map order).  Strategy B,
+each time it needs a new target, scores every remaining target by its horizontal distance from
+the current position and takes the lowest score (ties: lowest index).
+
+Battery rules (the paper): consumed >= return_threshold (0.8) -> abandon the mission and return to
+base; consumed >= land_threshold (0.95) -> land immediately where the UAV is.
+
+Restricted zones: every step the segment from the current position of length ``lookahead`` along
+the current flight direction (velocity direction when the groundspeed exceeds 0.5 m/s, otherwise
+the direction to the current goal) is tested against the zone polygons.  On a hit the UAV plans a
+fly-around: the shortest path from its position to the goal in the visibility graph whose nodes are
+the vertices of every zone offset outward by ``avoid_margin`` (mitred buffer), and whose edges
+do not cross the interior of any zone.  Going around the side where the path is shorter is thus
+automatic.  The detour vertices are flown as intermediate waypoints (accepted within
+arrival_radius); while detouring, a re-plan happens only if the leg to the next detour vertex is
+itself blocked.  If no path exists (e.g. the UAV is already inside a zone) it flies straight on.
+
+mission_state codes:
+  0 PREFLIGHT      waiting for the vehicle (phase 0), cmd = 1 (takeoff request)
+  1 TAKEOFF        climbing (phase 1), cmd = 1
+  2 TRANSIT        flying to the current target, cmd = 2
+  3 RETURN_DONE    all assigned targets visited, flying back to base, cmd = 2
+  4 RETURN_LOW     consumed >= return_threshold, mission abandoned, flying to base, cmd = 2
+  5 LAND_BASE      over the base, landing, cmd = 3
+  6 LAND_NOW       consumed >= land_threshold away from base: immediate landing, cmd = 3
+  7 LANDED_BASE    on the ground at the base (final)
+  8 LANDED_AWAY    on the ground away from the base (final; forced landing)
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass, field
+
+from . import params as P
+
+PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW, LANDED_BASE, LANDED_AWAY = range(9)
+STATE_NAMES = ["PREFLIGHT", "TAKEOFF", "TRANSIT", "RETURN_DONE", "RETURN_LOW", "LAND_BASE",
+               "LAND_NOW", "LANDED_BASE", "LANDED_AWAY"]
+
+
+def parse_points(text: str) -> list[tuple[float, float]]:
+    """Parse "x1,y1;x2,y2;..." into a list of (x, y)."""
+    pts = []
+    for item in (text or "").replace("\n", ";").split(";"):
+        item = item.strip()
+        if not item:
+            continue
+        a, b = item.split(",")[:2]
+        pts.append((float(a), float(b)))
+    return pts
+
+
+def parse_zones(text: str) -> list[list[tuple[float, float]]]:
+    """Parse polygons "x,y;x,y;x,y|x,y;..." into lists of vertices."""
+    return [pts for pts in (parse_points(p) for p in (text or "").split("|")) if len(pts) >= 3]
+
+
+def _blocks(n: int, count: int) -> list[range]:
+    base, extra = divmod(n, count)
+    out, start = [], 0
+    for i in range(count):
+        size = base + (1 if i < extra else 0)
+        out.append(range(start, start + size))
+        start += size
+    return out
+
+
+def assign_targets(targets, uav_index: int, uav_count: int, assignment: str = "equal",
+                   home=(0.0, 0.0)) -> list[int]:
+    """Global indices of the targets assigned to UAV ``uav_index`` (in ascending index order)."""
+    n = len(targets)
+    count = max(1, int(uav_count))
+    i = int(uav_index)
+    if not 0 <= i < count:
+        raise ValueError(f"uav_index {i} outside 0..{count - 1}")
+    mode = (assignment or "equal").strip().lower()
+    if mode == "equal":
+        return list(_blocks(n, count)[i])
+    if mode == "roundrobin":
+        return [k for k in range(n) if k % count == i]
+    if mode == "spatial":
+        hx, hy = home
+
+        def key(k):
+            x, y = targets[k]
+            ang = math.atan2(y - hy, x - hx) % (2.0 * math.pi)
+            return (ang, math.hypot(x - hx, y - hy), k)
+        order = sorted(range(n), key=key)
+        return sorted(order[j] for j in _blocks(n, count)[i])
+    raise ValueError(f"unknown assignment {assignment!r} (equal, roundrobin, spatial)")
+
+
+# ---------------------------------------------------------------------- zone geometry
+class ZoneMap:
+    """Restricted zones (shapely polygons) with look-ahead test and visibility-graph detours."""
+
+    def __init__(self, zones, margin: float = P.AVOID_MARGIN):
+        from shapely.geometry import Polygon
+        from shapely.prepared import prep
+        self.polys = [Polygon(z).buffer(0) for z in zones]
+        self.margin = margin
+        self._inner = [p.buffer(-1e-6) for p in self.polys]
+        self._prep = [prep(p) for p in self._inner]
+        self.nodes = []
+        for p in self.polys:
+            off = p.buffer(margin, join_style=2, mitre_limit=3.0)
+            geoms = getattr(off, "geoms", [off])
+            for g in geoms:
+                self.nodes.extend(list(g.exterior.coords)[:-1])
+
+    def __bool__(self):
+        return bool(self.polys)
+
+    def blocked(self, a, b) -> int:
+        """Index of the first zone whose interior the segment a-b crosses, or -1."""
+        from shapely.geometry import LineString, Point
+        if math.hypot(b[0] - a[0], b[1] - a[1]) < 1e-9:
+            geom = Point(a)
+        else:
+            geom = LineString([a, b])
+        for i, pp in enumerate(self._prep):
+            if pp.intersects(geom):
+                return i
+        return -1
+
+    def inside(self, a) -> bool:
+        from shapely.geometry import Point
+        pt = Point(a)
+        return any(pp.contains(pt) for pp in self._prep)
+
+    def detour(self, start, goal) -> list[tuple[float, float]] | None:
+        """Shortest visibility-graph path start -> goal (list of waypoints after start, ending with
+        goal), or None when there is none."""
+        if self.blocked(start, goal) < 0:
+            return [tuple(goal)]
+        nodes = [tuple(start), tuple(goal)] + [n for n in self.nodes if not self.inside(n)]
+        nn = len(nodes)
+        dist = [math.inf] * nn
+        prev = [-1] * nn
+        dist[0] = 0.0
+        heap = [(0.0, 0)]
+        done = [False] * nn
+        while heap:
+            d, u = heapq.heappop(heap)
+            if done[u]:
+                continue
+            done[u] = True
+            if u == 1:
+                break
+            for v in range(1, nn):
+                if done[v]:
+                    continue
+                w = math.hypot(nodes[v][0] - nodes[u][0], nodes[v][1] - nodes[u][1])
+                if d + w >= dist[v]:
+                    continue
+                if self.blocked(nodes[u], nodes[v]) >= 0:
+                    continue
+                dist[v] = d + w
+                prev[v] = u
+                heapq.heappush(heap, (dist[v], v))
+        if not math.isfinite(dist[1]):
+            return None
+        path, u = [], 1
+        while u != 0:
+            path.append(nodes[u])
+            u = prev[u]
+        return path[::-1]
+
+
+# ---------------------------------------------------------------------- mission logic
+@dataclass
+class StrategyParams:
+    strategy: str = "A"
+    uav_index: int = 0
+    uav_count: int = 1
+    assignment: str = "equal"
+    targets: str = ""
+    zones: str = ""
+    lookahead: float = P.LOOKAHEAD              # m
+    home_x: float = 0.0                         # m
+    home_y: float = 0.0                         # m
+    cruise_altitude: float = P.CRUISE_ALTITUDE  # m
+    return_threshold: float = P.RETURN_THRESHOLD  # 1
+    land_threshold: float = P.LAND_THRESHOLD    # 1
+    arrival_radius: float = P.ARRIVAL_RADIUS    # m
+    avoid_margin: float = P.AVOID_MARGIN        # m
+
+
+class Strategy:
+    def __init__(self, params: StrategyParams | None = None):
+        self.p = params or StrategyParams()
+        s = self.p.strategy.strip().upper()
+        if s not in ("A", "B"):
+            raise ValueError(f"strategy must be 'A' or 'B', got {self.p.strategy!r}")
+        self.kind = s
+        self.targets = parse_points(self.p.targets)
+        self.home = (float(self.p.home_x), float(self.p.home_y))
+        self.assigned = assign_targets(self.targets, self.p.uav_index, self.p.uav_count,
+                                       self.p.assignment, self.home)
+        self.remaining = list(self.assigned)
+        self.zones = ZoneMap(parse_zones(self.p.zones), self.p.avoid_margin)
+        self.state = PREFLIGHT
+        self.cmd = 1
+        self.sp = (self.home[0], self.home[1], float(self.p.cruise_altitude))
+        self.current_target = -1
+        self.visited: list[int] = []
+        self.photo_count = 0
+        self.last_photo_target = -1
+        self.last_photo_time = 0.0
+        self.last_photo_x = 0.0
+        self.last_photo_y = 0.0
+        self.photos: list[tuple[int, float, float, float]] = []   # (target, t, x, y)
+        self.detour: list[tuple[float, float]] = []
+        self.avoid_count = 0
+        self.land_point = None
+
+    # -------------------------------------------------------------- helpers
+    @property
+    def avoiding(self) -> bool:
+        return bool(self.detour)
+
+    @property
+    def targets_assigned(self) -> int:
+        return len(self.assigned)
+
+    @property
+    def targets_visited(self) -> int:
+        return len(self.visited)
+
+    def _goal(self):
+        if self.state == TRANSIT and self.current_target >= 0:
+            return self.targets[self.current_target]
+        return self.home
+
+    def _pick_next(self, x, y):
+        if not self.remaining:
+            self.current_target = -1
+            return
+        if self.kind == "A":
+            self.current_target = self.remaining[0]
+        else:
+            self.current_target = min(self.remaining, key=lambda k: (
+                math.hypot(self.targets[k][0] - x, self.targets[k][1] - y), k))
+
+    def _start_leg(self, x, y):
+        self.detour = []
+        if self.state == TRANSIT:
+            self._pick_next(x, y)
+            if self.current_target < 0:
+                self.state = RETURN_DONE
+
+    def _avoidance(self, x, y, vx, vy):
+        """Look-ahead check and detour management; returns the horizontal waypoint to fly to."""
+        goal = self._goal()
+        if not self.zones:
+            return goal
+        r = self.p.arrival_radius
+        # advance along a detour
+        while self.detour and len(self.detour) > 1 and \
+                math.hypot(self.detour[0][0] - x, self.detour[0][1] - y) <= r:
+            self.detour.pop(0)
+        if self.detour and len(self.detour) == 1:
+            self.detour = []          # only the goal is left: normal flight
+        if self.detour:
+            wp = self.detour[0]
+            if self.zones.blocked((x, y), wp) >= 0:
+                self._plan(x, y, goal)
+            return self.detour[0] if self.detour else goal
+        # look-ahead along the flight direction
+        gs = math.hypot(vx, vy)
+        if gs > 0.5:
+            ux, uy = vx / gs, vy / gs
+        else:
+            dx, dy = goal[0] - x, goal[1] - y
+            dd = math.hypot(dx, dy)
+            if dd < 1e-9:
+                return goal
+            ux, uy = dx / dd, dy / dd
+        la = self.p.lookahead
+        if self.zones.blocked((x, y), (x + la * ux, y + la * uy)) >= 0 or \
+                self.zones.blocked((x, y), self._towards(x, y, goal, la)) >= 0:
+            self._plan(x, y, goal)
+        return self.detour[0] if self.detour else goal
+
+    @staticmethod
+    def _towards(x, y, goal, dist):
+        dx, dy = goal[0] - x, goal[1] - y
+        dd = math.hypot(dx, dy)
+        if dd <= dist or dd < 1e-9:
+            return goal
+        return (x + dist * dx / dd, y + dist * dy / dd)
+
+    def _plan(self, x, y, goal):
+        path = self.zones.detour((x, y), goal)
+        if path is None or len(path) <= 1:
+            self.detour = []
+        else:
+            self.detour = list(path)
+            self.avoid_count += 1
+
+    # -------------------------------------------------------------- main step
+    def step(self, t: float, x: float, y: float, z: float, vx: float, vy: float,
+             phase: int, consumed: float) -> None:
+        """Evaluate the mission logic on the inputs sampled at time t and set the outputs."""
+        p = self.p
+        phase = int(phase)
+        airborne_states = (TRANSIT, RETURN_DONE, RETURN_LOW)
+        at_base = math.hypot(x - self.home[0], y - self.home[1]) <= p.arrival_radius
+
+        # ---- terminal / landing states
+        if self.state in (LAND_BASE, LAND_NOW):
+            if phase == 4:
+                self.state = LANDED_BASE if at_base else LANDED_AWAY
+        if self.state in (LANDED_BASE, LANDED_AWAY):
+            self.cmd = 3
+            return
+        if self.state in (LAND_BASE, LAND_NOW):
+            self.cmd = 3
+            return
+
+        # ---- battery rules (only when airborne)
+        if phase in (1, 2, 3):
+            if consumed >= p.land_threshold:
+                self.state = LAND_NOW if not at_base else LAND_BASE
+                self.detour = []
+                self.cmd = 3
+                self.sp = (x, y, z)
+                return
+            if consumed >= p.return_threshold and self.state in (TAKEOFF, TRANSIT, RETURN_DONE):
+                if self.state != RETURN_DONE:
+                    self.state = RETURN_LOW
+                    self.current_target = -1
+                    self.detour = []
+
+        # ---- takeoff
+        if self.state == PREFLIGHT:
+            self.cmd = 1
+            if phase == 1:
+                self.state = TAKEOFF
+            elif phase == 2:
+                self.state = TAKEOFF
+            else:
+                return
+        if self.state == TAKEOFF:
+            self.cmd = 1
+            if phase != 2:
+                return
+            self.state = TRANSIT
+            self._start_leg(x, y)
+        if phase == 4 and self.state in airborne_states:
+            # the vehicle landed on its own (should not happen): treat as final
+            self.state = LANDED_BASE if at_base else LANDED_AWAY
+            self.cmd = 3
+            return
+
+        # ---- target arrival and photos
+        if self.state == TRANSIT:
+            if self.current_target < 0:
+                self._start_leg(x, y)
+            tgt = self.current_target
+            if tgt >= 0:
+                tx, ty = self.targets[tgt]
+                if math.hypot(tx - x, ty - y) <= p.arrival_radius:
+                    self.photo_count += 1
+                    self.last_photo_target = tgt
+                    self.last_photo_time = float(t)
+                    self.last_photo_x, self.last_photo_y = float(x), float(y)
+                    self.photos.append((tgt, float(t), float(x), float(y)))
+                    self.visited.append(tgt)
+                    self.remaining.remove(tgt)
+                    self._start_leg(x, y)
+
+        # ---- return to base
+        if self.state in (RETURN_DONE, RETURN_LOW) and at_base:
+            self.state = LAND_BASE
+            self.detour = []
+            self.cmd = 3
+            self.sp = (x, y, z)
+            return
+
+        wx, wy = self._avoidance(x, y, vx, vy)
+        self.cmd = 2
+        self.sp = (float(wx), float(wy), float(p.cruise_altitude))

@@ -1,0 +1,196 @@
+"""Stochastic wind of the paper, with optional Dryden turbulence and discrete 1-cosine gusts.
+
+Episode model (the paper: "a pseudorandom algorithm that selects the presence of wind and its
+intensity (weak, moderate or strong) ... a force that pushes the UAV from east to west"):
+
+* time is divided into decision intervals k = 0, 1, ... of length T (``decision_interval``);
+* at the start of interval k, with probability ``probability`` a wind episode occurs; its level is
+  weak / moderate / strong with probabilities p_weak, p_moderate, 1 - p_weak - p_moderate and its
+  mean speed is speed_weak / speed_moderate / speed_strong;
+* the episode starts at kT and lasts D = min(``duration``, T) seconds, with linear onset and decay
+  ramps of ``ramp`` seconds (trapezoid), so the mean speed is
+  U(t) = U_k * clip(min(t - kT, kT + D - t) / ramp, 0, 1);
+* the wind blows from ``direction_deg`` (meteorological convention: the direction the wind comes
+  FROM, clockwise from north; 90 = from the east).  The air velocity (direction it blows TO) is
+  w = -U (sin(dir), cos(dir), 0) in ENU, so the default 90 deg gives w_x = -U (east -> west).
+
+Optional Dryden turbulence (MIL-F-8785C low-altitude model, h < 1000 ft), W20 = U_k (speed of the
+episode, taken as the wind at 20 ft = 6 m):
+    sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4
+    L_w = h,            L_u = L_v = h / (0.177 + 0.000823 h)^1.2          (h, L in ft)
+Each component is the first-order Dryden (Markov) process advected past the vehicle at the mean
+wind speed (Taylor's frozen turbulence; the vehicle hovers or is slow relative to the air mass),
+discretised exactly on a fixed grid of ``turb_dt``:
+    x[n+1] = a x[n] + sigma sqrt(1 - a^2) eta[n],  a = exp(-U turb_dt / L),  eta ~ N(0, 1)
+(longitudinal u along the mean wind, lateral v across it, vertical w).  Turbulence is zero
+outside episodes (no wind, no turbulence); each episode starts from a draw of the stationary
+distribution N(0, sigma^2), so every sample has the Dryden variance.
+
+Optional discrete gust (MIL-F-8785C "1-cosine"): within each episode one gust of amplitude
+A = ``gust_amplitude`` * U_k along the mean wind, length T_g = ``gust_length`` s, starting at a
+uniformly drawn time in [0, D - T_g]:  u_g(t) = A/2 (1 - cos(2 pi (t - t_g)/T_g)).
+Gust and turbulence are scaled by the ramp factor U(t)/U_k, so the wind is continuous.
+
+Determinism: all random numbers for interval k are drawn when interval k is first entered, from
+three independent PCG64 streams (episode, gust, turbulence) spawned from SeedSequence(seed); the
+same numbers are drawn whether or not turbulence/gusts are enabled.  The output at time t is a
+function of t only (turbulence is held piecewise-constant on the turb_dt grid), hence identical
+for any master step size.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import params as P
+
+FT = 0.3048
+
+
+@dataclass
+class WindParams:
+    probability: float = P.WIND_PROBABILITY          # 1 per decision interval
+    seed: int = 0
+    direction_deg: float = P.WIND_DIRECTION_DEG      # deg, "from", clockwise from north
+    decision_interval: float = P.WIND_DECISION_INTERVAL  # s
+    duration: float = P.WIND_DURATION                # s
+    ramp: float = P.WIND_RAMP                        # s
+    speed_weak: float = P.WIND_SPEED_WEAK            # m/s
+    speed_moderate: float = P.WIND_SPEED_MODERATE    # m/s
+    speed_strong: float = P.WIND_SPEED_STRONG        # m/s
+    p_weak: float = P.WIND_P_WEAK                    # 1
+    p_moderate: float = P.WIND_P_MODERATE            # 1
+    turbulence: bool = False
+    turb_dt: float = P.TURB_DT                       # s
+    turb_altitude: float = P.TURB_ALTITUDE           # m
+    gusts: bool = False
+    gust_amplitude: float = P.GUST_AMPLITUDE         # fraction of U_k
+    gust_length: float = P.GUST_LENGTH               # s
+
+
+def dryden_low_altitude(w20: float, h_m: float):
+    """(sigma_u, sigma_v, sigma_w) [m/s] and (L_u, L_v, L_w) [m] of MIL-F-8785C below 1000 ft."""
+    h = max(h_m / FT, 10.0)          # ft; the model is not defined at the ground
+    h = min(h, 1000.0)
+    f = 0.177 + 0.000823 * h
+    sw = 0.1 * w20
+    su = sw / f ** 0.4
+    lw = h * FT
+    lu = h / f ** 1.2 * FT
+    return (su, su, sw), (lu, lu, lw)
+
+
+class _Interval:
+    __slots__ = ("k", "occurs", "level", "speed", "gust_start", "noise", "turb", "turb_n")
+
+
+class Wind:
+    """Wind field w(t) = (w_x, w_y, w_z); call ``at(t)`` with non-decreasing t."""
+
+    def __init__(self, params: WindParams | None = None):
+        self.p = params or WindParams()
+        ss = np.random.SeedSequence(int(self.p.seed))
+        s_ep, s_gust, s_turb = ss.spawn(3)
+        self._rng_ep = np.random.Generator(np.random.PCG64(s_ep))
+        self._rng_gust = np.random.Generator(np.random.PCG64(s_gust))
+        self._rng_turb = np.random.Generator(np.random.PCG64(s_turb))
+        self._intervals: dict[int, _Interval] = {}
+        self._next_k = 0
+        self.n_turb = max(1, int(round(self.p.decision_interval / self.p.turb_dt)))
+        d = math.radians(self.p.direction_deg)
+        self._ux, self._uy = -math.sin(d), -math.cos(d)   # unit vector the wind blows toward
+
+    # ------------------------------------------------------------------ random draws
+    def _interval(self, k: int) -> _Interval:
+        while self._next_k <= k:
+            self._draw(self._next_k)
+            # keep only a few recent intervals in memory
+            self._intervals.pop(self._next_k - 3, None)
+            self._next_k += 1
+        return self._intervals[k]
+
+    def _draw(self, k: int) -> None:
+        p = self.p
+        iv = _Interval()
+        iv.k = k
+        u_occ, u_lvl = self._rng_ep.random(2)
+        iv.occurs = bool(u_occ < p.probability)
+        if not iv.occurs:
+            iv.level, iv.speed = 0, 0.0
+        elif u_lvl < p.p_weak:
+            iv.level, iv.speed = 1, p.speed_weak
+        elif u_lvl < p.p_weak + p.p_moderate:
+            iv.level, iv.speed = 2, p.speed_moderate
+        else:
+            iv.level, iv.speed = 3, p.speed_strong
+        iv.gust_start = float(self._rng_gust.random())
+        iv.noise = self._rng_turb.standard_normal((self.n_turb + 1, 3))   # row 0: initial state
+        iv.turb = None
+        iv.turb_n = -1
+        self._intervals[k] = iv
+
+    # ------------------------------------------------------------------ evaluation
+    def _episode_length(self) -> float:
+        return min(self.p.duration, self.p.decision_interval)
+
+    def level_at(self, t: float) -> tuple[int, float]:
+        """(level, mean speed U(t)) at time t."""
+        p = self.p
+        k = int(math.floor(t / p.decision_interval + 1e-12))
+        iv = self._interval(max(k, 0))
+        if not iv.occurs:
+            return 0, 0.0
+        tau = t - k * p.decision_interval
+        D = self._episode_length()
+        if tau < 0.0 or tau >= D:
+            return 0, 0.0
+        if p.ramp > 0.0:
+            f = min(1.0, tau / p.ramp, (D - tau) / p.ramp)
+        else:
+            f = 1.0
+        return iv.level, iv.speed * max(0.0, f)
+
+    def _turbulence(self, iv: _Interval, tau: float):
+        p = self.p
+        n = min(self.n_turb - 1, int(math.floor(tau / p.turb_dt + 1e-9)))
+        sig, L = dryden_low_altitude(iv.speed, p.turb_altitude)
+        if iv.turb is None or n < iv.turb_n:     # first use, or time went backwards: recompute
+            # start each episode in the stationary distribution N(0, sigma^2)
+            iv.turb = np.array([sig[j] * iv.noise[0, j] for j in range(3)])
+            iv.turb_n = 0
+        U = max(iv.speed, 1.0)
+        while iv.turb_n < n:
+            for j in range(3):
+                a = math.exp(-U * p.turb_dt / L[j])
+                iv.turb[j] = a * iv.turb[j] + sig[j] * math.sqrt(1.0 - a * a) * iv.noise[iv.turb_n + 1, j]
+            iv.turb_n += 1
+        return iv.turb
+
+    def at(self, t: float) -> tuple[float, float, float, int]:
+        """(w_x, w_y, w_z, level) at time t [m/s]."""
+        p = self.p
+        level, U = self.level_at(t)
+        if U <= 0.0:
+            return 0.0, 0.0, 0.0, level
+        k = int(math.floor(t / p.decision_interval + 1e-12))
+        iv = self._interval(k)
+        tau = t - k * p.decision_interval
+        along, cross, up = U, 0.0, 0.0
+        f = U / iv.speed            # ramp factor: gust and turbulence fade in/out with the episode
+        if p.gusts:
+            D = self._episode_length()
+            tg = max(0.0, D - p.gust_length) * iv.gust_start
+            s = tau - tg
+            if 0.0 <= s <= p.gust_length and p.gust_length > 0:
+                along += f * 0.5 * p.gust_amplitude * iv.speed * (1.0 - math.cos(2.0 * math.pi * s / p.gust_length))
+        if p.turbulence:
+            tu = self._turbulence(iv, tau)
+            along += f * float(tu[0])
+            cross += f * float(tu[1])
+            up += f * float(tu[2])
+        # along-wind unit (ux, uy); cross-wind unit rotated +90 deg: (-uy, ux)
+        wx = along * self._ux - cross * self._uy
+        wy = along * self._uy + cross * self._ux
+        return wx, wy, up, level

@@ -1,0 +1,111 @@
+"""The ``cosim-master`` command."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from . import __version__
+from .errors import CosimError
+
+
+def _kv(items, what):
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise CosimError(f"expected NAME=VALUE, got {item!r}", element=what)
+        out[key.strip()] = value
+    return out
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
+    p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder or .ssd)")
+    r.add_argument("scenario")
+    r.add_argument("--stop-time", type=float)
+    r.add_argument("--start-time", type=float)
+    r.add_argument("--step", type=float, help="master step size in seconds")
+    r.add_argument("--algorithm", choices=["jacobi", "gauss-seidel"])
+    r.add_argument("--output", "-o", default=None, help="result folder (default: results/<scenario name>)")
+    r.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[])
+    r.add_argument("--record", action="append", metavar="PATTERN", default=[],
+                   help="record variables matching this shell pattern on 'component.variable'")
+    r.add_argument("--record-interval", type=float)
+    r.add_argument("--step-multiple", action="append", metavar="COMPONENT=K", default=[],
+                   help="the component steps every K master steps")
+    r.add_argument("--seed", type=int, help="given to every component parameter named 'seed'")
+    r.add_argument("--log-level", choices=["debug", "info", "warning", "error", "none"], default="warning")
+    r.add_argument("--no-csv", action="store_true", help="write Parquet only")
+    r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--debug", action="store_true", help="show Python tracebacks")
+
+    i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
+    i.add_argument("scenario")
+    i.add_argument("--json", action="store_true")
+    i.add_argument("--step", type=float)
+    i.add_argument("--stop-time", type=float)
+    i.add_argument("--algorithm", choices=["jacobi", "gauss-seidel"])
+    i.add_argument("--debug", action="store_true")
+
+    b = sub.add_parser("build-scenario", help="write an SSP for a multi-UAV scenario described in YAML")
+    b.add_argument("scenario_yaml")
+    b.add_argument("-o", "--output", required=True)
+    b.add_argument("--debug", action="store_true")
+    return p
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return _dispatch(args)
+    except CosimError as exc:
+        if getattr(args, "debug", False):
+            raise
+        print(f"cosim-master: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("cosim-master: interrupted", file=sys.stderr)
+        return 130
+
+
+def _dispatch(args) -> int:
+    if args.command == "run":
+        from pathlib import Path
+
+        from .runner import run
+        output = args.output or str(Path("results") / Path(args.scenario).stem)
+        multiples = {}
+        for k, v in _kv(args.step_multiple, "--step-multiple").items():
+            try:
+                multiples[k] = int(v)
+            except ValueError:
+                raise CosimError(f"step multiple of {k} must be an integer, got {v!r}", element="--step-multiple") from None
+        result = run(args.scenario, stop_time=args.stop_time, start_time=args.start_time, step=args.step,
+                     algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
+                     record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
+                     seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv)
+        m = result.metadata
+        print(f"{m['outcome']}: {m['steps']} steps of {m['step_size']:g} s ({m['algorithm']}), "
+              f"{m.get('rows_recorded', 0)} rows in {result.output_dir}, wall {m['wall_time_s']:.2f} s")
+        return 0
+    if args.command == "inspect":
+        from .inspect_scenario import format_inspect, inspect
+        overrides = {k: v for k, v in (("step", args.step), ("stop_time", args.stop_time),
+                                       ("algorithm", args.algorithm)) if v is not None}
+        info = inspect(args.scenario, **overrides)
+        print(json.dumps(info, indent=2, default=str) if args.json else format_inspect(info))
+        return 0
+    if args.command == "build-scenario":
+        from .uav.build import build_scenario
+        path = build_scenario(args.scenario_yaml, args.output)
+        print(f"wrote {path}")
+        return 0
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,91 @@
+"""Each FMU archive is unpacked once (keyed by its SHA-256) and its description read once per process.
+
+The unpacked tree lives in a user cache folder so that repeated runs and campaigns skip the
+extraction; every instance of the same FMU shares it.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import FmuError
+from ..ssp.archive import file_sha256
+
+
+def cache_root() -> Path:
+    env = os.environ.get("COSIM_MASTER_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "cosim-master" / "fmu"
+
+
+@dataclass
+class LoadedFmu:
+    path: Path
+    sha256: str
+    unzip_dir: Path
+    md: object              # fmpy ModelDescription
+    variables: dict         # name -> fmpy ScalarVariable
+
+    @property
+    def fmi_version(self) -> str:
+        return self.md.fmiVersion
+
+
+_by_stat: dict[tuple, str] = {}
+_by_hash: dict[str, LoadedFmu] = {}
+
+
+def _extract(path: Path, sha: str, shown_as: str) -> Path:
+    root = cache_root()
+    target = root / sha
+    if (target / "modelDescription.xml").is_file():
+        return target
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{sha[:12]}-", dir=root))
+    try:
+        with zipfile.ZipFile(path) as zf:
+            zf.extractall(tmp)
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise FmuError(f"not a readable FMU archive: {exc}", file=shown_as) from None
+    if not (tmp / "modelDescription.xml").is_file():
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise FmuError("FMU archive has no modelDescription.xml", file=shown_as)
+    try:
+        os.rename(tmp, target)
+    except OSError:
+        shutil.rmtree(tmp, ignore_errors=True)   # another process won the race; its copy is identical
+    return target
+
+
+def load_fmu(path: str | os.PathLike, shown_as: str | None = None) -> LoadedFmu:
+    """Unpack (once) and read the model description of an FMU."""
+    path = Path(path)
+    shown_as = shown_as or str(path)
+    try:
+        st = path.stat()
+    except OSError as exc:
+        raise FmuError(f"cannot read FMU: {exc.strerror}", file=shown_as) from None
+    key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+    sha = _by_stat.get(key)
+    if sha is None:
+        sha = file_sha256(path)
+        _by_stat[key] = sha
+    loaded = _by_hash.get(sha)
+    if loaded is not None:
+        return loaded if loaded.path == path else LoadedFmu(path, sha, loaded.unzip_dir, loaded.md, loaded.variables)
+    unzip_dir = _extract(path, sha, shown_as)
+    from fmpy import read_model_description
+    try:
+        md = read_model_description(str(unzip_dir), validate=True)
+    except Exception as exc:  # fmpy raises bare Exceptions with the schema message
+        raise FmuError(f"invalid modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
+    loaded = LoadedFmu(path, sha, unzip_dir, md, {v.name: v for v in md.modelVariables})
+    _by_hash[sha] = loaded
+    return loaded

@@ -1,0 +1,86 @@
+"""``inspect``: what a scenario contains and the master settings a run would use."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .algorithms.ordering import algebraic_loops, gauss_seidel_order
+from .plan import build_plan
+from .runner import resolve_settings
+from .ssp.archive import open_scenario
+from .ssp.parser import read_ssd
+
+
+def inspect(scenario, **overrides) -> dict:
+    scenario = Path(scenario)
+    shown_as = str(scenario)
+    src = open_scenario(scenario)
+    try:
+        model = read_ssd(src.ssd_path, src.root, shown_root=shown_as if src.tempdir or src.root == scenario else "")
+        plan = build_plan(model, shown_as)
+        info: dict = {"scenario": shown_as, "name": model.name, "ssp_version": model.version, "components": {}}
+        for name, comp in model.components.items():
+            fmu = plan.fmus[name]
+            md = fmu.md
+            info["components"][name] = {
+                "source": comp.source, "fmi_version": md.fmiVersion,
+                "kind": "CoSimulation" if md.coSimulation else "ModelExchange",
+                "model_name": md.modelName, "generation_tool": md.generationTool, "sha256": fmu.sha256,
+                "connectors": [{"name": c.name, "kind": c.kind, "type": c.type or plan.variables[name][c.name].fmi_type,
+                                "unit": c.unit or plan.variables[name][c.name].unit}
+                               for c in comp.connectors.values()],
+            }
+        info["connections"] = [{"from": ln.src.qualified, "to": ln.dst.qualified,
+                                **({"factor": ln.factor, "offset": ln.offset}
+                                   if (ln.factor, ln.offset) != (1.0, 0.0) else {}),
+                                **({"mapping": ln.mapping} if ln.mapping else {})} for ln in plan.links]
+        info["parameters"] = [{"variable": v.qualified, "value": value, "from": origin}
+                              for v, value, origin in plan.params]
+        info["default_experiment"] = {"start_time": model.start_time, "stop_time": model.stop_time}
+        try:
+            st = resolve_settings(model, shown_as, fmus=plan.fmus, **overrides)
+            info["settings"] = {"algorithm": st.algorithm, "step_size": st.step, "step_size_from": st.step_source,
+                                "start_time": st.start, "stop_time": st.stop, "steps": st.steps,
+                                "record_interval": st.step * st.record_every, "step_multiples": st.step_multiples}
+        except Exception as exc:   # inspect still shows everything else when settings are incomplete
+            info["settings"] = {"error": str(exc)}
+        so = gauss_seidel_order(plan, list(plan.fmus))
+        names = list(plan.fmus)
+        info["gauss_seidel_order"] = [names[i] for i in so.order]
+        info["gauss_seidel_loops_broken_at"] = [f"{a} -> {b}" for a, b in so.broken]
+        info["algebraic_loops"] = algebraic_loops(plan)
+        info["annotations"] = sorted(k for k in model.annotations if k)
+        return info
+    finally:
+        src.close()
+
+
+def format_inspect(info: dict) -> str:
+    lines = [f"scenario   {info['scenario']}  (SSP {info['ssp_version']}, system {info['name']})", "", "components:"]
+    for name, c in info["components"].items():
+        lines.append(f"  {name}: {c['source']}  FMI {c['fmi_version']} {c['kind']}  model {c['model_name']}"
+                     f"  tool {c['generation_tool'] or '-'}")
+        for k in c["connectors"]:
+            unit = f" [{k['unit']}]" if k["unit"] else ""
+            lines.append(f"      {k['kind']:<20} {k['type']:<12} {k['name']}{unit}")
+    lines.append("")
+    lines.append("connections:")
+    for c in info["connections"]:
+        extra = f"  (x{c['factor']:g} {c['offset']:+g})" if "factor" in c else ""
+        extra += f"  map {c['mapping']}" if "mapping" in c else ""
+        lines.append(f"  {c['from']} -> {c['to']}{extra}")
+    lines.append("")
+    lines.append("parameters:")
+    for p in info["parameters"]:
+        lines.append(f"  {p['variable']} = {p['value']!r}  ({p['from']})")
+    de = info["default_experiment"]
+    lines += ["", f"default experiment: start {de['start_time']}, stop {de['stop_time']}", "", "master settings:"]
+    for k, v in info["settings"].items():
+        lines.append(f"  {k}: {v}")
+    lines.append(f"  gauss-seidel order: {' -> '.join(info['gauss_seidel_order'])}")
+    if info["gauss_seidel_loops_broken_at"]:
+        lines.append(f"  gauss-seidel loops broken at: {', '.join(info['gauss_seidel_loops_broken_at'])}")
+    for lp in info["algebraic_loops"]:
+        lines.append(f"  algebraic loop: {' -> '.join(lp)}")
+    if info["annotations"]:
+        lines.append(f"  annotations: {', '.join(info['annotations'])}")
+    return "\n".join(lines)

@@ -1,0 +1,280 @@
+"""Checking a parsed system against its FMUs and resolving it to value references, before anything runs.
+
+Every mismatch between the SSD and an FMU's modelDescription (unknown connector, type, causality,
+unit dimension) is reported here, so that no FMU is instantiated for a scenario that cannot run.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .errors import ScenarioError
+from .fmi.cache import LoadedFmu, load_fmu
+from .fmi.slaves import base_type
+from .ssp.model import Connection, SystemModel
+from .units import conversion, unit_from_fmu
+
+# SSD connector kinds and the FMU causalities they may describe
+KIND_CAUSALITY = {
+    "input": {"input"},
+    "output": {"output"},
+    "parameter": {"parameter", "structuralParameter"},
+    "calculatedParameter": {"calculatedParameter"},
+}
+# SSD connector types and the FMU variable types they may describe
+SSD_TYPE_FMI = {
+    "Real": {"Real", "Float64", "Float32"},
+    "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64"},
+    "Boolean": {"Boolean"},
+    "String": {"String"},
+    "Enumeration": {"Enumeration"},
+    "Binary": {"Binary"},
+}
+
+
+@dataclass(frozen=True)
+class Var:
+    component: str
+    name: str
+    vr: int
+    type: str          # base type: Real, Integer, Boolean, String
+    fmi_type: str      # the FMU's own type name
+    causality: str
+    variability: str
+    unit: str | None
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.component}.{self.name}"
+
+
+@dataclass
+class Link:
+    src: Var
+    dst: Var
+    factor: float = 1.0
+    offset: float = 0.0
+    mapping: dict | None = None
+    line: int | None = None
+
+
+@dataclass
+class Plan:
+    model: SystemModel
+    shown_as: str
+    fmus: dict[str, LoadedFmu]
+    links: list[Link]
+    params: list[tuple[Var, object, str]]
+    feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
+    variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+
+    def var(self, qualified: str) -> Var:
+        comp, _, name = self.split(qualified)
+        return self.variables[comp][name]
+
+    def split(self, qualified: str):
+        """Split 'a.b.c.var' into component and variable, preferring the longest known component name."""
+        best = None
+        for comp in self.variables:
+            if qualified.startswith(comp + ".") and (best is None or len(comp) > len(best)):
+                best = comp
+        if best is None:
+            raise ScenarioError(f"{qualified!r} does not start with a component name "
+                                f"(components: {', '.join(self.variables)})", file=self.shown_as)
+        name = qualified[len(best) + 1:]
+        if name not in self.variables[best]:
+            raise ScenarioError(f"component {best!r} has no variable {name!r}", file=self.shown_as)
+        return best, ".", name
+
+
+def _var(comp: str, fmu: LoadedFmu, v) -> Var:
+    unit = getattr(v, "unit", None)
+    if unit is None and getattr(v, "declaredType", None) is not None:
+        unit = getattr(v.declaredType, "unit", None)
+    bt = base_type(fmu.fmi_version, v.type)
+    return Var(comp, v.name, int(v.valueReference), bt or v.type, v.type, v.causality, v.variability, unit)
+
+
+def _fmu_kind(fmu: LoadedFmu) -> str:
+    md = fmu.md
+    if md.coSimulation is not None:
+        return "CoSimulation"
+    if md.modelExchange is not None:
+        return "ModelExchange"
+    return "none"
+
+
+def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | None = None) -> Plan:
+    fmus: dict[str, LoadedFmu] = {}
+    variables: dict[str, dict[str, Var]] = {}
+    feed: dict[str, dict[str, set | None]] = {}
+    for name, comp in model.components.items():
+        where = f"Component {name}"
+        fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source)
+        kind = _fmu_kind(fmu)
+        if kind == "none":
+            raise ScenarioError("the FMU supports neither co-simulation nor model exchange", file=shown_as,
+                                element=where, line=comp.line)
+        if kind == "ModelExchange" and not fmu.fmi_version.startswith("2"):
+            raise ScenarioError(f"model-exchange FMUs are supported for FMI 2.0 only (this is FMI {fmu.fmi_version}); "
+                                "export it for co-simulation", file=shown_as, element=where, line=comp.line)
+        if fmu.fmi_version.startswith("1"):
+            raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
+        fmus[name] = fmu
+        variables[name] = {v.name: _var(name, fmu, v) for v in fmu.md.modelVariables}
+        for conn in comp.connectors.values():
+            v = variables[name].get(conn.name)
+            here = f"Connector {name}.{conn.name}"
+            if v is None:
+                raise ScenarioError(f"the FMU {comp.source} has no variable {conn.name!r}", file=shown_as,
+                                    element=here, line=conn.line)
+            allowed = KIND_CAUSALITY.get(conn.kind)
+            if allowed is None:
+                raise ScenarioError(f"connector kind {conn.kind!r} is not allowed on a component", file=shown_as,
+                                    element=here, line=conn.line)
+            if v.causality not in allowed:
+                raise ScenarioError(f"kind {conn.kind!r} does not match the FMU's causality {v.causality!r}",
+                                    file=shown_as, element=here, line=conn.line)
+            if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
+                raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
+                                    element=here, line=conn.line)
+            if v.type not in ("Real", "Integer", "Boolean", "String"):
+                raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
+                                    element=here, line=conn.line)
+        outs = {}
+        for u in fmu.md.outputs:
+            deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
+            outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
+        feed[name] = outs
+    units = _unit_table(model, fmus)
+    links = [_link(c, model, variables, units, shown_as) for c in model.connections]
+    seen: dict[str, Link] = {}
+    for ln in links:
+        key = ln.dst.qualified
+        if key in seen:
+            raise ScenarioError(f"input {key} is the end of two connections (from {seen[key].src.qualified} and "
+                                f"{ln.src.qualified})", file=shown_as, element=f"Connection -> {key}", line=ln.line)
+        seen[key] = ln
+    plan = Plan(model, shown_as, fmus, links, [], feed, variables)
+    for pv in model.parameters:
+        v = variables.get(pv.component, {}).get(pv.variable)
+        where = f"Parameter {pv.component}.{pv.variable}"
+        if v is None:
+            raise ScenarioError(f"no variable {pv.variable!r} in component {pv.component!r}",
+                                file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
+        value = _check_value(v, pv.value, pv.type, pv.origin, where)
+        src_unit = getattr(pv, "unit", None)
+        if v.type == "Real" and src_unit and v.unit and src_unit != v.unit:
+            conv = conversion(units.get(src_unit), units.get(v.unit))
+            if conv is None:
+                raise ScenarioError(f"unit {src_unit} cannot be converted to {v.unit}",
+                                    file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
+            value = conv[0] * value + conv[1]
+        plan.params.append((v, value, pv.origin))
+    for qualified, raw in (params or {}).items():
+        comp, _, name = plan.split(qualified)
+        v = variables[comp][name]
+        plan.params.append((v, parse_value(v, raw, qualified), "command line"))
+    for v, _, origin in plan.params:
+        if v.causality in ("output", "calculatedParameter", "local", "independent") and v.variability != "tunable":
+            if v.causality != "local" or v.variability == "constant":
+                raise ScenarioError(f"{v.qualified} has causality {v.causality} and cannot be given a value",
+                                    file=origin)
+        if v.variability == "constant":
+            raise ScenarioError(f"{v.qualified} is a constant and cannot be given a value", file=origin)
+    return plan
+
+
+def _line(origin: str):
+    tail = origin.rsplit(":", 1)[-1]
+    return int(tail) if tail.isdigit() else None
+
+
+def _unit_table(model, fmus):
+    table = {}
+    for fmu in fmus.values():
+        for u in getattr(fmu.md, "unitDefinitions", []) or []:
+            table.setdefault(u.name, unit_from_fmu(u))
+    table.update(model.units)   # the SSD's own definitions take precedence
+    return table
+
+
+def _link(c: Connection, model, variables, units, shown_as) -> Link:
+    where = f"Connection {c.src} -> {c.dst}"
+    src = variables.get(c.src_component, {}).get(c.src_connector)
+    dst = variables.get(c.dst_component, {}).get(c.dst_connector)
+    for end, v, comp, conn in (("start", src, c.src_component, c.src_connector),
+                               ("end", dst, c.dst_component, c.dst_connector)):
+        if comp not in variables:
+            raise ScenarioError(f"unknown component {comp!r}", file=shown_as, element=where, line=c.line)
+        if v is None:
+            raise ScenarioError(f"component {comp!r} has no variable {conn!r}", file=shown_as, element=where,
+                                line=c.line)
+    if src.causality not in ("output", "calculatedParameter", "parameter"):
+        raise ScenarioError(f"start {src.qualified} has causality {src.causality}; a connection must start at an "
+                            "output", file=shown_as, element=where, line=c.line)
+    if dst.causality not in ("input", "parameter"):
+        raise ScenarioError(f"end {dst.qualified} has causality {dst.causality}; a connection must end at an input",
+                            file=shown_as, element=where, line=c.line)
+    if src.type != dst.type:
+        raise ScenarioError(f"type mismatch: {src.qualified} is {src.fmi_type}, {dst.qualified} is {dst.fmi_type}",
+                            file=shown_as, element=where, line=c.line)
+    link = Link(src, dst, line=c.line)
+    ssd_src = model.components[c.src_component].connectors.get(c.src_connector)
+    ssd_dst = model.components[c.dst_component].connectors.get(c.dst_connector)
+    src_unit = (ssd_src.unit if ssd_src and ssd_src.unit else src.unit)
+    dst_unit = (ssd_dst.unit if ssd_dst and ssd_dst.unit else dst.unit)
+    if src.type == "Real" and not c.suppress_unit_conversion and src_unit and dst_unit and src_unit != dst_unit:
+        conv = conversion(units.get(src_unit), units.get(dst_unit))
+        if units.get(src_unit) is None or units.get(dst_unit) is None:
+            conv = None
+        if conv is None:
+            raise ScenarioError(f"units {src_unit} and {dst_unit} are not convertible (set "
+                                "suppressUnitConversion to connect them anyway)", file=shown_as, element=where,
+                                line=c.line)
+        link.factor, link.offset = conv
+    t = c.transformation
+    if t is not None and t.kind == "linear":
+        if src.type != "Real":
+            raise ScenarioError("a linear transformation needs Real connectors", file=shown_as, element=where,
+                                line=c.line)
+        link.offset = t.factor * link.offset + t.offset
+        link.factor = t.factor * link.factor
+    elif t is not None and t.kind == "map":
+        conv = {"Integer": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
+        try:
+            link.mapping = {conv(k): conv(v) for k, v in t.mapping.items()}
+        except ValueError:
+            raise ScenarioError("mapping transformation entries do not match the connector type", file=shown_as,
+                                element=where, line=c.line) from None
+    return link
+
+
+def _check_value(v: Var, value, ssp_type, origin, where):
+    file = origin.rsplit(":", 1)[0]
+    compatible = {"Real": ("Real",), "Integer": ("Integer", "Enumeration"), "Boolean": ("Boolean",),
+                  "String": ("String",)}
+    if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
+        return value
+    if ssp_type not in compatible.get(v.type, ()):
+        raise ScenarioError(f"a {ssp_type} value cannot be given to {v.qualified} of type {v.fmi_type}", file=file,
+                            element=where, line=_line(origin))
+    return value
+
+
+def parse_value(v: Var, raw, where: str):
+    """A command-line value in the variable's type."""
+    if not isinstance(raw, str):
+        return raw
+    try:
+        if v.type == "Real":
+            return float(raw)
+        if v.type == "Integer":
+            return int(raw)
+        if v.type == "Boolean":
+            low = raw.strip().lower()
+            if low not in ("true", "false", "1", "0"):
+                raise ValueError
+            return low in ("true", "1")
+        return raw
+    except ValueError:
+        raise ScenarioError(f"{raw!r} is not a valid {v.fmi_type} for {v.qualified}", element=f"--param {where}") from None

@@ -1,0 +1,259 @@
+"""The running system: slave instances, the value buffers that connect them, and the life cycle.
+
+Layout of the buffers (one set per base type): every value the master reads from a slave (connected
+outputs, recorded and monitored variables) lives in ``out[T]``, contiguous per slave; every value it
+writes to a slave lives in ``inb[T]``, contiguous per slave, with ``src[T]`` giving for each input slot
+the index in ``out[T]`` it comes from. A transfer is therefore one ``np.take`` (plus a multiply-add where
+a unit conversion or linear transformation applies) and one FMI setter call per slave and type.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import CosimError, FmuError
+from .fmi.cache import LoadedFmu
+from .fmi.logsink import LogSink
+from .fmi.slaves import BASE_TYPES, DTYPES, WARNING, Fmi2Slave, Fmi3Slave
+from .plan import Plan, Var
+
+
+def _dtype(t):
+    return DTYPES.get(t, object)
+
+
+def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, logging_on: bool, inprocess: bool):
+    md = fmu.md
+    if md.coSimulation is None and md.modelExchange is not None:
+        from .fmi.model_exchange import Fmi2MeSlave
+        return Fmi2MeSlave(name, fmu, log, shown_as, logging_on)
+    if fmu.fmi_version.startswith("3"):
+        return Fmi3Slave(name, fmu, log, shown_as, logging_on)
+    if inprocess:
+        from .fmi.inprocess import try_inprocess
+        slave = try_inprocess(name, fmu, log, shown_as, logging_on)
+        if slave is not None:
+            return slave
+    return Fmi2Slave(name, fmu, log, shown_as, logging_on)
+
+
+class Runtime:
+    def __init__(self, plan: Plan, observed: list[Var], log: LogSink, step_multiples: dict[str, int] | None = None,
+                 logging_on: bool = False, inprocess: bool = False):
+        self.plan = plan
+        self.log = log
+        self.names = list(plan.fmus)
+        self.index = {n: i for i, n in enumerate(self.names)}
+        n = len(self.names)
+        self.multiple = [int((step_multiples or {}).get(name, 1)) for name in self.names]
+        self.active = [True] * n
+        self.slaves = [None] * n
+        self._logging_on = logging_on
+        self._inprocess = inprocess
+
+        # what is read from each slave: connection sources first, then recorded/monitored variables
+        reads: list[dict[str, list[Var]]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
+        seen = set()
+
+        def want(v: Var):
+            if v.qualified not in seen:
+                seen.add(v.qualified)
+                reads[self.index[v.component]][v.type].append(v)
+        for ln in plan.links:
+            want(ln.src)
+        for v in observed:
+            want(v)
+        self.out: dict[str, np.ndarray] = {}
+        self.out_pos: dict[str, int] = {}             # qualified name -> index in out[its type]
+        self.out_slice: dict[str, list[tuple[int, int]]] = {}
+        for t in BASE_TYPES:
+            pos = 0
+            slices = []
+            for i in range(n):
+                for v in reads[i][t]:
+                    self.out_pos[v.qualified] = pos
+                    pos += 1
+                slices.append((pos - len(reads[i][t]), pos))
+            self.out[t] = np.zeros(pos, dtype=_dtype(t)) if t != "String" else np.full(pos, "", dtype=object)
+            self.out_slice[t] = slices
+        self._reads = reads
+
+        # what is written to each slave; links into parameters are applied during initialization only
+        writes: list[dict[str, list]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
+        init_writes: list[dict[str, list]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
+        for ln in plan.links:
+            target = writes if ln.dst.causality == "input" else init_writes
+            target[self.index[ln.dst.component]][ln.dst.type].append(ln)
+        self._writes, self._init_writes = writes, init_writes
+        self.inb: dict[str, np.ndarray] = {}
+        self.src: dict[str, np.ndarray] = {}
+        self.factor: dict[str, np.ndarray] = {}
+        self.offset: dict[str, np.ndarray] = {}
+        self.in_slice: dict[str, list[tuple[int, int]]] = {}
+        for t in BASE_TYPES:
+            links = [ln for i in range(n) for ln in writes[i][t]] + [ln for i in range(n) for ln in init_writes[i][t]]
+            self.inb[t] = (np.zeros(len(links), dtype=_dtype(t)) if t != "String"
+                           else np.full(len(links), "", dtype=object))
+            self.src[t] = np.array([self.out_pos[ln.src.qualified] for ln in links], dtype=np.intp)
+            self.factor[t] = np.array([ln.factor for ln in links], dtype=np.float64)
+            self.offset[t] = np.array([ln.offset for ln in links], dtype=np.float64)
+            slices, pos = [], 0
+            for group in (writes, init_writes):
+                for i in range(n):
+                    slices.append((pos, pos + len(group[i][t])))
+                    pos += len(group[i][t])
+            self.in_slice[t] = slices   # first n: step inputs, next n: init-only inputs
+
+    # -- life cycle -----------------------------------------------------------------------
+    def instantiate(self, start: float, stop: float | None):
+        for i, name in enumerate(self.names):
+            fmu = self.plan.fmus[name]
+            shown = f"{self.plan.shown_as}/{self.plan.model.components[name].source}"
+            slave = make_slave(name, fmu, self.log, shown, self._logging_on, self._inprocess)
+            self.slaves[i] = slave
+            slave.instantiate()
+            slave.setup(start, stop)
+        self._bind_ports()
+
+    def _bind_ports(self):
+        n = len(self.names)
+        self.read_ports = [[] for _ in range(n)]
+        self.staging = [None] * n
+        self.write_ports = [[] for _ in range(n)]
+        self.init_ports = [[] for _ in range(n)]
+        self.xfer = [[] for _ in range(n)]
+        self.init_xfer = [[] for _ in range(n)]
+        for i, slave in enumerate(self.slaves):
+            staged = []
+            for t in BASE_TYPES:
+                a, b = self.out_slice[t][i]
+                if b > a:
+                    vrs = [v.vr for v in self._reads[i][t]]
+                    view = self.out[t][a:b]
+                    if self.multiple[i] > 1:
+                        # a slower component's new outputs become visible when its macro step ends
+                        buf = view.copy()
+                        staged.append((buf, view))
+                        self.read_ports[i].append((t, slave.make_port(t, vrs, buf)))
+                    else:
+                        self.read_ports[i].append((t, slave.make_port(t, vrs, view)))
+                for kind, ports, xfer, offset in (("step", self.write_ports, self.xfer, 0),
+                                                  ("init", self.init_ports, self.init_xfer, n)):
+                    a, b = self.in_slice[t][offset + i]
+                    if b <= a:
+                        continue
+                    links = (self._writes if kind == "step" else self._init_writes)[i][t]
+                    view = self.inb[t][a:b]
+                    ports[i].append((t, slave.make_port(t, [ln.dst.vr for ln in links], view)))
+                    f, o = self.factor[t][a:b], self.offset[t][a:b]
+                    affine = t == "Real" and (np.any(f != 1.0) or np.any(o != 0.0))
+                    maps = [(k, ln.mapping) for k, ln in enumerate(links) if ln.mapping]
+                    xfer[i].append((t, self.out[t], self.src[t][a:b], view, f if affine else None, o, maps))
+            self.staging[i] = staged or None
+
+    def apply_start_values(self, start: float):
+        for v, value, origin in self.plan.params:
+            slave = self.slaves[self.index[v.component]]
+            st = slave.set_value(v.type, v.vr, value)
+            if st > WARNING:
+                raise slave.fail(f"setting {v.name}={value!r} ({origin})", st, start)
+
+    # -- value transfer ---------------------------------------------------------------------
+    @staticmethod
+    def _transfer(entries):
+        for t, out, src, view, f, o, maps in entries:
+            np.take(out, src, out=view)
+            if f is not None:
+                view *= f
+                view += o
+            for k, mapping in maps:
+                view[k] = mapping.get(out[src[k]], out[src[k]])
+
+    def transfer(self, i: int):
+        self._transfer(self.xfer[i])
+
+    def set_inputs(self, i: int, t: float):
+        slave = self.slaves[i]
+        for typ, port in self.write_ports[i]:
+            st = slave.set_port(typ, port)
+            if st > WARNING:
+                raise slave.fail(f"setting inputs ({typ})", st, t)
+
+    def get_outputs(self, i: int, t: float):
+        slave = self.slaves[i]
+        for typ, port in self.read_ports[i]:
+            st = slave.get_port(typ, port)
+            if st > WARNING:
+                raise slave.fail(f"getting outputs ({typ})", st, t)
+
+    def publish(self, i: int):
+        for buf, view in self.staging[i]:
+            view[:] = buf
+
+    def do_step(self, i: int, t: float, h: float):
+        st = self.slaves[i].do_step(t, h)
+        if st > WARNING:
+            raise self.slaves[i].fail("doStep", st, t)
+
+    # -- initialization ---------------------------------------------------------------------
+    def initialize(self, start: float, order: list[int], has_algebraic_loop: bool, loop_desc: str,
+                   tolerance: float = 1e-12, max_iterations: int = 100):
+        """Enter initialization mode and propagate outputs to inputs until the connected values settle."""
+        for i, slave in enumerate(self.slaves):
+            slave.enter_init(start)
+        for i in order:
+            self.get_outputs(i, start)
+            if self.staging[i]:
+                self.publish(i)
+        limit = max_iterations if has_algebraic_loop else len(order) + 2
+        settled = False
+        for _ in range(limit):
+            before = {t: self.out[t].copy() for t in BASE_TYPES}
+            for i in order:
+                self._transfer(self.xfer[i])
+                self._transfer(self.init_xfer[i])
+                self.set_inputs(i, start)
+                slave = self.slaves[i]
+                for typ, port in self.init_ports[i]:
+                    st = slave.set_port(typ, port)
+                    if st > WARNING:
+                        raise slave.fail(f"setting connected parameters ({typ})", st, start)
+                self.get_outputs(i, start)
+                if self.staging[i]:
+                    self.publish(i)
+            if all(_same(before[t], self.out[t], tolerance) for t in BASE_TYPES):
+                settled = True
+                break
+        if not settled:
+            raise CosimError(f"initialization did not settle after {limit} iterations: algebraic loop {loop_desc}",
+                             file=self.plan.shown_as, element="initialization", time=start)
+        for i, slave in enumerate(self.slaves):
+            slave.exit_init(start)
+        for i in order:
+            self.get_outputs(i, start)
+            if self.staging[i]:
+                self.publish(i)
+
+    def terminate(self):
+        """Terminate and free every instance; errors here are logged, not raised, to keep the results."""
+        for slave in self.slaves:
+            if slave is None:
+                continue
+            try:
+                slave.terminate()
+            except Exception as exc:  # a failing terminate must not hide the run's own outcome
+                self.log.message(slave.name, "warning", f"terminate failed: {exc}")
+        for slave in self.slaves:
+            if slave is None:
+                continue
+            try:
+                slave.free()
+            except Exception as exc:
+                self.log.message(slave.name, "warning", f"freeInstance failed: {exc}")
+
+
+def _same(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    if a.dtype == object:
+        return bool(np.all(a == b)) if len(a) else True
+    if a.dtype.kind == "f":
+        return bool(np.all(np.abs(a - b) <= tol * np.maximum(1.0, np.abs(b)))) if len(a) else True
+    return bool(np.array_equal(a, b))

@@ -1,0 +1,1 @@
+"""Reading and writing SSP (System Structure and Parameterization) scenarios."""

@@ -1,0 +1,78 @@
+"""Locating the SystemStructure.ssd of a scenario given as .ssp archive, folder or bare .ssd."""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import ScenarioError
+
+SSD_NAME = "SystemStructure.ssd"
+
+
+@dataclass
+class ScenarioSource:
+    path: Path          # what the user named
+    ssd_path: Path      # the SSD file on disk
+    root: Path          # folder that component sources are relative to
+    tempdir: Path | None = None
+
+    def close(self) -> None:
+        if self.tempdir is not None:
+            shutil.rmtree(self.tempdir, ignore_errors=True)
+            self.tempdir = None
+
+
+def _extract_ssp(path: Path) -> Path:
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError) as exc:
+        raise ScenarioError(f"not a readable SSP archive (zip): {exc}", file=path) from None
+    with zf:
+        names = zf.namelist()
+        if SSD_NAME not in names:
+            raise ScenarioError(f"archive has no {SSD_NAME} at its top level", file=path)
+        tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-"))
+        for name in names:
+            target = (tmp / name).resolve()
+            if not str(target).startswith(str(tmp.resolve()) + os.sep) and target != tmp.resolve():
+                shutil.rmtree(tmp, ignore_errors=True)
+                raise ScenarioError(f"archive member escapes the archive: {name}", file=path)
+        try:
+            zf.extractall(tmp)
+        except (zipfile.BadZipFile, OSError, EOFError) as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise ScenarioError(f"corrupt SSP archive: {exc}", file=path) from None
+    return tmp
+
+
+def open_scenario(path: str | os.PathLike, ssd_name: str | None = None) -> ScenarioSource:
+    """Resolve a scenario path; an .ssp archive is unpacked into a temporary folder."""
+    path = Path(path)
+    if not path.exists():
+        raise ScenarioError("scenario not found", file=path)
+    if path.is_dir():
+        ssd = path / (ssd_name or SSD_NAME)
+        if not ssd.is_file():
+            raise ScenarioError(f"folder has no {ssd.name}", file=path)
+        return ScenarioSource(path, ssd, path)
+    if path.suffix.lower() == ".ssd":
+        return ScenarioSource(path, path, path.parent)
+    tmp = _extract_ssp(path)
+    ssd = tmp / (ssd_name or SSD_NAME)
+    if not ssd.is_file():
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ScenarioError(f"archive has no {ssd.name}", file=path)
+    return ScenarioSource(path, ssd, tmp, tmp)
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -1,0 +1,401 @@
+"""SystemStructure.ssd (plus .ssv and .ssm files) to a flattened SystemModel.
+
+Elements are matched by local name so that SSP 1.0 and SSP 2.0 documents read alike;
+XSD validation is applied where a schema exists (SSP 1.x).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+from lxml import etree
+
+from ..errors import ScenarioError
+from . import xsd
+from .model import (SSP_TYPES, Component, Connection, Connector, MasterSettings, ParameterValue,
+                    SystemModel, Transformation, Unit)
+from .settings_annotations import read_master_settings
+
+FMU_TYPES = ("application/x-fmu-sharedlibrary",)
+BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+
+def _local(el) -> str:
+    return etree.QName(el).localname if isinstance(el.tag, str) else ""
+
+
+def _children(el, name):
+    return [c for c in el if _local(c) == name]
+
+
+def _child(el, name):
+    for c in el:
+        if _local(c) == name:
+            return c
+    return None
+
+
+def _float(el, attr, default, shown_as):
+    raw = el.get(attr)
+    if raw is None:
+        return default
+    try:
+        return float(raw)
+    except ValueError:
+        raise ScenarioError(f"attribute {attr}={raw!r} is not a number", file=shown_as,
+                            element=_local(el), line=el.sourceline) from None
+
+
+def _bool(raw: str | None) -> bool:
+    return raw is not None and raw.strip().lower() in ("true", "1")
+
+
+class _Reader:
+    def __init__(self, ssd_path: Path, root: Path, shown_root: str):
+        self.ssd_path = ssd_path
+        self.root = root
+        self.shown_root = shown_root
+        self.units: dict[str, Unit] = {}
+        self.components: dict[str, Component] = {}
+        self.edges: list[tuple] = []          # (src node, dst node, Connection template)
+        self.system_connectors: set = set()   # nodes that are connectors of (sub)systems
+        self.parameters: list[ParameterValue] = []
+        self.annotations: dict[str, object] = {}
+
+    def shown(self, path: Path) -> str:
+        try:
+            rel = path.relative_to(self.root)
+        except ValueError:
+            return str(path)
+        return f"{self.shown_root}/{rel.as_posix()}" if self.shown_root else rel.as_posix()
+
+    # -- units ---------------------------------------------------------------------------
+    def read_units(self, units_el, shown_as):
+        if units_el is None:
+            return
+        for u in _children(units_el, "Unit"):
+            base = _child(u, "BaseUnit")
+            if base is None:
+                self.units[u.get("name")] = Unit(u.get("name"))
+                continue
+            exps = tuple(int(base.get(b, "0")) for b in BASE_UNITS)
+            self.units[u.get("name")] = Unit(u.get("name"), _float(base, "factor", 1.0, shown_as),
+                                             _float(base, "offset", 0.0, shown_as), exps)
+
+    # -- connectors ----------------------------------------------------------------------
+    def read_connectors(self, el, shown_as) -> dict[str, Connector]:
+        out: dict[str, Connector] = {}
+        conns = _child(el, "Connectors")
+        if conns is None:
+            return out
+        for c in _children(conns, "Connector"):
+            typ, unit = None, None
+            for t in c:
+                if _local(t) in SSP_TYPES:
+                    typ = _local(t)
+                    unit = t.get("unit")
+            name = c.get("name")
+            if name in out:
+                raise ScenarioError(f"duplicate connector {name!r}", file=shown_as,
+                                    element=f"Connector {name}", line=c.sourceline)
+            out[name] = Connector(name, c.get("kind"), typ, unit, c.sourceline)
+        return out
+
+    # -- systems -------------------------------------------------------------------------
+    def read_system(self, sys_el, prefix: str, shown_as: str, ssd_dir: Path):
+        for name in self.read_connectors(sys_el, shown_as):
+            self.system_connectors.add((prefix.rstrip("."), name))
+        elements = _child(sys_el, "Elements")
+        names = set()
+        if elements is not None:
+            for el in elements:
+                kind = _local(el)
+                if kind not in ("Component", "System"):
+                    continue
+                name = el.get("name")
+                if name in names:
+                    raise ScenarioError(f"duplicate element name {name!r}", file=shown_as,
+                                        element=f"{kind} {name}", line=el.sourceline)
+                names.add(name)
+                path = f"{prefix}{name}"
+                if kind == "System":
+                    self.read_system(el, path + ".", shown_as, ssd_dir)
+                    self.read_bindings(el, path + ".", shown_as, ssd_dir, is_component=False)
+                else:
+                    self.read_component(el, path, shown_as, ssd_dir)
+        self.read_bindings(sys_el, prefix, shown_as, ssd_dir, is_component=False)
+        conns = _child(sys_el, "Connections")
+        if conns is not None:
+            for c in _children(conns, "Connection"):
+                self.read_connection(c, prefix, names, shown_as)
+        ann = _child(sys_el, "Annotations")
+        if ann is not None:
+            for a in _children(ann, "Annotation"):
+                self.annotations.setdefault(a.get("type"), a)
+
+    def read_component(self, el, path, shown_as, ssd_dir):
+        ctype = el.get("type", "application/x-fmu-sharedlibrary")
+        source = el.get("source")
+        where = f"Component {path}"
+        if ctype not in FMU_TYPES:
+            raise ScenarioError(f"component type {ctype!r} is not supported (only FMUs: {FMU_TYPES[0]})",
+                                file=shown_as, element=where, line=el.sourceline)
+        if not source:
+            raise ScenarioError("component has no source", file=shown_as, element=where, line=el.sourceline)
+        fmu_path = self.resolve_source(source, ssd_dir)
+        if not fmu_path.is_file():
+            raise ScenarioError(f"FMU {source!r} not found in the scenario", file=shown_as, element=where,
+                                line=el.sourceline)
+        comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline)
+        self.components[path] = comp
+        self.read_bindings(el, path, shown_as, ssd_dir, is_component=True)
+
+    def resolve_source(self, source: str, base_dir: Path) -> Path:
+        parsed = urlparse(source)
+        if parsed.scheme == "file":
+            return Path(unquote(parsed.path))
+        if parsed.scheme and len(parsed.scheme) > 1:
+            raise ScenarioError(f"source URI scheme {parsed.scheme!r} is not supported", file=self.shown(self.ssd_path))
+        rel = unquote(source)
+        candidate = (base_dir / rel)
+        if not candidate.exists() and (self.root / rel).exists():
+            candidate = self.root / rel
+        return candidate
+
+    def read_connection(self, c, prefix, names, shown_as):
+        start_el, end_el = c.get("startElement"), c.get("endElement")
+        for e in (start_el, end_el):
+            if e is not None and e not in names:
+                raise ScenarioError(f"connection refers to unknown element {e!r}", file=shown_as,
+                                    element=f"Connection {start_el or ''}.{c.get('startConnector')} -> "
+                                            f"{end_el or ''}.{c.get('endConnector')}", line=c.sourceline)
+        src = (f"{prefix}{start_el}" if start_el else prefix, c.get("startConnector"))
+        dst = (f"{prefix}{end_el}" if end_el else prefix, c.get("endConnector"))
+        trans = None
+        for t in c:
+            kind = _local(t)
+            if kind == "LinearTransformation":
+                trans = Transformation("linear", _float(t, "factor", 1.0, shown_as), _float(t, "offset", 0.0, shown_as))
+            elif kind in ("BooleanMappingTransformation", "IntegerMappingTransformation",
+                          "EnumerationMappingTransformation"):
+                mapping = {}
+                for m in _children(t, "MapEntry"):
+                    mapping[m.get("source")] = m.get("target")
+                trans = Transformation("map", mapping=mapping)
+        conn = Connection(src[0].rstrip("."), src[1], dst[0].rstrip("."), dst[1], trans,
+                          _bool(c.get("suppressUnitConversion")), c.sourceline)
+        self.edges.append((src, dst, conn, shown_as))
+
+    # -- parameters ----------------------------------------------------------------------
+    def read_bindings(self, el, path, shown_as, ssd_dir, is_component):
+        pbs = _child(el, "ParameterBindings")
+        if pbs is None:
+            return
+        for pb in _children(pbs, "ParameterBinding"):
+            ptype = pb.get("type", "application/x-ssp-parameter-set")
+            if ptype != "application/x-ssp-parameter-set":
+                raise ScenarioError(f"parameter binding type {ptype!r} is not supported", file=shown_as,
+                                    element=f"ParameterBinding of {path or 'system'}", line=pb.sourceline)
+            prefix = pb.get("prefix", "") or ""
+            source = pb.get("source")
+            if source:
+                ssv = self.resolve_source(source, ssd_dir)
+                if not ssv.is_file():
+                    raise ScenarioError(f"parameter file {source!r} not found", file=shown_as,
+                                        element=f"ParameterBinding of {path or 'system'}", line=pb.sourceline)
+                ssv_shown = self.shown(ssv)
+                tree = xsd.parse_xml(ssv, ssv_shown)
+                xsd.validate(tree, "ssv", ssv_shown)
+                pset, pset_shown = tree.getroot(), ssv_shown
+            else:
+                values = _child(pb, "ParameterValues")
+                pset = _child(values, "ParameterSet") if values is not None else None
+                pset_shown = shown_as
+                if pset is None:
+                    raise ScenarioError("parameter binding has neither source nor inline values", file=shown_as,
+                                        element=f"ParameterBinding of {path or 'system'}", line=pb.sourceline)
+            mapping = self.read_mapping(pb, shown_as, ssd_dir)
+            self.read_units(_child(pset, "Units"), pset_shown)
+            params = _child(pset, "Parameters")
+            for p in (_children(params, "Parameter") if params is not None else []):
+                name = prefix + p.get("name")
+                value_el = next((t for t in p if _local(t) in SSP_TYPES), None)
+                if value_el is None:
+                    continue
+                typ = _local(value_el)
+                raw = value_el.get("value")
+                if typ == "Enumeration":
+                    raw = value_el.get("value")
+                value = self.convert_value(typ, raw, pset_shown, p)
+                unit = value_el.get("unit")
+                target, trans = name, None
+                if mapping is not None and name in mapping:
+                    target, trans = mapping[name]
+                    if trans is not None and trans.kind == "linear" and typ == "Real":
+                        value = trans.factor * value + trans.offset
+                    elif trans is not None and trans.kind == "map":
+                        value = self.convert_value(typ, trans.mapping.get(raw, raw), pset_shown, p)
+                comp, var = self.resolve_parameter_target(path, target, is_component, pset_shown, p)
+                pv = ParameterValue(comp, var, typ, value, f"{pset_shown}:{p.sourceline}")
+                pv.unit = unit
+                self.parameters.append(pv)
+
+    def read_mapping(self, pb, shown_as, ssd_dir):
+        pm = _child(pb, "ParameterMapping")
+        if pm is None:
+            return None
+        source = pm.get("source")
+        if source:
+            ssm = self.resolve_source(source, ssd_dir)
+            if not ssm.is_file():
+                raise ScenarioError(f"parameter mapping {source!r} not found", file=shown_as,
+                                    element="ParameterMapping", line=pm.sourceline)
+            ssm_shown = self.shown(ssm)
+            tree = xsd.parse_xml(ssm, ssm_shown)
+            xsd.validate(tree, "ssm", ssm_shown)
+            root = tree.getroot()
+        else:
+            root = _child(pm, "ParameterMapping")
+            if root is None:
+                return None
+        out = {}
+        for entry in _children(root, "MappingEntry"):
+            trans = None
+            for t in entry:
+                if _local(t) == "LinearTransformation":
+                    trans = Transformation("linear", _float(t, "factor", 1.0, shown_as), _float(t, "offset", 0.0, shown_as))
+                elif _local(t).endswith("MappingTransformation"):
+                    trans = Transformation("map", mapping={m.get("source"): m.get("target")
+                                                           for m in _children(t, "MapEntry")})
+            out[entry.get("source")] = (entry.get("target"), trans)
+        return out
+
+    @staticmethod
+    def convert_value(typ, raw, shown_as, el):
+        try:
+            if typ == "Real":
+                return float(raw)
+            if typ == "Integer":
+                return int(raw)
+            if typ == "Boolean":
+                if raw.strip().lower() not in ("true", "false", "1", "0"):
+                    raise ValueError(raw)
+                return raw.strip().lower() in ("true", "1")
+            if typ == "Enumeration":
+                return raw
+            return raw
+        except (TypeError, ValueError):
+            raise ScenarioError(f"value {raw!r} is not a valid {typ}", file=shown_as,
+                                element=f"Parameter {el.get('name')}", line=el.sourceline) from None
+
+    def resolve_parameter_target(self, path, name, is_component, shown_as, el):
+        """Map a parameter name to (component, variable): bare names at a component, dotted paths at a system."""
+        if is_component:
+            return path, name
+        # system-level binding: longest component path that prefixes the name
+        full = f"{path}{name}"
+        best = None
+        for comp in self.components:
+            if full.startswith(comp + ".") and (best is None or len(comp) > len(best)):
+                best = comp
+        if best is None:
+            raise ScenarioError(f"parameter {name!r} does not name a component's connector", file=shown_as,
+                                element=f"Parameter {el.get('name')}", line=el.sourceline)
+        return best, full[len(best) + 1:]
+
+    # -- flattening ----------------------------------------------------------------------
+    def flatten_connections(self) -> list[Connection]:
+        """Follow connections through system connectors so that every connection joins two FMU connectors."""
+        outgoing: dict[tuple, list] = {}
+        for src, dst, conn, shown_as in self.edges:
+            for node in (src, dst):
+                owner, name = node
+                owner = owner.rstrip(".")
+                if owner in self.components:
+                    if name not in self.components[owner].connectors and self.components[owner].connectors:
+                        raise ScenarioError(f"component {owner!r} has no connector {name!r} in the SSD",
+                                            file=shown_as, element=f"Connection {conn.src} -> {conn.dst}",
+                                            line=conn.line)
+                elif (owner, name) not in self.system_connectors:
+                    raise ScenarioError(f"connector {name!r} of {owner or 'the top system'} is not declared",
+                                        file=shown_as, element=f"Connection {conn.src} -> {conn.dst}", line=conn.line)
+            outgoing.setdefault(self._key(src), []).append((self._key(dst), conn))
+        flat = []
+        for src, dst, conn, _ in self.edges:
+            skey = self._key(src)
+            if skey[0] not in self.components:
+                continue
+            self._walk(skey, skey, None, False, outgoing, flat, set(), conn.line)
+        return flat
+
+    @staticmethod
+    def _key(node):
+        return (node[0].rstrip("."), node[1])
+
+    def _walk(self, origin, node, trans, suppress, outgoing, flat, seen, line):
+        if node in seen:
+            return
+        seen = seen | {node}
+        for nxt, conn in outgoing.get(node, []):
+            t = _compose(trans, conn.transformation)
+            sup = suppress or conn.suppress_unit_conversion
+            if nxt[0] in self.components:
+                if not any((c.src_component, c.src_connector, c.dst_component, c.dst_connector) == (*origin, *nxt)
+                           for c in flat):
+                    flat.append(Connection(origin[0], origin[1], nxt[0], nxt[1], t, sup, conn.line))
+            else:
+                self._walk(origin, nxt, t, sup, outgoing, flat, seen, line)
+
+
+def _compose(first: Transformation | None, second: Transformation | None) -> Transformation | None:
+    if first is None:
+        return second
+    if second is None:
+        return first
+    if first.kind == second.kind == "linear":
+        return Transformation("linear", second.factor * first.factor, second.factor * first.offset + second.offset)
+    if first.kind == second.kind == "map":
+        return Transformation("map", mapping={k: second.mapping.get(v, v) for k, v in first.mapping.items()})
+    raise ScenarioError("cannot chain a linear and a mapping transformation through a system connector")
+
+
+def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True) -> SystemModel:
+    """Read and validate an SSD; ``shown_root`` is how the scenario is named in messages."""
+    ssd_path = Path(ssd_path)
+    reader = _Reader(ssd_path, Path(root), shown_root)
+    shown_as = reader.shown(ssd_path)
+    tree = xsd.parse_xml(ssd_path, shown_as)
+    top = tree.getroot()
+    if _local(top) != "SystemStructureDescription":
+        raise ScenarioError(f"root element is {_local(top)!r}, expected ssd:SystemStructureDescription",
+                            file=shown_as, line=top.sourceline)
+    if validate:
+        xsd.validate(tree, "ssd", shown_as)
+    reader.read_units(_child(top, "Units"), shown_as)
+    system = _child(top, "System")
+    if system is None:
+        raise ScenarioError("no ssd:System element", file=shown_as)
+    reader.read_system(system, "", shown_as, ssd_path.parent)
+    top_ann = _child(top, "Annotations")
+    if top_ann is not None:
+        for a in _children(top_ann, "Annotation"):
+            reader.annotations.setdefault(a.get("type"), a)
+    model = SystemModel(top.get("name", system.get("name", "system")), ssd_path, Path(root),
+                        top.get("version", "1.0"))
+    model.components = reader.components
+    model.connections = reader.flatten_connections()
+    model.parameters = reader.parameters
+    model.units = reader.units
+    model.annotations = reader.annotations
+    exp = _child(top, "DefaultExperiment")
+    if exp is not None:
+        model.start_time = _float(exp, "startTime", None, shown_as)
+        model.stop_time = _float(exp, "stopTime", None, shown_as)
+        ann = _child(exp, "Annotations")
+        if ann is not None:
+            for a in _children(ann, "Annotation"):
+                reader.annotations.setdefault(a.get("type"), a)
+    model.settings = read_master_settings(model.annotations, shown_as)
+    if not model.components:
+        raise ScenarioError("the system has no FMU components", file=shown_as)
+    return model

@@ -1,0 +1,88 @@
+"""Master settings from SSD annotations: our own, OMSimulator's and the Open Simulation Platform's.
+
+Our annotation (type ``org.cosim-master.settings``, in DefaultExperiment or System annotations)::
+
+    <cm:Settings xmlns:cm="https://cosim-master.org/ssp/settings" stepSize="0.1" algorithm="gauss-seidel"
+                 recordInterval="1.0">
+      <cm:Component name="wind" stepMultiple="10"/>
+    </cm:Settings>
+
+OMSimulator writes ``org.openmodelica`` / ``oms:FixedStepMaster stepSize``; OSP (libcosim) writes
+``com.opensimulationplatform`` / ``osp:FixedStepAlgorithm baseStepSize``. Only the step size is taken
+from those two, since their other settings have no counterpart here.
+"""
+from __future__ import annotations
+
+from lxml import etree
+
+from ..errors import ScenarioError
+from .model import MasterSettings
+
+OUR_TYPE = "org.cosim-master.settings"
+OUR_NS = "https://cosim-master.org/ssp/settings"
+ALGORITHMS = ("jacobi", "gauss-seidel")
+
+
+def _local(el):
+    return etree.QName(el).localname if isinstance(el.tag, str) else ""
+
+
+def _iter_local(el, name):
+    return (e for e in el.iter() if _local(e) == name)
+
+
+def _positive(value, what, shown_as, el):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"{what}={value!r} is not a number", file=shown_as, element=_local(el),
+                            line=el.sourceline) from None
+    if not v > 0:
+        raise ScenarioError(f"{what} must be positive, got {value}", file=shown_as, element=_local(el),
+                            line=el.sourceline)
+    return v
+
+
+def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
+    s = MasterSettings()
+    ours = annotations.get(OUR_TYPE)
+    if ours is not None:
+        for el in _iter_local(ours, "Settings"):
+            if el.get("stepSize") is not None:
+                s.step_size = _positive(el.get("stepSize"), "stepSize", shown_as, el)
+                s.source = OUR_TYPE
+            if el.get("recordInterval") is not None:
+                s.record_interval = _positive(el.get("recordInterval"), "recordInterval", shown_as, el)
+            alg = el.get("algorithm")
+            if alg is not None:
+                if alg not in ALGORITHMS:
+                    raise ScenarioError(f"unknown algorithm {alg!r} (known: {', '.join(ALGORITHMS)})",
+                                        file=shown_as, element="Settings", line=el.sourceline)
+                s.algorithm = alg
+            for c in _iter_local(el, "Component"):
+                raw = c.get("stepMultiple", "1")
+                try:
+                    k = int(raw)
+                except ValueError:
+                    k = 0
+                if k < 1:
+                    raise ScenarioError(f"stepMultiple={raw!r} must be a positive integer", file=shown_as,
+                                        element=f"Component {c.get('name')}", line=c.sourceline)
+                s.step_multiples[c.get("name")] = k
+    if s.step_size is None:
+        oms = annotations.get("org.openmodelica")
+        if oms is not None:
+            for el in _iter_local(oms, "FixedStepMaster"):
+                if el.get("stepSize") is not None:
+                    s.step_size = _positive(el.get("stepSize"), "stepSize", shown_as, el)
+                    s.source = "org.openmodelica"
+                    break
+    if s.step_size is None:
+        osp = annotations.get("com.opensimulationplatform")
+        if osp is not None:
+            for el in _iter_local(osp, "FixedStepAlgorithm"):
+                if el.get("baseStepSize") is not None:
+                    s.step_size = _positive(el.get("baseStepSize"), "baseStepSize", shown_as, el)
+                    s.source = "com.opensimulationplatform"
+                    break
+    return s

@@ -1,0 +1,214 @@
+"""Writing SSP 1.0 archives that validate against the official schema and run in other masters.
+
+The step size is written in our own settings annotation and also in the OSP and OMSimulator
+annotations, so libcosim and OMSimulator pick the same step without extra options.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lxml import etree
+
+from . import xsd
+from .settings_annotations import OUR_NS, OUR_TYPE
+
+NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+    "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
+    "cm": OUR_NS,
+}
+
+
+def _q(prefix, name):
+    return f"{{{NS[prefix]}}}{name}"
+
+
+def _fmt(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+@dataclass
+class _Comp:
+    name: str
+    fmu: Path
+    connectors: list           # (name, kind, type, unit)
+    params: dict               # var -> (type, value)
+    ssv: str | None = None     # put parameters in resources/<name>.ssv instead of inline
+
+
+@dataclass
+class SspBuilder:
+    name: str
+    components: list = field(default_factory=list)
+    connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress)
+    units: dict = field(default_factory=dict)         # name -> dict(base exponents, factor, offset)
+    start: float = 0.0
+    stop: float | None = None
+    step: float | None = None
+    algorithm: str | None = None
+    record_interval: float | None = None
+    step_multiples: dict = field(default_factory=dict)
+    annotations: list = field(default_factory=list)   # lxml elements with ssc:Annotation root
+
+    def add_component(self, name, fmu_path, connectors=None, params=None, ssv=False):
+        """connectors=None takes every input, output and set parameter from the FMU's modelDescription."""
+        fmu_path = Path(fmu_path)
+        params = dict(params or {})
+        if connectors is None:
+            from fmpy import read_model_description
+            md = read_model_description(str(fmu_path))
+            connectors = []
+            for v in md.modelVariables:
+                if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
+                    t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
+                    if t.startswith(("Int", "UInt")):
+                        t = "Integer"
+                    connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
+        typed = {}
+        kinds = {c[0]: c[2] for c in connectors}
+        for k, v in params.items():
+            t = kinds.get(k) or ("Boolean" if isinstance(v, bool) else "Integer" if isinstance(v, int)
+                                 else "Real" if isinstance(v, float) else "String")
+            typed[k] = (t, v)
+        self.components.append(_Comp(name, fmu_path, list(connectors), typed, f"{name}.ssv" if ssv else None))
+        return self
+
+    def connect(self, a, x, b, y, factor=None, offset=None, suppress_unit_conversion=False):
+        self.connections.append((a, x, b, y, factor, offset, suppress_unit_conversion))
+        return self
+
+    # -- XML ------------------------------------------------------------------------------
+    def _settings_annotation(self, parent):
+        anns = etree.SubElement(parent, _q("ssd", "Annotations"))
+        ours = etree.SubElement(anns, _q("ssc", "Annotation"), type=OUR_TYPE)
+        s = etree.SubElement(ours, _q("cm", "Settings"))
+        if self.step is not None:
+            s.set("stepSize", _fmt(float(self.step)))
+        if self.algorithm:
+            s.set("algorithm", self.algorithm)
+        if self.record_interval is not None:
+            s.set("recordInterval", _fmt(float(self.record_interval)))
+        for comp, k in self.step_multiples.items():
+            etree.SubElement(s, _q("cm", "Component"), name=comp, stepMultiple=str(k))
+        if self.step is not None:
+            osp = etree.SubElement(anns, _q("ssc", "Annotation"), type="com.opensimulationplatform")
+            alg = etree.SubElement(osp, _q("osp", "Algorithm"))
+            etree.SubElement(alg, _q("osp", "FixedStepAlgorithm"), baseStepSize=_fmt(float(self.step)))
+
+    def _params(self, values_parent, comp: _Comp):
+        pset = etree.SubElement(values_parent, _q("ssv", "ParameterSet"), version="1.0", name=f"{comp.name}-parameters")
+        ps = etree.SubElement(pset, _q("ssv", "Parameters"))
+        for var, (t, v) in comp.params.items():
+            p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
+            etree.SubElement(p, _q("ssv", t), value=_fmt(v))
+        return pset
+
+    def ssd_tree(self, fmu_names: dict[str, str]):
+        root = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap={k: v for k, v in NS.items()},
+                             version="1.0", name=self.name)
+        system = etree.SubElement(root, _q("ssd", "System"), name=self.name)
+        elements = etree.SubElement(system, _q("ssd", "Elements"))
+        ssv_files = {}
+        for comp in self.components:
+            el = etree.SubElement(elements, _q("ssd", "Component"), name=comp.name,
+                                  type="application/x-fmu-sharedlibrary", source=f"resources/{fmu_names[comp.name]}")
+            conns = etree.SubElement(el, _q("ssd", "Connectors"))
+            for cname, kind, typ, unit in comp.connectors:
+                c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
+                t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
+                if unit and typ == "Real":
+                    t.set("unit", unit)
+            if comp.params:
+                pbs = etree.SubElement(el, _q("ssd", "ParameterBindings"))
+                if comp.ssv:
+                    etree.SubElement(pbs, _q("ssd", "ParameterBinding"), source=f"resources/{comp.ssv}")
+                    holder = etree.Element("holder")
+                    ssv_files[comp.ssv] = self._params(holder, comp)
+                else:
+                    pb = etree.SubElement(pbs, _q("ssd", "ParameterBinding"))
+                    pv = etree.SubElement(pb, _q("ssd", "ParameterValues"))
+                    self._params(pv, comp)
+        if self.connections:
+            cs = etree.SubElement(system, _q("ssd", "Connections"))
+            for a, x, b, y, factor, offset, sup in self.connections:
+                c = etree.SubElement(cs, _q("ssd", "Connection"), startElement=a, startConnector=x, endElement=b,
+                                     endConnector=y)
+                if sup:
+                    c.set("suppressUnitConversion", "true")
+                if factor is not None or offset is not None:
+                    etree.SubElement(c, _q("ssc", "LinearTransformation"), factor=_fmt(float(factor or 1.0)),
+                                     offset=_fmt(float(offset or 0.0)))
+        if self.units:
+            us = etree.SubElement(root, _q("ssd", "Units"))
+            for name, spec in self.units.items():
+                u = etree.SubElement(us, _q("ssc", "Unit"), name=name)
+                etree.SubElement(u, _q("ssc", "BaseUnit"), **{k: _fmt(v) for k, v in spec.items()})
+        exp = etree.SubElement(root, _q("ssd", "DefaultExperiment"), startTime=_fmt(float(self.start)))
+        if self.stop is not None:
+            exp.set("stopTime", _fmt(float(self.stop)))
+        self._settings_annotation(exp)
+        if self.annotations:
+            anns = etree.SubElement(root, _q("ssd", "Annotations"))
+            for a in self.annotations:
+                anns.append(a)
+        return etree.ElementTree(root), ssv_files
+
+    def write(self, path) -> Path:
+        """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder."""
+        path = Path(path)
+        fmu_names, seen = {}, {}
+        for comp in self.components:
+            # instances of the same FMU share one archive member
+            key = str(comp.fmu.resolve())
+            if key not in seen:
+                base = comp.fmu.name
+                taken = set(seen.values())
+                name, k = base, 1
+                while name in taken:
+                    name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
+                seen[key] = name
+            fmu_names[comp.name] = seen[key]
+        tree, ssv_files = self.ssd_tree(fmu_names)
+        xsd.validate(tree, "ssd", str(path))
+        ssd_bytes = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+        ssv_bytes = {name: etree.tostring(etree.ElementTree(el), xml_declaration=True, encoding="UTF-8",
+                                          pretty_print=True) for name, el in ssv_files.items()}
+        members = {f"resources/{name}": Path(src) for src, name in seen.items()}
+        if path.suffix.lower() == ".ssp":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(".ssp.tmp")
+            with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as zf:
+                zf.writestr(_zinfo("SystemStructure.ssd"), ssd_bytes)
+                for name, data in ssv_bytes.items():
+                    zf.writestr(_zinfo(f"resources/{name}"), data)
+                for arc, src in sorted(members.items()):
+                    zf.writestr(_zinfo(arc), src.read_bytes())
+            os.replace(tmp, path)
+        else:
+            if path.exists():
+                shutil.rmtree(path)
+            (path / "resources").mkdir(parents=True)
+            (path / "SystemStructure.ssd").write_bytes(ssd_bytes)
+            for name, data in ssv_bytes.items():
+                (path / "resources" / name).write_bytes(data)
+            for arc, src in members.items():
+                shutil.copyfile(src, path / arc)
+        return path
+
+
+def _zinfo(name):
+    # fixed timestamps so that the same scenario gives a byte-identical archive
+    zi = zipfile.ZipInfo(name, date_time=(2020, 1, 1, 0, 0, 0))
+    zi.external_attr = 0o644 << 16
+    return zi

@@ -1,0 +1,28 @@
+"""Unit conversion between connectors, from SSD ssc:Unit definitions or the FMUs' UnitDefinitions."""
+from __future__ import annotations
+
+from .ssp.model import Unit
+
+BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+
+def unit_from_fmu(fmu_unit) -> Unit:
+    bu = getattr(fmu_unit, "baseUnit", None)
+    if bu is None:
+        return Unit(fmu_unit.name)
+    exps = tuple(int(getattr(bu, b, 0) or 0) for b in BASE_UNITS)
+    return Unit(fmu_unit.name, float(bu.factor or 1.0), float(bu.offset or 0.0), exps)
+
+
+def conversion(src: Unit | None, dst: Unit | None) -> tuple[float, float] | None:
+    """(factor, offset) such that value_dst = factor * value_src + offset; None when units do not match.
+
+    Both units map to SI as si = factor * value + offset (the SSP/FMI BaseUnit convention).
+    """
+    if src is None or dst is None or src.name == dst.name:
+        return 1.0, 0.0
+    if src.exponents != dst.exponents:
+        return None
+    factor = src.factor / dst.factor
+    offset = (src.offset - dst.offset) / dst.factor
+    return factor, offset

@@ -1,0 +1,636 @@
+"""Build the small test FMUs used by cosim-master's test suite.
+
+Two families:
+
+* ``build_c_fmu(model, out_dir, fmi_version=2, kind="cs")`` -- our own C
+  implementation of the FMI 2.0 (Co-Simulation or Model Exchange) and FMI 3.0
+  (Co-Simulation) APIs (``tests/fmus_c/fmi2_framework.c`` /
+  ``fmi3_framework.c``) plus one small C file per model with the equations
+  (``tests/fmus_c/<Model>.c``).  The variable list below is the single source
+  of truth: it produces both ``modelDescription.xml`` and the C header
+  ``model_vars.h`` (value references, start values, settability), so the two
+  can never disagree.  Compiled with gcc against the FMI headers shipped in
+  fmpy (``<fmpy>/c-code``).
+* ``build_python_fmu(model, out_dir)`` -- pythonfmu FMUs from
+  ``tests/fmus_py/<Model>.py`` via ``pythonfmu build``.  pythonfmu 0.7 writes
+  ``<Unknown index=".."/>`` without ``dependencies`` (i.e. "depends on every
+  known") and no ``<InitialUnknowns>``; we post-process the generated
+  modelDescription.xml from the ``OUTPUT_DEPENDENCIES`` dict declared in each
+  model class so that the Python FMUs declare exactly the same
+  ModelStructure as their C twins.
+
+C models (variable names are part of the contract with the master's tests):
+
+=============  ======================  =========================================
+model          kinds                   variables
+=============  ======================  =========================================
+MassA          FMI2 CS                 m=1, k=1, x0=1, v0=0 (params), F (in),
+                                       x, v (out, no feedthrough)
+MassB          FMI2 CS                 m=1, k=1, kc=1, x0=0, v0=0 (params),
+                                       x_in (in), x, v (out), F=kc*(x-x_in)
+                                       (out, feedthrough from x_in)
+Integrator     FMI2 CS, FMI3 CS        a=0, x0=0 (params), u (in), y (out)
+Gain           FMI2 CS                 k=1 (param), u (in), y=k*u (out, feedthrough)
+Oscillator     FMI2 ME                 m=1, k=1 (params), u (in),
+                                       x=1, v=0 (states/outputs), der_x, der_v
+Faulty         FMI2 CS                 fail_time=0.5 (param), mode=1 (Integer
+                                       param), y=time (out)
+=============  ======================  =========================================
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+from xml.sax.saxutils import quoteattr
+
+HERE = Path(__file__).resolve().parent
+C_DIR = HERE / "fmus_c"
+PY_DIR = HERE / "fmus_py"
+
+GENERATION_TOOL = "cosim-master tests/fmu_factory.py"
+
+
+def fmi_headers_dir() -> Path:
+    """Directory with fmi2Functions.h / fmi3Functions.h shipped with fmpy."""
+    import fmpy
+
+    return Path(os.path.join(os.path.dirname(fmpy.__file__), "c-code"))
+
+
+# ---------------------------------------------------------------------------
+# model specifications
+
+
+@dataclass
+class Var:
+    name: str
+    type: str  # "Real" | "Integer" | "Boolean" | "String"
+    causality: str  # parameter | input | output | local
+    variability: str  # fixed | tunable | discrete | continuous
+    initial: Optional[str] = None  # exact | approx | calculated | None
+    start: Any = None
+    description: str = ""
+    derivative_of: Optional[str] = None  # ME: this variable is der(<name>)
+
+
+@dataclass
+class CModel:
+    name: str
+    description: str
+    variables: list[Var]
+    # output name -> list of names of the knowns it depends on
+    # (None = omit the attribute, i.e. "depends on all knowns")
+    output_deps: dict[str, Optional[list[str]]]
+    versions_kinds: set[tuple[int, str]]
+    # ME: derivative name -> dependencies
+    derivative_deps: dict[str, Optional[list[str]]] = field(default_factory=dict)
+    source: Optional[str] = None  # C file, defaults to <name>.c
+
+    @property
+    def c_source(self) -> Path:
+        return C_DIR / (self.source or f"{self.name}.c")
+
+
+def _param(name, start, desc="", typ="Real", variability="fixed"):
+    return Var(name, typ, "parameter", variability, "exact", start, desc)
+
+
+def _input(name, start=0.0, desc="", typ="Real"):
+    variability = "continuous" if typ == "Real" else "discrete"
+    return Var(name, typ, "input", variability, None, start, desc)
+
+
+def _output(name, desc="", typ="Real"):
+    variability = "continuous" if typ == "Real" else "discrete"
+    return Var(name, typ, "output", variability, "calculated", None, desc)
+
+
+C_MODELS: dict[str, CModel] = {
+    "MassA": CModel(
+        name="MassA",
+        description="Mass m on a wall spring k driven by the coupling force F: m x'' = -k x + F; "
+        "doStep is exact for F held constant.",
+        variables=[
+            _param("m", 1.0, "mass"),
+            _param("k", 1.0, "wall spring stiffness"),
+            _param("x0", 1.0, "initial position"),
+            _param("v0", 0.0, "initial velocity"),
+            _input("F", 0.0, "coupling force acting on the mass"),
+            _output("x", "position"),
+            _output("v", "velocity"),
+        ],
+        output_deps={"x": [], "v": []},
+        versions_kinds={(2, "cs")},
+    ),
+    "MassB": CModel(
+        name="MassB",
+        description="Mass m on a wall spring k, coupled to mass 1 by spring kc: "
+        "m x'' = -(k+kc) x + kc x_in; F = kc (x - x_in) is the force on mass 1; "
+        "doStep is exact for x_in held constant.",
+        variables=[
+            _param("m", 1.0, "mass"),
+            _param("k", 1.0, "wall spring stiffness"),
+            _param("kc", 1.0, "coupling spring stiffness"),
+            _param("x0", 0.0, "initial position"),
+            _param("v0", 0.0, "initial velocity"),
+            _input("x_in", 0.0, "position of mass 1"),
+            _output("x", "position"),
+            _output("v", "velocity"),
+            _output("F", "force of the coupling spring on mass 1: kc (x - x_in)"),
+        ],
+        # F has direct feedthrough from x_in (its dependency on the internal
+        # state cannot be expressed: a Co-Simulation FMU exposes no states).
+        output_deps={"x": [], "v": [], "F": ["x_in"]},
+        versions_kinds={(2, "cs")},
+    ),
+    "Integrator": CModel(
+        name="Integrator",
+        description="x' = a x + u, y = x; doStep performs exactly one explicit Euler step "
+        "x += h (a x + u).",
+        variables=[
+            _param("a", 0.0, "linear feedback coefficient"),
+            _param("x0", 0.0, "initial state"),
+            _input("u", 0.0, "input"),
+            _output("y", "state"),
+        ],
+        output_deps={"y": []},
+        versions_kinds={(2, "cs"), (3, "cs")},
+    ),
+    "Gain": CModel(
+        name="Gain",
+        description="y = k u (direct feedthrough)",
+        variables=[
+            _param("k", 1.0, "gain"),
+            _input("u", 0.0, "input"),
+            _output("y", "k * u"),
+        ],
+        output_deps={"y": ["u"]},
+        versions_kinds={(2, "cs")},
+    ),
+    "Oscillator": CModel(
+        name="Oscillator",
+        description="Model Exchange harmonic oscillator m x'' = -k x + u",
+        variables=[
+            _param("m", 1.0, "mass"),
+            _param("k", 1.0, "spring stiffness"),
+            _input("u", 0.0, "external force"),
+            Var("x", "Real", "output", "continuous", "exact", 1.0, "position (state)"),
+            Var("v", "Real", "output", "continuous", "exact", 0.0, "velocity (state)"),
+            Var("der_x", "Real", "local", "continuous", "calculated", None, "der(x)", derivative_of="x"),
+            Var("der_v", "Real", "local", "continuous", "calculated", None, "der(v)", derivative_of="v"),
+        ],
+        output_deps={"x": ["x"], "v": ["v"]},
+        derivative_deps={"der_x": ["v"], "der_v": ["x", "u"]},
+        versions_kinds={(2, "me")},
+    ),
+    "Faulty": CModel(
+        name="Faulty",
+        description="y = time; the first doStep with t + h > fail_time fails according to mode "
+        "(0 none, 1 error, 2 discard, 3 abort())",
+        variables=[
+            _param("fail_time", 0.5, "the first step ending after this time fails"),
+            _param("mode", 1, "0 no failure, 1 error, 2 discard, 3 crash (abort)", typ="Integer"),
+            _output("y", "simulation time"),
+        ],
+        output_deps={"y": []},
+        versions_kinds={(2, "cs")},
+    ),
+}
+
+PY_MODELS = ("MassA", "MassB", "Integrator", "Gain", "Faulty", "Types")
+
+
+# ---------------------------------------------------------------------------
+# helpers
+
+
+def _fmt(value: Any, typ: str) -> str:
+    if typ == "Boolean":
+        return "true" if value else "false"
+    if typ == "Real":
+        return repr(float(value))
+    if typ == "Integer":
+        return str(int(value))
+    return str(value)
+
+
+def _guid(*parts: str) -> str:
+    return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "cosim-master-test/" + "/".join(parts))) + "}"
+
+
+def _source_digest(spec: CModel, fmi_version: int) -> str:
+    h = hashlib.sha256()
+    for p in (C_DIR / "model_api.h", C_DIR / f"fmi{fmi_version}_framework.c", spec.c_source):
+        h.update(p.read_bytes())
+    for extra in sorted(C_DIR.glob("*.h")):
+        h.update(extra.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _variables_for(spec: CModel, fmi_version: int) -> list[Var]:
+    variables = list(spec.variables)
+    if fmi_version == 3:
+        variables.insert(0, Var("time", "Real", "independent", "continuous", None, None, "simulation time"))
+    return variables
+
+
+def _set_mode(v: Var) -> str:
+    if v.causality == "input" or (v.causality == "parameter" and v.variability == "tunable"):
+        return "SET_ALWAYS"
+    if v.causality == "parameter" or v.initial in ("exact", "approx"):
+        return "SET_BEFORE_RUN"
+    return "SET_NEVER"
+
+
+def _c_header(spec: CModel, variables: list[Var], guid: str, kind: str) -> str:
+    n = len(variables)
+    ctype = {"Real": "T_REAL", "Integer": "T_INTEGER", "Boolean": "T_BOOLEAN", "String": "T_STRING"}
+
+    def arr(ctype_, name, values):
+        return f"static const {ctype_} {name}[{n}] __attribute__((unused)) = {{{', '.join(values)}}};"
+
+    real = [repr(float(v.start)) if (v.type == "Real" and v.start is not None) else "0.0" for v in variables]
+    ints = [str(int(v.start)) if (v.type == "Integer" and v.start is not None) else "0" for v in variables]
+    bools = [("1" if v.start else "0") if v.type == "Boolean" else "0" for v in variables]
+    strs = [
+        ('"' + str(v.start).replace("\\", "\\\\").replace('"', '\\"') + '"')
+        if (v.type == "String" and v.start is not None)
+        else "NULL"
+        for v in variables
+    ]
+    states = [v.derivative_of for v in variables if v.derivative_of]
+    names = [v.name for v in variables]
+    state_vrs = [str(names.index(s)) for s in states] or ["0"]
+    der_vrs = [str(i) for i, v in enumerate(variables) if v.derivative_of] or ["0"]
+    lines = [
+        "/* generated by tests/fmu_factory.py -- do not edit */",
+        "#ifndef MODEL_VARS_H",
+        "#define MODEL_VARS_H",
+        "#include <stddef.h>",
+        f'#define MODEL_NAME "{spec.name}"',
+        f'#define MODEL_GUID "{guid}"',
+        f"#define MODEL_SUPPORTS_CS {1 if kind == 'cs' else 0}",
+        f"#define MODEL_SUPPORTS_ME {1 if kind == 'me' else 0}",
+        f"#define NVARS {n}",
+    ]
+    lines += [f"#define VR_{v.name} {i}" for i, v in enumerate(variables)]
+    lines += [
+        f"static const int VAR_TYPE[{n}] __attribute__((unused)) = {{{', '.join(ctype[v.type] for v in variables)}}};",
+        f"static const int VAR_SET_MODE[{n}] __attribute__((unused)) = {{{', '.join(_set_mode(v) for v in variables)}}};",
+        arr("double", "START_REAL", real),
+        arr("int", "START_INT", ints),
+        arr("int", "START_BOOL", bools),
+        arr("char *const", "START_STRING", strs),
+        f"#define N_STATES {len(states)}",
+        f"static const int STATE_VRS[{max(1, len(states))}] __attribute__((unused)) = {{{', '.join(state_vrs)}}};",
+        f"static const int DER_VRS[{max(1, len(states))}] __attribute__((unused)) = {{{', '.join(der_vrs)}}};",
+        "#define N_EVENT_INDICATORS 0",
+        "#endif",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _deps_attr(deps: Optional[list[str]], index_of) -> str:
+    if deps is None:
+        return ""
+    return f' dependencies="{" ".join(str(index_of(d)) for d in deps)}"'
+
+
+def _fmi2_model_description(spec: CModel, variables: list[Var], guid: str, kind: str) -> str:
+    names = [v.name for v in variables]
+
+    def idx(name):  # 1-based index into ModelVariables
+        return names.index(name) + 1
+
+    out = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="2.0" modelName="{spec.name}" guid="{guid}"'
+        f" description={quoteattr(spec.description)} generationTool={quoteattr(GENERATION_TOOL)}"
+        ' variableNamingConvention="structured"'
+        f' numberOfEventIndicators="0">',
+    ]
+    if kind == "cs":
+        out.append(
+            f'  <CoSimulation modelIdentifier="{spec.name}" canHandleVariableCommunicationStepSize="true"'
+            ' canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="false"'
+            ' canSerializeFMUstate="false" canInterpolateInputs="false" maxOutputDerivativeOrder="0"/>'
+        )
+    else:
+        out.append(
+            f'  <ModelExchange modelIdentifier="{spec.name}" canNotUseMemoryManagementFunctions="true"'
+            ' canGetAndSetFMUstate="false" canSerializeFMUstate="false"/>'
+        )
+    out += [
+        "  <LogCategories>",
+        '    <Category name="logStatusWarning"/>',
+        '    <Category name="logStatusDiscard"/>',
+        '    <Category name="logStatusError"/>',
+        '    <Category name="logStatusFatal"/>',
+        '    <Category name="logAll"/>',
+        "  </LogCategories>",
+        '  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.01"/>',
+        "  <ModelVariables>",
+    ]
+    for vr, v in enumerate(variables):
+        attrs = f'name="{v.name}" valueReference="{vr}" causality="{v.causality}" variability="{v.variability}"'
+        if v.initial is not None and not (v.causality == "input" and v.initial == "exact"):
+            attrs += f' initial="{v.initial}"'
+        if v.description:
+            attrs += f" description={quoteattr(v.description)}"
+        type_attrs = ""
+        if v.start is not None:
+            type_attrs += f' start="{_fmt(v.start, v.type)}"'
+        if v.derivative_of:
+            type_attrs += f' derivative="{idx(v.derivative_of)}"'
+        out.append(f"    <ScalarVariable {attrs}>")
+        out.append(f"      <{v.type}{type_attrs}/>")
+        out.append("    </ScalarVariable>")
+    out.append("  </ModelVariables>")
+    out.append("  <ModelStructure>")
+    outputs = [v for v in variables if v.causality == "output"]
+    if outputs:
+        out.append("    <Outputs>")
+        for v in outputs:
+            out.append(f'      <Unknown index="{idx(v.name)}"{_deps_attr(spec.output_deps.get(v.name), idx)}/>')
+        out.append("    </Outputs>")
+    ders = [v for v in variables if v.derivative_of]
+    if ders:
+        out.append("    <Derivatives>")
+        for v in ders:
+            out.append(f'      <Unknown index="{idx(v.name)}"{_deps_attr(spec.derivative_deps.get(v.name), idx)}/>')
+        out.append("    </Derivatives>")
+    initial_unknowns = [v for v in outputs if v.initial in ("approx", "calculated")]
+    states = {v.derivative_of for v in ders}
+    for v in variables:
+        if (v.derivative_of or v.name in states) and v.initial in ("approx", "calculated") and v not in initial_unknowns:
+            initial_unknowns.append(v)
+    initial_unknowns.sort(key=lambda v: idx(v.name))
+    if initial_unknowns:
+        out.append("    <InitialUnknowns>")
+        for v in initial_unknowns:
+            out.append(f'      <Unknown index="{idx(v.name)}"/>')
+        out.append("    </InitialUnknowns>")
+    out.append("  </ModelStructure>")
+    out.append("</fmiModelDescription>")
+    return "\n".join(out) + "\n"
+
+
+_FMI3_TYPE = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
+
+
+def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> str:
+    names = [v.name for v in variables]
+
+    def vr(name):
+        return names.index(name)
+
+    out = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="3.0" modelName="{spec.name}" instantiationToken="{guid}"'
+        f" description={quoteattr(spec.description)} generationTool={quoteattr(GENERATION_TOOL)}"
+        ' variableNamingConvention="structured">',
+        f'  <CoSimulation modelIdentifier="{spec.name}" canHandleVariableCommunicationStepSize="true"'
+        ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
+        ' providesIntermediateUpdate="false" maxOutputDerivativeOrder="0"/>',
+        "  <LogCategories>",
+        '    <Category name="logStatusWarning"/>',
+        '    <Category name="logStatusDiscard"/>',
+        '    <Category name="logStatusError"/>',
+        '    <Category name="logStatusFatal"/>',
+        '    <Category name="logAll"/>',
+        "  </LogCategories>",
+        '  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.01"/>',
+        "  <ModelVariables>",
+    ]
+    for i, v in enumerate(variables):
+        tag = _FMI3_TYPE[v.type]
+        attrs = f'name="{v.name}" valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
+        if v.initial is not None and v.causality not in ("input", "independent"):
+            attrs += f' initial="{v.initial}"'
+        if v.description:
+            attrs += f" description={quoteattr(v.description)}"
+        if v.start is not None:
+            attrs += f' start="{_fmt(v.start, v.type)}"'
+        if v.type == "String":
+            raise NotImplementedError("String variables are not supported in the FMI 3 test FMUs")
+        out.append(f"    <{tag} {attrs}/>")
+    out.append("  </ModelVariables>")
+    out.append("  <ModelStructure>")
+    outputs = [v for v in variables if v.causality == "output"]
+    for v in outputs:
+        deps = spec.output_deps.get(v.name)
+        dep_attr = "" if deps is None else f' dependencies="{" ".join(str(vr(d)) for d in deps)}"'
+        out.append(f'    <Output valueReference="{vr(v.name)}"{dep_attr}/>')
+    for v in outputs:
+        if v.initial in ("approx", "calculated"):
+            out.append(f'    <InitialUnknown valueReference="{vr(v.name)}"/>')
+    out.append("  </ModelStructure>")
+    out.append("</fmiModelDescription>")
+    return "\n".join(out) + "\n"
+
+
+def _zip_dir(src: Path, fmu: Path) -> None:
+    tmp = fmu.with_name(fmu.name + f".tmp{os.getpid()}")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        for f in sorted(src.rglob("*")):
+            if f.is_file():
+                zf.write(f, f.relative_to(src).as_posix())
+    os.replace(tmp, fmu)  # atomic: concurrent builders never see half a zip
+
+
+# ---------------------------------------------------------------------------
+# public API
+
+
+def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs") -> Path:
+    """Compile ``tests/fmus_c/<model>.c`` into ``out_dir/<model>.fmu``.
+
+    fmi_version 2 supports kind "cs" and "me" (as declared per model in
+    ``C_MODELS``); fmi_version 3 supports kind "cs".
+    """
+    if model not in C_MODELS:
+        raise KeyError(f"unknown C model {model!r}; known: {sorted(C_MODELS)}")
+    spec = C_MODELS[model]
+    if (fmi_version, kind) not in spec.versions_kinds:
+        raise ValueError(f"{model} is not available as FMI {fmi_version} {kind!r} ({sorted(spec.versions_kinds)})")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    variables = _variables_for(spec, fmi_version)
+    guid = _guid(model, str(fmi_version), kind, _source_digest(spec, fmi_version))
+    if fmi_version == 2:
+        md = _fmi2_model_description(spec, variables, guid, kind)
+        platform_dir = "linux64"
+    else:
+        md = _fmi3_model_description(spec, variables, guid)
+        platform_dir = "x86_64-linux"
+    if sys.platform != "linux":
+        raise RuntimeError("the C test FMUs are only built for Linux (x86_64)")
+
+    with tempfile.TemporaryDirectory(prefix=f"fmu_{model}_") as tmp:
+        tmp = Path(tmp)
+        inc = tmp / "include"
+        inc.mkdir()
+        (inc / "model_vars.h").write_text(_c_header(spec, variables, guid, kind))
+        root = tmp / "fmu"
+        bin_dir = root / "binaries" / platform_dir
+        bin_dir.mkdir(parents=True)
+        (root / "sources").mkdir()
+        so = bin_dir / f"{spec.name}.so"
+        cmd = [
+            os.environ.get("CC", "gcc"),
+            "-shared",
+            "-fPIC",
+            "-O2",
+            "-std=gnu11",
+            "-Wall",
+            "-fvisibility=hidden",
+            f"-I{fmi_headers_dir()}",
+            f"-I{inc}",
+            f"-I{C_DIR}",
+            str(C_DIR / f"fmi{fmi_version}_framework.c"),
+            str(spec.c_source),
+            "-o",
+            str(so),
+            "-lm",
+        ]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"gcc failed for {model} (FMI {fmi_version} {kind}):\n{proc.stderr}")
+        (root / "modelDescription.xml").write_text(md, encoding="utf-8")
+        for src in (C_DIR / "model_api.h", C_DIR / f"fmi{fmi_version}_framework.c", spec.c_source):
+            shutil.copy2(src, root / "sources" / src.name)
+        for hdr in C_DIR.glob("*.h"):
+            shutil.copy2(hdr, root / "sources" / hdr.name)
+        shutil.copy2(inc / "model_vars.h", root / "sources" / "model_vars.h")
+        fmu = out_dir / f"{model}.fmu"
+        _zip_dir(root, fmu)
+    return fmu
+
+
+def _patch_python_model_description(xml_text: str, deps: dict[str, list[str]]) -> str:
+    """Add Outputs dependencies and InitialUnknowns to a pythonfmu description."""
+    from lxml import etree
+
+    root = etree.fromstring(xml_text.encode("utf-8"))
+    variables = root.find("ModelVariables").findall("ScalarVariable")
+    names = [v.get("name") for v in variables]
+    structure = root.find("ModelStructure")
+    outputs = structure.find("Outputs")
+    if outputs is not None:
+        for unknown in outputs.findall("Unknown"):
+            name = names[int(unknown.get("index")) - 1]
+            if name in deps:
+                unknown.set("dependencies", " ".join(str(names.index(d) + 1) for d in deps[name]))
+    for old in structure.findall("InitialUnknowns"):
+        structure.remove(old)
+    initial = [
+        i + 1
+        for i, v in enumerate(variables)
+        if v.get("causality") == "output" and v.get("initial", "calculated") in ("approx", "calculated")
+    ]
+    if initial:
+        node = etree.SubElement(structure, "InitialUnknowns")
+        for i in initial:
+            etree.SubElement(node, "Unknown", index=str(i))
+    etree.indent(root, space="  ")
+    return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True).decode("utf-8")
+
+
+def _load_output_dependencies(source: Path) -> Optional[dict[str, list[str]]]:
+    import ast
+
+    tree = ast.parse(source.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Assign):
+            for target in node.targets:
+                if isinstance(target, ast.Name) and target.id == "OUTPUT_DEPENDENCIES":
+                    return ast.literal_eval(node.value)
+    return None
+
+
+def build_python_fmu(model: str, out_dir: Path) -> Path:
+    """Build ``tests/fmus_py/<model>.py`` with ``pythonfmu build``."""
+    source = PY_DIR / f"{model}.py"
+    if not source.exists():
+        raise KeyError(f"unknown Python model {model!r}; known: {list(PY_MODELS)}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=f"pyfmu_{model}_") as tmp:
+        tmp = Path(tmp)
+        # build from a private copy: pythonfmu imports the script, and the
+        # model directory must not end up on sys.path of the caller
+        script = tmp / source.name
+        shutil.copy2(source, script)
+        build_dir = tmp / "build"
+        exe = Path(sys.executable).with_name("pythonfmu")
+        cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "pythonfmu"]
+        cmd += ["build", "-f", str(script), "-d", str(build_dir)]
+        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp)
+        built = build_dir / f"{model}.fmu"
+        if proc.returncode != 0 or not built.exists():
+            raise RuntimeError(f"pythonfmu build failed for {model}:\n{proc.stdout}\n{proc.stderr}")
+        deps = _load_output_dependencies(source)
+        fmu = out_dir / f"{model}.fmu"
+        tmp_fmu = tmp / "patched.fmu"
+        with zipfile.ZipFile(built) as zin, zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == "modelDescription.xml" and deps is not None:
+                    data = _patch_python_model_description(data.decode("utf-8"), deps).encode("utf-8")
+                zout.writestr(item, data)
+        shutil.copy2(tmp_fmu, fmu.with_name(fmu.name + f".tmp{os.getpid()}"))
+        os.replace(fmu.with_name(fmu.name + f".tmp{os.getpid()}"), fmu)
+    return fmu
+
+
+# key prefix -> (builder, kwargs)
+_PREFIXES = {
+    "c2": ("c", {"fmi_version": 2, "kind": "cs"}),
+    "me2": ("c", {"fmi_version": 2, "kind": "me"}),
+    "c3": ("c", {"fmi_version": 3, "kind": "cs"}),
+    "py": ("py", {}),
+}
+
+
+def available_keys() -> list[str]:
+    keys = []
+    for name, spec in C_MODELS.items():
+        for version, kind in sorted(spec.versions_kinds):
+            prefix = {(2, "cs"): "c2", (2, "me"): "me2", (3, "cs"): "c3"}[(version, kind)]
+            keys.append(f"{prefix}:{name}")
+    keys += [f"py:{m}" for m in PY_MODELS]
+    return keys
+
+
+def build_by_key(key: str, root: Path) -> Path:
+    """Build the FMU for a key like ``"c2:MassA"`` into ``root/<prefix>/``."""
+    prefix, _, model = key.partition(":")
+    if prefix not in _PREFIXES or not model:
+        raise KeyError(f"bad FMU key {key!r}; expected one of {available_keys()}")
+    family, kwargs = _PREFIXES[prefix]
+    out = Path(root) / prefix
+    if family == "c":
+        return build_c_fmu(model, out, **kwargs)
+    return build_python_fmu(model, out)
+
+
+if __name__ == "__main__":  # pragma: no cover - manual use
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("keys", nargs="*", help="e.g. c2:MassA py:Types (default: all)")
+    ap.add_argument("-o", "--out", default="build/test_fmus")
+    args = ap.parse_args()
+    for k in args.keys or available_keys():
+        print(build_by_key(k, Path(args.out)))

@@ -1,0 +1,45 @@
+/*
+ * Faulty: output y = time.  The first doStep whose end time exceeds
+ * fail_time (t + h > fail_time + 1e-9) misbehaves according to `mode`:
+ *   0 -> never fails
+ *   1 -> logs an error and returns Error
+ *   2 -> logs a warning and returns Discard (time is not advanced)
+ *   3 -> logs a fatal message and crashes the process with abort()
+ */
+#include <stdlib.h>
+
+#include "model_api.h"
+
+int model_initialize(ModelData *d)
+{
+    if (d->i[VR_mode] < 0 || d->i[VR_mode] > 3) {
+        fw_log(d, M_ERROR, "logStatusError", "Faulty: mode must be 0..3 (got %d)", d->i[VR_mode]);
+        return M_ERROR;
+    }
+    return M_OK;
+}
+
+void model_calc(ModelData *d) { d->r[VR_y] = d->time; }
+
+int model_do_step(ModelData *d, double t, double h)
+{
+    double fail_time = d->r[VR_fail_time];
+    if (t + h > fail_time + 1e-9) {
+        switch (d->i[VR_mode]) {
+        case 1:
+            fw_log(d, M_ERROR, "logStatusError", "Faulty: injected error in doStep(t=%g, h=%g), fail_time=%g", t, h,
+                   fail_time);
+            return M_ERROR;
+        case 2:
+            fw_log(d, M_DISCARD, "logStatusDiscard", "Faulty: injected discard in doStep(t=%g, h=%g), fail_time=%g",
+                   t, h, fail_time);
+            return M_DISCARD;
+        case 3:
+            fw_log(d, M_FATAL, "logStatusFatal", "Faulty: injected crash (abort) in doStep(t=%g, h=%g)", t, h);
+            abort();
+        default:
+            break;
+        }
+    }
+    return M_OK;
+}
