@@ -169,6 +169,7 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
             if ln.src.qualified not in seen:
                 seen.add(ln.src.qualified)
                 connected.append(ln.src)
+        record = record or model.settings.record or None
         recorded = select_variables(plan, record, connected)
         if record and not recorded:
             raise CosimError(f"no variable matches the record patterns {record}", element="--record")

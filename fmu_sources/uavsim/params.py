@@ -81,7 +81,7 @@ OCV_SOC = (0.00, 0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50,
            0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90, 0.95, 1.00)
 OCV_CELL = (3.27, 3.61, 3.69, 3.71, 3.73, 3.75, 3.77, 3.79, 3.80, 3.82, 3.84,
             3.85, 3.87, 3.91, 3.95, 3.98, 4.02, 4.08, 4.11, 4.15, 4.20)
-BATTERY_SUBSTEP = 0.1       # s coulomb-counting sub-step [ASSUME]
+BATTERY_SUBSTEP = 0.05      # s coulomb-counting sub-step (divides every master step 0.05-1 s) [ASSUME]
 
 # ---------------------------------------------------------------- wind [PAPER][BFT]
 WIND_DECISION_INTERVAL = 10.0   # s: the paper draws wind before each move command [PAPER][ASSUME]

@@ -22,7 +22,8 @@ the current flight direction (velocity direction when the groundspeed exceeds 0.
 the direction to the current goal) is tested against the zone polygons.  On a hit the UAV plans a
 fly-around: the shortest path from its position to the goal in the visibility graph whose nodes are
 the vertices of every zone offset outward by ``avoid_margin`` (mitred buffer), and whose edges
-do not cross the interior of any zone.  Going around the side where the path is shorter is thus
+keep at least avoid_margin/2 from every zone (an edge from the UAV's position, or to a goal, that
+lies closer than that only has to avoid the zone itself).  Going around the side where the path is shorter is thus
 automatic.  The detour vertices are flown as intermediate waypoints (accepted within
 arrival_radius); while detouring, a re-plan happens only if the leg to the next detour vertex is
 itself blocked.  If no path exists (e.g. the UAV is already inside a zone) it flies straight on.
@@ -114,6 +115,8 @@ class ZoneMap:
         self.margin = margin
         self._inner = [p.buffer(-1e-6) for p in self.polys]
         self._prep = [prep(p) for p in self._inner]
+        # planning obstacles: zones inflated by half the margin, so detour legs keep clearance
+        self._infl = [prep(p.buffer(0.5 * margin)) for p in self.polys]
         self.nodes = []
         for p in self.polys:
             off = p.buffer(margin, join_style=2, mitre_limit=3.0)
@@ -136,6 +139,23 @@ class ZoneMap:
                 return i
         return -1
 
+    def _edge_free(self, a, b, a_near: bool, b_near: bool) -> bool:
+        """Planning test: the edge must avoid the inflated zones, except that an end point already
+        within the inflation (the UAV's position, a target close to a zone) is only required to
+        avoid the zone itself."""
+        from shapely.geometry import LineString
+        if self.blocked(a, b) >= 0:
+            return False
+        if a_near or b_near:
+            return True
+        line = LineString([a, b])
+        return not any(pp.intersects(line) for pp in self._infl)
+
+    def _near(self, a) -> bool:
+        from shapely.geometry import Point
+        pt = Point(a)
+        return any(pp.intersects(pt) for pp in self._infl)
+
     def inside(self, a) -> bool:
         from shapely.geometry import Point
         pt = Point(a)
@@ -148,6 +168,7 @@ class ZoneMap:
             return [tuple(goal)]
         nodes = [tuple(start), tuple(goal)] + [n for n in self.nodes if not self.inside(n)]
         nn = len(nodes)
+        near = [self._near(n) for n in nodes]
         dist = [math.inf] * nn
         prev = [-1] * nn
         dist[0] = 0.0
@@ -166,7 +187,7 @@ class ZoneMap:
                 w = math.hypot(nodes[v][0] - nodes[u][0], nodes[v][1] - nodes[u][1])
                 if d + w >= dist[v]:
                     continue
-                if self.blocked(nodes[u], nodes[v]) >= 0:
+                if not self._edge_free(nodes[u], nodes[v], near[u], near[v]):
                     continue
                 dist[v] = d + w
                 prev[v] = u

@@ -106,8 +106,6 @@ class Wind:
     def _interval(self, k: int) -> _Interval:
         while self._next_k <= k:
             self._draw(self._next_k)
-            # keep only a few recent intervals in memory
-            self._intervals.pop(self._next_k - 3, None)
             self._next_k += 1
         return self._intervals[k]
 

@@ -78,6 +78,7 @@ class MasterSettings:
     algorithm: str | None = None
     record_interval: float | None = None
     step_multiples: dict[str, int] = field(default_factory=dict)
+    record: list[str] = field(default_factory=list)   # record patterns
     source: str | None = None  # which annotation supplied the step size
 
 

@@ -5,6 +5,7 @@ Our annotation (type ``org.cosim-master.settings``, in DefaultExperiment or Syst
     <cm:Settings xmlns:cm="https://cosim-master.org/ssp/settings" stepSize="0.1" algorithm="gauss-seidel"
                  recordInterval="1.0">
       <cm:Component name="wind" stepMultiple="10"/>
+      <cm:Record pattern="uav*.x"/>
     </cm:Settings>
 
 OMSimulator writes ``org.openmodelica`` / ``oms:FixedStepMaster stepSize``; OSP (libcosim) writes
@@ -69,6 +70,9 @@ def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
                     raise ScenarioError(f"stepMultiple={raw!r} must be a positive integer", file=shown_as,
                                         element=f"Component {c.get('name')}", line=c.sourceline)
                 s.step_multiples[c.get("name")] = k
+            for r in _iter_local(el, "Record"):
+                if r.get("pattern"):
+                    s.record.append(r.get("pattern"))
     if s.step_size is None:
         oms = annotations.get("org.openmodelica")
         if oms is not None:

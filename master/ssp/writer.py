@@ -59,6 +59,7 @@ class SspBuilder:
     algorithm: str | None = None
     record_interval: float | None = None
     step_multiples: dict = field(default_factory=dict)
+    record: list = field(default_factory=list)        # record patterns
     annotations: list = field(default_factory=list)   # lxml elements with ssc:Annotation root
 
     def add_component(self, name, fmu_path, connectors=None, params=None, ssv=False):
@@ -101,6 +102,8 @@ class SspBuilder:
             s.set("recordInterval", _fmt(float(self.record_interval)))
         for comp, k in self.step_multiples.items():
             etree.SubElement(s, _q("cm", "Component"), name=comp, stepMultiple=str(k))
+        for pattern in self.record:
+            etree.SubElement(s, _q("cm", "Record"), pattern=pattern)
         if self.step is not None:
             osp = etree.SubElement(anns, _q("ssc", "Annotation"), type="com.opensimulationplatform")
             alg = etree.SubElement(osp, _q("osp", "Algorithm"))

@@ -1,0 +1,106 @@
+"""UavWind (uavsim.wind): the paper's stochastic wind, Dryden turbulence, 1-cosine gusts."""
+import math
+
+import numpy as np
+import pytest
+
+from uavsim.wind import Wind, WindParams, dryden_low_altitude
+
+
+def sample(params, h, t_end, every=1.0):
+    w = Wind(params)
+    out = []
+    n = int(round(t_end / h))
+    for i in range(n + 1):
+        t = i * h
+        if abs(t / every - round(t / every)) < 1e-9:
+            out.append(w.at(t))
+    return np.array(out)
+
+
+FULL = dict(probability=0.4, turbulence=True, gusts=True)
+
+
+def test_same_seed_bit_identical_other_seed_differs():
+    a = sample(WindParams(seed=7, **FULL), 0.5, 500)
+    b = sample(WindParams(seed=7, **FULL), 0.5, 500)
+    c = sample(WindParams(seed=8, **FULL), 0.5, 500)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_master_step_independence():
+    # random numbers are drawn per decision interval and turbulence lives on a fixed 0.1 s grid:
+    # the output at a given time does not depend on the master step
+    ref = sample(WindParams(seed=3, **FULL), 1.0, 300)
+    for h in (0.05, 0.1, 0.25, 0.5):
+        assert np.array_equal(sample(WindParams(seed=3, **FULL), h, 300), ref)
+
+
+def test_probability_zero_and_occurrence_rate():
+    assert not sample(WindParams(probability=0.0, seed=1), 1.0, 300).any()
+    # p = 0.15 over 4000 intervals: expected 600 episodes, sd sqrt(4000*.15*.85) = 22.6 -> +-4 sd
+    w = Wind(WindParams(probability=0.15, seed=11))
+    n = sum(1 for k in range(4000) if w.level_at(k * 10.0 + 5.0)[0] > 0)
+    assert abs(n - 600) < 91
+
+
+def test_levels_speeds_and_east_to_west_direction():
+    # p = 1: every interval has wind; level 1/2/3 each with probability 1/3:
+    # 3000 intervals -> 1000 +- 4 sd (sd = sqrt(3000 * 1/3 * 2/3) = 25.8)
+    w = Wind(WindParams(probability=1.0, seed=5))
+    counts = {1: 0, 2: 0, 3: 0}
+    speed = {1: 4.0, 2: 7.0, 3: 11.0}          # Beaufort 3 / 4 / 6 representative speeds
+    for k in range(3000):
+        wx, wy, wz, lvl = w.at(k * 10.0 + 5.0)   # mid-episode (after the 1 s ramp)
+        counts[lvl] += 1
+        # default direction_deg = 90 (from the east): the air moves west, w = (-U, 0, 0)
+        assert wx == pytest.approx(-speed[lvl]) and abs(wy) < 1e-12 and wz == 0.0
+    for c in counts.values():
+        assert abs(c - 1000) < 104
+
+
+def test_direction_convention_from_north():
+    # direction_deg = 0: wind FROM the north blows toward the south: w = (0, -U)
+    wx, wy, _, lvl = Wind(WindParams(probability=1.0, seed=5, direction_deg=0.0)).at(5.0)
+    assert abs(wx) < 1e-12 and wy < 0 and lvl > 0
+
+
+def test_ramp_and_duration():
+    # duration 6 s, ramp 1 s: U(kT + 0.5) = U/2, U(kT + 3) = U, U(kT + 7) = 0
+    w = Wind(WindParams(probability=1.0, seed=2, duration=6.0))
+    lvl, u_mid = w.level_at(3.0)
+    assert w.level_at(0.5)[1] == pytest.approx(u_mid / 2)
+    assert w.level_at(5.5)[1] == pytest.approx(u_mid / 2)
+    assert w.level_at(7.0) == (0, 0.0)
+
+
+def test_dryden_scales_hand_values():
+    # h = 20 m = 65.62 ft: f = 0.177 + 0.000823 * 65.62 = 0.23100; sigma_w = 0.1 * 11 = 1.1;
+    # sigma_u = 1.1 / f^0.4 = 1.1 / 0.55647 = 1.9767; L_u = 65.62 / f^1.2 ft = 380.8 ft = 116.06 m
+    (su, sv, sw), (lu, lv, lw) = dryden_low_altitude(11.0, 20.0)
+    assert sw == pytest.approx(1.1)
+    assert su == pytest.approx(1.9767, rel=1e-3) and sv == su
+    assert lu == pytest.approx(116.06, rel=1e-3) and lw == pytest.approx(20.0)
+
+
+def test_turbulence_variance_matches_dryden_sigma():
+    # samples at mid-episode of 2000 independent strong-wind episodes: the along-wind deviation
+    # from the mean U = 11 m/s has standard deviation sigma_u = 1.977 (std error ~1.6 %)
+    w = Wind(WindParams(probability=1.0, seed=9, turbulence=True, p_weak=0.0, p_moderate=0.0))
+    u = np.array([-w.at(k * 10.0 + 5.0)[0] - 11.0 for k in range(2000)])
+    vz = np.array([w.at(k * 10.0 + 5.05)[2] for k in range(2000)])
+    assert abs(u.mean()) < 0.15
+    assert u.std() == pytest.approx(1.977, rel=0.07)
+    assert vz.std() == pytest.approx(1.1, rel=0.07)
+
+
+def test_one_minus_cosine_gust_peak():
+    # gust amplitude 0.5 U over 2 s: the peak along-wind speed is U (1 + 0.5) = 16.5 m/s for a
+    # strong episode whose gust lies on the plateau
+    w = Wind(WindParams(probability=1.0, seed=4, gusts=True, p_weak=0.0, p_moderate=0.0))
+    peaks = []
+    for k in range(50):
+        peaks.append(max(-w.at(k * 10.0 + i * 0.01)[0] for i in range(1000)))
+    assert max(peaks) == pytest.approx(16.5, abs=1e-3)
+    assert min(peaks) >= 11.0
