@@ -182,7 +182,8 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         log = LogSink(log_level, file=log_file)
         loops = algebraic_loops(plan)
         meta["algebraic_loops"] = loops
-        rt = Runtime(plan, observed, log, st.step_multiples, logging_on=(log_level == "debug"), inprocess=inprocess)
+        # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
+        rt = Runtime(plan, observed, log, st.step_multiples, logging_on=(log_level != "none"), inprocess=inprocess)
         recorder = Recorder(out_dir, recorded, rt, csv=write_csv)
         rt.instantiate(st.start, st.stop)
         rt.apply_start_values(st.start)

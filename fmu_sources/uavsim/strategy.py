@@ -17,9 +17,9 @@ the current position and takes the lowest score (ties: lowest index).
 Battery rules (the paper): consumed >= return_threshold (0.8) -> abandon the mission and return to
 base; consumed >= land_threshold (0.95) -> land immediately where the UAV is.
 
-Restricted zones: every step the segment from the current position of length ``lookahead`` along
-the current flight direction (velocity direction when the groundspeed exceeds 0.5 m/s, otherwise
-the direction to the current goal) is tested against the zone polygons.  On a hit the UAV plans a
+Restricted zones: every step two segments of length ``lookahead`` from the current position are
+tested against the zone polygons: one along the current flight direction (the velocity direction,
+when the groundspeed exceeds 0.5 m/s) and one toward the current goal (the commanded leg).  On a hit the UAV plans a
 fly-around: the shortest path from its position to the goal in the visibility graph whose nodes are
 the vertices of every zone offset outward by ``avoid_margin`` (mitred buffer), and whose edges
 keep at least avoid_margin/2 from every zone (an edge from the UAV's position, or to a goal, that

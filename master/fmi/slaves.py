@@ -84,7 +84,9 @@ class Slave:
         def log_message(env, instance_name, status, category, message):
             text = message.decode("utf-8", "replace") if message else ""
             cat = category.decode("utf-8", "replace") if category else ""
-            sink.message(name, STATUS_LEVEL.get(status, "info"), text, cat if cat not in ("logAll", "") else "")
+            if cat.startswith("logStatus") or cat == "logAll":
+                cat = ""
+            sink.message(name, STATUS_LEVEL.get(status, "info"), text, cat)
         return log_message
 
 
@@ -114,11 +116,8 @@ class Fmi2Slave(Slave):
         cb.logger = fmi2CallbackLoggerTYPE(self._logger_fn())
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(byref(cb))   # formats printf-style messages before they reach Python
-        except Exception:
-            pass
+        # fmpy's native logger proxy (which would expand printf-style arguments) keeps a single global
+        # target, so messages of several instances would all reach the last one; messages are taken verbatim.
         self._callbacks = cb
         uri = (self.fmu.unzip_dir / "resources").as_uri()
         comp = self._f["fmi2Instantiate"](self.name.encode(), self._instantiate_call(), self.fmu.md.guid.encode(),

@@ -1,0 +1,205 @@
+"""Scenario YAML (or the paper's configuration folder) -> SSP archive of the multi-UAV surveillance study.
+
+``cosim-master build-scenario scenario.yaml -o scenario.ssp`` calls :func:`build_scenario`.
+
+System written for a scenario with N UAVs (connector names: docs/uav_connectors.md)::
+
+    uav{i}_strat --cmd, sp_x, sp_y, sp_z-------------------> uav{i}_dyn
+    uav{i}_dyn   --x, y, z, vx, vy, phase------------------> uav{i}_strat
+    uav{i}_dyn   --airspeed, vz, phase---------------------> uav{i}_bat
+    uav{i}_bat   --consumed--------------------------------> uav{i}_strat
+    wind         --wind_x, wind_y, wind_z------------------> uav{i}_dyn      (for every i)
+
+for i = 1..N, plus ONE ``wind`` component (UavWind) shared by all dynamics: the paper's wind is one
+weather condition over the whole (~1 km) surveillance area, so every UAV must feel the same gusts at
+the same time; one component also means one random stream, seeded with the scenario seed, so a run
+is reproducible and a different seed gives a different wind history for the whole fleet.
+
+Landing pads: the UAVs cannot all stand on the base point (they would be in contact before take-off),
+so UAV i starts from and returns to its own pad; the pads lie on a ring around the base with
+``PAD_SPACING`` (8 m) between neighbours (one UAV: the base itself).  ``home_x``/``home_y`` of the
+dynamics and the strategy are that pad.  All ENU coordinates are metres about the base
+(``uavsim.geodesy``).
+
+The SSD also carries the master settings (step, stop time, algorithm, record interval and record
+patterns for the trajectory) and the UAV monitor annotation (docs/uav_monitor.md).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from lxml import etree
+
+import master
+from master.errors import ScenarioError
+from master.uav_scenario import UavScenario, load_paper_config, load_scenario_yaml
+
+from ..ssp.writer import NS as SSP_NS
+from ..ssp.writer import SspBuilder
+
+__all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
+           "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS"]
+
+UAV_NS = "https://cosim-master.org/ssp/uav"
+MONITOR_TYPE = "org.cosim-master.uav-monitor"
+PAD_SPACING = 8.0          # m between neighbouring landing pads (> 3 x the 2.6 m impact diameter)
+RECORD_INTERVAL = 1.0      # s, trajectory resolution of the shipped scenarios
+ALTITUDE_THRESHOLD = 0.5   # m, below this height a UAV is on its pad (not checked by the monitor)
+HOME_TOLERANCE = 5.0       # m, "back at base" = landed within this distance of its pad
+SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper)
+
+FMU_FILES = {"dyn": "UavDynamics.fmu", "bat": "UavBattery.fmu", "strat": "UavStrategy.fmu",
+             "wind": "UavWind.fmu"}
+
+#: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
+RECORD_PATTERNS = (
+    [f"uav*_dyn.{v}" for v in ("x", "y", "z", "vx", "vy", "vz", "lat", "lon", "alt", "groundspeed",
+                               "airspeed", "phase")]
+    + [f"uav*_bat.{v}" for v in ("soc", "consumed", "energy_used", "power", "voltage", "current")]
+    + [f"uav*_strat.{v}" for v in ("cmd", "sp_x", "sp_y", "mission_state", "targets_assigned",
+                                   "targets_visited", "photo_count", "last_photo_target", "last_photo_time",
+                                   "last_photo_x", "last_photo_y", "current_target", "avoiding")]
+    + ["wind.wind_x", "wind.wind_y", "wind.wind_z", "wind.wind_speed", "wind.wind_level"]
+)
+
+
+def default_fmu_dir() -> Path:
+    """The repository's ``fmus/`` folder (next to the ``master`` package)."""
+    return Path(master.__file__).resolve().parents[1] / "fmus"
+
+
+def pad_positions(n: int, spacing: float = PAD_SPACING) -> list[tuple[float, float]]:
+    """ENU (east, north) of the n landing pads: the base for one UAV, else a ring around the base with
+    ``spacing`` between neighbours, pad 0 due north, numbered clockwise."""
+    if n <= 1:
+        return [(0.0, 0.0)]
+    r = spacing / (2.0 * math.sin(math.pi / n))
+    out = []
+    for i in range(n):
+        a = 2.0 * math.pi * i / n
+        out.append((round(r * math.sin(a), 6) + 0.0, round(r * math.cos(a), 6) + 0.0))
+    return out
+
+
+def _pts(points) -> str:
+    return ";".join(f"{float(x):.3f},{float(y):.3f}" for x, y in points)
+
+
+def _record_interval(step: float) -> float:
+    k = max(1, int(round(RECORD_INTERVAL / step)))
+    return k * step if abs(k * step - RECORD_INTERVAL) > 1e-9 else RECORD_INTERVAL
+
+
+def _assigned(scn: UavScenario, targets, i: int, home) -> list[int]:
+    """The global target indices UAV i is given (computed as the strategy FMU does)."""
+    try:
+        from uavsim.strategy import assign_targets
+    except ImportError:  # pragma: no cover - uavsim is installed with the project
+        return []
+    return assign_targets([tuple(map(float, p)) for p in targets], i, scn.n_uavs, scn.assignment, home)
+
+
+def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
+    """The ``ssc:Annotation`` element of the UAV monitor (format: docs/uav_monitor.md)."""
+    ann = etree.Element(f"{{{SSP_NS['ssc']}}}Annotation", nsmap={"ssc": SSP_NS["ssc"]}, type=MONITOR_TYPE)
+    lat0, lon0, alt0 = scn.base
+    mon = etree.SubElement(ann, f"{{{UAV_NS}}}UavMonitor", nsmap={"uav": UAV_NS})
+    for k, v in (("version", "1.0"), ("scenario", scn.name), ("strategy", scn.strategy),
+                 ("assignment", scn.assignment), ("impactDiameter", repr(float(scn.impact_diameter))),
+                 ("altitudeThreshold", repr(ALTITUDE_THRESHOLD)), ("originLatitude", repr(float(lat0))),
+                 ("originLongitude", repr(float(lon0))), ("originAltitude", repr(float(alt0))),
+                 ("homeTolerance", repr(HOME_TOLERANCE)), ("successBattery", repr(SUCCESS_BATTERY)),
+                 ("seed", str(scn.seed)), ("windProbability", repr(float(scn.wind.probability)))):
+        mon.set(k, v)
+    for u in uavs:
+        d, b, s = u["dyn"], u["bat"], u["strat"]
+        el = etree.SubElement(mon, f"{{{UAV_NS}}}Uav")
+        attrs = {
+            "name": u["name"], "index": str(u["index"]), "components": f"{d} {b} {s}",
+            "homeX": repr(u["home"][0]), "homeY": repr(u["home"][1]),
+            "x": f"{d}.x", "y": f"{d}.y", "z": f"{d}.z", "phase": f"{d}.phase",
+            "speed": f"{d}.groundspeed",
+            "soc": f"{b}.soc", "consumed": f"{b}.consumed", "energy": f"{b}.energy_used",
+            "missionState": f"{s}.mission_state", "targetsAssigned": f"{s}.targets_assigned",
+            "targetsVisited": f"{s}.targets_visited", "photoCount": f"{s}.photo_count",
+            "lastPhotoTarget": f"{s}.last_photo_target", "lastPhotoTime": f"{s}.last_photo_time",
+            "lastPhotoX": f"{s}.last_photo_x", "lastPhotoY": f"{s}.last_photo_y",
+            "assigned": " ".join(str(k) for k in u["assigned"]),
+        }
+        for k, v in attrs.items():
+            el.set(k, v)
+    t = etree.SubElement(mon, f"{{{UAV_NS}}}Targets")
+    t.text = " ".join(f"{float(x):.3f},{float(y):.3f}" for x, y in targets)
+    for z in zones:
+        ze = etree.SubElement(mon, f"{{{UAV_NS}}}Zone", name=z["name"])
+        ze.text = " ".join(f"{float(x):.3f},{float(y):.3f}" for x, y in z["polygon"])
+    return ann
+
+
+def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
+    """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder)."""
+    fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
+    fmus = {k: fmu_dir / f for k, f in FMU_FILES.items()}
+    missing = [str(p) for p in fmus.values() if not p.is_file()]
+    if missing:
+        raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
+                            "'python fmu_sources/build_fmus.py')", file=str(fmu_dir), element="fmus")
+    lat0, lon0, alt0 = scn.base
+    targets = scn.targets_enu()
+    zones = scn.zones_enu()
+    targets_s = _pts(targets)
+    zones_s = "|".join(_pts(z["polygon"]) for z in zones)
+    # the strings the FMUs get are rounded to mm; the monitor gets the same values
+    targets_r = [tuple(map(float, p.split(","))) for p in targets_s.split(";")] if targets_s else []
+    zones_r = [{"name": z["name"], "polygon": [tuple(map(float, p.split(","))) for p in s.split(";")]}
+               for z, s in zip(zones, zones_s.split("|") if zones_s else [])]
+
+    b = SspBuilder(scn.name)
+    b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
+    b.algorithm = scn.algorithm
+    b.record_interval = _record_interval(float(scn.step))
+    b.record = list(RECORD_PATTERNS)
+    w = scn.wind
+    di = float(w.decision_interval)
+    b.add_component("wind", fmus["wind"], params={
+        "probability": float(w.probability), "seed": int(scn.seed), "direction_deg": float(w.direction_deg),
+        "decision_interval": di, "duration": di, "ramp": min(1.0, 0.25 * di),
+        "speed_weak": float(w.intensities["weak"]), "speed_moderate": float(w.intensities["moderate"]),
+        "speed_strong": float(w.intensities["strong"]), "turbulence": bool(w.turbulence), "gusts": bool(w.gusts),
+    })
+    uavs = []
+    for i, (hx, hy) in enumerate(pad_positions(scn.n_uavs)):
+        name = f"uav{i + 1}"
+        d, bt, s = f"{name}_dyn", f"{name}_bat", f"{name}_strat"
+        b.add_component(d, fmus["dyn"], params={
+            "origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
+            "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)})
+        b.add_component(bt, fmus["bat"])
+        b.add_component(s, fmus["strat"], params={
+            "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
+            "targets": targets_s, "zones": zones_s, "lookahead": float(scn.lookahead),
+            "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
+        for v in ("cmd", "sp_x", "sp_y", "sp_z"):
+            b.connect(s, v, d, v)
+        for v in ("x", "y", "z", "vx", "vy", "phase"):
+            b.connect(d, v, s, v)
+        for v in ("airspeed", "vz", "phase"):
+            b.connect(d, v, bt, v)
+        b.connect(bt, "consumed", s, "consumed")
+        for v in ("wind_x", "wind_y", "wind_z"):
+            b.connect("wind", v, d, v)
+        uavs.append({"name": name, "index": i, "dyn": d, "bat": bt, "strat": s, "home": (float(hx), float(hy)),
+                     "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
+    b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r))
+    return b.write(out_path)
+
+
+def build_scenario(yaml_path, out_path, fmu_dir=None) -> Path:
+    """Load a YAML scenario (``ssp/scenarios/*.yaml``) and write its SSP; returns the written path."""
+    return build_ssp(load_scenario_yaml(yaml_path), out_path, fmu_dir)
+
+
+def build_from_paper_config(folder, out_path, fmu_dir=None) -> Path:
+    """Import the paper's configuration folder (docs/paper_config_format.md) and write its SSP."""
+    return build_ssp(load_paper_config(folder), out_path, fmu_dir)

@@ -1,0 +1,206 @@
+"""Every kind of bad input gives one line naming the file, element or component, time and reason; nothing
+recorded before a failure is lost; the command exits non-zero without a traceback."""
+import json
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import master
+from master.errors import CosimError, FmuError, ScenarioError
+
+from ssd_text import component, connection, connector, experiment, inline_params, settings, ssd, write_folder, zip_folder
+
+CLI = [sys.executable, "-m", "master.cli"]
+
+
+def _faulty_ssd(mode, fail_time=0.5):
+    params = ('<ssv:Parameter name="mode"><ssv:Integer value="%d"/></ssv:Parameter>'
+              '<ssv:Parameter name="fail_time"><ssv:Real value="%r"/></ssv:Parameter>' % (mode, fail_time))
+    f = component("f", "resources/Faulty.fmu", connector("y", "output"), inline_params(params))
+    g = component("g", "resources/Gain.fmu", connector("u", "input") + connector("y", "output"))
+    return ssd("faulty", f + g, connection("f", "y", "g", "u"), experiment_xml=experiment(1.0, settings(0.1)))
+
+
+def _two(tmp_path, test_fmus, src_conn=None, dst_conn=None, conns=None):
+    src_conn = src_conn or connector("y", "output")
+    dst_conn = dst_conn or (connector("u", "input") + connector("y", "output"))
+    a = component("a", "resources/Integrator.fmu", src_conn)
+    b = component("b", "resources/Gain.fmu", dst_conn)
+    xml = ssd("two", a + b, conns if conns is not None else connection("a", "y", "b", "u"),
+              experiment_xml=experiment(1.0, settings(0.1)))
+    return write_folder(tmp_path / "s", xml, {"Integrator.fmu": test_fmus["c2:Integrator"],
+                                                "Gain.fmu": test_fmus["c2:Gain"]})
+
+
+def _cli(args, cwd):
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+    return subprocess.run(CLI + args, capture_output=True, text=True, cwd=cwd, env=env, timeout=120)
+
+
+def _one_line(msg: str):
+    assert "\n" not in msg.strip() and "Traceback" not in msg
+
+
+def test_missing_archive(tmp_path):
+    with pytest.raises(ScenarioError) as e:
+        master.run(tmp_path / "nope.ssp", output=None)
+    assert str(e.value) == f"{tmp_path / 'nope.ssp'}: scenario not found"
+
+
+def test_archive_that_is_not_a_zip(tmp_path):
+    bad = tmp_path / "bad.ssp"
+    bad.write_bytes(b"this is not a zip file")
+    with pytest.raises(ScenarioError, match=r"bad\.ssp: not a readable SSP archive"):
+        master.run(bad, output=None)
+
+
+def test_archive_without_ssd(tmp_path):
+    ssp = tmp_path / "empty.ssp"
+    with zipfile.ZipFile(ssp, "w") as zf:
+        zf.writestr("readme.txt", "nothing")
+    with pytest.raises(ScenarioError, match=r"empty\.ssp: archive has no SystemStructure\.ssd"):
+        master.run(ssp, output=None)
+
+
+def test_invalid_xml_names_the_line(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    text = (folder / "SystemStructure.ssd").read_text().splitlines()
+    text.insert(3, "<ssd:Broken")        # becomes line 4
+    (folder / "SystemStructure.ssd").write_text("\n".join(text))
+    with pytest.raises(ScenarioError) as e:
+        master.run(folder, output=None)
+    assert "SystemStructure.ssd:" in str(e.value) and "invalid XML" in str(e.value)
+    assert e.value.line is not None and e.value.line >= 4
+
+
+def test_schema_violation_names_the_line_and_reason(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, src_conn='<ssd:Connector name="y" kind="sideways"><ssc:Real/></ssd:Connector>')
+    lines = (folder / "SystemStructure.ssd").read_text().splitlines()
+    expected_line = next(i for i, l in enumerate(lines, 1) if 'kind="sideways"' in l)
+    with pytest.raises(ScenarioError) as e:
+        master.run(folder, output=None)
+    assert e.value.line == expected_line
+    assert "does not conform to the SSP schema" in str(e.value) and "sideways" in str(e.value)
+
+
+def test_unknown_component_in_connection(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, conns=connection("a", "y", "nobody", "u"))
+    with pytest.raises(ScenarioError, match=r"Connection a\.y -> nobody\.u: connection refers to unknown element 'nobody'"):
+        master.run(folder, output=None)
+
+
+def test_unknown_connector(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, src_conn=connector("z", "output"), conns=connection("a", "z", "b", "u"))
+    with pytest.raises(ScenarioError, match=r"Connector a\.z: the FMU resources/Integrator\.fmu has no variable 'z'"):
+        master.run(folder, output=None)
+
+
+def test_connection_to_undeclared_connector(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, conns=connection("a", "y", "b", "w"))
+    with pytest.raises(ScenarioError, match=r"component 'b' has no connector 'w' in the SSD"):
+        master.run(folder, output=None)
+
+
+def test_type_mismatch(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, src_conn=connector("y", "output", typ="Integer"))
+    with pytest.raises(ScenarioError, match=r"Connector a\.y: type Integer does not match the FMU's type Real"):
+        master.run(folder, output=None)
+
+
+def test_causality_mismatch_is_found_before_instantiation(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, src_conn=connector("y", "input"))
+    # a broken binary would fail at instantiation; the mismatch must be reported first
+    _corrupt_binary(test_fmus["c2:Integrator"], folder / "resources" / "Integrator.fmu")
+    with pytest.raises(ScenarioError, match=r"Connector a\.y: kind 'input' does not match the FMU's causality 'output'"):
+        master.run(folder, output=None)
+
+
+def test_connection_must_start_at_an_output(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus, conns=connection("b", "u", "a", "y"),
+                  src_conn=connector("y", "output"))
+    with pytest.raises(ScenarioError, match="a connection must start at an output"):
+        master.run(folder, output=None)
+
+
+def _corrupt_binary(src: Path, dst: Path):
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item)
+            if item.filename.endswith(".so"):
+                data = b"\x7fELF garbage"
+            zout.writestr(item, data)
+
+
+def test_fmu_binary_that_cannot_be_loaded(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    _corrupt_binary(test_fmus["c2:Integrator"], folder / "resources" / "Integrator.fmu")
+    with pytest.raises(FmuError) as e:
+        master.run(folder, output=None)
+    assert "resources/Integrator.fmu: component a: cannot load the FMU's binary" in str(e.value)
+
+
+def test_fmu_archive_that_is_not_a_zip(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    (folder / "resources" / "Gain.fmu").write_bytes(b"not a zip")
+    with pytest.raises(FmuError, match=r"resources/Gain\.fmu: not a readable FMU archive"):
+        master.run(folder, output=None)
+
+
+@pytest.mark.parametrize("kind,mode,status", [("c2", 1, "Error"), ("c2", 2, "Discard"), ("py", 1, "Discard")])
+def test_fmu_failing_a_step_keeps_results(tmp_path, test_fmus, kind, mode, status):
+    # pythonfmu 0.7 reports a do_step that returns False as fmi2Discard
+    folder = write_folder(tmp_path / "s", _faulty_ssd(mode), {"Faulty.fmu": test_fmus[f"{kind}:Faulty"],
+                                                               "Gain.fmu": test_fmus["c2:Gain"]})
+    out = tmp_path / "out"
+    with pytest.raises(FmuError) as e:
+        master.run(folder, output=out)
+    msg = str(e.value)
+    # the step from t=0.5 to 0.6 is the first to end after fail_time = 0.5
+    assert "component f" in msg and "t=0.5" in msg and f"doStep returned {status}" in msg
+    _one_line(msg)
+    run = json.loads((out / "run.json").read_text())
+    assert run["outcome"] == "error" and run["failed_at"] == 0.5 and run["error"] == msg
+    for df in (pd.read_csv(out / "results.csv"), pd.read_parquet(out / "results.parquet")):
+        assert list(df["time"]) == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4, 0.5])
+        assert list(df["f.y"]) == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4, 0.5])
+
+
+def test_cli_error_is_one_line_without_traceback(tmp_path, test_fmus):
+    folder = write_folder(tmp_path / "s", _faulty_ssd(1), {"Faulty.fmu": test_fmus["c2:Faulty"],
+                                                            "Gain.fmu": test_fmus["c2:Gain"]})
+    res = _cli(["run", str(folder), "--output", str(tmp_path / "out")], tmp_path)
+    assert res.returncode == 1
+    lines = res.stderr.strip().splitlines()
+    # the FMU's own log line (shown per component at the default level) comes first, then the error
+    assert lines[0] == "[error] f: Faulty: injected error in doStep(t=0.5, h=0.1), fail_time=0.5"
+    err = lines[1:]
+    assert len(err) == 1 and err[0].startswith("cosim-master: error: ") and "Traceback" not in res.stderr
+    assert "component f" in err[0] and "t=0.5" in err[0]
+    assert (tmp_path / "out" / "results.csv").read_text().count("\n") == 7   # header + 6 rows
+    res = _cli(["run", str(folder), "--output", str(tmp_path / "out2"), "--debug"], tmp_path)
+    assert res.returncode != 0 and "Traceback" in res.stderr
+
+
+def test_cli_bad_parameter_value(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    res = _cli(["run", str(folder), "--param", "b.k=abc", "--output", str(tmp_path / "o")], tmp_path)
+    assert res.returncode == 1
+    assert res.stderr.strip() == "cosim-master: error: --param b.k: 'abc' is not a valid Real for b.k"
+
+
+def test_cli_unknown_parameter(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    res = _cli(["run", str(folder), "--param", "b.nothing=1", "--output", str(tmp_path / "o")], tmp_path)
+    assert res.returncode == 1
+    assert "component 'b' has no variable 'nothing'" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_stop_time_not_a_whole_number_of_steps(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    with pytest.raises(CosimError, match="not a whole number of master steps of 0.3"):
+        master.run(folder, output=None, step=0.3)

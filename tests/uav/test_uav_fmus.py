@@ -1,0 +1,166 @@
+"""The four UAV FMU shells: build (into tmp_path), validate, simulate briefly with FMPy; and the
+shipped fmus/ must be fresh (built from the current fmu_sources/)."""
+import importlib.util
+import shutil
+import subprocess
+import sys
+import textwrap
+import zipfile
+from pathlib import Path
+
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
+
+REPO = Path(__file__).resolve().parents[2]
+SRC = REPO / "fmu_sources"
+
+
+def _build_module():
+    spec = importlib.util.spec_from_file_location("uav_build_fmus", SRC / "build_fmus.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+bf = _build_module()
+
+# connector contract (docs/uav_connectors.md): name -> (causality, type)
+CONTRACT = {
+    "UavDynamics": {
+        "cmd": ("input", "Integer"), "sp_x": ("input", "Real"), "sp_y": ("input", "Real"),
+        "sp_z": ("input", "Real"), "wind_x": ("input", "Real"), "wind_y": ("input", "Real"),
+        "wind_z": ("input", "Real"), "x": ("output", "Real"), "y": ("output", "Real"),
+        "z": ("output", "Real"), "vx": ("output", "Real"), "vy": ("output", "Real"),
+        "vz": ("output", "Real"), "lat": ("output", "Real"), "lon": ("output", "Real"),
+        "alt": ("output", "Real"), "airspeed": ("output", "Real"), "groundspeed": ("output", "Real"),
+        "phase": ("output", "Integer"), "origin_lat": ("parameter", "Real"),
+        "origin_lon": ("parameter", "Real"), "origin_alt": ("parameter", "Real"),
+        "home_x": ("parameter", "Real"), "home_y": ("parameter", "Real"),
+        "takeoff_altitude": ("parameter", "Real")},
+    "UavBattery": {
+        "airspeed": ("input", "Real"), "vz": ("input", "Real"), "phase": ("input", "Integer"),
+        "soc": ("output", "Real"), "consumed": ("output", "Real"), "voltage": ("output", "Real"),
+        "current": ("output", "Real"), "power": ("output", "Real"), "energy_used": ("output", "Real")},
+    "UavWind": {
+        "wind_x": ("output", "Real"), "wind_y": ("output", "Real"), "wind_z": ("output", "Real"),
+        "wind_speed": ("output", "Real"), "wind_level": ("output", "Integer"),
+        "probability": ("parameter", "Real"), "seed": ("parameter", "Integer"),
+        "direction_deg": ("parameter", "Real")},
+    "UavStrategy": {
+        "x": ("input", "Real"), "y": ("input", "Real"), "z": ("input", "Real"),
+        "vx": ("input", "Real"), "vy": ("input", "Real"), "phase": ("input", "Integer"),
+        "consumed": ("input", "Real"), "cmd": ("output", "Integer"), "sp_x": ("output", "Real"),
+        "sp_y": ("output", "Real"), "sp_z": ("output", "Real"),
+        "mission_state": ("output", "Integer"), "targets_assigned": ("output", "Integer"),
+        "targets_visited": ("output", "Integer"), "photo_count": ("output", "Integer"),
+        "last_photo_target": ("output", "Integer"), "last_photo_time": ("output", "Real"),
+        "last_photo_x": ("output", "Real"), "last_photo_y": ("output", "Real"),
+        "strategy": ("parameter", "String"), "uav_index": ("parameter", "Integer"),
+        "uav_count": ("parameter", "Integer"), "assignment": ("parameter", "String"),
+        "targets": ("parameter", "String"), "zones": ("parameter", "String"),
+        "lookahead": ("parameter", "Real"), "home_x": ("parameter", "Real"),
+        "home_y": ("parameter", "Real"), "cruise_altitude": ("parameter", "Real"),
+        "return_threshold": ("parameter", "Real"), "land_threshold": ("parameter", "Real")},
+}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fmus")
+    return {n: bf.build_fmu(n, out) for n in bf.FMU_NAMES}
+
+
+@pytest.mark.parametrize("name", bf.FMU_NAMES)
+def test_fmu_valid_and_contract(built, name):
+    fmu = built[name]
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    vars_ = {v.name: v for v in md.modelVariables}
+    for vname, (caus, typ) in CONTRACT[name].items():
+        assert vname in vars_, vname
+        assert vars_[vname].causality == caus and vars_[vname].type == typ, vname
+        if typ == "Real" and caus == "parameter":
+            assert vars_[vname].unit, f"{vname} has no unit"
+    with zipfile.ZipFile(fmu) as z:
+        names = z.namelist()
+    assert "resources/uavsim/dynamics.py" in names and "resources/sources.sha256" in names
+
+
+def test_dynamics_fmu_takeoff(built):
+    # preflight 5 s + climb to 10 m (~11 s total with the 2.5 m/s climb and braking)
+    r = simulate_fmu(str(built["UavDynamics"]), stop_time=20.0, step_size=0.5, output_interval=0.5,
+                     start_values={"cmd": 1, "takeoff_altitude": 10.0, "origin_alt": 100.0})
+    assert r["phase"][0] == 0 and r["phase"][-1] == 2
+    assert r["z"][-1] == pytest.approx(10.0, abs=0.05)
+    assert r["alt"][-1] == pytest.approx(110.0, abs=0.05)
+    assert r["lat"][-1] == pytest.approx(-7.2153, abs=1e-7)
+
+
+def test_battery_fmu_hover(built):
+    # 60 s hover: 191.9 W; current ~16 A; consumed ~ 16 A * 60 s / 18360 C = 0.052
+    r = simulate_fmu(str(built["UavBattery"]), stop_time=60.0, step_size=1.0, output_interval=1.0,
+                     start_values={"phase": 2})
+    assert r["power"][-1] == pytest.approx(191.92, abs=0.05)
+    assert r["consumed"][-1] == pytest.approx(0.052, abs=0.002)
+    assert r["soc"][-1] == pytest.approx(1 - r["consumed"][-1])
+
+
+def test_wind_fmu_matches_python_model(built):
+    from uavsim.wind import Wind, WindParams
+    r = simulate_fmu(str(built["UavWind"]), stop_time=100.0, step_size=0.5, output_interval=0.5,
+                     start_values={"probability": 0.5, "seed": 3, "turbulence": True})
+    w = Wind(WindParams(probability=0.5, seed=3, turbulence=True))
+    for t, wx, lvl in zip(r["time"], r["wind_x"], r["wind_level"]):
+        ex, _, _, el = w.at(float(t))
+        assert wx == ex and lvl == el
+
+
+def test_strategy_fmu_assignment_and_command(built):
+    r = simulate_fmu(str(built["UavStrategy"]), stop_time=2.0, step_size=1.0, output_interval=1.0,
+                     start_values={"strategy": "B", "targets": "1,2;3,4;5,6;7,8", "uav_count": 2,
+                                   "uav_index": 1, "phase": 2})
+    # equal blocks: UAV 1 gets targets 2 and 3; nearest to (0, 0) is #2 (5, 6)
+    assert r["targets_assigned"][-1] == 2
+    assert r["cmd"][-1] == 2 and (r["sp_x"][-1], r["sp_y"][-1]) == (5.0, 6.0)
+    assert r["mission_state"][-1] == 2
+
+
+def test_fmu_uses_bundled_uavsim(built, tmp_path):
+    """With the editable install of uavsim hidden, the FMU still runs from resources/uavsim."""
+    code = textwrap.dedent(f"""
+        import sys
+        sys.meta_path[:] = [f for f in sys.meta_path if "editable" not in repr(f)]
+        try:
+            import uavsim
+            raise SystemExit("uavsim still importable outside the FMU")
+        except ImportError:
+            pass
+        from fmpy import simulate_fmu
+        simulate_fmu({str(built["UavDynamics"])!r}, stop_time=1.0, step_size=0.5)
+        f = sys.modules["uavsim"].__file__
+        assert "resources" in f, f
+        print("OK", f)
+    """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=120)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "OK" in res.stdout
+
+
+def test_shipped_fmus_are_fresh():
+    stale = bf.stale_fmus(REPO / "fmus", SRC)
+    assert stale == [], f"stale FMUs {stale}: run `python fmu_sources/build_fmus.py`"
+
+
+def test_stale_detection(tmp_path, built):
+    src = tmp_path / "src"
+    shutil.copytree(SRC, src, ignore=shutil.ignore_patterns("__pycache__"))
+    fmus = built["UavDynamics"].parent
+    assert bf.stale_fmus(fmus, src) == []
+    (src / "uavsim" / "wind.py").write_text((src / "uavsim" / "wind.py").read_text() + "\n# edit\n")
+    assert bf.stale_fmus(fmus, src) == [f"{n}.fmu" for n in bf.FMU_NAMES]
+    (src / "UavBattery.py").write_text((src / "UavBattery.py").read_text() + "\n")
+    (src / "uavsim" / "wind.py").write_text((SRC / "uavsim" / "wind.py").read_text())
+    assert bf.stale_fmus(fmus, src) == ["UavBattery.fmu"]
+    assert bf.stale_fmus(tmp_path / "nowhere", src) == [f"{n}.fmu" for n in bf.FMU_NAMES]
