@@ -22,7 +22,7 @@ class _NoInput:
 class Fmi2MeSlave(Fmi2Slave):
     kind = "ModelExchange"
 
-    def __init__(self, name, fmu, log, shown_as, logging_on=False, rtol=1e-8):
+    def __init__(self, name, fmu, log, shown_as, logging_on=False, rtol=1e-10):
         from fmpy.fmi2 import FMU2Model
         self.name, self.fmu, self.log, self.shown_as = name, fmu, log, shown_as
         self.instantiated = self.initialized = False

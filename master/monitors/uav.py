@@ -1,0 +1,439 @@
+"""The UAV monitor: UAV-UAV collisions, restricted-zone incursions and mission events.
+
+Switched on by the SSD annotation of type ``org.cosim-master.uav-monitor`` (format: docs/uav_monitor.md,
+written by ``master.uav.build``).  After every master step [t0, t1] it
+
+1. reads the UAV positions at t1 from the master's buffers (the positions at t0 are kept from the
+   previous step) and the vehicle phases;
+2. checks the *checked* UAVs -- not removed, and airborne: phase 1 takeoff, 2 fly or 3 land at t0 or t1
+   (not 0 preflight, not 4 landed) and higher than ``altitudeThreshold`` (default 0.5 m) above the base
+   at t0 or t1 -- for UAV-UAV contacts (``CollisionDetector``: swept spheres of diameter
+   ``impactDiameter``, linear motion within the step) and for zone incursions (``ZoneDetector``: 2D
+   polygons of infinite height);
+3. handles the contacts and incursions in time order: on a UAV-UAV contact both UAVs are removed, on a
+   zone incursion the UAV is removed (the paper takes colliding UAVs out of the simulation); removal =
+   ``ctx.deactivate`` of the UAV's components, whose outputs keep their last values; a contact or an
+   incursion of a UAV already removed earlier in the same step is ignored;
+4. emits an event (``ctx.emit``, written to events.csv) for every contact (type ``uav``), incursion
+   (type ``zone``) and mission-state change of the strategy (type ``mission``: takeoff, transit,
+   return_done = all targets visited, return_low = 80 % consumed, landing, forced_landing = 95 %
+   consumed away from the base, landed_base, landed_away);
+5. records photos (increments of the strategy's ``photo_count`` with its ``last_photo_*`` outputs),
+   integrates the distance flown and the airborne time, and keeps a track of the positions.
+
+``finish`` hands everything to :mod:`master.uav.outputs`, which writes trajectory.csv, photos.csv,
+summary.csv, summary.json and map.png into the run folder and returns the summary stored in run.json.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from ..errors import ScenarioError
+from . import register
+from .base import Monitor
+from .uav_geometry import CollisionDetector, ZoneDetector
+
+UAV_NS = "https://cosim-master.org/ssp/uav"
+MONITOR_TYPE = "org.cosim-master.uav-monitor"
+
+AIRBORNE_PHASES = (1, 2, 3)     # takeoff, fly, land (UavDynamics.phase)
+PHASE_LANDED = 4
+#: strategy mission_state codes (docs/uav_models.md / uavsim.strategy) and their event names
+MISSION_EVENTS = {0: "preflight", 1: "takeoff", 2: "transit", 3: "return_done", 4: "return_low",
+                  5: "landing", 6: "forced_landing", 7: "landed_base", 8: "landed_away"}
+MISSION_DETAIL = {3: "all assigned targets visited, returning to base",
+                  4: "battery 80 % consumed: mission abandoned, returning to base",
+                  5: "over the base, landing",
+                  6: "battery 95 % consumed away from the base: landing where it is",
+                  7: "landed at the base", 8: "landed away from the base"}
+
+#: Uav attributes naming a 'component.variable' the monitor reads (required ones first)
+REQUIRED_ROLES = ("x", "y", "z", "phase")
+OPTIONAL_ROLES = ("speed", "soc", "consumed", "energy", "missionState", "targetsAssigned", "targetsVisited",
+                  "photoCount", "lastPhotoTarget", "lastPhotoTime", "lastPhotoX", "lastPhotoY")
+
+
+@dataclass
+class UavSpec:
+    name: str
+    index: int
+    components: list[str]
+    home: tuple[float, float]
+    vars: dict[str, str]                  # role -> qualified variable
+    assigned: list[int] | None = None     # global target indices given to this UAV, if known
+
+
+@dataclass
+class MonitorConfig:
+    uavs: list[UavSpec]
+    targets: np.ndarray                   # (K, 2) ENU m, map order
+    zones: list[dict]                     # {"name", "polygon": (M, 2)}
+    impact_diameter: float = 2.6
+    altitude_threshold: float = 0.5
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    home_tolerance: float = 5.0
+    success_battery: float = 0.05
+    scenario: str = ""
+    strategy: str = ""
+    assignment: str = ""
+    seed: str = ""
+    wind_probability: str = ""
+
+
+@dataclass
+class UavRecord:
+    """What the monitor remembers of one UAV."""
+    removed: bool = False
+    removed_time: float | None = None
+    removed_reason: str | None = None     # "uav_collision" | "zone_collision"
+    removed_by: str | None = None         # the other UAV or the zone
+    removed_pos: tuple | None = None
+    distance: float = 0.0                 # 3D path length, m
+    distance_xy: float = 0.0              # horizontal path length, m
+    flight_time: float = 0.0              # s airborne (phases 1-3)
+    took_off: bool = False
+    photos: list = field(default_factory=list)
+    mission_states: list = field(default_factory=list)   # (time, state)
+    forced_landing: bool = False
+    return_low: bool = False
+    last: dict = field(default_factory=dict)              # role -> last value read
+
+
+def _local(el) -> str:
+    return etree.QName(el).localname if isinstance(el.tag, str) else ""
+
+
+def _points(text: str, what: str, shown_as: str) -> np.ndarray:
+    pts = []
+    for item in (text or "").replace(";", " ").split():
+        try:
+            a, b = item.split(",")
+            pts.append((float(a), float(b)))
+        except ValueError:
+            raise ScenarioError(f"expected 'x,y' points separated by blanks, got {item!r}", file=shown_as,
+                                element=what) from None
+    return np.asarray(pts, dtype=float).reshape(-1, 2)
+
+
+def parse_config(element, shown_as: str = "") -> MonitorConfig:
+    """Read the ``uav:UavMonitor`` element (inside the ``ssc:Annotation``); errors are ScenarioErrors."""
+    mon = element if _local(element) == "UavMonitor" else None
+    if mon is None:
+        for ch in element:
+            if _local(ch) == "UavMonitor":
+                mon = ch
+                break
+    if mon is None:
+        raise ScenarioError(f"annotation {MONITOR_TYPE} has no uav:UavMonitor element", file=shown_as,
+                            element="Annotation")
+
+    def num(el, attr, default, where):
+        v = el.get(attr)
+        if v is None:
+            return default
+        try:
+            return float(v)
+        except ValueError:
+            raise ScenarioError(f"{attr}={v!r} is not a number", file=shown_as, element=where,
+                                line=el.sourceline) from None
+
+    uavs, names = [], set()
+    zones, targets = [], np.empty((0, 2))
+    for ch in mon:
+        tag = _local(ch)
+        if tag == "Uav":
+            name = ch.get("name")
+            where = f"uav:Uav {name}" if name else "uav:Uav"
+            missing = [a for a in ("name", "components") + REQUIRED_ROLES if not ch.get(a)]
+            if missing:
+                raise ScenarioError(f"missing attribute(s) {', '.join(missing)}", file=shown_as, element=where,
+                                    line=ch.sourceline)
+            if name in names:
+                raise ScenarioError(f"duplicate UAV name {name!r}", file=shown_as, element=where,
+                                    line=ch.sourceline)
+            names.add(name)
+            roles = {r: ch.get(r) for r in REQUIRED_ROLES + OPTIONAL_ROLES if ch.get(r)}
+            assigned = None
+            if ch.get("assigned") is not None:
+                try:
+                    assigned = [int(k) for k in ch.get("assigned").split()]
+                except ValueError:
+                    raise ScenarioError(f"assigned={ch.get('assigned')!r} is not a list of target indices",
+                                        file=shown_as, element=where, line=ch.sourceline) from None
+            uavs.append(UavSpec(name, int(num(ch, "index", len(uavs), where)), ch.get("components").split(),
+                                (num(ch, "homeX", 0.0, where), num(ch, "homeY", 0.0, where)), roles, assigned))
+        elif tag == "Zone":
+            poly = _points(ch.text, f"uav:Zone {ch.get('name', '')}", shown_as)
+            if len(poly) < 3:
+                raise ScenarioError("a zone needs at least 3 'x,y' vertices", file=shown_as,
+                                    element=f"uav:Zone {ch.get('name', '')}", line=ch.sourceline)
+            zones.append({"name": ch.get("name") or f"zone{len(zones) + 1}", "polygon": poly})
+        elif tag == "Targets":
+            targets = _points(ch.text, "uav:Targets", shown_as)
+    if not uavs:
+        raise ScenarioError("uav:UavMonitor lists no uav:Uav", file=shown_as, element="uav:UavMonitor",
+                            line=mon.sourceline)
+    d = num(mon, "impactDiameter", 2.6, "uav:UavMonitor")
+    if not d > 0:
+        raise ScenarioError(f"impactDiameter must be > 0, got {d:g}", file=shown_as, element="uav:UavMonitor")
+    return MonitorConfig(
+        uavs=uavs, targets=targets, zones=zones, impact_diameter=d,
+        altitude_threshold=num(mon, "altitudeThreshold", 0.5, "uav:UavMonitor"),
+        origin=(num(mon, "originLatitude", 0.0, "uav:UavMonitor"), num(mon, "originLongitude", 0.0, "uav:UavMonitor"),
+                num(mon, "originAltitude", 0.0, "uav:UavMonitor")),
+        home_tolerance=num(mon, "homeTolerance", 5.0, "uav:UavMonitor"),
+        success_battery=num(mon, "successBattery", 0.05, "uav:UavMonitor"),
+        scenario=mon.get("scenario", ""), strategy=mon.get("strategy", ""), assignment=mon.get("assignment", ""),
+        seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
+
+
+def to_geodetic(origin, x, y, z):
+    """ENU metres about the origin -> (lat, lon, alt) in degrees / metres above the ellipsoid."""
+    from uavsim.geodesy import geodetic_from_enu
+    lat, lon, alt = geodetic_from_enu(x, y, z, *origin)
+    return lat, lon, alt
+
+
+@register(MONITOR_TYPE)
+class UavMonitor(Monitor):
+    def __init__(self, element, plan, shown_as: str):
+        super().__init__(element, plan, shown_as)
+        self.cfg = parse_config(element, shown_as)
+        if plan is not None:
+            for u in self.cfg.uavs:
+                for c in u.components:
+                    if c not in getattr(plan, "fmus", {c: None}):
+                        raise ScenarioError(f"UAV {u.name}: no component {c!r}", file=shown_as,
+                                            element="uav:UavMonitor")
+                for role, q in u.vars.items():
+                    try:
+                        plan.var(q)
+                    except (KeyError, ValueError, TypeError):
+                        raise ScenarioError(f"UAV {u.name}: {role}={q!r} is not a variable of the system",
+                                            file=shown_as, element="uav:UavMonitor") from None
+        self.collider = CollisionDetector(self.cfg.impact_diameter)
+        self.zone_detector = (ZoneDetector([z["polygon"] for z in self.cfg.zones], [z["name"] for z in self.cfg.zones])
+                              if self.cfg.zones else None)
+        self.records = [UavRecord() for _ in self.cfg.uavs]
+        self.ctx = None
+        self.start = None
+        self.last_time = None
+        self.track_t: list[float] = []
+        self.track_p: list[np.ndarray] = []
+        self.track_phase: list[np.ndarray] = []
+
+    def required_variables(self) -> list[str]:
+        out, seen = [], set()
+        for u in self.cfg.uavs:
+            for q in u.vars.values():
+                if q not in seen:
+                    seen.add(q)
+                    out.append(q)
+        return out
+
+    # -- reading the buffers ----------------------------------------------------------------
+    def _index(self, ctx, role):
+        """(type, index array, mask of UAVs having the role) for one role over all UAVs."""
+        typ, idx, have = None, [], []
+        for u in self.cfg.uavs:
+            q = u.vars.get(role)
+            if q is None:
+                idx.append(0)
+                have.append(False)
+                continue
+            t, k = ctx.position(q)
+            if typ is None:
+                typ = t
+            elif t != typ:
+                raise ScenarioError(f"{role} variables of the UAVs have different types ({typ}, {t})",
+                                    file=self.shown_as, element="uav:UavMonitor")
+            idx.append(k)
+            have.append(True)
+        return typ, np.asarray(idx, dtype=np.intp), np.asarray(have, dtype=bool)
+
+    def _read(self, role) -> np.ndarray | None:
+        typ, idx, have = self._roles.get(role, (None, None, None))
+        if typ is None:
+            return None
+        v = np.take(self.ctx.buffer(typ), idx).astype(float)
+        v[~have] = np.nan
+        return v
+
+    def _positions(self) -> np.ndarray:
+        buf = self.ctx.buffer(self._xyz_type)
+        return np.take(buf, self._xyz_idx).astype(float)
+
+    def attach(self, ctx, start: float) -> None:
+        self.ctx = ctx
+        self.start = self.last_time = float(start)
+        self._roles = {r: self._index(ctx, r) for r in REQUIRED_ROLES + OPTIONAL_ROLES}
+        types = {self._roles[r][0] for r in ("x", "y", "z")}
+        if len(types) != 1:
+            raise ScenarioError("x, y and z of the UAVs must have one type", file=self.shown_as,
+                                element="uav:UavMonitor")
+        self._xyz_type = types.pop()
+        self._xyz_idx = np.stack([self._roles[r][1] for r in ("x", "y", "z")], axis=1)
+        self.p0 = self._positions()
+        self.ph0 = self._read("phase")
+        ms = self._read("missionState")
+        self.ms0 = ms
+        pc = self._read("photoCount")
+        self.pc0 = pc
+        self._snapshot()
+        self._track(self.start, self.p0, self.ph0)
+
+    def _track(self, t, p, ph):
+        self.track_t.append(float(t))
+        self.track_p.append(p.copy())
+        self.track_phase.append(ph.copy())
+
+    def _snapshot(self, which=None):
+        for role in REQUIRED_ROLES + OPTIONAL_ROLES:
+            v = self._read(role)
+            if v is None:
+                continue
+            for k, rec in enumerate(self.records):
+                if (which is None and not rec.removed) or k == which:
+                    rec.last[role] = float(v[k])
+
+    # -- events -------------------------------------------------------------------------------
+    def _geo(self, p):
+        lat, lon, alt = to_geodetic(self.cfg.origin, p[0], p[1], p[2])
+        return float(lat), float(lon), float(alt)
+
+    def _event(self, time, typ, event, uav, other, pos, distance=None, detail="", consumed=None):
+        lat, lon, alt = self._geo(pos)
+        self.ctx.emit({"time": float(time), "type": typ, "event": event, "uav": uav, "other": other,
+                       "x": float(pos[0]), "y": float(pos[1]), "z": float(pos[2]), "lat": lat, "lon": lon,
+                       "alt": alt, "distance": distance, "consumed": consumed, "detail": detail})
+
+    def _remove(self, k, time, reason, by, pos):
+        rec = self.records[k]
+        rec.removed = True
+        rec.removed_time = float(time)
+        rec.removed_reason = reason
+        rec.removed_by = by
+        rec.removed_pos = tuple(float(c) for c in pos)
+        self._snapshot(which=k)     # its outputs are frozen at these values from now on
+        self.ctx.deactivate(self.cfg.uavs[k].components)
+
+    def after_step(self, n: int, t0: float, t1: float) -> None:
+        cfg, recs = self.cfg, self.records
+        p0, ph0 = self.p0, self.ph0
+        p1 = self._positions()
+        ph1 = self._read("phase")
+        removed = np.array([r.removed for r in recs], dtype=bool)
+        for k in np.flatnonzero(removed):       # a removed UAV stays where it was taken out
+            p1[k] = recs[k].removed_pos
+        alive = ~removed
+        air0 = np.isin(ph0, AIRBORNE_PHASES)
+        air1 = np.isin(ph1, AIRBORNE_PHASES)
+        high = np.maximum(p0[:, 2], p1[:, 2]) > cfg.altitude_threshold
+        checked = alive & (air0 | air1) & high
+
+        # mission events and photos first: the strategy decided them on its inputs at t0
+        ms1 = self._read("missionState")
+        if ms1 is not None:
+            changed = np.flatnonzero(alive & (ms1 != self.ms0) & ~np.isnan(ms1))
+            cons = self._read("consumed")
+            for k in changed:
+                self._mission_event(k, t0, int(ms1[k]), p0[k], None if cons is None else float(cons[k]))
+            self.ms0 = ms1
+        pc1 = self._read("photoCount")
+        if pc1 is not None:
+            for k in np.flatnonzero(alive & (pc1 > self.pc0)):
+                self._photo(k, int(pc1[k] - self.pc0[k]), t0, p0[k])
+            self.pc0 = pc1
+
+        # collisions and zone incursions, in time order
+        found = []
+        if checked.sum() >= 2:
+            for c in self.collider.check(t0, t1, p0, p1, checked):
+                found.append((c.time, 0, c.i, c.j, c))
+        if self.zone_detector is not None and checked.any():
+            for z in self.zone_detector.check(t0, t1, p0, p1, checked):
+                found.append((z.time, 1, z.vehicle, z.zone, z))
+        cut = {}   # UAV index -> fraction of the step flown before removal
+        dt = t1 - t0
+        for time, kind, a, b, hit in sorted(found, key=lambda e: e[:4]):
+            if kind == 0:
+                if a in cut or b in cut:
+                    continue
+                pi, pj = np.asarray(hit.pos_i), np.asarray(hit.pos_j)
+                dist = float(np.linalg.norm(pi - pj))
+                ua, ub = cfg.uavs[a].name, cfg.uavs[b].name
+                self._event(time, "uav", "collision", ua, ub, 0.5 * (pi + pj), dist,
+                            f"{ua} at ({pi[0]:.2f}, {pi[1]:.2f}, {pi[2]:.2f}), {ub} at ({pj[0]:.2f}, "
+                            f"{pj[1]:.2f}, {pj[2]:.2f}); min distance {hit.min_distance:.3f} m at "
+                            f"t={hit.time_min:.3f} s")
+                for k, other, pos in ((a, ub, pi), (b, ua, pj)):
+                    cut[k] = (time - t0) / dt if dt > 0 else 0.0
+                    self._remove(k, time, "uav_collision", other, pos)
+            else:
+                if a in cut:
+                    continue
+                ua = cfg.uavs[a].name
+                self._event(time, "zone", "zone_incursion", ua, hit.zone_name, hit.position, None,
+                            f"{ua} entered restricted zone {hit.zone_name}"
+                            + ("" if hit.inside_at_end else " (cut a corner within the step)"))
+                cut[a] = hit.fraction
+                self._remove(a, time, "zone_collision", hit.zone_name, hit.position)
+
+        # distance flown and airborne time of the UAVs flying this step
+        seg = p1 - p0
+        d3 = np.linalg.norm(seg, axis=1)
+        dxy = np.linalg.norm(seg[:, :2], axis=1)
+        for k in np.flatnonzero(alive):
+            f = cut.get(k, 1.0)
+            r = recs[k]
+            r.distance += f * d3[k]
+            r.distance_xy += f * dxy[k]
+            if air0[k] or air1[k]:
+                r.took_off = True
+                r.flight_time += f * dt
+        # removed UAVs: keep their position at removal in the track
+        for k, f in cut.items():
+            p1[k] = p0[k] + f * seg[k]
+        self.p0, self.ph0 = p1, ph1
+        self.last_time = float(t1)
+        self._track(t1, p1, ph1)
+
+    def _mission_event(self, k, t, state, pos, consumed):
+        rec = self.records[k]
+        rec.mission_states.append((float(t), state))
+        if state in (6, 8):
+            rec.forced_landing = True
+        if state == 4:
+            rec.return_low = True
+        name = MISSION_EVENTS.get(state, f"state_{state}")
+        self._event(t, "mission", name, self.cfg.uavs[k].name, None, pos, None,
+                    MISSION_DETAIL.get(state, ""), consumed)
+
+    def _photo(self, k, count, t, pos):
+        vals = {r: self._read(r) for r in ("lastPhotoTarget", "lastPhotoTime", "lastPhotoX", "lastPhotoY")}
+        tgt = vals["lastPhotoTarget"]
+        tt = vals["lastPhotoTime"]
+        x = vals["lastPhotoX"]
+        y = vals["lastPhotoY"]
+        photo = {"target": int(tgt[k]) if tgt is not None and not np.isnan(tgt[k]) else -1,
+                 "time": float(tt[k]) if tt is not None else float(t),
+                 "x": float(x[k]) if x is not None else float(pos[0]),
+                 "y": float(y[k]) if y is not None else float(pos[1]),
+                 "z": float(pos[2])}
+        if count > 1:   # more than one photo within one step: only the last one's details are known
+            photo["missed_before"] = count - 1
+        self.records[k].photos.append(photo)
+
+    # -- end of the run -------------------------------------------------------------------------
+    def finish(self, out_dir: Path | None, outcome: str) -> dict:
+        if self.ctx is not None:
+            try:
+                self._snapshot()
+            except Exception:   # noqa: BLE001 - buffers may be gone after a failed start
+                pass
+        from ..uav.outputs import write_outputs
+        return write_outputs(out_dir, self, outcome)
