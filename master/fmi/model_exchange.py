@@ -10,7 +10,7 @@ from __future__ import annotations
 from ctypes import byref
 
 from ..errors import FmuError
-from .slaves import ERROR, OK, Fmi2Slave
+from .slaves import ERROR, OK, Fmi2Slave, load_library
 
 
 class _NoInput:
@@ -26,13 +26,7 @@ class Fmi2MeSlave(Fmi2Slave):
         from fmpy.fmi2 import FMU2Model
         self.name, self.fmu, self.log, self.shown_as = name, fmu, log, shown_as
         self.instantiated = self.initialized = False
-        me = fmu.md.modelExchange
-        try:
-            self.fmu2 = FMU2Model(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir),
-                                  modelIdentifier=me.modelIdentifier, instanceName=name)
-        except Exception as exc:
-            raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
-                           element=f"component {name}") from None
+        self.fmu2 = load_library(FMU2Model, name, fmu, shown_as, fmu.md.modelExchange.modelIdentifier)
         self.logging_on = logging_on
         self._f = self.fmu2._functions
         self.c = None

@@ -8,6 +8,7 @@ can attach the component and simulation time to the message.
 from __future__ import annotations
 
 import ctypes
+import os
 from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
 
 import numpy as np
@@ -35,6 +36,20 @@ FMI2_TYPE_BASE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer"
 def base_type(fmi_version: str, var_type: str) -> str | None:
     table = FMI3_TYPE_BASE if fmi_version.startswith("3") else FMI2_TYPE_BASE
     return table.get(var_type)
+
+
+def load_library(cls, name, fmu, shown_as, model_identifier):
+    """Create the fmpy FMU object; fmpy changes the working directory while loading and does not change it
+    back when the library fails to load, so the caller's directory is restored here."""
+    cwd = os.getcwd()
+    try:
+        return cls(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir), modelIdentifier=model_identifier,
+                   instanceName=name)
+    except Exception as exc:
+        raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
+                       element=f"component {name}") from None
+    finally:
+        os.chdir(cwd)
 
 
 def _ptr(arr: np.ndarray, ctype):
@@ -96,13 +111,7 @@ class Fmi2Slave(Slave):
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
         from fmpy.fmi2 import FMU2Slave
-        cs = fmu.md.coSimulation
-        try:
-            self.fmu2 = FMU2Slave(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir),
-                                  modelIdentifier=cs.modelIdentifier, instanceName=name)
-        except Exception as exc:
-            raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
-                           element=f"component {name}") from None
+        self.fmu2 = load_library(FMU2Slave, name, fmu, shown_as, fmu.md.coSimulation.modelIdentifier)
         self.logging_on = logging_on
         f = self.fmu2._functions
         self._f = f
@@ -202,13 +211,7 @@ class Fmi3Slave(Slave):
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
         from fmpy.fmi3 import FMU3Slave
-        cs = fmu.md.coSimulation
-        try:
-            self.fmu3 = FMU3Slave(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir),
-                                  modelIdentifier=cs.modelIdentifier, instanceName=name)
-        except Exception as exc:
-            raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
-                           element=f"component {name}") from None
+        self.fmu3 = load_library(FMU3Slave, name, fmu, shown_as, fmu.md.coSimulation.modelIdentifier)
         self.logging_on = logging_on
         self._f = self.fmu3._functions
         self.c = None

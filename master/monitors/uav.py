@@ -307,7 +307,7 @@ class UavMonitor(Monitor):
 
     def _event(self, time, typ, event, uav, other, pos, distance=None, detail="", consumed=None):
         lat, lon, alt = self._geo(pos)
-        self.ctx.emit({"time": float(time), "type": typ, "event": event, "uav": uav, "other": other,
+        self.ctx.emit({"time": round(float(time), 9), "type": typ, "event": event, "uav": uav, "other": other,
                        "x": float(pos[0]), "y": float(pos[1]), "z": float(pos[2]), "lat": lat, "lon": lon,
                        "alt": alt, "distance": distance, "consumed": consumed, "detail": detail})
 
@@ -420,7 +420,7 @@ class UavMonitor(Monitor):
         x = vals["lastPhotoX"]
         y = vals["lastPhotoY"]
         photo = {"target": int(tgt[k]) if tgt is not None and not np.isnan(tgt[k]) else -1,
-                 "time": float(tt[k]) if tt is not None else float(t),
+                 "time": round(float(tt[k]) if tt is not None else float(t), 9),
                  "x": float(x[k]) if x is not None else float(pos[0]),
                  "y": float(y[k]) if y is not None else float(pos[1]),
                  "z": float(pos[2])}

@@ -82,8 +82,12 @@ def pad_positions(n: int, spacing: float = PAD_SPACING) -> list[tuple[float, flo
     return out
 
 
-def _pts(points) -> str:
-    return ";".join(f"{float(x):.3f},{float(y):.3f}" for x, y in points)
+def _mm(v) -> str:
+    return f"{round(float(v), 3) + 0.0:.3f}"     # + 0.0: no "-0.000"
+
+
+def _pts(points, sep=";") -> str:
+    return sep.join(f"{_mm(x)},{_mm(y)}" for x, y in points)
 
 
 def _record_interval(step: float) -> float:
@@ -130,10 +134,10 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
         for k, v in attrs.items():
             el.set(k, v)
     t = etree.SubElement(mon, f"{{{UAV_NS}}}Targets")
-    t.text = " ".join(f"{float(x):.3f},{float(y):.3f}" for x, y in targets)
+    t.text = _pts(targets, " ")
     for z in zones:
         ze = etree.SubElement(mon, f"{{{UAV_NS}}}Zone", name=z["name"])
-        ze.text = " ".join(f"{float(x):.3f},{float(y):.3f}" for x, y in z["polygon"])
+        ze.text = _pts(z["polygon"], " ")
     return ann
 
 

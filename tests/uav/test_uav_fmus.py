@@ -9,6 +9,9 @@ import zipfile
 from pathlib import Path
 
 import pytest
+# A pythonfmu FMU run in this process puts its resources (with a binary-less copy of pythonfmu) first on
+# sys.path; importing the installed pythonfmu now keeps the builder below from picking up that copy.
+import pythonfmu.builder  # noqa: F401
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 

@@ -1,0 +1,489 @@
+"""Mission outputs of the UAV study, written by the UAV monitor's ``finish`` into the run folder.
+
+* ``trajectory.csv`` -- one row per UAV per recorded time (results.parquet): time, uav, lat, lon, alt,
+  x, y, z (ENU m about the base), speed (ground speed, m/s), soc, consumed, phase, mission_state,
+  photo_count, status (``active``; a removed UAV ends with one ``removed`` row at the time and place
+  it was taken out).  Without the recorded columns the monitor's own track (every master step,
+  thinned to ~1 s) is used.
+* ``photos.csv`` -- uav, target (global index in map order), time, x, y, lat, lon: one row per photo
+  (increments of the strategy's photo_count with its last_photo_* outputs, seen every master step).
+* ``summary.csv`` / ``summary.json`` -- per UAV and in total: targets assigned and visited, photos,
+  distance flown (3D and horizontal, integrated every master step), flight time, energy used,
+  remaining battery, outcome.
+* ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths,
+  collision and landing markers, scale bar, legend; title with scenario, strategy and outcome.
+
+Outcome of a UAV (first that applies):
+
+``uav_collision`` / ``zone_collision``
+    removed by the monitor (contact with another UAV / entry into a restricted zone);
+``forced_landing``
+    the strategy landed it away from the base (95 % consumed) or it is on the ground away from its pad;
+``success``
+    every assigned target photographed, landed within ``homeTolerance`` (5 m) of its pad, and more than
+    ``successBattery`` (5 %) of the battery left -- the paper's definition;
+``battery_return``
+    landed at its pad after abandoning the mission at 80 % consumed (targets left);
+``incomplete`` / ``low_battery``
+    landed at its pad with targets left (other causes) / with 5 % battery or less;
+``timeout``
+    the run reached its stop time before the UAV landed;
+``run_error`` / ``run_interrupted``
+    the run failed / was interrupted before the UAV finished.
+
+Every file is written as far as data exist, also when the run failed; a failure of one output is
+recorded in the summary (``output_errors``) and does not stop the others.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+STATE_NAMES = ["preflight", "takeoff", "transit", "return_done", "return_low", "landing", "forced_landing",
+               "landed_base", "landed_away"]
+
+
+def _f(v, default=math.nan):
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return default
+    return v
+
+
+def _clean(o):
+    """JSON-safe copy (NaN -> None, numpy scalars -> Python)."""
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    if isinstance(o, np.generic):
+        o = o.item()
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    return o
+
+
+# ------------------------------------------------------------------------------- summary
+def uav_summaries(mon, run_outcome: str) -> list[dict]:
+    cfg = mon.cfg
+    out = []
+    attached = mon.ctx is not None
+    for spec, rec in zip(cfg.uavs, mon.records):
+        last = rec.last
+        x, y, z = _f(last.get("x")), _f(last.get("y")), _f(last.get("z"))
+        if rec.removed and rec.removed_pos is not None:
+            x, y, z = rec.removed_pos
+        phase = _f(last.get("phase"))
+        state = _f(last.get("missionState"))
+        soc = _f(last.get("soc"))
+        consumed = _f(last.get("consumed"))
+        if math.isnan(soc) and not math.isnan(consumed):
+            soc = 1.0 - consumed
+        assigned = _f(last.get("targetsAssigned"))
+        if math.isnan(assigned) and spec.assigned is not None:
+            assigned = float(len(spec.assigned))
+        visited_targets = sorted({p["target"] for p in rec.photos if p["target"] >= 0})
+        visited = _f(last.get("targetsVisited"))
+        if math.isnan(visited):
+            visited = float(len(visited_targets)) if attached else math.nan
+        photos = len(rec.photos) + sum(p.get("missed_before", 0) for p in rec.photos)
+        pc = _f(last.get("photoCount"))
+        if not math.isnan(pc):
+            photos = max(photos, int(pc))
+        energy = _f(last.get("energy"))
+        d_home = math.hypot(x - spec.home[0], y - spec.home[1]) if not math.isnan(x) else math.nan
+        landed = phase == 4
+        at_home = landed and d_home <= cfg.home_tolerance
+        all_visited = not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned
+        battery_ok = not math.isnan(soc) and soc > cfg.success_battery
+        if not attached:
+            reason = "run_error" if run_outcome != "interrupted" else "run_interrupted"
+        elif rec.removed:
+            reason = rec.removed_reason
+        elif rec.forced_landing or (landed and rec.took_off and not at_home):
+            reason = "forced_landing"
+        elif at_home and rec.took_off:
+            if all_visited and battery_ok:
+                reason = "success"
+            elif not all_visited:
+                reason = "battery_return" if rec.return_low else "incomplete"
+            else:
+                reason = "low_battery"
+        elif run_outcome == "completed":
+            reason = "timeout"
+        else:
+            reason = "run_interrupted" if run_outcome == "interrupted" else "run_error"
+        states = [STATE_NAMES[s] if 0 <= s < len(STATE_NAMES) else str(s) for _, s in rec.mission_states]
+        out.append({
+            "uav": spec.name, "index": spec.index, "outcome": reason, "success": reason == "success",
+            "targets_assigned": None if math.isnan(assigned) else int(assigned),
+            "targets_visited": None if math.isnan(visited) else int(visited),
+            "visited_targets": visited_targets,
+            "assigned_targets": spec.assigned,
+            "photos": photos,
+            "distance_m": rec.distance, "distance_xy_m": rec.distance_xy,
+            "flight_time_s": rec.flight_time,
+            "energy_used_J": energy, "energy_used_Wh": energy / 3600.0,
+            "remaining_battery_pct": 100.0 * soc, "consumed_pct": 100.0 * consumed,
+            "final_x": x, "final_y": y, "final_z": z,
+            "home_x": spec.home[0], "home_y": spec.home[1], "distance_to_home_m": d_home,
+            "final_phase": None if math.isnan(phase) else int(phase),
+            "final_mission_state": (STATE_NAMES[int(state)] if not math.isnan(state) and 0 <= state < len(STATE_NAMES)
+                                    else None),
+            "returned_low_battery": rec.return_low, "forced_landing": rec.forced_landing,
+            "removed_time": rec.removed_time, "removed_by": rec.removed_by,
+            "mission_states": states,
+        })
+    return out
+
+
+def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
+    reasons: dict[str, int] = {}
+    for u in uavs:
+        reasons[u["outcome"]] = reasons.get(u["outcome"], 0) + 1
+
+    def tot(key):
+        vals = [u[key] for u in uavs if u[key] is not None and math.isfinite(u[key])]
+        return float(sum(vals)) if vals else math.nan
+
+    socs = [u["remaining_battery_pct"] for u in uavs if math.isfinite(u["remaining_battery_pct"])]
+    visited = sorted({t for u in uavs for t in u["visited_targets"]})
+    n_uav_removed = sum(1 for r in mon.records if r.removed_reason == "uav_collision")
+    return {
+        "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
+        "seed": mon.cfg.seed, "wind_probability": mon.cfg.wind_probability,
+        "run_outcome": run_outcome, "end_time": mon.last_time,
+        "uavs": len(uavs), "successes": reasons.get("success", 0),
+        "success_rate": reasons.get("success", 0) / len(uavs) if uavs else math.nan,
+        "mission_success": bool(uavs) and all(u["success"] for u in uavs),
+        "outcomes": reasons,
+        "uav_collisions": n_uav_removed // 2,
+        "zone_collisions": sum(1 for r in mon.records if r.removed_reason == "zone_collision"),
+        "forced_landings": sum(1 for u in uavs if u["forced_landing"]),
+        "targets_total": int(len(mon.cfg.targets)),
+        "targets_visited": len(visited),
+        "photos": int(sum(u["photos"] for u in uavs)),
+        "distance_m": tot("distance_m"), "distance_xy_m": tot("distance_xy_m"),
+        "flight_time_s": tot("flight_time_s"), "energy_used_Wh": tot("energy_used_Wh"),
+        "remaining_battery_pct_mean": float(np.mean(socs)) if socs else math.nan,
+        "remaining_battery_pct_total": float(np.sum(socs)) if socs else math.nan,
+    }
+
+
+# ------------------------------------------------------------------------------- tables
+def _read_results(out_dir: Path):
+    path = out_dir / "results.parquet"
+    if not path.is_file():
+        return None
+    import pandas as pd
+    try:
+        return pd.read_parquet(path)
+    except Exception:   # noqa: BLE001 - a truncated file after a crash
+        return None
+
+
+def trajectory_frame(mon, df):
+    """The trajectory table (see module docstring) as a pandas DataFrame."""
+    import pandas as pd
+    from ..monitors.uav import to_geodetic
+    cfg = mon.cfg
+    cols = ["time", "uav", "lat", "lon", "alt", "x", "y", "z", "speed", "soc", "consumed", "phase",
+            "mission_state", "photo_count", "status"]
+    role_col = {"speed": "speed", "soc": "soc", "consumed": "consumed", "phase": "phase",
+                "mission_state": "missionState", "photo_count": "photoCount"}
+    parts = []
+    for k, (spec, rec) in enumerate(zip(cfg.uavs, mon.records)):
+        v = spec.vars
+        if df is not None and all(v.get(r) in df.columns for r in ("x", "y", "z")):
+            t = df["time"].to_numpy(float)
+            data = {"x": df[v["x"]].to_numpy(float), "y": df[v["y"]].to_numpy(float),
+                    "z": df[v["z"]].to_numpy(float)}
+            for c, role in role_col.items():
+                q = v.get(role)
+                data[c] = df[q].to_numpy(float) if q in df.columns else np.full(t.size, np.nan)
+        elif mon.track_t:
+            tt = np.asarray(mon.track_t)
+            keep = _thin(tt, 1.0)
+            t = tt[keep]
+            p = np.stack(mon.track_p)[keep, k]
+            data = {"x": p[:, 0], "y": p[:, 1], "z": p[:, 2],
+                    "phase": np.stack(mon.track_phase)[keep, k].astype(float)}
+            for c in ("speed", "soc", "consumed", "mission_state", "photo_count"):
+                data[c] = np.full(t.size, np.nan)
+        else:
+            continue
+        if np.all(np.isnan(data["speed"])) and t.size > 1:
+            d = np.hypot(np.diff(data["x"]), np.diff(data["y"])) / np.maximum(np.diff(t), 1e-12)
+            data["speed"] = np.concatenate(([0.0], d))
+        status = np.full(t.size, "active", dtype=object)
+        if rec.removed and rec.removed_time is not None:
+            keep = t < rec.removed_time - 1e-9
+            t = t[keep]
+            data = {c: a[keep] for c, a in data.items()}
+            status = status[keep]
+            # last row: where and when it was taken out, with its last known state
+            t = np.append(t, rec.removed_time)
+            x, y, z = rec.removed_pos
+            last = rec.last
+            extra = {"x": x, "y": y, "z": z, "speed": _f(last.get("speed")), "soc": _f(last.get("soc")),
+                     "consumed": _f(last.get("consumed")), "phase": _f(last.get("phase")),
+                     "mission_state": _f(last.get("missionState")), "photo_count": _f(last.get("photoCount"))}
+            data = {c: np.append(a, extra[c]) for c, a in data.items()}
+            status = np.append(status, "removed")
+        lat, lon, alt = to_geodetic(cfg.origin, data["x"], data["y"], data["z"])
+        frame = pd.DataFrame({"time": t, "uav": spec.name, "lat": np.atleast_1d(lat), "lon": np.atleast_1d(lon),
+                              "alt": np.atleast_1d(alt), **{c: data[c] for c in ("x", "y", "z", "speed", "soc",
+                                                                                  "consumed", "phase",
+                                                                                  "mission_state",
+                                                                                  "photo_count")},
+                              "status": status})
+        parts.append(frame)
+    if not parts:
+        return pd.DataFrame(columns=cols)
+    out = pd.concat(parts, ignore_index=True)
+    for c in ("phase", "mission_state", "photo_count"):
+        out[c] = out[c].astype("Int64") if not out[c].isna().all() else out[c]
+    return out.sort_values(["time", "uav"], kind="stable", ignore_index=True)[cols]
+
+
+def _thin(t: np.ndarray, interval: float) -> np.ndarray:
+    """Indices of t spaced by at least ``interval`` (first and last always kept)."""
+    keep, last = [], -math.inf
+    for i, v in enumerate(t):
+        if v - last >= interval - 1e-9:
+            keep.append(i)
+            last = v
+    if keep[-1] != t.size - 1:
+        keep.append(t.size - 1)
+    return np.asarray(keep, dtype=np.intp)
+
+
+def photos_frame(mon, df):
+    import pandas as pd
+    from ..monitors.uav import to_geodetic
+    cfg = mon.cfg
+    rows = []
+    for spec, rec in zip(cfg.uavs, mon.records):
+        photos = rec.photos
+        if mon.ctx is None and df is not None:
+            photos = _photos_from_results(spec, df)
+        for p in photos:
+            rows.append({"uav": spec.name, "target": p["target"], "time": p["time"], "x": p["x"], "y": p["y"],
+                         "z": p.get("z", math.nan)})
+    frame = pd.DataFrame(rows, columns=["uav", "target", "time", "x", "y", "z"])
+    if len(frame):
+        z = frame["z"].fillna(0.0).to_numpy(float)
+        lat, lon, _ = to_geodetic(cfg.origin, frame["x"].to_numpy(float), frame["y"].to_numpy(float), z)
+        frame["lat"], frame["lon"] = np.atleast_1d(lat), np.atleast_1d(lon)
+    else:
+        frame["lat"], frame["lon"] = [], []
+    frame = frame.drop(columns=["z"])
+    return frame.sort_values(["time", "uav"], kind="stable", ignore_index=True)
+
+
+def _photos_from_results(spec, df) -> list[dict]:
+    """Photos from the recorded photo_count increments and last_photo_* outputs (record resolution)."""
+    v = spec.vars
+    q = v.get("photoCount")
+    if q not in df.columns:
+        return []
+    pc = df[q].to_numpy(float)
+    out = []
+    prev = 0.0
+    for i in range(len(pc)):
+        if pc[i] > prev:
+            row = df.iloc[i]
+            out.append({"target": int(row[v["lastPhotoTarget"]]) if v.get("lastPhotoTarget") in df.columns else -1,
+                        "time": float(row[v["lastPhotoTime"]]) if v.get("lastPhotoTime") in df.columns
+                        else float(row["time"]),
+                        "x": float(row[v["lastPhotoX"]]) if v.get("lastPhotoX") in df.columns else float(row[v["x"]]),
+                        "y": float(row[v["lastPhotoY"]]) if v.get("lastPhotoY") in df.columns else float(row[v["y"]]),
+                        "z": float(row[v["z"]]) if v.get("z") in df.columns else math.nan})
+            if pc[i] - prev > 1:
+                out[-1]["missed_before"] = int(pc[i] - prev - 1)
+        prev = pc[i]
+    return out
+
+
+SUMMARY_COLUMNS = ["uav", "outcome", "success", "targets_assigned", "targets_visited", "photos", "distance_m",
+                   "distance_xy_m", "flight_time_s", "energy_used_Wh", "remaining_battery_pct", "consumed_pct",
+                   "final_x", "final_y", "final_z", "distance_to_home_m", "removed_time", "removed_by"]
+
+
+def summary_frame(uavs: list[dict], total: dict):
+    import pandas as pd
+    rows = [{c: u.get(c) for c in SUMMARY_COLUMNS} for u in uavs]
+    rows.append({"uav": "total", "outcome": "success" if total["mission_success"] else "failure",
+                 "success": total["successes"],
+                 "targets_assigned": sum(u["targets_assigned"] or 0 for u in uavs),
+                 "targets_visited": total["targets_visited"], "photos": total["photos"],
+                 "distance_m": total["distance_m"], "distance_xy_m": total["distance_xy_m"],
+                 "flight_time_s": total["flight_time_s"], "energy_used_Wh": total["energy_used_Wh"],
+                 "remaining_battery_pct": total["remaining_battery_pct_mean"]})
+    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+
+
+# ------------------------------------------------------------------------------- map
+def _nice(length: float) -> float:
+    if not length > 0:
+        return 1.0
+    e = 10 ** math.floor(math.log10(length))
+    for m in (5, 2, 1):
+        if m * e <= length:
+            return m * e
+    return e
+
+
+def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Polygon
+
+    cfg = mon.cfg
+    fig = Figure(figsize=(9.5, 9.0), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    handles = []
+    for z in cfg.zones:
+        ax.add_patch(Polygon(z["polygon"], closed=True, facecolor="tab:blue", alpha=0.35, edgecolor="navy", lw=1.2))
+        c = np.asarray(z["polygon"]).mean(axis=0)
+        ax.annotate(z["name"], c, fontsize=7, color="navy", ha="center", va="center")
+    if cfg.zones:
+        handles.append(Polygon([[0, 0]], facecolor="tab:blue", alpha=0.35, edgecolor="navy", label="restricted zone"))
+    visited = {t for u in uavs for t in u["visited_targets"]}
+    tg = np.asarray(cfg.targets).reshape(-1, 2)
+    if len(tg):
+        vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
+        if vis.any():
+            ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
+        if (~vis).any():
+            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
+                       marker="o", zorder=4)
+            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
+        for k, (x, y) in enumerate(tg):
+            ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray")
+        handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
+                              label=f"target visited ({int(vis.sum())})"))
+        handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
+                              label=f"target not visited ({int((~vis).sum())})"))
+    ax.scatter([0.0], [0.0], s=160, marker="s", c="black", zorder=5)
+    handles.append(Line2D([], [], ls="", marker="s", ms=9, color="black", label="base"))
+    colors = [f"C{k % 10}" for k in range(len(cfg.uavs))]
+    tt = np.asarray(mon.track_t)
+    P = np.stack(mon.track_p) if mon.track_p else None
+    for k, (spec, rec, u) in enumerate(zip(cfg.uavs, mon.records, uavs)):
+        col = colors[k]
+        if P is not None:
+            xy = P[:, k, :2]
+            if rec.removed_time is not None:
+                xy = xy[tt <= rec.removed_time + 1e-9]
+            if len(xy) > 6000:
+                xy = xy[:: int(math.ceil(len(xy) / 6000))]
+            ax.plot(xy[:, 0], xy[:, 1], color=col, lw=1.3, alpha=0.9, zorder=3)
+        elif traj is not None and len(traj):
+            sub = traj[traj["uav"] == spec.name]
+            ax.plot(sub["x"], sub["y"], color=col, lw=1.3, alpha=0.9, zorder=3)
+        ax.scatter([spec.home[0]], [spec.home[1]], s=25, marker="o", color=col, edgecolors="black", zorder=5)
+        handles.append(Line2D([], [], color=col, lw=2, label=f"{spec.name}: {u['outcome']}"))
+    # markers: collisions and landings
+    kinds = set()
+    for k, (rec, u) in enumerate(zip(mon.records, uavs)):
+        if rec.removed_pos is not None:
+            x, y = rec.removed_pos[:2]
+            if rec.removed_reason == "uav_collision":
+                ax.scatter([x], [y], s=260, marker="*", c="red", edgecolors="black", zorder=7)
+                kinds.add("uav")
+            else:
+                ax.scatter([x], [y], s=160, marker="X", c="darkred", edgecolors="white", zorder=7)
+                kinds.add("zone")
+        elif u["final_phase"] == 4 and rec.took_off:
+            x, y = u["final_x"], u["final_y"]
+            if u["outcome"] == "forced_landing":
+                ax.scatter([x], [y], s=120, marker="v", c="orange", edgecolors="black", zorder=6)
+                kinds.add("forced")
+            else:
+                ax.scatter([x], [y], s=90, marker="^", c="limegreen", edgecolors="black", zorder=6)
+                kinds.add("landed")
+    if "uav" in kinds:
+        handles.append(Line2D([], [], ls="", marker="*", ms=14, mfc="red", mec="black", label="UAV-UAV collision"))
+    if "zone" in kinds:
+        handles.append(Line2D([], [], ls="", marker="X", ms=11, mfc="darkred", mec="white", label="zone collision"))
+    if "landed" in kinds:
+        handles.append(Line2D([], [], ls="", marker="^", ms=9, mfc="limegreen", mec="black", label="landed at base"))
+    if "forced" in kinds:
+        handles.append(Line2D([], [], ls="", marker="v", ms=10, mfc="orange", mec="black", label="forced landing"))
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.margins(0.06)
+    ax.autoscale_view()
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.grid(True, alpha=0.25)
+    # scale bar (lower right, framed, so it never hides the base)
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    L = _nice(max(x1 - x0, y1 - y0) / 6.0)
+    ax.add_artist(AnchoredSizeBar(ax.transData, L, f"{L:g} m" if L < 1000 else f"{L / 1000:g} km",
+                                  "lower right", pad=0.5, borderpad=0.6, sep=4, frameon=True, size_vertical=0,
+                                  fontproperties=FontProperties(size=9)))
+    lat0, lon0, _ = cfg.origin
+    ax.text(0.0, -0.08, f"local east-north-up metres about the base {lat0:.6f}, {lon0:.6f} (WGS84)",
+            transform=ax.transAxes, ha="left", va="top", fontsize=7, color="dimgray")
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    title = (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {len(cfg.uavs)} UAV"
+             f"{'s' if len(cfg.uavs) != 1 else ''}\nrun {total['run_outcome']} at t={_f(total['end_time']):.1f} s: "
+             f"{total['successes']}/{total['uavs']} successful, {total['targets_visited']}/{total['targets_total']} "
+             f"targets, {total['uav_collisions']} UAV + {total['zone_collisions']} zone collisions")
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path)
+    return path
+
+
+# ------------------------------------------------------------------------------- entry point
+def write_outputs(out_dir, mon, run_outcome: str) -> dict:
+    """Write the mission outputs into out_dir (None: nothing written) and return the run.json summary."""
+    errors = []
+    uavs = uav_summaries(mon, run_outcome)
+    total = total_summary(mon, uavs, run_outcome)
+    result = {"total": total, "uavs": {u["uav"]: u["outcome"] for u in uavs}}
+    if out_dir is None or not Path(out_dir).is_dir():
+        return _clean(result)
+    out_dir = Path(out_dir)
+    df = _read_results(out_dir)
+    traj = None
+    try:
+        traj = trajectory_frame(mon, df)
+        traj.to_csv(out_dir / "trajectory.csv", index=False)
+    except Exception as exc:   # noqa: BLE001 - one failed output must not stop the others
+        errors.append(f"trajectory.csv: {type(exc).__name__}: {exc}")
+    try:
+        photos_frame(mon, df).to_csv(out_dir / "photos.csv", index=False)
+    except Exception as exc:   # noqa: BLE001
+        errors.append(f"photos.csv: {type(exc).__name__}: {exc}")
+    try:
+        summary_frame(uavs, total).to_csv(out_dir / "summary.csv", index=False)
+    except Exception as exc:   # noqa: BLE001
+        errors.append(f"summary.csv: {type(exc).__name__}: {exc}")
+    try:
+        draw_map(mon, uavs, total, out_dir / "map.png", traj)
+    except Exception as exc:   # noqa: BLE001
+        errors.append(f"map.png: {type(exc).__name__}: {exc}")
+    if errors:
+        result["output_errors"] = errors
+    try:
+        doc = {"total": total, "uavs": uavs, "zones": [z["name"] for z in mon.cfg.zones]}
+        if errors:
+            doc["output_errors"] = errors
+        tmp = out_dir / "summary.json.tmp"
+        tmp.write_text(json.dumps(_clean(doc), indent=2))
+        tmp.replace(out_dir / "summary.json")
+    except Exception as exc:   # noqa: BLE001
+        result.setdefault("output_errors", []).append(f"summary.json: {type(exc).__name__}: {exc}")
+    return _clean(result)

@@ -1,0 +1,60 @@
+"""Build the shipped SSP archives of the paper study from ssp/scenarios/*.yaml.
+
+    python ssp/build_all.py [--all] [--fmus DIR] [--out DIR]
+
+Writes ``paper_{free,zones}_{N}uav_{A,B}.ssp``: area ``free`` = ssp/scenarios/paper_area.yaml (no
+restricted zones), ``zones`` = paper_area_zones.yaml (4 restricted zones), N = 1..4 UAVs, strategy A or
+B; everything else (24 targets, base, wind, seed, step, stop time) as in the YAML file.  Each archive
+holds the four UAV FMUs once (~0.73 MB each, shared by all instances), i.e. ~3 MB per archive.
+
+By default only the representative set (N = 1 and 4, 8 archives, ~24 MB) is written, since all 16
+(~47 MB) are too big to commit; ``--all`` writes the 16.  Any other variant is one command away::
+
+    cosim-master build-scenario ssp/scenarios/paper_area_zones.yaml -o my.ssp   # after editing a copy
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+AREAS = {"free": HERE / "scenarios" / "paper_area.yaml", "zones": HERE / "scenarios" / "paper_area_zones.yaml"}
+REPRESENTATIVE_UAVS = (1, 4)
+
+
+def variants(all_counts: bool):
+    counts = (1, 2, 3, 4) if all_counts else REPRESENTATIVE_UAVS
+    for area in AREAS:
+        for n in counts:
+            for strategy in ("A", "B"):
+                yield area, n, strategy
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--all", action="store_true", help="all 16 archives (1..4 UAVs) instead of 1 and 4 UAVs")
+    ap.add_argument("--fmus", default=None, help="folder with the UAV FMUs (default: the repository's fmus/)")
+    ap.add_argument("--out", default=str(HERE), help="output folder (default: ssp/)")
+    args = ap.parse_args(argv)
+
+    from master.uav.build import build_ssp
+    from master.uav_scenario import load_scenario_yaml
+
+    out = Path(args.out)
+    total = 0
+    for area, n, strategy in variants(args.all):
+        base = load_scenario_yaml(AREAS[area])
+        name = f"paper_{area}_{n}uav_{strategy}"
+        scn = dataclasses.replace(base, name=name, n_uavs=n, strategy=strategy)
+        path = build_ssp(scn, out / f"{name}.ssp", args.fmus)
+        size = path.stat().st_size
+        total += size
+        print(f"{path}  {size / 1e6:.2f} MB")
+    print(f"total {total / 1e6:.1f} MB")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
