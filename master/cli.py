@@ -40,6 +40,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, help="given to every component parameter named 'seed'")
     r.add_argument("--log-level", choices=["debug", "info", "warning", "error", "none"], default="warning")
     r.add_argument("--no-csv", action="store_true", help="write Parquet only")
+    r.add_argument("--no-inprocess", action="store_true",
+                   help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
@@ -87,7 +89,8 @@ def _dispatch(args) -> int:
         result = run(args.scenario, stop_time=args.stop_time, start_time=args.start_time, step=args.step,
                      algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
                      record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
-                     seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv)
+                     seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
+                     inprocess=not args.no_inprocess)
         m = result.metadata
         print(f"{m['outcome']}: {m['steps']} steps of {m['step_size']:g} s ({m['algorithm']}), "
               f"{m.get('rows_recorded', 0)} rows in {result.output_dir}, wall {m['wall_time_s']:.2f} s")

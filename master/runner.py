@@ -116,7 +116,7 @@ def _seed_params(plan_vars, seed) -> dict:
 def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None, output="results",
         params: dict | None = None, record: list[str] | None = None, record_interval=None,
         log_level: str = "warning", seed: int | None = None, step_multiples: dict | None = None,
-        inprocess: bool = False, progress: bool = False, raise_on_error: bool = True,
+        inprocess: bool = True, progress: bool = False, raise_on_error: bool = True,
         write_csv: bool = True) -> Result:
     """Run a scenario (.ssp archive, unpacked SSP folder or .ssd file) and return its recorded results.
 
@@ -190,7 +190,7 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         init_order = gauss_seidel_order(plan, rt.names).order
         loop_desc = "; ".join(" -> ".join(lp) for lp in loops) or "(none declared)"
         rt.initialize(st.start, init_order, bool(loops), loop_desc)
-        meta["algorithm_info"] = alg.prepare(rt, plan)
+        meta["algorithm_info"] = alg.prepare(rt, plan, st.step)
         ctx = MonitorContext(rt, events)
         for m in monitors:
             m.attach(ctx, st.start)
@@ -248,7 +248,7 @@ def _loop(alg, rt, recorder, monitors, st, meta, progress):
     try:
         for n in range(steps):
             t = start + n * h          # integer step counting: no drift from accumulated additions
-            step(n, t, h)
+            step(n, t)
             t1 = start + (n + 1) * h
             meta["last_time"] = t1
             for m in monitors:

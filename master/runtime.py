@@ -8,6 +8,8 @@ a unit conversion or linear transformation applies) and one FMI setter call per 
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .errors import CosimError, FmuError
@@ -46,6 +48,7 @@ class Runtime:
         n = len(self.names)
         self.multiple = [int((step_multiples or {}).get(name, 1)) for name in self.names]
         self.active = [True] * n
+        self.changed = False          # set when a component is taken out; algorithms rebuild their step
         self.slaves = [None] * n
         self._logging_on = logging_on
         self._inprocess = inprocess
@@ -142,13 +145,34 @@ class Runtime:
                     if b <= a:
                         continue
                     links = (self._writes if kind == "step" else self._init_writes)[i][t]
-                    view = self.inb[t][a:b]
-                    ports[i].append((t, slave.make_port(t, [ln.dst.vr for ln in links], view)))
+                    vrs = [ln.dst.vr for ln in links]
+                    src = self.src[t][a:b]
                     f, o = self.factor[t][a:b], self.offset[t][a:b]
                     affine = t == "Real" and (np.any(f != 1.0) or np.any(o != 0.0))
                     maps = [(k, ln.mapping) for k, ln in enumerate(links) if ln.mapping]
-                    xfer[i].append((t, self.out[t], self.src[t][a:b], view, f if affine else None, o, maps))
+                    if not affine and not maps and np.all(np.diff(src) == 1):
+                        # the inputs are a contiguous run of outputs: the setter reads the output buffer itself
+                        view = self.out[t][src[0]:src[0] + len(src)]
+                        ports[i].append((t, slave.make_port(t, vrs, view)))
+                        continue
+                    view = self.inb[t][a:b]
+                    ports[i].append((t, slave.make_port(t, vrs, view)))
+                    xfer[i].append((t, self.out[t], src, view, f if affine else None, o, maps))
             self.staging[i] = staged or None
+
+    def fast_ops(self, i: int):
+        """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None)."""
+        slave = self.slaves[i]
+        transfers = [functools.partial(self._transfer, [entry]) for entry in self.xfer[i]]
+        setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]]
+        getters = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
+        publish = functools.partial(self.publish, i) if self.staging[i] else None
+        return transfers, setters, slave.bound_step(), getters, publish
+
+    def deactivate(self, i: int):
+        if self.active[i]:
+            self.active[i] = False
+            self.changed = True
 
     def apply_start_values(self, start: float):
         for v, value, origin in self.plan.params:

@@ -1,31 +1,36 @@
 """The algorithm interface: how one master step from t to t+h is carried out.
 
-An algorithm sees only the Runtime's primitives (transfer, set_inputs, do_step, get_outputs, publish)
-and the active/multi-rate bookkeeping; parsing, initialization and recording never depend on it.
-A new algorithm subclasses Algorithm and registers itself in ``algorithms/__init__.py``.
+An algorithm sees only the Runtime (slaves, buffers, transfer and bound FMI operations, active and
+multi-rate bookkeeping); parsing, initialization and recording never depend on it. A new algorithm
+subclasses Algorithm, implements ``prepare`` (and ``step`` if it is not a fixed sequence of calls that
+``compiled.compile_step`` can express), and registers itself in ``algorithms/__init__.py``.
 """
 from __future__ import annotations
 
 
 class Algorithm:
     name = "base"
+    gauss_seidel = False
 
-    def prepare(self, rt, plan) -> dict:
+    def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
         self.rt = rt
-        self.order = list(range(len(rt.slaves)))
-        return {}
+        self.h = h
+        self.order = self.stepping_order(rt, plan)
+        self._build()
+        return self.info
 
-    def due(self, i: int, n: int) -> bool:
-        """A component with step multiple k steps at master steps n = 0, k, 2k, ..."""
-        return n % self.rt.multiple[i] == 0
+    info: dict = {}
 
-    def step(self, n: int, t: float, h: float) -> None:
-        raise NotImplementedError
+    def stepping_order(self, rt, plan) -> list[int]:
+        return list(range(len(rt.slaves)))
 
-    def _finish(self, i: int, n: int) -> None:
-        """Publish a multi-rate component's outputs once the master reaches the end of its macro step."""
-        rt = self.rt
-        k = rt.multiple[i]
-        if k > 1 and (n + 1) % k == 0:
-            rt.publish(i)
+    def _build(self):
+        from .compiled import compile_step
+        self._step = compile_step(self.rt, self.order, self.h, self.gauss_seidel)
+        self.rt.changed = False
+
+    def step(self, n: int, t: float) -> None:
+        if self.rt.changed:      # a monitor took a component out: step the others only
+            self._build()
+        self._step(n, t)

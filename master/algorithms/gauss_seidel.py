@@ -8,23 +8,10 @@ from .ordering import gauss_seidel_order
 
 class GaussSeidel(Algorithm):
     name = "gauss-seidel"
+    gauss_seidel = True
 
-    def prepare(self, rt, plan):
-        super().prepare(rt, plan)
+    def stepping_order(self, rt, plan):
         so = gauss_seidel_order(plan, rt.names)
-        self.order = so.order
-        return {"order": [rt.names[i] for i in so.order],
-                "loops_broken_at": [f"{a} -> {b}" for a, b in so.broken]}
-
-    def step(self, n, t, h):
-        rt = self.rt
-        active, mult = rt.active, rt.multiple
-        for i in self.order:
-            if active[i] and n % mult[i] == 0:
-                rt.transfer(i)
-                rt.set_inputs(i, t)
-                rt.do_step(i, t, h * mult[i])
-                rt.get_outputs(i, t + h * mult[i])
-        for i in self.order:
-            if mult[i] > 1 and active[i]:
-                self._finish(i, n)
+        self.info = {"order": [rt.names[i] for i in so.order],
+                     "loops_broken_at": [f"{a} -> {b}" for a, b in so.broken]}
+        return so.order

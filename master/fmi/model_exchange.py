@@ -68,6 +68,9 @@ class Fmi2MeSlave(Fmi2Slave):
                                   input=_NoInput, startTime=t, relativeTolerance=self.rtol)
         self.time = t
 
+    def bound_step(self):
+        return self.do_step
+
     def do_step(self, t, h) -> int:
         m = self.fmu2
         t_end = t + h

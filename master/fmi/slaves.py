@@ -8,6 +8,7 @@ can attach the component and simulation time to the message.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_uint, c_void_p
 
@@ -92,6 +93,17 @@ class Slave:
     def check(self, call: str, status: int, time: float | None = None) -> None:
         if status > WARNING:
             raise self.fail(call, status, time)
+
+    # fast-path operations: bound once after instantiation, then called every step without arguments
+    # (getters/setters) or with (t, h) (step); each returns the FMI status
+    def bound_get(self, typ, port):
+        return functools.partial(self.get_port, typ, port)
+
+    def bound_set(self, typ, port):
+        return functools.partial(self.set_port, typ, port)
+
+    def bound_step(self):
+        return self.do_step
 
     def _logger_fn(self):
         sink, name = self.log, self.name
@@ -192,6 +204,23 @@ class Fmi2Slave(Slave):
 
     def do_step(self, t, h) -> int:
         return self._do_step(self.c, t, h, 1)
+
+    def bound_get(self, typ, port):
+        if typ == "String":
+            return super().bound_get(typ, port)
+        return functools.partial(self._get[typ], c_void_p(self.c), port.vr_ptr, port.n, port.buf_ptr)
+
+    def bound_set(self, typ, port):
+        if typ == "String":
+            return super().bound_set(typ, port)
+        return functools.partial(self._set[typ], c_void_p(self.c), port.vr_ptr, port.n, port.buf_ptr)
+
+    def bound_step(self):
+        f, c = self._do_step, c_void_p(self.c)
+
+        def step(t, h):
+            return f(c, t, h, 1)
+        return step
 
     def terminate(self):
         if self.initialized:

@@ -21,7 +21,7 @@ class MonitorContext:
     def deactivate(self, components: list[str]) -> None:
         """The components stop stepping; their outputs keep their last values."""
         for name in components:
-            self.rt.active[self.rt.index[name]] = False
+            self.rt.deactivate(self.rt.index[name])
 
     def emit(self, event: dict) -> None:
         self.events.append(event)

@@ -225,6 +225,12 @@ class UavMonitor(Monitor):
         self.track_t: list[float] = []
         self.track_p: list[np.ndarray] = []
         self.track_phase: list[np.ndarray] = []
+        n = len(self.cfg.uavs)
+        self._dist = np.zeros(n)          # per-UAV accumulators, copied into the records by sync()
+        self._dist_xy = np.zeros(n)
+        self._ftime = np.zeros(n)
+        self._took_off = np.zeros(n, dtype=bool)
+        self._removed = np.zeros(n, dtype=bool)
 
     def required_variables(self) -> list[str]:
         out, seen = [], set()
@@ -260,7 +266,8 @@ class UavMonitor(Monitor):
         if typ is None:
             return None
         v = np.take(self.ctx.buffer(typ), idx).astype(float)
-        v[~have] = np.nan
+        if not have.all():
+            v[~have] = np.nan
         return v
 
     def _positions(self) -> np.ndarray:
@@ -314,6 +321,7 @@ class UavMonitor(Monitor):
     def _remove(self, k, time, reason, by, pos):
         rec = self.records[k]
         rec.removed = True
+        self._removed[k] = True
         rec.removed_time = float(time)
         rec.removed_reason = reason
         rec.removed_by = by
@@ -326,12 +334,12 @@ class UavMonitor(Monitor):
         p0, ph0 = self.p0, self.ph0
         p1 = self._positions()
         ph1 = self._read("phase")
-        removed = np.array([r.removed for r in recs], dtype=bool)
+        removed = self._removed.copy()
         for k in np.flatnonzero(removed):       # a removed UAV stays where it was taken out
             p1[k] = recs[k].removed_pos
         alive = ~removed
-        air0 = np.isin(ph0, AIRBORNE_PHASES)
-        air1 = np.isin(ph1, AIRBORNE_PHASES)
+        air0 = (ph0 >= AIRBORNE_PHASES[0]) & (ph0 <= AIRBORNE_PHASES[-1])
+        air1 = (ph1 >= AIRBORNE_PHASES[0]) & (ph1 <= AIRBORNE_PHASES[-1])
         high = np.maximum(p0[:, 2], p1[:, 2]) > cfg.altitude_threshold
         checked = alive & (air0 | air1) & high
 
@@ -383,18 +391,18 @@ class UavMonitor(Monitor):
                 cut[a] = hit.fraction
                 self._remove(a, time, "zone_collision", hit.zone_name, hit.position)
 
-        # distance flown and airborne time of the UAVs flying this step
+        # distance flown and airborne time of the UAVs flying this step (up to their removal)
+        frac = alive.astype(float)
+        for k, f in cut.items():
+            frac[k] = f
         seg = p1 - p0
-        d3 = np.linalg.norm(seg, axis=1)
-        dxy = np.linalg.norm(seg[:, :2], axis=1)
-        for k in np.flatnonzero(alive):
-            f = cut.get(k, 1.0)
-            r = recs[k]
-            r.distance += f * d3[k]
-            r.distance_xy += f * dxy[k]
-            if air0[k] or air1[k]:
-                r.took_off = True
-                r.flight_time += f * dt
+        sq = seg * seg
+        dxy = np.sqrt(sq[:, 0] + sq[:, 1])
+        self._dist += frac * np.sqrt(sq[:, 0] + sq[:, 1] + sq[:, 2])
+        self._dist_xy += frac * dxy
+        flying = air0 | air1
+        self._ftime += frac * dt * flying
+        self._took_off |= alive & flying
         # removed UAVs: keep their position at removal in the track
         for k, f in cut.items():
             p1[k] = p0[k] + f * seg[k]
@@ -429,7 +437,16 @@ class UavMonitor(Monitor):
         self.records[k].photos.append(photo)
 
     # -- end of the run -------------------------------------------------------------------------
+    def sync(self) -> None:
+        """Copy the vector accumulators (distance, flight time) into the per-UAV records."""
+        for k, rec in enumerate(self.records):
+            rec.distance = float(self._dist[k])
+            rec.distance_xy = float(self._dist_xy[k])
+            rec.flight_time = float(self._ftime[k])
+            rec.took_off = bool(self._took_off[k])
+
     def finish(self, out_dir: Path | None, outcome: str) -> dict:
+        self.sync()
         if self.ctx is not None:
             try:
                 self._snapshot()

@@ -181,3 +181,46 @@ def test_record_interval_and_determinism(tmp_path, test_fmus):
     assert list(a.frame["time"]) == [0.0, 0.5, 1.0, 1.5, 2.0]
     assert a.frame.equals(b.frame)
     assert (tmp_path / "a" / "results.csv").read_bytes() == (tmp_path / "b" / "results.csv").read_bytes()
+
+
+@pytest.mark.parametrize("alg", ["jacobi", "gauss-seidel"])
+def test_pythonfmu_in_process_is_bit_identical_to_the_binary(tmp_path, test_fmus, alg):
+    ssp = _oscillator(tmp_path, {m: test_fmus[f"py:{m}"] for m in ("MassA", "MassB")}, 0.05)
+    a = master.run(ssp, output=None, algorithm=alg, record=["*"], inprocess=True).frame
+    b = master.run(ssp, output=None, algorithm=alg, record=["*"], inprocess=False).frame
+    assert a.equals(b)
+    t = tmp_path / "types"
+    bld = SspBuilder("types", stop=0.5, step=0.1)
+    bld.add_component("t1", test_fmus["py:Types"])
+    bld.add_component("t2", test_fmus["py:Types"])
+    for x in ("i", "b", "s", "r"):
+        bld.connect("t1", f"{x}_out", "t2", f"{x}_in")
+    ssp = bld.write(tmp_path / "types.ssp")
+    a = master.run(ssp, output=None, algorithm=alg, record=["*"], inprocess=True).frame
+    b = master.run(ssp, output=None, algorithm=alg, record=["*"], inprocess=False).frame
+    assert a.equals(b) and len(a) == 6
+
+
+def test_algebraic_loop_that_does_not_settle_is_reported(tmp_path, test_fmus):
+    # i_out = i_in + 1 on both sides of a loop has no fixed point
+    bld = SspBuilder("loop", stop=0.5, step=0.1)
+    bld.add_component("t1", test_fmus["py:Types"])
+    bld.add_component("t2", test_fmus["py:Types"])
+    bld.connect("t1", "i_out", "t2", "i_in")
+    bld.connect("t2", "i_out", "t1", "i_in")
+    with pytest.raises(master.CosimError) as e:
+        master.run(bld.write(tmp_path / "loop.ssp"), output=None)
+    assert "initialization did not settle after 100 iterations: algebraic loop" in str(e.value)
+    assert "t1.i_out -> t2.i_in -> t2.i_out -> t1.i_in" in str(e.value)
+
+
+def test_algebraic_loop_that_settles_is_run_and_reported(tmp_path, test_fmus):
+    # y1 = 0.5 y2 and y2 = 0.5 y1 + (nothing else): the only fixed point is 0, reached geometrically
+    bld = SspBuilder("loop", stop=0.2, step=0.1)
+    bld.add_component("g1", test_fmus["c2:Gain"], params={"k": 0.5})
+    bld.add_component("g2", test_fmus["c2:Gain"], params={"k": 0.5})
+    bld.connect("g1", "y", "g2", "u")
+    bld.connect("g2", "y", "g1", "u")
+    r = master.run(bld.write(tmp_path / "loop.ssp"), output=None, params={"g1.u": "1.0"})
+    assert r.metadata["algebraic_loops"] == [["g1.y", "g2.u", "g2.y", "g1.u"]]
+    assert abs(r.frame["g1.y"].iloc[0]) < 1e-11

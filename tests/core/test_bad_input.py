@@ -151,14 +151,17 @@ def test_fmu_archive_that_is_not_a_zip(tmp_path, test_fmus):
         master.run(folder, output=None)
 
 
-@pytest.mark.parametrize("kind,mode,status", [("c2", 1, "Error"), ("c2", 2, "Discard"), ("py", 1, "Discard")])
-def test_fmu_failing_a_step_keeps_results(tmp_path, test_fmus, kind, mode, status):
-    # pythonfmu 0.7 reports a do_step that returns False as fmi2Discard
+@pytest.mark.parametrize("kind,mode,status,inprocess", [
+    ("c2", 1, "Error", True), ("c2", 2, "Discard", True),
+    # pythonfmu reports a do_step returning False as Discard and a Python exception as Fatal, in its binary
+    # and (mirrored) in process
+    ("py", 1, "Fatal", True), ("py", 1, "Fatal", False), ("py", 2, "Discard", True), ("py", 2, "Discard", False)])
+def test_fmu_failing_a_step_keeps_results(tmp_path, test_fmus, kind, mode, status, inprocess):
     folder = write_folder(tmp_path / "s", _faulty_ssd(mode), {"Faulty.fmu": test_fmus[f"{kind}:Faulty"],
                                                                "Gain.fmu": test_fmus["c2:Gain"]})
     out = tmp_path / "out"
     with pytest.raises(FmuError) as e:
-        master.run(folder, output=out)
+        master.run(folder, output=out, inprocess=inprocess)
     msg = str(e.value)
     # the step from t=0.5 to 0.6 is the first to end after fail_time = 0.5
     assert "component f" in msg and "t=0.5" in msg and f"doStep returned {status}" in msg

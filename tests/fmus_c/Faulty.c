@@ -3,7 +3,8 @@
  * fail_time (t + h > fail_time + 1e-9) misbehaves according to `mode`:
  *   0 -> never fails
  *   1 -> logs an error and returns Error
- *   2 -> logs a warning and returns Discard (time is not advanced)
+ *   2 -> logs a message and returns Discard (time is not advanced;
+ *        fmi2GetBooleanStatus(fmi2Terminated) then returns true)
  *   3 -> logs a fatal message and crashes the process with abort()
  */
 #include <stdlib.h>

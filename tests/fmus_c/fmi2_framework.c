@@ -37,6 +37,7 @@ typedef struct {
     double startTime;
     double stopTime;
     int stopTimeDefined;
+    int terminated; /* set when doStep returned fmi2Discard: the slave wants to stop */
 } Instance;
 
 static const char *status_category(int status)
@@ -237,6 +238,7 @@ fmi2Status fmi2Reset(fmi2Component c)
     Instance *inst = (Instance *)c;
     if (inst == NULL) return fmi2Error;
     load_start_values(inst);
+    inst->terminated = 0;
     inst->state = ST_INSTANTIATED;
     return fmi2OK;
 }
@@ -637,6 +639,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         inst->d.time = currentCommunicationPoint + communicationStepSize;
         inst->d.step_count++;
         model_calc(&inst->d);
+    } else if (st == M_DISCARD) {
+        /* the step was not performed (time stays at the last successful
+         * communication point) and the slave asks to terminate */
+        inst->terminated = 1;
     } else if (st == M_ERROR) {
         inst->state = ST_ERROR;
     } else if (st >= M_FATAL) {
@@ -686,7 +692,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     Instance *inst = (Instance *)c;
     if (check(inst, "fmi2GetBooleanStatus", ANY_STATE) != fmi2OK) return fmi2Error;
     if (s == fmi2Terminated) {
-        *value = fmi2False;
+        *value = inst->terminated ? fmi2True : fmi2False;
         return fmi2OK;
     }
     return fmi2Discard;

@@ -3,10 +3,10 @@
 Output y = time.  The first doStep whose end time exceeds fail_time
 (t + h > fail_time + 1e-9) misbehaves according to the Integer parameter mode:
   0 -> never fails
-  1 -> logs an error and returns False (pythonfmu reports fmi2Error)
-  2 -> logs a "discard" message; pythonfmu 0.7 cannot return fmi2Discard from
-       do_step (it maps the bool to OK/Error), so this also ends in fmi2Error
-       -- use the C Faulty FMU to test discard handling
+  1 -> logs an error and raises RuntimeError (pythonfmu turns the exception
+       into an error status of fmi2DoStep)
+  2 -> logs a discard message and returns False, which pythonfmu 0.7 reports
+       as fmi2Discard with fmi2GetBooleanStatus(fmi2Terminated) = true
   3 -> logs a fatal message and kills the process with os.abort()
 """
 import os
@@ -43,7 +43,7 @@ class Faulty(Fmi2Slave):
             if self.mode == 1:
                 self.log(f"Faulty: injected error in doStep(t={current_time}, h={step_size}), "
                          f"fail_time={self.fail_time}", Fmi2Status.error)
-                return False
+                raise RuntimeError(f"Faulty: injected error at t={current_time}")
             if self.mode == 2:
                 self.log(f"Faulty: injected discard in doStep(t={current_time}, h={step_size}), "
                          f"fail_time={self.fail_time}", Fmi2Status.discard)

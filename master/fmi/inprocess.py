@@ -1,0 +1,210 @@
+"""pythonfmu FMUs run in process: the master loads the FMU's own slave class from its resources and calls
+it directly, which is what the FMU's binary does through an extra foreign-call layer (C++ wrapper, GIL
+hand-over, list building per call).
+
+The calls mirror pythonfmu's wrapper so that results are bit-identical to the binary path: the resources
+folder goes first on sys.path, the module named in resources/slavemodule.txt is imported, its Fmi2Slave
+subclass is constructed with instance_name/resources/visible, setup_experiment receives (start, stop or None,
+tolerance or None), do_step returning False is reported as Discard, an exception as Fatal (the wrapper turns
+Python exceptions into a fatal error) with the exception's text,
+and log messages queued by the slave are forwarded after every call.
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+import traceback
+
+from ..errors import FmuError
+from .logsink import STATUS_LEVEL
+from .slaves import DISCARD, ERROR, FATAL, OK, Port, Slave
+
+_CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
+
+
+def is_pythonfmu(fmu) -> bool:
+    return (fmu.md.coSimulation is not None and (fmu.unzip_dir / "resources" / "slavemodule.txt").is_file()
+            and (fmu.md.generationTool or "").lower().startswith("pythonfmu"))
+
+
+def try_inprocess(name, fmu, log, shown_as, logging_on):
+    return PythonFmuSlave(name, fmu, log, shown_as) if is_pythonfmu(fmu) else None
+
+
+def _slave_class(module, model_identifier):
+    from pythonfmu import Fmi2Slave
+    candidates = [obj for obj in vars(module).values()
+                  if isinstance(obj, type) and issubclass(obj, Fmi2Slave) and obj is not Fmi2Slave
+                  and obj.__module__ == module.__name__]
+    for c in candidates:
+        if c.__name__ == model_identifier:
+            return c
+    return candidates[0] if len(candidates) == 1 else None
+
+
+class PythonFmuSlave(Slave):
+    kind = "CoSimulation (in process)"
+
+    def __init__(self, name, fmu, log, shown_as):
+        super().__init__(name, fmu, log, shown_as)
+        resources = fmu.unzip_dir / "resources"
+        self.resources = str(resources)
+        module_name = (resources / "slavemodule.txt").read_text().splitlines()[0].strip()
+        if self.resources not in sys.path:
+            sys.path.insert(0, self.resources)
+        try:
+            import pythonfmu  # noqa: F401  (the installed package, before any bundled copy could shadow it)
+            module = importlib.import_module(module_name)
+        except Exception as exc:
+            raise FmuError(f"cannot import the FMU's Python module {module_name!r}: {exc}", file=shown_as,
+                           element=f"component {name}") from None
+        cls = _slave_class(module, fmu.md.coSimulation.modelIdentifier)
+        if cls is None:
+            raise FmuError(f"no Fmi2Slave class found in {module_name}.py", file=shown_as, element=f"component {name}")
+        self.cls = cls
+        self.obj = None
+
+    # -- calls, each followed by forwarding the slave's log queue --------------------------------------------
+    def _drain(self):
+        q = self.obj.log_queue
+        if q:
+            for m in q:
+                status = int(getattr(m, "status", 0))
+                self.log.message(self.name, STATUS_LEVEL.get(status, "info"), str(getattr(m, "msg", m)))
+            q.clear()
+
+    def _call(self, what, fn, *args):
+        try:
+            result = fn(*args)
+        except Exception as exc:
+            self.log.message(self.name, "error", f"{what}: {type(exc).__name__}: {exc}")
+            self.log.message(self.name, "debug", traceback.format_exc())
+            return FATAL, None
+        if self.obj is not None and self.obj.log_queue:
+            self._drain()
+        return OK, result
+
+    def instantiate(self):
+        st, obj = self._construct()
+        if st != OK:
+            raise self.fail("instantiate (in process)", st)
+        self.obj = obj
+        self.instantiated = True
+
+    def _construct(self):
+        try:
+            return OK, self.cls(instance_name=self.name, resources=self.resources, visible=False)
+        except Exception as exc:
+            self.log.message(self.name, "error", f"constructor: {type(exc).__name__}: {exc}")
+            return ERROR, None
+
+    def setup(self, start, stop, tolerance=None):
+        st, _ = self._call("setup_experiment", self.obj.setup_experiment, start, stop, tolerance)
+        self.check("setup_experiment", st, start)
+
+    def enter_init(self, t):
+        st, _ = self._call("enter_initialization_mode", self.obj.enter_initialization_mode)
+        self.check("enter_initialization_mode", st, t)
+
+    def exit_init(self, t):
+        st, _ = self._call("exit_initialization_mode", self.obj.exit_initialization_mode)
+        self.check("exit_initialization_mode", st, t)
+        self.initialized = True
+
+    def set_value(self, typ, vr, value):
+        fn = getattr(self.obj, f"set_{typ.lower()}")
+        st, _ = self._call(f"set_{typ.lower()}", fn, [vr], [_CONVERT[typ](value)])
+        return st
+
+    def make_port(self, typ, vrs, buf):
+        port = Port(vrs, buf, None)
+        port.extra = [int(v) for v in port.vrs]
+        return port
+
+    def get_port(self, typ, port) -> int:
+        st, values = self._call(f"get_{typ.lower()}", getattr(self.obj, f"get_{typ.lower()}"), port.extra)
+        if st == OK:
+            port.buf[:] = values
+        return st
+
+    def set_port(self, typ, port) -> int:
+        conv = _CONVERT[typ]
+        st, _ = self._call(f"set_{typ.lower()}", getattr(self.obj, f"set_{typ.lower()}"), port.extra,
+                           [conv(v) for v in port.buf])
+        return st
+
+    def do_step(self, t, h) -> int:
+        st, ok = self._call("do_step", self.obj.do_step, t, h)
+        if st != OK:
+            return st
+        return OK if ok else DISCARD
+
+    # -- fast-path operations: bound once, called every step ------------------------------------------------
+    def bound_get(self, typ, port):
+        obj, getter, buf, vrs = self.obj, getattr(self.obj, f"get_{typ.lower()}"), port.buf, port.extra
+        if typ == "Real" and port.n == 1:
+            var = obj.vars[vrs[0]]
+            g = var.getter
+
+            def op():
+                try:
+                    buf[0] = float(g())
+                except Exception:
+                    return self.get_port(typ, port)   # same call again, through the reporting path
+                if obj.log_queue:
+                    self._drain()
+                return OK
+            return op
+        return lambda: self.get_port(typ, port)
+
+    def bound_set(self, typ, port):
+        if typ == "Real" and port.n == 1:
+            obj = self.obj
+            setter = obj.vars[port.extra[0]].setter
+            buf = port.buf
+            if setter is None:
+                return lambda: self.set_port(typ, port)
+
+            def op():
+                try:
+                    setter(float(buf[0]))
+                except Exception:
+                    return self.set_port(typ, port)
+                if obj.log_queue:
+                    self._drain()
+                return OK
+            return op
+        return lambda: self.set_port(typ, port)
+
+    def bound_step(self):
+        obj = self.obj
+        do_step = obj.do_step
+
+        def op(t, h):
+            try:
+                ok = do_step(t, h)
+            except Exception:
+                return self._step_error(t, h)
+            if obj.log_queue:
+                self._drain()
+            return OK if ok else DISCARD
+        return op
+
+    def _step_error(self, t, h):
+        exc = sys.exc_info()[1]
+        self.log.message(self.name, "error", f"do_step: {type(exc).__name__}: {exc}")
+        if self.obj.log_queue:
+            self._drain()
+        return FATAL
+
+    def terminate(self):
+        if self.initialized:
+            self.initialized = False
+            st, _ = self._call("terminate", self.obj.terminate)
+            return st
+        return OK
+
+    def free(self):
+        if self.instantiated:
+            self.instantiated = False
+            self.obj = None

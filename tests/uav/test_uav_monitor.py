@@ -1,0 +1,264 @@
+"""Unit tests of the UAV monitor plugin (master.monitors.uav) with a fake master context."""
+import json
+import math
+
+import numpy as np
+import pytest
+from lxml import etree
+
+from master.errors import ScenarioError
+from master.monitors import MONITORS, _load_builtin
+from master.monitors.uav import MONITOR_TYPE, UavMonitor, parse_config
+
+SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
+UAV = "https://cosim-master.org/ssp/uav"
+ROLES = {"x": "x", "y": "y", "z": "z", "phase": "phase", "missionState": "mission_state", "consumed": "consumed",
+         "soc": "soc", "photoCount": "photo_count", "lastPhotoTarget": "last_photo_target",
+         "lastPhotoTime": "last_photo_time", "lastPhotoX": "last_photo_x", "lastPhotoY": "last_photo_y",
+         "targetsAssigned": "targets_assigned", "targetsVisited": "targets_visited"}
+INTEGER = {"phase", "mission_state", "photo_count", "last_photo_target", "targets_assigned", "targets_visited"}
+
+
+def annotation(names, zones=(), targets=(), impact=2.6, homes=None):
+    uavs = []
+    for k, n in enumerate(names):
+        hx, hy = homes[k] if homes else (0.0, 0.0)
+        attrs = " ".join(f'{role}="{n}.{var}"' for role, var in ROLES.items())
+        uavs.append(f'<uav:Uav name="{n}" index="{k}" components="{n}_dyn {n}_strat" homeX="{hx}" homeY="{hy}" '
+                    f'{attrs}/>')
+    zs = "".join(f'<uav:Zone name="{name}">{" ".join(f"{x},{y}" for x, y in poly)}</uav:Zone>'
+                 for name, poly in zones)
+    ts = f'<uav:Targets>{" ".join(f"{x},{y}" for x, y in targets)}</uav:Targets>' if targets else ""
+    xml = (f'<ssc:Annotation xmlns:ssc="{SSC}" type="{MONITOR_TYPE}"><uav:UavMonitor xmlns:uav="{UAV}" '
+           f'impactDiameter="{impact}" originLatitude="45.0" originLongitude="7.0" originAltitude="250.0" '
+           f'scenario="unit" strategy="B">{"".join(uavs)}{ts}{zs}</uav:UavMonitor></ssc:Annotation>')
+    return etree.fromstring(xml)
+
+
+class FakeCtx:
+    """The part of MonitorContext the monitor uses, over two numpy buffers."""
+
+    def __init__(self, names):
+        self.pos = {}
+        nr = ni = 0
+        for n in names:
+            for var in ROLES.values():
+                if var in INTEGER:
+                    self.pos[f"{n}.{var}"] = ("Integer", ni)
+                    ni += 1
+                else:
+                    self.pos[f"{n}.{var}"] = ("Real", nr)
+                    nr += 1
+        self.buf = {"Real": np.zeros(nr), "Integer": np.zeros(ni, dtype=np.int32)}
+        self.deactivated = []
+        self.events = []
+
+    def position(self, q):
+        return self.pos[q]
+
+    def buffer(self, typ):
+        return self.buf[typ]
+
+    def deactivate(self, comps):
+        self.deactivated.extend(comps)
+
+    def emit(self, event):
+        self.events.append(event)
+
+    def set(self, uav, **values):
+        for var, v in values.items():
+            typ, k = self.pos[f"{uav}.{var}"]
+            self.buf[typ][k] = v
+
+
+def make(names, **kw):
+    mon = UavMonitor(annotation(names, **kw), None, "unit.ssp")
+    ctx = FakeCtx(names)
+    return mon, ctx
+
+
+def fly(mon, ctx, positions, phases=None, t_start=0.0, h=1.0, steps=10):
+    """positions(name, t) -> (x, y, z); every UAV in phase 2 (fly) unless phases(name, t) says otherwise."""
+    names = [u.name for u in mon.cfg.uavs]
+
+    def load(t):
+        for n in names:
+            x, y, z = positions(n, t)
+            ctx.set(n, x=x, y=y, z=z, phase=phases(n, t) if phases else 2)
+    load(t_start)
+    mon.attach(ctx, t_start)
+    for n in range(steps):
+        t0, t1 = t_start + n * h, t_start + (n + 1) * h
+        load(t1)
+        mon.after_step(n, t0, t1)
+
+
+def test_registered():
+    _load_builtin()
+    assert MONITORS[MONITOR_TYPE] is UavMonitor
+
+
+def test_crossing_uavs_removed_at_hand_computed_contact_time():
+    # a flies east along y=0, b north along x=0, both 10 m/s at 20 m; both reach the origin at t=5.
+    # distance sqrt(2)*|50 - 10 t| = 2.6  ->  t = 5 - 2.6 / (10 sqrt 2) = 4.81615... (inside the step [4, 5])
+    mon, ctx = make(["a", "b"])
+    pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t))
+    hits = [e for e in ctx.events if e["type"] == "uav"]
+    assert len(hits) == 1
+    e = hits[0]
+    assert e["time"] == pytest.approx(5 - 2.6 / (10 * math.sqrt(2)), abs=1e-9)
+    assert {e["uav"], e["other"]} == {"a", "b"}
+    assert e["event"] == "collision" and e["distance"] == pytest.approx(2.6)
+    assert e["z"] == pytest.approx(20.0)
+    assert math.isfinite(e["lat"]) and math.isfinite(e["lon"])
+    assert ctx.deactivated == ["a_dyn", "a_strat", "b_dyn", "b_strat"]
+    assert all(r.removed and r.removed_reason == "uav_collision" for r in mon.records)
+    assert mon.records[0].removed_by == "b" and mon.records[1].removed_by == "a"
+    # a removed UAV is not checked again, and its distance stops at the contact
+    assert mon.records[0].removed_time == pytest.approx(e["time"])
+    mon.sync()
+    assert mon.records[0].distance == pytest.approx(10 * e["time"], rel=1e-9)
+    summary = mon.finish(None, "completed")
+    assert summary["uavs"] == {"a": "uav_collision", "b": "uav_collision"}
+    assert summary["total"]["uav_collisions"] == 1
+
+
+def test_contact_point_position():
+    mon, ctx = make(["a", "b"])
+    pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t))
+    e = next(e for e in ctx.events if e["type"] == "uav")
+    c = 2.6 / math.sqrt(2)      # each centre is 1.84 m before the origin along its axis
+    assert mon.records[0].removed_pos == (pytest.approx(-c), pytest.approx(0.0), pytest.approx(20.0))
+    assert mon.records[1].removed_pos == (pytest.approx(0.0), pytest.approx(-c), pytest.approx(20.0))
+    # the event's position is the midpoint of the two centres
+    assert (e["x"], e["y"]) == (pytest.approx(-c / 2), pytest.approx(-c / 2))
+
+
+def test_parallel_uavs_3m_apart_not_flagged():
+    mon, ctx = make(["a", "b"])
+    pos = {"a": lambda t: (10 * t, 0.0, 20.0), "b": lambda t: (10 * t, 3.0, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t))
+    assert not [e for e in ctx.events if e["type"] in ("uav", "zone")]
+    assert ctx.deactivated == []
+
+
+def test_exactly_impact_diameter_apart_is_a_contact():
+    mon, ctx = make(["a", "b"])
+    pos = {"a": lambda t: (10 * t, 0.0, 20.0), "b": lambda t: (10 * t, 2.6, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t), steps=2)
+    hits = [e for e in ctx.events if e["type"] == "uav"]
+    assert len(hits) == 1 and hits[0]["time"] == 0.0
+
+
+def test_zone_corner_cut_detected():
+    # zone [10, 20] x [10, 20]; the step from (7, 16) to (13, 22) cuts its north-west corner, both ends outside
+    zone = ("box", [(10, 10), (20, 10), (20, 20), (10, 20)])
+    mon, ctx = make(["a"], zones=[zone])
+    track = {0.0: (1.0, 10.0, 20.0), 1.0: (7.0, 16.0, 20.0), 2.0: (13.0, 22.0, 20.0), 3.0: (19.0, 28.0, 20.0)}
+    fly(mon, ctx, lambda n, t: track[t], steps=3)
+    zs = [e for e in ctx.events if e["type"] == "zone"]
+    assert len(zs) == 1
+    e = zs[0]
+    assert e["uav"] == "a" and e["other"] == "box" and e["event"] == "zone_incursion"
+    assert e["time"] == pytest.approx(1.5)            # enters at x = 10, half-way along the step
+    assert (e["x"], e["y"]) == (pytest.approx(10.0), pytest.approx(19.0))
+    assert "corner" in e["detail"]
+    assert ctx.deactivated == ["a_dyn", "a_strat"]
+    assert mon.records[0].removed_reason == "zone_collision"
+    assert mon.finish(None, "completed")["uavs"]["a"] == "zone_collision"
+
+
+def test_grounded_and_low_uavs_not_checked():
+    # a and b stand at the same place (preflight, then landed), c and d lift off 1 m apart but stay below
+    # 0.5 m, e flies over a at 20 m; f is landed inside a zone
+    zone = ("z", [(100, 100), (110, 100), (110, 110), (100, 110)])
+    names = ["a", "b", "c", "d", "e", "f"]
+    mon, ctx = make(names, zones=[zone])
+    pos = {"a": (0, 0, 0), "b": (0, 0, 0), "c": (50, 0, 0.3), "d": (51, 0, 0.3), "f": (105, 105, 0)}
+    phase = {"a": lambda t: 0 if t < 3 else 4, "b": lambda t: 0 if t < 3 else 4, "c": lambda t: 1,
+             "d": lambda t: 1, "e": lambda t: 2, "f": lambda t: 4}
+
+    def where(n, t):
+        return (-20 + 10 * t, 0.0, 20.0) if n == "e" else pos[n]
+    fly(mon, ctx, where, phases=lambda n, t: phase[n](t), steps=6)
+    assert [e for e in ctx.events if e["type"] in ("uav", "zone")] == []
+    assert ctx.deactivated == []
+
+
+def test_airborne_uav_in_takeoff_phase_is_checked():
+    mon, ctx = make(["a", "b"])
+    fly(mon, ctx, lambda n, t: (0.0, 0.0 if n == "a" else 2.0, 5.0), phases=lambda n, t: 1, steps=1)
+    assert len([e for e in ctx.events if e["type"] == "uav"]) == 1
+
+
+def test_first_contact_wins_within_a_step():
+    # a meets b at t ~ 0.4 and would meet c later in the same step: only a-b counts, c stays
+    mon, ctx = make(["a", "b", "c"])
+    track = {"a": lambda t: (10 * t, 0.0, 20.0), "b": lambda t: (6.6, 0.0, 20.0), "c": lambda t: (12.0, 0.0, 20.0)}
+    fly(mon, ctx, lambda n, t: track[n](t), steps=1)
+    hits = [e for e in ctx.events if e["type"] == "uav"]
+    assert len(hits) == 1 and {hits[0]["uav"], hits[0]["other"]} == {"a", "b"}
+    assert hits[0]["time"] == pytest.approx(0.4)
+    assert not mon.records[2].removed
+
+
+def test_mission_events_and_photos():
+    mon, ctx = make(["a"], targets=[(50, 0), (50, 50)])
+    ctx.set("a", mission_state=0, phase=0)
+    mon.attach(ctx, 0.0)
+    script = [  # t1, mission_state, consumed, photo_count, last photo (target, time, x, y)
+        (1.0, 1, 0.01, 0, None), (2.0, 2, 0.02, 0, None), (3.0, 2, 0.3, 1, (0, 2.0, 49.5, 0.2)),
+        (4.0, 4, 0.8, 1, None), (5.0, 6, 0.95, 1, None), (6.0, 8, 0.96, 1, None)]
+    for n, (t1, ms, cons, pc, photo) in enumerate(script):
+        ctx.set("a", mission_state=ms, consumed=cons, soc=1 - cons, photo_count=pc, phase=2 if ms < 8 else 4,
+                x=40.0, z=20.0 if ms < 8 else 0.0)
+        if photo:
+            ctx.set("a", last_photo_target=photo[0], last_photo_time=photo[1], last_photo_x=photo[2],
+                    last_photo_y=photo[3])
+        mon.after_step(n, t1 - 1.0, t1)
+    names = [e["event"] for e in ctx.events if e["type"] == "mission"]
+    assert names == ["takeoff", "transit", "return_low", "forced_landing", "landed_away"]
+    rl = next(e for e in ctx.events if e["event"] == "return_low")
+    assert rl["time"] == 3.0 and rl["consumed"] == pytest.approx(0.8)
+    assert mon.records[0].photos == [{"target": 0, "time": 2.0, "x": 49.5, "y": 0.2, "z": 20.0}]
+    ctx.set("a", targets_assigned=2, targets_visited=1)
+    s = mon.finish(None, "completed")
+    assert s["uavs"]["a"] == "forced_landing"
+    assert s["total"]["photos"] == 1 and s["total"]["targets_visited"] == 1
+
+
+def test_finish_writes_outputs_without_results(tmp_path):
+    # no results.parquet (e.g. the run failed early): trajectory from the monitor's own track
+    mon, ctx = make(["a", "b"], targets=[(5, 5)], zones=[("z", [(30, -5), (40, -5), (40, 5), (30, 5)])])
+    pos = {"a": lambda t: (10 * t, 0.0, 20.0), "b": lambda t: (0.0, 50.0, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t), steps=6)
+    s = mon.finish(tmp_path, "error")
+    assert s["uavs"] == {"a": "zone_collision", "b": "run_error"}
+    for f in ("trajectory.csv", "photos.csv", "summary.csv", "summary.json", "map.png"):
+        assert (tmp_path / f).is_file(), f
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    assert doc["total"]["run_outcome"] == "error" and doc["total"]["zone_collisions"] == 1
+    import pandas as pd
+    tr = pd.read_csv(tmp_path / "trajectory.csv")
+    a = tr[tr.uav == "a"]
+    assert a.iloc[-1]["status"] == "removed" and a.iloc[-1]["x"] == pytest.approx(30.0)
+    assert a.iloc[-1]["time"] == pytest.approx(3.0)
+
+
+def test_monitor_never_attached(tmp_path):
+    mon, _ = make(["a"])
+    s = mon.finish(tmp_path, "error")
+    assert s["uavs"] == {"a": "run_error"}
+    assert (tmp_path / "summary.json").is_file()
+
+
+def test_bad_annotations():
+    with pytest.raises(ScenarioError, match="missing attribute"):
+        parse_config(etree.fromstring(f'<a xmlns:uav="{UAV}"><uav:UavMonitor><uav:Uav name="a" components="c" '
+                                      f'x="c.x"/></uav:UavMonitor></a>'), "s.ssp")
+    with pytest.raises(ScenarioError, match="no uav:UavMonitor"):
+        parse_config(etree.fromstring("<a/>"), "s.ssp")
+    with pytest.raises(ScenarioError, match="not a number"):
+        parse_config(annotation(["a"], impact="big"), "s.ssp")
