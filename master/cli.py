@@ -53,6 +53,18 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--algorithm", choices=["jacobi", "gauss-seidel"])
     i.add_argument("--debug", action="store_true")
 
+    c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)")
+    c.add_argument("campaign_yaml")
+    c.add_argument("--output", "-o", default=None, help="campaign folder (default: results/<campaign name>)")
+    c.add_argument("--workers", type=int, default=None, help="local worker processes (default: every core)")
+    c.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    c.add_argument("--no-progress", action="store_true")
+    c.add_argument("--debug", action="store_true")
+
+    rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign")
+    rp.add_argument("campaign_dir")
+    rp.add_argument("--debug", action="store_true")
+
     b = sub.add_parser("build-scenario", help="write an SSP for a multi-UAV scenario described in YAML")
     b.add_argument("scenario_yaml")
     b.add_argument("-o", "--output", required=True)
@@ -101,6 +113,17 @@ def _dispatch(args) -> int:
                                        ("algorithm", args.algorithm)) if v is not None}
         info = inspect(args.scenario, **overrides)
         print(json.dumps(info, indent=2, default=str) if args.json else format_inspect(info))
+        return 0
+    if args.command == "campaign":
+        from .campaign.runner import run_campaign
+        summary = run_campaign(args.campaign_yaml, output=args.output, workers=args.workers,
+                               scheduler=args.scheduler, progress=not args.no_progress)
+        print(summary.describe())
+        return 0 if summary.ok else 1
+    if args.command == "report":
+        from .campaign.report import build_report
+        path = build_report(args.campaign_dir)
+        print(f"wrote {path}")
         return 0
     if args.command == "build-scenario":
         from .uav.build import build_scenario

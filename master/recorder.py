@@ -41,22 +41,23 @@ class Recorder:
         self.columns = ["time"] + [v.qualified for v in variables]
         self.rt = rt
         self.block_rows = block_rows
-        # numeric values (Real, Integer, Boolean) share one float64 block; strings keep a list per row
-        self.num = [(k, v) for k, v in enumerate(variables) if v.type != "String"]
+        # numeric values (Real, Integer, Boolean) share one float64 block, grouped by type so that each type
+        # fills a contiguous run of columns with one np.take per row
+        self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
+                          key=lambda kv: ("Real", "Integer", "Boolean").index(kv[1].type))
         self.str_ = [(k, v) for k, v in enumerate(variables) if v.type == "String"]
         self.block = np.empty((block_rows, 1 + len(self.num)), dtype=np.float64)
         self.str_rows: list[list[str]] = []
         self.fill = 0
         self.rows_written = 0
-        by_type = {}
-        for col, (k, v) in enumerate(self.num, start=1):
-            by_type.setdefault(v.type, ([], []))
-            by_type[v.type][0].append(col)
-            by_type[v.type][1].append(rt.out_pos[v.qualified])
-        self.gather = [(t, np.array(cols, dtype=np.intp), np.array(pos, dtype=np.intp))
-                       for t, (cols, pos) in by_type.items()]
-        self.contiguous = [(t, cols[0], cols[-1] + 1, pos) for t, cols, pos in self.gather
-                           if np.all(np.diff(cols) == 1)]
+        self.column_of = {k: col for col, (k, _) in enumerate(self.num, start=1)}
+        self.gather = []
+        col = 1
+        for typ in ("Real", "Integer", "Boolean"):
+            pos = [rt.out_pos[v.qualified] for _, v in self.num if v.type == typ]
+            if pos:
+                self.gather.append((rt.out[typ], np.array(pos, dtype=np.intp), col, col + len(pos)))
+                col += len(pos)
         self.str_pos = [rt.out_pos[v.qualified] for _, v in self.str_]
         self.schema = pa.schema([pa.field("time", pa.float64())] +
                                 [pa.field(v.qualified, ARROW_TYPES[v.type]) for v in variables])
@@ -77,14 +78,13 @@ class Recorder:
     def sample(self, t: float) -> None:
         row = self.block[self.fill]
         row[0] = t
-        out = self.rt.out
-        for typ, a, b, pos in self.contiguous:
-            np.take(out[typ], pos, out=row[a:b])
-        for typ, cols, pos in self.gather:
-            if not (len(cols) and np.all(np.diff(cols) == 1)):
-                row[cols] = out[typ][pos]
+        for out, pos, a, b in self.gather:
+            if out.dtype == np.float64:
+                np.take(out, pos, out=row[a:b])
+            else:
+                row[a:b] = out[pos]
         if self.str_:
-            s = out["String"]
+            s = self.rt.out["String"]
             self.str_rows.append([s[p] for p in self.str_pos])
         self.fill += 1
         if self.fill == self.block_rows:
@@ -93,13 +93,12 @@ class Recorder:
     def _table(self) -> pa.Table:
         blk = self.block[: self.fill]
         arrays = [pa.array(blk[:, 0])]
-        num_iter = iter(range(1, 1 + len(self.num)))
         str_cols = {k: j for j, (k, _) in enumerate(self.str_)}
         for k, v in enumerate(self.variables):
             if v.type == "String":
                 arrays.append(pa.array([r[str_cols[k]] for r in self.str_rows], type=pa.string()))
                 continue
-            col = blk[:, next(num_iter)]
+            col = blk[:, self.column_of[k]]
             if v.type == "Integer":
                 arrays.append(pa.array(col.astype(np.int32)))
             elif v.type == "Boolean":

@@ -6,7 +6,8 @@
   patched to declare the same ModelStructure as the C twin (``y`` has no direct feedthrough, and is an
   initial unknown), which pythonfmu 0.7 does not write.
 * ``build_chain_ssp(fmu, n, path, step, stop)``: n instances lag0..lag{n-1} of one FMU, lag{i-1}.y -> lag{i}.u,
-  lag0.u unconnected (it keeps its start value 0), written with master.ssp.writer.SspBuilder (step size in
+  lag0.u unconnected and not declared as a
+  connector (it keeps its start value 0), written with master.ssp.writer.SspBuilder (step size in
   our settings annotation and the OSP annotation).
 """
 from __future__ import annotations
@@ -155,7 +156,9 @@ def build_chain_ssp(fmu, n: int, path, step: float, stop: float) -> Path:
     b = SspBuilder(name=f"chain{n}", stop=stop, step=step, algorithm="jacobi")
     conns = [("u", "input", "Real", None), ("y", "output", "Real", None)]
     for i in range(n):
-        b.add_component(f"lag{i}", fmu, connectors=conns)
+        # lag0's input is unconnected and not declared as a connector at all: fmpy's SSP runner requires
+        # every declared input to be connected, and so no master writes to it (it keeps its start value 0)
+        b.add_component(f"lag{i}", fmu, connectors=conns if i else conns[1:])
     for i in range(1, n):
         b.connect(f"lag{i - 1}", "y", f"lag{i}", "u")
     return b.write(path)

@@ -64,7 +64,9 @@ def peer_bare_ctypes(a: dict) -> dict:
     guid = md.get("guid").encode()
     ident = md.find("CoSimulation").get("modelIdentifier")
     vr = {v.get("name"): int(v.get("valueReference")) for v in md.find("ModelVariables")}
-    lib = ctypes.CDLL(os.path.join(tmp, "binaries", "linux64", ident + ".so"))
+    # CDLL releases the GIL around every call (what fmpy, and so cosim-master, use); PyDLL keeps it
+    loader = {"CDLL": ctypes.CDLL, "PyDLL": ctypes.PyDLL}[a.get("dll", "CDLL")]
+    lib = loader(os.path.join(tmp, "binaries", "linux64", ident + ".so"))
     libc = ctypes.CDLL(None)
     cb = _Callbacks(ctypes.cast(_logger, ctypes.c_void_p), ctypes.cast(libc.calloc, ctypes.c_void_p),
                     ctypes.cast(libc.free, ctypes.c_void_p), None, None)
@@ -120,7 +122,7 @@ def peer_bare_ctypes(a: dict) -> dict:
         lib.fmi2Terminate(c)
         lib.fmi2FreeInstance(c)
     return {"stepping_s": t1 - t0, "steps_timed": steps, "timing": "perf_counter around the step loop only",
-            "total_s": perf() - t_all, "samples": samples}
+            "total_s": perf() - t_all, "samples": samples, "extra": {"loader": loader.__name__}}
 
 
 # ---------------------------------------------------------------------------------------------------

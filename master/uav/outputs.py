@@ -54,6 +54,13 @@ def _f(v, default=math.nan):
     return v
 
 
+def _int_or(v, default=None):
+    try:
+        return int(v)
+    except (TypeError, ValueError):
+        return default
+
+
 def _clean(o):
     """JSON-safe copy (NaN -> None, numpy scalars -> Python)."""
     if isinstance(o, dict):
@@ -155,7 +162,7 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
     n_uav_removed = sum(1 for r in mon.records if r.removed_reason == "uav_collision")
     return {
         "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
-        "seed": mon.cfg.seed, "wind_probability": mon.cfg.wind_probability,
+        "scenario_seed": _int_or(mon.cfg.seed), "wind_probability": _f(mon.cfg.wind_probability, None),
         "run_outcome": run_outcome, "end_time": mon.last_time,
         "uavs": len(uavs), "successes": reasons.get("success", 0),
         "success_rate": reasons.get("success", 0) / len(uavs) if uavs else math.nan,
@@ -226,7 +233,7 @@ def trajectory_frame(mon, df):
             data = {c: a[keep] for c, a in data.items()}
             status = status[keep]
             # last row: where and when it was taken out, with its last known state
-            t = np.append(t, rec.removed_time)
+            t = np.append(t, round(rec.removed_time, 9))
             x, y, z = rec.removed_pos
             last = rec.last
             extra = {"x": x, "y": y, "z": z, "speed": _f(last.get("speed")), "soc": _f(last.get("soc")),

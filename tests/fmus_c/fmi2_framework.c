@@ -58,11 +58,19 @@ void fw_log(ModelData *d, int status, const char *category, const char *fmt, ...
     va_list ap;
     if (inst == NULL || inst->cb.logger == NULL) return;
     if (status == M_OK && !inst->loggingOn) return;
+    char esc[2 * sizeof buf];
+    size_t i, j;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
+    /* the FMI 2.0 logger treats the message as a printf format string */
+    for (i = 0, j = 0; buf[i] != '\0' && j + 2 < sizeof esc; i++) {
+        if (buf[i] == '%') esc[j++] = '%';
+        esc[j++] = buf[i];
+    }
+    esc[j] = '\0';
     inst->cb.logger(inst->cb.componentEnvironment, inst->instanceName, (fmi2Status)status,
-                    category ? category : status_category(status), buf);
+                    category ? category : status_category(status), esc);
 }
 
 #define LOGE(inst, ...) fw_log(&(inst)->d, M_ERROR, "logStatusError", __VA_ARGS__)

@@ -171,3 +171,16 @@ def test_two_uavs_head_on_collide(tmp_path):
     traj = pd.read_csv(out / "trajectory.csv")
     assert list(traj.groupby("uav")["status"].last()) == ["removed", "removed"]
     assert (out / "map.png").is_file()
+
+
+# ------------------------------------------------------------------------------ shipped archives
+def test_shipped_archives_are_fresh(tmp_path):
+    """The committed ssp/paper_*.ssp equal a fresh build from ssp/scenarios and fmus/ (else: python ssp/build_all.py)."""
+    shipped = sorted((ROOT / "ssp").glob("paper_*.ssp"))
+    assert (ROOT / "ssp" / "paper_zones_4uav_B.ssp") in shipped
+    import subprocess
+    import sys
+    subprocess.run([sys.executable, str(ROOT / "ssp" / "build_all.py"), "--all", "--out", str(tmp_path)], check=True,
+                   capture_output=True)
+    stale = [p.name for p in shipped if p.read_bytes() != (tmp_path / p.name).read_bytes()]
+    assert not stale, f"stale SSP archives {stale}: run 'python ssp/build_all.py'"

@@ -1,0 +1,62 @@
+"""Shared pytest fixtures: lazily built test FMUs.
+
+``test_fmus`` is a session-scoped, read-only mapping from keys to FMU paths;
+an FMU is built (see ``tests/fmu_factory.py``) the first time its key is
+looked up and cached for the rest of the session:
+
+    c2:MassA  c2:MassB  c2:Integrator  c2:Gain  c2:Faulty   FMI 2.0 CS (C)
+    c3:Integrator                                          FMI 3.0 CS (C)
+    me2:Oscillator                                         FMI 2.0 ME (C)
+    py:MassA  py:MassB  py:Integrator  py:Gain  py:Faulty  py:Types
+                                                           FMI 2.0 CS (pythonfmu)
+
+``test_fmus.keys()`` lists every available key.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+
+import pytest
+
+TESTS_DIR = Path(__file__).resolve().parent
+if str(TESTS_DIR) not in sys.path:
+    # make analytic, fmu_factory, ssp_helpers and peers importable from
+    # test modules in sub-directories as well
+    sys.path.insert(0, str(TESTS_DIR))
+
+import fmu_factory  # noqa: E402
+
+
+class LazyFMUs(Mapping):
+    """Mapping key -> FMU path that builds on first access."""
+
+    def __init__(self, root: Path):
+        self.root = Path(root)
+        self._cache: dict[str, Path] = {}
+
+    def __getitem__(self, key: str) -> Path:
+        if key not in self._cache:
+            if key not in fmu_factory.available_keys():
+                raise KeyError(f"unknown test FMU {key!r}; available: {fmu_factory.available_keys()}")
+            self._cache[key] = fmu_factory.build_by_key(key, self.root)
+        return self._cache[key]
+
+    def __iter__(self):
+        return iter(fmu_factory.available_keys())
+
+    def __len__(self) -> int:
+        return len(fmu_factory.available_keys())
+
+    def __contains__(self, key) -> bool:
+        return key in fmu_factory.available_keys()
+
+    def __repr__(self) -> str:
+        return f"LazyFMUs(root={self.root}, built={sorted(self._cache)})"
+
+
+@pytest.fixture(scope="session")
+def test_fmus(tmp_path_factory) -> LazyFMUs:
+    return LazyFMUs(tmp_path_factory.mktemp("test_fmus"))
