@@ -204,9 +204,10 @@ class UavMonitor(Monitor):
         super().__init__(element, plan, shown_as)
         self.cfg = parse_config(element, shown_as)
         if plan is not None:
+            fmus = getattr(plan, "fmus", None)
             for u in self.cfg.uavs:
                 for c in u.components:
-                    if c not in getattr(plan, "fmus", {c: None}):
+                    if fmus is not None and c not in fmus:
                         raise ScenarioError(f"UAV {u.name}: no component {c!r}", file=shown_as,
                                             element="uav:UavMonitor")
                 for role, q in u.vars.items():

@@ -95,13 +95,30 @@ def _record_interval(step: float) -> float:
     return k * step if abs(k * step - RECORD_INTERVAL) > 1e-9 else RECORD_INTERVAL
 
 
-def _assigned(scn: UavScenario, targets, i: int, home) -> list[int]:
+def _assigned(scn: UavScenario, targets, i: int, home) -> list[int] | None:
     """The global target indices UAV i is given (computed as the strategy FMU does)."""
     try:
         from uavsim.strategy import assign_targets
     except ImportError:  # pragma: no cover - uavsim is installed with the project
-        return []
+        return None
     return assign_targets([tuple(map(float, p)) for p in targets], i, scn.n_uavs, scn.assignment, home)
+
+
+def _check_partition(uavs, n_targets: int, assignment: str) -> None:
+    """Warn when the strategies' target split is not a partition (each target to exactly one UAV).
+
+    The strategy FMU computes the ``spatial`` sectors around its own home, i.e. around each UAV's pad,
+    so for some fleet sizes a target near a sector border goes to two UAVs and another to none."""
+    if not uavs or any(u["assigned"] is None for u in uavs):
+        return
+    got = sorted(k for u in uavs for k in u["assigned"])
+    if got != list(range(n_targets)):
+        import warnings
+        twice = sorted({k for k in got if got.count(k) > 1})
+        none = sorted(set(range(n_targets)) - set(got))
+        warnings.warn(f"assignment {assignment!r}: the UAVs' target lists are not a partition (targets {twice} "
+                      f"assigned twice, {none} to no UAV), because each strategy splits around its own pad",
+                      stacklevel=3)
 
 
 def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
@@ -129,8 +146,9 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
             "targetsVisited": f"{s}.targets_visited", "photoCount": f"{s}.photo_count",
             "lastPhotoTarget": f"{s}.last_photo_target", "lastPhotoTime": f"{s}.last_photo_time",
             "lastPhotoX": f"{s}.last_photo_x", "lastPhotoY": f"{s}.last_photo_y",
-            "assigned": " ".join(str(k) for k in u["assigned"]),
         }
+        if u["assigned"] is not None:
+            attrs["assigned"] = " ".join(str(k) for k in u["assigned"])
         for k, v in attrs.items():
             el.set(k, v)
     t = etree.SubElement(mon, f"{{{UAV_NS}}}Targets")
@@ -195,6 +213,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
             b.connect("wind", v, d, v)
         uavs.append({"name": name, "index": i, "dyn": d, "bat": bt, "strat": s, "home": (float(hx), float(hy)),
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
+    _check_partition(uavs, len(targets_r), scn.assignment)
     b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r))
     return b.write(out_path)
 

@@ -56,9 +56,10 @@ round-off with ``analytic.chain_recurrence(method="jacobi_delayed")`` and
   ``ssd:DefaultExperiment`` unless given explicitly (we always pass it).
   Components are kept in an unordered map, so slave indices do not follow
   the SSD order (we look them up by instance name).
-* libcosim instantiates FMI 2.0 FMUs with ``fmuResourceLocation = NULL``,
-  so FMUs that need their resources folder (e.g. pythonfmu FMUs) cannot run
-  in libcosim: use the C test FMUs.
+* libcosim's FMI 2.0 importer passes ``fmuResourceLocation = NULL`` to
+  fmi2Instantiate (v2/fmu.cpp), so FMUs that rely on it may fail; the
+  pythonfmu test FMUs nevertheless run (checked in test_libcosim_peer.py).
+  An SSP with an FMI 3.0 FMU fails to load in this libcosim (checked).
 * A doStep returning fmi2Discard makes the step fail ("Step not complete");
   fmi2Error throws a model error; both stop the execution.
 """

@@ -1,0 +1,332 @@
+"""``run_campaign``: expand a campaign, run what is missing, keep every finished run, rebuild the table.
+
+Layout of a campaign folder (default ``results/<campaign name>``)::
+
+    campaign.yaml        copy of the campaign file of the last invocation
+    campaign.json        the resolved campaign: run order, ids, parameters, seeds, input fingerprints
+    runs/<run_id>.json   one record per finished run (written atomically as the run finishes)
+    runs/<run_id>/       the run's own output folder (results, map, summary; see ``keep``)
+    results.parquet      the tidy table (master.campaign.table), rebuilt after every invocation
+    results.csv          the same table as CSV
+    report/              written by ``cosim-master report``
+
+Rerunning the same command skips every run that has a record whose input fingerprint (scenario file
+and FMU hashes, result-relevant run options, seed) matches; a record that no longer matches is stale:
+the run runs again and the describe() text says why.  A failed run is a finished run (its record says
+why it failed); ``retry_failed=True`` runs failed runs again.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import CosimError
+from .spec import Campaign, RunSpec, load_campaign
+from .table import read_record, write_table
+
+__all__ = ["run_campaign", "CampaignSummary", "make_task", "plan_campaign"]
+
+
+@dataclass
+class CampaignSummary:
+    name: str
+    output: Path
+    total: int = 0
+    completed: int = 0
+    failed: int = 0
+    pending: int = 0
+    ran_now: int = 0
+    failed_now: int = 0
+    skipped: int = 0
+    stale: int = 0
+    stale_reasons: dict = field(default_factory=dict)
+    unreadable: int = 0
+    foreign_records: int = 0
+    interrupted: bool = False
+    wall_time_s: float = 0.0
+    run_time_s: float = 0.0
+    workers: int = 0
+    scheduler: str | None = None
+    worker_restarts: int = 0
+    failures: list = field(default_factory=list)    # (run_id, params, error) of all failed runs
+    table: Path | None = None
+
+    @property
+    def complete(self) -> bool:
+        return not self.interrupted and self.pending == 0
+
+    @property
+    def ok(self) -> bool:
+        """True when every run of the campaign has a record and none of them failed."""
+        return self.complete and self.failed == 0
+
+    def describe(self) -> str:
+        where = f"Dask scheduler {self.scheduler}" if self.scheduler else \
+            f"{self.workers} local worker process{'es' if self.workers != 1 else ''}"
+        parts = [f"Campaign {self.name}: {self.total} runs, {self.completed} completed, {self.failed} failed, "
+                 f"{self.pending} not run yet."]
+        if self.ran_now:
+            rate = self.ran_now / self.wall_time_s * 60 if self.wall_time_s > 0 else float("nan")
+            per_core = rate / max(1, self.workers) if not self.scheduler else None
+            parts.append(f"This invocation ran {self.ran_now} run{'s' if self.ran_now != 1 else ''} "
+                         f"({self.failed_now} failed) in {self.wall_time_s:.1f} s on {where}: {rate:.1f} runs/min"
+                         + (f", {per_core:.1f} runs/min per worker" if per_core is not None else "")
+                         + (f"; {self.worker_restarts} worker(s) replaced after a crash or timeout"
+                            if self.worker_restarts else "") + ".")
+        else:
+            parts.append("This invocation ran nothing.")
+        if self.skipped:
+            parts.append(f"Skipped {self.skipped} run{'s' if self.skipped != 1 else ''} already finished.")
+        if self.stale:
+            why = "; ".join(f"{k}: {v}" for k, v in sorted(self.stale_reasons.items()))
+            parts.append(f"{self.stale} finished run{'s were' if self.stale != 1 else ' was'} stale and "
+                         f"{'ran' if self.stale else 'run'} again or are queued ({why}).")
+        if self.unreadable:
+            parts.append(f"{self.unreadable} unreadable record(s) were ignored and their runs queued again.")
+        if self.foreign_records:
+            parts.append(f"{self.foreign_records} record(s) in runs/ do not belong to this campaign definition "
+                         "and are left out of the table.")
+        if self.failures:
+            shown = "; ".join(f"{rid} {json.dumps(p, sort_keys=True)}: {e}" for rid, p, e in self.failures[:3])
+            more = f" (and {len(self.failures) - 3} more)" if len(self.failures) > 3 else ""
+            parts.append(f"Failed: {shown}{more}.")
+        if self.interrupted:
+            parts.append("Interrupted: only complete runs were recorded; rerun the same command to resume.")
+        elif self.pending:
+            parts.append("Rerun the same command to run the rest.")
+        if self.table is not None:
+            parts.append(f"Table: {self.table}.")
+        return " ".join(parts)
+
+
+# --------------------------------------------------------------------------------------------- tasks
+def make_task(camp: Campaign, r: RunSpec, out: Path) -> dict:
+    """The plain-data task a worker needs (picklable for process pipes and Dask)."""
+    return {"campaign": camp.name, "run_id": r.run_id, "index": r.index, "params": r.params, "rep": r.rep,
+            "seed": r.seed, "kind": camp.kind, "scenario": str(r.scenario), "options": r.options,
+            "overrides": r.overrides, "inputs": r.inputs, "inputs_sha256": r.inputs_sha256,
+            "out_dir": str(out / "runs" / r.run_id), "campaign_dir": str(out), "keep": camp.keep}
+
+
+def _atomic_write(path: Path, text: str):
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    with open(tmp, "w", encoding="utf-8") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _stale_reasons(old: dict, new: dict) -> list[str]:
+    out = []
+    if old.get("scenario_sha256") != new.get("scenario_sha256") or old.get("scenario") != new.get("scenario"):
+        out.append(f"scenario file {new.get('scenario')} changed")
+    of, nf = old.get("fmus") or {}, new.get("fmus") or {}
+    for k in sorted(set(of) | set(nf)):
+        if of.get(k) != nf.get(k):
+            out.append(f"FMU {k} changed")
+    if old.get("options") != new.get("options"):
+        out.append("run options changed")
+    if old.get("overrides") != new.get("overrides"):
+        out.append("parameters changed")
+    if old.get("seed") != new.get("seed"):
+        out.append("seed changed")
+    return out or ["inputs changed"]
+
+
+def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False):
+    """Sort the campaign's runs into done / to-run by their records; returns (done, todo, summary)."""
+    s = CampaignSummary(camp.name, out, total=len(camp.runs))
+    runs_dir = out / "runs"
+    done, todo = [], []
+    reasons: Counter = Counter()
+    for r in camp.runs:
+        p = runs_dir / f"{r.run_id}.json"
+        if not p.exists():
+            todo.append(r)
+            continue
+        rec = read_record(p)
+        if rec is None:
+            s.unreadable += 1
+            todo.append(r)
+            continue
+        if rec.get("inputs_sha256") != r.inputs_sha256:
+            s.stale += 1
+            for why in _stale_reasons(rec.get("inputs") or {}, r.inputs):
+                reasons[why] += 1
+            todo.append(r)
+            continue
+        if rec.get("outcome") == "failed" and retry_failed:
+            todo.append(r)
+            continue
+        done.append((r, rec))
+    s.stale_reasons = dict(reasons)
+    ids = {r.run_id for r in camp.runs}
+    s.foreign_records = sum(1 for p in runs_dir.glob("*.json") if p.stem not in ids)
+    return done, todo, s
+
+
+class _Lock:
+    """One invocation per campaign folder at a time (flock on .lock)."""
+
+    def __init__(self, folder: Path):
+        self.path = folder / ".lock"
+        self.fh = None
+
+    def __enter__(self):
+        import fcntl
+        self.fh = open(self.path, "a+")
+        try:
+            fcntl.flock(self.fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.fh.close()
+            raise CosimError("another campaign invocation is running in this folder", file=str(self.path.parent))
+        return self
+
+    def __exit__(self, *exc):
+        import fcntl
+        fcntl.flock(self.fh.fileno(), fcntl.LOCK_UN)
+        self.fh.close()
+
+
+def _default_workers() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def run_campaign(path, output=None, workers=None, scheduler=None, progress=True, *, max_runs: int | None = None,
+                 retry_failed: bool = False) -> CampaignSummary:
+    """Run the campaign file ``path`` (see docs/campaigns.md); returns a :class:`CampaignSummary`.
+
+    ``output``: campaign folder (default ``results/<name>``); ``workers``: local worker processes (default:
+    every core); ``scheduler``: address of a Dask distributed scheduler (the runs go there instead);
+    ``max_runs``: run at most this many of the missing runs (the rest stay for the next invocation);
+    ``retry_failed``: run failed runs again.
+    """
+    t_start = time.perf_counter()
+    camp = load_campaign(path)
+    out = Path(output) if output is not None else Path("results") / camp.name
+    out = out.resolve()
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    with _Lock(out):
+        _atomic_write(out / "campaign.json", json.dumps(camp.manifest(), indent=1))
+        _atomic_write(out / "campaign.yaml", camp.text)
+        for p in (out / "runs").glob(".*.tmp*"):
+            p.unlink(missing_ok=True)
+        done, todo, s = plan_campaign(camp, out, retry_failed)
+        s.skipped = len(done)
+        if max_runs is not None:
+            todo = todo[:max(0, int(max_runs))]
+        tasks = [make_task(camp, r, out) for r in todo]
+        n_workers = 0 if scheduler else max(1, min(int(workers) if workers else _default_workers(), max(1, len(tasks))))
+        s.workers, s.scheduler = n_workers, scheduler
+        bar = None
+        if progress and tasks:
+            from tqdm import tqdm
+            bar = tqdm(total=len(tasks), unit="run", desc=camp.name, dynamic_ncols=True, smoothing=0.05)
+            bar.set_postfix(failed=0)
+        counts = Counter()
+
+        def on_result(rec: dict):
+            if rec.get("outcome") not in ("completed", "failed"):
+                counts["not_recorded"] += 1     # interrupted inside the run: not a finished run
+                return
+            _atomic_write(out / "runs" / f"{rec['run_id']}.json", json.dumps(rec, indent=1, default=str))
+            counts[rec["outcome"]] += 1
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(failed=counts["failed"])
+
+        t_run = time.perf_counter()
+        try:
+            if tasks:
+                if scheduler:
+                    _run_dask(scheduler, tasks, on_result)
+                else:
+                    from .pool import WorkerPool
+                    pool = WorkerPool(n_workers, timeout=camp.options.get("timeout"))
+                    try:
+                        pool.run(tasks, on_result)
+                    finally:
+                        s.worker_restarts = pool.crashes
+        except KeyboardInterrupt:
+            s.interrupted = True
+        finally:
+            if bar is not None:
+                bar.close()
+        s.wall_time_s = time.perf_counter() - t_run
+        s.ran_now = counts["completed"] + counts["failed"]
+        s.failed_now = counts["failed"]
+        # final state from disk (the records are the truth)
+        done2, todo2, _ = plan_campaign(camp, out, False)
+        s.completed = sum(1 for _, rec in done2 if rec.get("outcome") == "completed")
+        s.failed = sum(1 for _, rec in done2 if rec.get("outcome") == "failed")
+        s.pending = len(todo2)
+        s.failures = [(r.run_id, r.params, rec.get("error")) for r, rec in done2 if rec.get("outcome") == "failed"]
+        try:
+            s.table = write_table(out)
+        except KeyboardInterrupt:
+            s.interrupted = True
+        _cleanup_orphans(out, camp)
+    s.run_time_s = time.perf_counter() - t_start
+    return s
+
+
+def _cleanup_orphans(out: Path, camp: Campaign):
+    """Remove run folders left by runs that were interrupted (no record): they would confuse a reader."""
+    runs_dir = out / "runs"
+    ids = {r.run_id for r in camp.runs}
+    for d in runs_dir.iterdir():
+        if d.is_dir() and d.name in ids and not (runs_dir / f"{d.name}.json").exists():
+            shutil.rmtree(d, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------------------- Dask
+def _run_dask(scheduler, tasks: list[dict], on_result):
+    """Submit every task to a Dask distributed scheduler; records come back as the futures finish.
+
+    The runs' own folders are written by the Dask workers (a shared filesystem is assumed for them);
+    the records travel back with the results and are written here.
+    """
+    import uuid
+
+    from distributed import Client, as_completed
+
+    from .execute import execute_run, failure_record
+    client = scheduler if hasattr(scheduler, "submit") else Client(scheduler, timeout="30s")
+    token = uuid.uuid4().hex[:8]
+    futures = {}
+    try:
+        for t in tasks:
+            f = client.submit(execute_run, t, key=f"cosim-run-{t['run_id']}-{token}", pure=False)
+            futures[f] = t
+        for f in as_completed(list(futures)):
+            t = futures.pop(f)
+            try:
+                rec = f.result()
+            except Exception as exc:   # noqa: BLE001 - the run failed outside execute_run
+                rec = failure_record(t, _dask_reason(exc))
+            on_result(rec)
+    finally:
+        if futures:
+            try:
+                client.cancel(list(futures))
+            except Exception:   # noqa: BLE001
+                pass
+        if client is not scheduler:
+            client.close()
+
+
+def _dask_reason(exc: Exception) -> str:
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return ("worker process died (Dask KilledWorker: every worker that tried this run died while running it, "
+                "e.g. an FMU crashed the process)")
+    return f"{name}: {exc}"

@@ -1,0 +1,418 @@
+"""Campaign files: parsing, grid expansion, run identities, seeds and input fingerprints.
+
+The format is documented in ``docs/campaigns.md``.  A campaign expands into an ordered list of
+:class:`RunSpec`, one per (parameter set, repetition).  Everything that identifies a run is derived
+from canonical JSON (sorted keys, integral floats written as integers) so that it does not depend on
+the order of the grid keys or on how a number was spelled:
+
+* ``run_id`` = first 12 hex digits of SHA-256 over ``{"params": ..., "rep": r}``;
+* ``seed``   = first 8 hex digits (31 bits) of SHA-256 over ``{"campaign_seed": s, "params": ..., "rep": r}``.
+
+Adding a value to a grid axis therefore adds runs without touching the identity or the seed of the
+runs that were already there.  The *inputs* of a run (hashes of its scenario file and FMUs, the run
+options that change its results, its seed) are fingerprinted separately: a finished run whose
+fingerprint no longer matches is stale and runs again.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import ScenarioError
+
+__all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
+           "RUN_OPTIONS", "RESULT_OPTIONS"]
+
+TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep")
+#: fixed run options (``run:``), also allowed as grid/runs keys
+RUN_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record", "csv",
+               "log_level", "timeout", "step_multiples")
+#: the run options that change a run's results (part of its input fingerprint)
+RESULT_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record",
+                  "step_multiples")
+#: for UAV YAML scenarios these options are scenario fields (the SSP carries them)
+UAV_SCENARIO_OPTIONS = ("stop_time", "step", "algorithm")
+KEEP = ("summary", "all")
+UAV_SUFFIXES = (".yaml", ".yml")
+SEED_MASK = 0x7FFFFFFF          # FMI Integer parameters are 32-bit signed
+
+
+# ---------------------------------------------------------------------------------------------- canonical
+def canonical(v: Any) -> Any:
+    """Canonical form of a parameter value: integral floats become ints, tuples lists, dict keys sorted."""
+    if isinstance(v, bool) or v is None or isinstance(v, str):
+        return v
+    if isinstance(v, int):
+        return int(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite number {v!r}")
+        return int(v) if v.is_integer() and abs(v) < 2 ** 53 else float(v)
+    if isinstance(v, (list, tuple)):
+        return [canonical(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): canonical(x) for k, x in sorted(v.items(), key=lambda kv: str(kv[0]))}
+    return str(v)
+
+
+def canonical_json(obj: Any) -> str:
+    return json.dumps(canonical(obj), sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+
+
+def _sha(obj: Any) -> str:
+    return hashlib.sha256(canonical_json(obj).encode("ascii")).hexdigest()
+
+
+def run_id_for(params: dict, rep: int) -> str:
+    return _sha({"params": params, "rep": int(rep)})[:12]
+
+
+def seed_for(campaign_seed: int, params: dict, rep: int) -> int:
+    return int(_sha({"campaign_seed": int(campaign_seed), "params": params, "rep": int(rep)})[:8], 16) & SEED_MASK
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------- model
+@dataclass
+class RunSpec:
+    index: int                  # position in the campaign's run order
+    run_id: str
+    params: dict                # canonical parameters (grid / runs keys, variant by name)
+    rep: int                    # repetition index, 0-based
+    seed: int
+    scenario: Path              # absolute path of the scenario this run starts from
+    scenario_label: str         # the scenario as written in the campaign file
+    options: dict               # effective run options (fixed run: options, overridden by params)
+    overrides: dict             # UAV: YAML field path -> value; SSP: "component.variable" -> value
+    inputs: dict = field(default_factory=dict)
+
+    @property
+    def inputs_sha256(self) -> str:
+        return _sha(self.inputs)
+
+
+@dataclass
+class Campaign:
+    path: Path
+    name: str
+    description: str
+    seed: int
+    repetitions: int
+    kind: str                   # "uav" (YAML scenarios) | "ssp"
+    param_keys: list            # parameter column names, in file order
+    keep: str
+    options: dict               # fixed run options
+    runs: list                  # [RunSpec] in run order
+    text: str                   # the campaign file as read
+
+    @property
+    def by_id(self) -> dict:
+        return {r.run_id: r for r in self.runs}
+
+    def manifest(self) -> dict:
+        """What ``campaign.json`` holds: the resolved campaign, enough to rebuild the table and report."""
+        return {"format": 1, "name": self.name, "description": self.description, "campaign_file": str(self.path),
+                "seed": self.seed, "repetitions": self.repetitions, "kind": self.kind,
+                "param_keys": list(self.param_keys), "keep": self.keep, "options": self.options,
+                "runs": [{"run_id": r.run_id, "params": r.params, "rep": r.rep, "seed": r.seed,
+                          "scenario": r.scenario_label, "inputs_sha256": r.inputs_sha256} for r in self.runs]}
+
+
+class _Err:
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __call__(self, element: str, reason: str):
+        raise ScenarioError(reason, file=self.path, element=element)
+
+
+def _kind_of(path: Path) -> str:
+    return "uav" if path.suffix.lower() in UAV_SUFFIXES else "ssp"
+
+
+def _check_param_key(err, where: str, key: Any, kind: str) -> str:
+    if not isinstance(key, str) or not key.strip():
+        err(where, f"parameter names must be non-empty strings, got {key!r}")
+    key = key.strip()
+    if key in ("seed", "rep", "run_id"):
+        err(f"{where}.{key}", "is derived by the campaign (seed from the campaign seed, rep from repetitions)"
+                              " and cannot be set")
+    if kind == "ssp":
+        if key.startswith("param:"):
+            q = key[len("param:"):]
+            if "." not in q or q.startswith(".") or q.endswith("."):
+                err(f"{where}.{key}", "expected param:COMPONENT.VARIABLE")
+        elif key not in RUN_OPTIONS and key != "variant":
+            err(f"{where}.{key}", "for an SSP scenario a parameter is param:COMPONENT.VARIABLE or a run option "
+                                  f"({', '.join(RUN_OPTIONS)})")
+    else:
+        if key.startswith("param:"):
+            err(f"{where}.{key}", "param:COMPONENT.VARIABLE keys are for SSP scenarios; a UAV YAML scenario "
+                                  "takes its own field names (strategy, n_uavs, wind.probability, ...)")
+        if key in ("name", "base", "targets", "zones"):
+            pass  # allowed: any scenario field may vary
+    return key
+
+
+def _values(err, where: str, v) -> list:
+    vals = v if isinstance(v, list) else [v]
+    if not vals:
+        err(where, "empty list of values")
+    out = []
+    for x in vals:
+        try:
+            out.append(canonical(x))
+        except ValueError as exc:
+            err(where, str(exc))
+    seen = []
+    for x in out:
+        if canonical_json(x) in seen:
+            err(where, f"duplicate value {x!r}")
+        seen.append(canonical_json(x))
+    return out
+
+
+def _resolve(base_dir: Path, p) -> Path:
+    p = Path(str(p)).expanduser()
+    return (p if p.is_absolute() else base_dir / p).resolve()
+
+
+def load_campaign(path) -> Campaign:
+    """Read and validate a campaign file; errors are one-line :class:`ScenarioError`."""
+    path = Path(path)
+    err = _Err(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        err("file", f"cannot read: {exc.strerror or exc}")
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        err(f"line {mark.line + 1}" if mark is not None else "yaml",
+            f"invalid YAML: {getattr(exc, 'problem', None) or exc}")
+    if not isinstance(data, dict):
+        err("(top level)", "expected a mapping (name, seed, repetitions, scenario, grid/runs, run, keep)")
+    for k in data:
+        if k not in TOP_KEYS:
+            err(str(k), f"unknown field (expected one of {', '.join(TOP_KEYS)})")
+    base_dir = path.resolve().parent
+
+    name = data.get("name")
+    if not isinstance(name, str) or not name.strip() or any(c in name for c in "/\\"):
+        err("name", f"expected a non-empty name without slashes, got {name!r}")
+    name = name.strip()
+    description = data.get("description") or ""
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        err("seed", f"expected an integer >= 0, got {seed!r}")
+    reps = data.get("repetitions", 1)
+    if isinstance(reps, bool) or not isinstance(reps, int) or reps < 1:
+        err("repetitions", f"expected an integer >= 1, got {reps!r}")
+    keep = data.get("keep", "all")
+    if keep not in KEEP:
+        err("keep", f"must be one of {', '.join(KEEP)}, got {keep!r}")
+
+    # ---- scenario / variants
+    grid = data.get("grid") or {}
+    if not isinstance(grid, dict):
+        err("grid", "expected a mapping of parameter -> value or list of values")
+    runs_list = data.get("runs") or []
+    if not isinstance(runs_list, list):
+        err("runs", "expected a list of parameter mappings")
+    variants: dict[str, str] = {}
+    if "variant" in grid:
+        v = grid["variant"]
+        if isinstance(v, dict):
+            variants = {str(k): str(x) for k, x in v.items()}
+        elif isinstance(v, list):
+            variants = {Path(str(x)).stem: str(x) for x in v}
+        else:
+            err("grid.variant", "expected a mapping name -> scenario file (or a list of files)")
+        if not variants:
+            err("grid.variant", "no variants")
+    base_scenario = data.get("scenario")
+    if base_scenario is None and not variants:
+        err("scenario", "missing: give the base scenario (UAV YAML or SSP), or grid.variant")
+    scen_files: dict[str | None, Path] = {}
+    labels: dict[str | None, str] = {}
+    if base_scenario is not None:
+        scen_files[None] = _resolve(base_dir, base_scenario)
+        labels[None] = str(base_scenario)
+    for vname, vfile in variants.items():
+        scen_files[vname] = _resolve(base_dir, vfile)
+        labels[vname] = vfile
+    for key, p in scen_files.items():
+        if not p.exists():
+            err("scenario" if key is None else f"grid.variant.{key}", f"scenario not found: {p}")
+    kinds = {_kind_of(p) for p in scen_files.values()}
+    if len(kinds) != 1:
+        err("grid.variant", "all scenarios of a campaign must be of one kind (UAV YAML or SSP)")
+    kind = kinds.pop()
+
+    # ---- run options
+    options = data.get("run") or {}
+    if not isinstance(options, dict):
+        err("run", "expected a mapping of run options")
+    for k in options:
+        if k not in RUN_OPTIONS:
+            err(f"run.{k}", f"unknown run option (expected one of {', '.join(RUN_OPTIONS)})")
+    options = canonical(options)
+    _check_options(err, "run", options)
+
+    # ---- parameter sets
+    axes: list[tuple[str, list]] = []
+    for k, v in grid.items():
+        if k == "variant":
+            axes.append(("variant", list(variants)))
+            continue
+        key = _check_param_key(err, "grid", k, kind)
+        axes.append((key, _values(err, f"grid.{key}", v)))
+    param_keys = [k for k, _ in axes]
+    psets: list[dict] = []
+    if axes:
+        for combo in itertools.product(*[vals for _, vals in axes]):
+            psets.append(dict(zip(param_keys, combo)))
+    for i, entry in enumerate(runs_list):
+        if not isinstance(entry, dict):
+            err(f"runs[{i}]", "expected a mapping of parameter -> value")
+        p = {}
+        for k, v in entry.items():
+            if k == "variant":
+                if str(v) not in variants:
+                    err(f"runs[{i}].variant", f"unknown variant {v!r} (defined in grid.variant: "
+                                              f"{', '.join(variants) or 'none'})")
+                p["variant"] = str(v)
+            else:
+                key = _check_param_key(err, f"runs[{i}]", k, kind)
+                if isinstance(v, list) and key not in ("record",):
+                    err(f"runs[{i}].{key}", "one value per explicit run (use grid: for lists of values)")
+                try:
+                    p[key] = canonical(v)
+                except ValueError as exc:
+                    err(f"runs[{i}].{key}", str(exc))
+            if k not in param_keys:
+                param_keys.append(k if k == "variant" else k.strip())
+        psets.append(p)
+    if not psets:
+        psets = [{}]
+    if variants and None not in scen_files and any("variant" not in p for p in psets):
+        err("runs", "a run without variant needs a base scenario (scenario:)")
+
+    # ---- input fingerprints (hashes once per scenario file)
+    scen_hash = {k: file_sha256(p) if p.is_file() else _tree_sha(p) for k, p in scen_files.items()}
+    fmu_hash = _uav_fmu_hashes() if kind == "uav" else None
+    ssp_fmus = {} if kind == "uav" else {k: _ssp_fmu_hashes(p) for k, p in scen_files.items()}
+
+    runs: list[RunSpec] = []
+    seen: dict[str, int] = {}
+    for pi, params in enumerate(psets):
+        cj = canonical_json(params)
+        if cj in seen:
+            err("runs", f"the parameter set {cj} appears twice (a duplicate runs: entry, or one the grid "
+                        "already has)")
+        seen[cj] = pi
+        vkey = params.get("variant")
+        opts = dict(options)
+        overrides = {}
+        for k, v in params.items():
+            if k == "variant":
+                continue
+            if k in RUN_OPTIONS:
+                opts[k] = v
+            elif kind == "ssp":
+                overrides[k[len("param:"):]] = v
+            else:
+                overrides[k] = v
+        _check_options(err, "grid/runs", opts)
+        if kind == "uav":
+            for k in UAV_SCENARIO_OPTIONS:
+                if k in opts:
+                    overrides[k] = opts[k]
+        for rep in range(reps):
+            rid = run_id_for(params, rep)
+            s = seed_for(seed, params, rep)
+            inputs = {"scenario": labels[vkey], "scenario_sha256": scen_hash[vkey],
+                      "fmus": fmu_hash if kind == "uav" else ssp_fmus[vkey],
+                      "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts},
+                      "overrides": overrides, "seed": s}
+            runs.append(RunSpec(len(runs), rid, params, rep, s, scen_files[vkey], labels[vkey], opts, overrides,
+                                canonical(inputs)))
+    ids = [r.run_id for r in runs]
+    if len(set(ids)) != len(ids):  # pragma: no cover - a 48-bit collision
+        err("grid", "two runs got the same run id; change the campaign seed or a parameter spelling")
+    return Campaign(path.resolve(), name, str(description), seed, reps, kind, param_keys, keep, options, runs, text)
+
+
+def _check_options(err, where, opts: dict):
+    for k in ("stop_time", "step", "record_interval", "timeout"):
+        if k in opts and (isinstance(opts[k], bool) or not isinstance(opts[k], (int, float)) or opts[k] <= 0):
+            err(f"{where}.{k}", f"expected a positive number, got {opts[k]!r}")
+    if "start_time" in opts and (isinstance(opts["start_time"], bool) or
+                                 not isinstance(opts["start_time"], (int, float))):
+        err(f"{where}.start_time", f"expected a number, got {opts['start_time']!r}")
+    if "algorithm" in opts and opts["algorithm"] not in ("jacobi", "gauss-seidel"):
+        err(f"{where}.algorithm", f"must be jacobi or gauss-seidel, got {opts['algorithm']!r}")
+    if "csv" in opts and not isinstance(opts["csv"], bool):
+        err(f"{where}.csv", f"expected true or false, got {opts['csv']!r}")
+    if "log_level" in opts and opts["log_level"] not in ("debug", "info", "warning", "error", "none"):
+        err(f"{where}.log_level", f"must be debug, info, warning, error or none, got {opts['log_level']!r}")
+    if "record" in opts and not (isinstance(opts["record"], list) and all(isinstance(x, str) for x in opts["record"])):
+        err(f"{where}.record", "expected a list of patterns")
+    if "step_multiples" in opts and not (isinstance(opts["step_multiples"], dict) and
+                                         all(isinstance(x, int) and not isinstance(x, bool) and x >= 1
+                                             for x in opts["step_multiples"].values())):
+        err(f"{where}.step_multiples", "expected a mapping component -> integer >= 1")
+
+
+def _tree_sha(folder: Path) -> str:
+    """Hash of an SSP folder: its SSD and SSV/SSM files (FMUs are hashed one by one)."""
+    h = hashlib.sha256()
+    for p in sorted(folder.rglob("*")):
+        if p.is_file() and p.suffix.lower() != ".fmu":
+            h.update(str(p.relative_to(folder)).encode() + b"\0" + file_sha256(p).encode())
+    return h.hexdigest()
+
+
+def _ssp_fmu_hashes(path: Path) -> dict:
+    """SHA-256 of every FMU an SSP scenario holds (archive members, or files under a folder)."""
+    out = {}
+    if path.is_file() and zipfile.is_zipfile(path):
+        with zipfile.ZipFile(path) as zf:
+            for name in sorted(zf.namelist()):
+                if name.lower().endswith(".fmu"):
+                    h = hashlib.sha256()
+                    with zf.open(name) as fh:
+                        for chunk in iter(lambda: fh.read(1 << 20), b""):
+                            h.update(chunk)
+                    out[name] = h.hexdigest()
+        return out
+    folder = path if path.is_dir() else path.parent
+    for p in sorted(folder.rglob("*.fmu")):
+        out[str(p.relative_to(folder))] = file_sha256(p)
+    return out
+
+
+def _uav_fmu_hashes() -> dict:
+    from ..uav.build import FMU_FILES, default_fmu_dir
+    d = default_fmu_dir()
+    out = {}
+    for f in sorted(FMU_FILES.values()):
+        p = d / f
+        out[f] = file_sha256(p) if p.is_file() else None
+    return out

@@ -1,0 +1,154 @@
+"""The tidy results table of a campaign, rebuilt from its run records.
+
+One row per run and UAV (``uav`` = uav1, uav2, ...) plus one row per run with ``uav == "total"``
+holding the run's totals; a run without a UAV summary (a generic SSP campaign, or a run that crashed
+before the monitor could write one) has a single row with ``uav`` empty.  Columns, in order:
+
+``run_id``, the campaign's parameters (one column per grid/runs key, named as in the campaign file),
+``rep``, ``seed``, ``run_outcome`` (completed / failed), ``error``, ``wall_time_s``,
+``scenario_sha256``, ``uav``, then every metric of the run summary flattened (per-UAV fields for UAV
+rows, total fields for total rows; lists become space-separated strings, mappings ``key.sub``), and for
+generic SSP campaigns ``final:<component.variable>`` (last recorded value).  A metric whose name clashes
+with one of the columns above is prefixed ``summary.``.
+
+Rows follow the campaign's run order (the order of campaign.json) and, within a run, the UAV order then
+the total: the table depends only on the set of records, never on the order in which they finished.
+Only records that belong to the current campaign definition and whose input fingerprint matches it are
+included (stale records are left on disk but never mixed in).
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+__all__ = ["load_manifest", "load_records", "records_table", "build_table", "write_table", "FIXED_COLUMNS"]
+
+FIXED_COLUMNS = ["run_id", "rep", "seed", "run_outcome", "error", "wall_time_s", "scenario_sha256", "uav"]
+
+
+def load_manifest(campaign_dir) -> dict:
+    p = Path(campaign_dir) / "campaign.json"
+    return json.loads(p.read_text(encoding="utf-8"))
+
+
+def read_record(path: Path) -> dict | None:
+    try:
+        rec = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) and "run_id" in rec else None
+
+
+def load_records(campaign_dir, manifest: dict | None = None) -> list[dict]:
+    """The current, valid records of a campaign, in run order."""
+    campaign_dir = Path(campaign_dir)
+    manifest = manifest or load_manifest(campaign_dir)
+    out = []
+    for r in manifest["runs"]:
+        rec = read_record(campaign_dir / "runs" / f"{r['run_id']}.json")
+        if rec is None or rec.get("inputs_sha256") != r["inputs_sha256"]:
+            continue
+        if rec.get("outcome") not in ("completed", "failed"):
+            continue
+        out.append(rec)
+    return out
+
+
+def _flat(prefix: str, v, out: dict):
+    if isinstance(v, dict):
+        for k, x in v.items():
+            _flat(f"{prefix}.{k}" if prefix else str(k), x, out)
+    elif isinstance(v, (list, tuple)):
+        out[prefix] = " ".join(str(x) for x in v)
+    else:
+        out[prefix] = v
+
+
+def record_rows(rec: dict, param_keys: list) -> list[dict]:
+    """The table rows of one record (see the module docstring)."""
+    reserved = set(FIXED_COLUMNS) | set(param_keys)
+    base = {"run_id": rec["run_id"]}
+    for k in param_keys:
+        base[k] = rec.get("params", {}).get(k)
+    base.update({"rep": rec.get("rep"), "seed": rec.get("seed"), "run_outcome": rec.get("outcome"),
+                 "error": rec.get("error"), "wall_time_s": rec.get("wall_time_s"),
+                 "scenario_sha256": rec.get("scenario_sha256")})
+
+    def metrics(d: dict) -> dict:
+        flat: dict = {}
+        _flat("", d, flat)
+        return {(f"summary.{k}" if k in reserved else k): v for k, v in flat.items()}
+
+    rows = []
+    summary = rec.get("summary")
+    final = rec.get("final") or {}
+    extra = {f"final:{k}": v for k, v in final.items()}
+    if isinstance(summary, dict) and summary.get("uavs"):
+        for u in summary["uavs"]:
+            row = dict(base)
+            m = metrics({k: v for k, v in u.items() if k != "uav"})
+            row["uav"] = u.get("uav")
+            row.update(m)
+            rows.append(row)
+        tot = dict(summary.get("total") or {})
+        tot.pop("run_outcome", None)
+        row = dict(base)
+        row["uav"] = "total"
+        row.update(metrics(tot))
+        row.update(extra)
+        rows.append(row)
+    else:
+        row = dict(base)
+        row["uav"] = None
+        row.update(extra)
+        rows.append(row)
+    return rows
+
+
+def records_table(records: list[dict], param_keys: list):
+    """A pandas DataFrame of records (in the given order)."""
+    import pandas as pd
+    rows = [row for rec in records for row in record_rows(rec, param_keys)]
+    cols: list[str] = ["run_id", *param_keys, "rep", "seed", "run_outcome", "error", "wall_time_s",
+                       "scenario_sha256", "uav"]
+    seen = set(cols)
+    for row in rows:
+        for k in row:
+            if k not in seen:
+                seen.add(k)
+                cols.append(k)
+    df = pd.DataFrame(rows, columns=cols)
+    for c in df.columns:
+        if df[c].dtype == object:
+            vals = df[c].dropna()
+            if len(vals) and all(isinstance(v, bool) for v in vals):
+                df[c] = df[c].astype("boolean")
+            elif len(vals) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+                df[c] = pd.to_numeric(df[c])
+            elif len(vals) and not all(isinstance(v, str) for v in vals):
+                df[c] = df[c].map(lambda v: None if v is None else str(v))
+    for c in ("rep", "seed"):
+        if c in df.columns and len(df):
+            df[c] = df[c].astype("int64")
+    return df
+
+
+def build_table(campaign_dir):
+    manifest = load_manifest(campaign_dir)
+    return records_table(load_records(campaign_dir, manifest), manifest["param_keys"])
+
+
+def write_table(campaign_dir) -> Path:
+    """Rebuild results.parquet and results.csv from runs/*.json (atomic replace); returns the parquet path."""
+    campaign_dir = Path(campaign_dir)
+    df = build_table(campaign_dir)
+    pq_path = campaign_dir / "results.parquet"
+    csv_path = campaign_dir / "results.csv"
+    tmp = campaign_dir / f".results.parquet.tmp{os.getpid()}"
+    df.to_parquet(tmp, index=False)
+    os.replace(tmp, pq_path)
+    tmp = campaign_dir / f".results.csv.tmp{os.getpid()}"
+    df.to_csv(tmp, index=False)
+    os.replace(tmp, csv_path)
+    return pq_path

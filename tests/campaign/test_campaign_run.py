@@ -1,0 +1,198 @@
+"""Campaign execution end to end on a small generic SSP: failures, crashes, resume, stale inputs, worker
+counts and the Dask path give the same table."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from conftest import write_chain_ssp
+from master.campaign.runner import run_campaign
+from master.campaign.spec import load_campaign, seed_for
+
+ROOT = Path(__file__).resolve().parents[2]
+
+CAMPAIGN = """\
+name: chain
+seed: 11
+repetitions: 2
+scenario: chain.ssp
+grid:
+  param:gain.k: [1.0, 2.0, 3.0]
+runs:
+  - {param:gain.k: 5.0, param:integ.a: abc}     # bad parameter value: a Python-level failure
+  - {param:src.mode: 3}                          # the FMU calls abort() in doStep: the worker dies
+run:
+  stop_time: 1.0
+  step: 0.1
+"""
+
+
+def write_campaign(folder: Path, text: str = CAMPAIGN) -> Path:
+    p = folder / "campaign.yaml"
+    p.write_text(text)
+    return p
+
+
+def table(folder: Path) -> pd.DataFrame:
+    return pd.read_parquet(folder / "results.parquet")
+
+
+def same_tables(a: pd.DataFrame, b: pd.DataFrame, drop=("wall_time_s",)):
+    pd.testing.assert_frame_equal(a.drop(columns=list(drop)), b.drop(columns=list(drop)))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory, chain_fmus):
+    """The uninterrupted campaign on 2 worker processes (shared by several tests)."""
+    d = tmp_path_factory.mktemp("ref")
+    write_chain_ssp(d / "chain.ssp", chain_fmus)
+    camp = write_campaign(d)
+    s = run_campaign(camp, output=d / "out", workers=2, progress=False)
+    return d, camp, s
+
+
+def test_grid_with_failures_and_a_crash(reference):
+    d, camp, s = reference
+    out = d / "out"
+    assert (s.total, s.completed, s.failed, s.pending) == (8, 6, 2, 0)
+    assert not s.ok and s.complete and s.ran_now == 8 and s.worker_restarts == 2
+    df = table(out)
+    assert len(df) == 8 and list(df.columns[:4]) == ["run_id", "param:gain.k", "param:integ.a", "param:src.mode"]
+    ok = df[df["run_outcome"] == "completed"]
+    assert len(ok) == 6 and ok["error"].isna().all()
+    # the recorded results are the runs' own: y = time at the end, the gain output proportional to k
+    assert (ok["final:src.y"] == 1.0).all()
+    ratio = ok["final:gain.y"] / ok["param:gain.k"]
+    assert ratio.nunique() == 1 and ratio.iloc[0] > 0
+    bad = df[df["param:integ.a"] == "abc"]
+    assert len(bad) == 2 and (bad["run_outcome"] == "failed").all()
+    assert bad["error"].str.contains("'abc' is not a valid Real for integ.a").all()
+    crash = df[df["param:src.mode"] == 3]
+    assert len(crash) == 2 and (crash["error"] == "worker process died with signal 6 (SIGABRT)").all()
+    # seeds: derived from the campaign seed, the canonical parameters and the repetition
+    c = load_campaign(camp)
+    for r in c.runs:
+        rec = json.loads((out / "runs" / f"{r.run_id}.json").read_text())
+        assert rec["seed"] == seed_for(11, r.params, r.rep) == r.seed
+        assert rec["inputs_sha256"] == r.inputs_sha256
+    assert not list((out / "runs").glob(".*tmp*"))
+    assert "2 failed" in s.describe() and "SIGABRT" in s.describe()
+
+
+def test_one_worker_gives_the_same_table(reference, tmp_path, chain_fmus):
+    d, camp, _ = reference
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    s = run_campaign(write_campaign(tmp_path), output=tmp_path / "out", workers=1, progress=False)
+    assert (s.completed, s.failed) == (6, 2)
+    same_tables(table(tmp_path / "out"), table(d / "out"))
+
+
+def test_resume_after_max_runs_gives_the_same_table(reference, tmp_path, chain_fmus):
+    d, _, _ = reference
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    camp = write_campaign(tmp_path)
+    out = tmp_path / "out"
+    s1 = run_campaign(camp, output=out, workers=2, progress=False, max_runs=3)
+    assert (s1.ran_now, s1.pending) == (3, 5) and not s1.complete
+    assert len(table(out)) == 3
+    s2 = run_campaign(camp, output=out, workers=2, progress=False)
+    assert (s2.skipped, s2.ran_now, s2.pending) == (3, 5, 0)
+    same_tables(table(out), table(d / "out"))
+    s3 = run_campaign(camp, output=out, workers=2, progress=False)
+    assert (s3.skipped, s3.ran_now) == (8, 0)
+    same_tables(table(out), table(d / "out"))
+    # failed runs are finished runs; retry_failed runs them again (and they fail the same way)
+    s4 = run_campaign(camp, output=out, workers=2, progress=False, retry_failed=True)
+    assert (s4.skipped, s4.ran_now, s4.failed) == (6, 2, 2)
+    same_tables(table(out), table(d / "out"))
+
+
+SLOW = """\
+name: slow
+seed: 3
+repetitions: 1
+scenario: chain.ssp
+grid:
+  param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
+run:
+  stop_time: 3.0
+  step: 0.0005
+  csv: false
+"""
+
+
+def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    camp = write_campaign(tmp_path, SLOW)
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
+                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list((out / "runs").glob("*.json"))) < 2:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 1, stderr
+    assert "Interrupted" in stdout
+    records = list((out / "runs").glob("*.json"))
+    assert 2 <= len(records) < 12
+    for r in records:
+        assert json.loads(r.read_text())["outcome"] == "completed"
+    assert not list((out / "runs").glob(".*tmp*"))
+    assert len(table(out)) == len(records)
+    s = run_campaign(camp, output=out, workers=2, progress=False)
+    assert s.ok and s.skipped == len(records) and s.ran_now == 12 - len(records)
+    ref = tmp_path / "ref"
+    run_campaign(camp, output=ref, workers=2, progress=False)
+    same_tables(table(out), table(ref))
+
+
+def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus):
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    camp = write_campaign(tmp_path, CAMPAIGN.replace("runs:\n  - {param:gain.k: 5.0, param:integ.a: abc}     "
+                                                     "# bad parameter value: a Python-level failure\n"
+                                                     "  - {param:src.mode: 3}                          "
+                                                     "# the FMU calls abort() in doStep: the worker dies\n", ""))
+    out = tmp_path / "out"
+    s = run_campaign(camp, output=out, workers=2, progress=False)
+    assert s.ok and s.total == 6
+    before = table(out)
+    # same parameters, different scenario file (another default of an unrelated parameter)
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus, k=7.0)
+    s = run_campaign(camp, output=out, workers=2, progress=False, max_runs=2)
+    assert s.stale == 6 and s.ran_now == 2 and s.pending == 4
+    assert s.stale_reasons == {"scenario file chain.ssp changed": 6}
+    assert "stale" in s.describe() and "chain.ssp changed" in s.describe()
+    # stale records are not mixed into the table
+    assert len(table(out)) == 2
+    s = run_campaign(camp, output=out, workers=2, progress=False)
+    assert s.ok and s.stale == 4 and s.ran_now == 4
+    after = table(out)
+    assert (after["scenario_sha256"] != before["scenario_sha256"]).all()
+    same_tables(after, before, drop=("wall_time_s", "scenario_sha256"))   # k is a grid parameter: same results
+
+
+def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus):
+    distributed = pytest.importorskip("distributed")
+    import dask
+    d, _, _ = reference
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    camp = write_campaign(tmp_path)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                      dashboard_address=None) as cluster:
+            s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
+    assert (s.total, s.completed, s.failed) == (8, 6, 2)
+    assert "Dask scheduler" in s.describe()
+    got, ref = table(tmp_path / "out"), table(d / "out")
+    crash = ref["param:src.mode"] == 3
+    assert got[crash]["error"].str.contains("KilledWorker").all()
+    same_tables(got[~crash], ref[~crash])
+    same_tables(got, ref, drop=("wall_time_s", "error"))
