@@ -110,7 +110,13 @@ class SspBuilder:
             etree.SubElement(alg, _q("osp", "FixedStepAlgorithm"), baseStepSize=_fmt(float(self.step)))
 
     def _params(self, values_parent, comp: _Comp):
-        pset = etree.SubElement(values_parent, _q("ssv", "ParameterSet"), version="1.0", name=f"{comp.name}-parameters")
+        """Inline under values_parent, or (None) as the root of an .ssv file; libcosim's parser matches the
+        literal 'ssv:' prefix, so the file root declares it."""
+        attrs = {"version": "1.0", "name": f"{comp.name}-parameters"}
+        if values_parent is None:
+            pset = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]}, **attrs)
+        else:
+            pset = etree.SubElement(values_parent, _q("ssv", "ParameterSet"), **attrs)
         ps = etree.SubElement(pset, _q("ssv", "Parameters"))
         for var, (t, v) in comp.params.items():
             p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
@@ -136,8 +142,7 @@ class SspBuilder:
                 pbs = etree.SubElement(el, _q("ssd", "ParameterBindings"))
                 if comp.ssv:
                     etree.SubElement(pbs, _q("ssd", "ParameterBinding"), source=f"resources/{comp.ssv}")
-                    holder = etree.Element("holder")
-                    ssv_files[comp.ssv] = self._params(holder, comp)
+                    ssv_files[comp.ssv] = self._params(None, comp)
                 else:
                     pb = etree.SubElement(pbs, _q("ssd", "ParameterBinding"))
                     pv = etree.SubElement(pb, _q("ssd", "ParameterValues"))

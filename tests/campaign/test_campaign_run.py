@@ -60,10 +60,10 @@ def reference(tmp_path_factory, chain_fmus):
 def test_grid_with_failures_and_a_crash(reference):
     d, camp, s = reference
     out = d / "out"
-    assert (s.total, s.completed, s.failed, s.pending) == (8, 6, 2, 0)
-    assert not s.ok and s.complete and s.ran_now == 8 and s.worker_restarts == 2
+    assert (s.total, s.completed, s.failed, s.pending) == (10, 6, 4, 0)
+    assert not s.ok and s.complete and s.ran_now == 10 and s.worker_restarts == 2
     df = table(out)
-    assert len(df) == 8 and list(df.columns[:4]) == ["run_id", "param:gain.k", "param:integ.a", "param:src.mode"]
+    assert len(df) == 10 and list(df.columns[:4]) == ["run_id", "param:gain.k", "param:integ.a", "param:src.mode"]
     ok = df[df["run_outcome"] == "completed"]
     assert len(ok) == 6 and ok["error"].isna().all()
     # the recorded results are the runs' own: y = time at the end, the gain output proportional to k
@@ -82,14 +82,14 @@ def test_grid_with_failures_and_a_crash(reference):
         assert rec["seed"] == seed_for(11, r.params, r.rep) == r.seed
         assert rec["inputs_sha256"] == r.inputs_sha256
     assert not list((out / "runs").glob(".*tmp*"))
-    assert "2 failed" in s.describe() and "SIGABRT" in s.describe()
+    assert "4 failed" in s.describe() and "SIGABRT" in s.describe()
 
 
 def test_one_worker_gives_the_same_table(reference, tmp_path, chain_fmus):
     d, camp, _ = reference
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     s = run_campaign(write_campaign(tmp_path), output=tmp_path / "out", workers=1, progress=False)
-    assert (s.completed, s.failed) == (6, 2)
+    assert (s.completed, s.failed) == (6, 4)
     same_tables(table(tmp_path / "out"), table(d / "out"))
 
 
@@ -99,17 +99,17 @@ def test_resume_after_max_runs_gives_the_same_table(reference, tmp_path, chain_f
     camp = write_campaign(tmp_path)
     out = tmp_path / "out"
     s1 = run_campaign(camp, output=out, workers=2, progress=False, max_runs=3)
-    assert (s1.ran_now, s1.pending) == (3, 5) and not s1.complete
+    assert (s1.ran_now, s1.pending) == (3, 7) and not s1.complete
     assert len(table(out)) == 3
     s2 = run_campaign(camp, output=out, workers=2, progress=False)
-    assert (s2.skipped, s2.ran_now, s2.pending) == (3, 5, 0)
+    assert (s2.skipped, s2.ran_now, s2.pending) == (3, 7, 0)
     same_tables(table(out), table(d / "out"))
     s3 = run_campaign(camp, output=out, workers=2, progress=False)
-    assert (s3.skipped, s3.ran_now) == (8, 0)
+    assert (s3.skipped, s3.ran_now) == (10, 0)
     same_tables(table(out), table(d / "out"))
     # failed runs are finished runs; retry_failed runs them again (and they fail the same way)
     s4 = run_campaign(camp, output=out, workers=2, progress=False, retry_failed=True)
-    assert (s4.skipped, s4.ran_now, s4.failed) == (6, 2, 2)
+    assert (s4.skipped, s4.ran_now, s4.failed) == (6, 4, 4)
     same_tables(table(out), table(d / "out"))
 
 
@@ -189,7 +189,7 @@ def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                       dashboard_address=None) as cluster:
             s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
-    assert (s.total, s.completed, s.failed) == (8, 6, 2)
+    assert (s.total, s.completed, s.failed) == (10, 6, 4)
     assert "Dask scheduler" in s.describe()
     got, ref = table(tmp_path / "out"), table(d / "out")
     crash = ref["param:src.mode"] == 3
