@@ -30,6 +30,18 @@ if str(TESTS_DIR) not in sys.path:
 import fmu_factory  # noqa: E402
 
 
+def _keep_fmu_libraries_loaded():
+    """fmpy unloads an FMU's shared library (dlclose) after simulate_fmu and freeInstance. A pythonfmu binary
+    does not survive that inside a running interpreter: its finalizer touches interpreter state, and the
+    process later crashes in unrelated code (seen as segfaults during garbage collection). cosim-master
+    itself never unloads FMU libraries; the tests that call fmpy directly keep them loaded too."""
+    import fmpy.fmi1
+    fmpy.fmi1._FMU.freeLibrary = lambda self: None
+
+
+_keep_fmu_libraries_loaded()
+
+
 class LazyFMUs(Mapping):
     """Mapping key -> FMU path that builds on first access."""
 

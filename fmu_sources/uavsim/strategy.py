@@ -6,9 +6,10 @@ Target assignment (targets are numbered 0..n-1 in the order they are given = def
   n mod N UAVs get one extra): UAV i gets targets [start_i, start_i + size_i).  With 24 targets and
   1..4 UAVs every UAV gets 24/N targets ("divided equally for each drone", the paper).
 * ``roundrobin``: target k goes to UAV k mod N.
-* ``spatial``: angular sectors around the base: targets sorted by the bearing
-  atan2(y - home_y, x - home_x) in [0, 2 pi) (ties: distance, then index) and split into contiguous
-  blocks as in ``equal``; deterministic, no random initialisation.
+* ``spatial``: angular sectors around the base, the ENU origin (0, 0) common to all UAVs: targets
+  sorted by the bearing atan2(y, x) in [0, 2 pi) (ties: distance, then index) and split into
+  contiguous blocks as in ``equal``; deterministic, no random initialisation.  The centre is the
+  same in every UAV's strategy instance (not the UAV's own pad), so the split is a partition.
 
 Visiting order: Strategy A visits its targets in ascending global index (map order).  Strategy B,
 each time it needs a new target, scores every remaining target by its horizontal distance from
@@ -17,9 +18,25 @@ the current position and takes the lowest score (ties: lowest index).
 Battery rules (the paper): consumed >= return_threshold (0.8) -> abandon the mission and return to
 base; consumed >= land_threshold (0.95) -> land immediately where the UAV is.
 
-Restricted zones: every step two segments of length ``lookahead`` from the current position are
-tested against the zone polygons: one along the current flight direction (the velocity direction,
-when the groundspeed exceeds 0.5 m/s) and one toward the current goal (the commanded leg).  On a hit the UAV plans a
+Restricted zones, ``zone_planning`` true (default): every leg (to a target, or home to the pad) is
+planned when it starts (i.e. whenever the goal changes): the shortest path from the position to the
+goal in a visibility graph whose nodes are the vertices of the zones offset outward by
+``plan_margin`` (default 20 m = V^2/(2 A), the braking distance at cruise speed; mitred) and whose
+edges keep at least that clearance from every zone.  An edge that starts or ends at a point with a
+smaller clearance c (the UAV itself, a target close to a zone) needs only min(plan_margin, 0.9 c),
+so such a target is approached along the shortest free path with a reduced margin; if there is
+no path the margin is halved (down to 1/16) before giving up (then straight to the goal).  The path
+vertices are flown as intermediate waypoints (accepted within arrival_radius).  Last-resort safety
+net (wind drift): each step the segment from the position along the velocity (groundspeed >
+0.5 m/s) of length min(lookahead + v^2/(2 brake_accel), distance to the waypoint) is tested
+against the zones; on a hit the UAV brakes (setpoint = where it is) until its groundspeed is below
+0.5 m/s, then re-plans from there.  The leg is also re-planned when the straight line to the next
+waypoint crosses a zone.
+
+Restricted zones, ``zone_planning`` false (the paper's late detection, collision-prone): every step
+two segments of length ``lookahead`` from the current position are tested against the zone
+polygons: one along the current flight direction (the velocity direction, when the groundspeed
+exceeds 0.5 m/s) and one toward the current goal (the commanded leg).  On a hit the UAV plans a
 fly-around: the shortest path from its position to the goal in the visibility graph whose nodes are
 the vertices of every zone offset outward by ``avoid_margin`` (mitred buffer), and whose edges
 keep at least avoid_margin/2 from every zone (an edge from the UAV's position, or to a goal, that
@@ -80,8 +97,12 @@ def _blocks(n: int, count: int) -> list[range]:
 
 
 def assign_targets(targets, uav_index: int, uav_count: int, assignment: str = "equal",
-                   home=(0.0, 0.0)) -> list[int]:
-    """Global indices of the targets assigned to UAV ``uav_index`` (in ascending index order)."""
+                   home=None, *, center=(0.0, 0.0)) -> list[int]:
+    """Global indices of the targets assigned to UAV ``uav_index`` (in ascending index order).
+
+    ``spatial`` sectors are taken around ``center`` (the base, ENU origin), the same for every UAV,
+    so that the N lists are a partition of the targets.  ``home`` (the UAV's own pad) is accepted
+    for backward compatibility and ignored: sectors about each UAV's pad are not a partition."""
     n = len(targets)
     count = max(1, int(uav_count))
     i = int(uav_index)
@@ -93,7 +114,7 @@ def assign_targets(targets, uav_index: int, uav_count: int, assignment: str = "e
     if mode == "roundrobin":
         return [k for k in range(n) if k % count == i]
     if mode == "spatial":
-        hx, hy = home
+        hx, hy = float(center[0]), float(center[1])
 
         def key(k):
             x, y = targets[k]
@@ -105,8 +126,19 @@ def assign_targets(targets, uav_index: int, uav_count: int, assignment: str = "e
 
 
 # ---------------------------------------------------------------------- zone geometry
+def _seg_point_dist(ax, ay, bx, by, px, py) -> float:
+    """Distance from point p to the segment a-b."""
+    dx, dy = bx - ax, by - ay
+    dd = dx * dx + dy * dy
+    if dd <= 0.0:
+        return math.hypot(px - ax, py - ay)
+    u = ((px - ax) * dx + (py - ay) * dy) / dd
+    u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+    return math.hypot(px - ax - u * dx, py - ay - u * dy)
+
+
 class ZoneMap:
-    """Restricted zones (shapely polygons) with look-ahead test and visibility-graph detours."""
+    """Restricted zones (shapely polygons): segment tests and the paper's reactive detours."""
 
     def __init__(self, zones, margin: float = P.AVOID_MARGIN):
         from shapely.geometry import Polygon
@@ -115,29 +147,71 @@ class ZoneMap:
         self.margin = margin
         self._inner = [p.buffer(-1e-6) for p in self.polys]
         self._prep = [prep(p) for p in self._inner]
-        # planning obstacles: zones inflated by half the margin, so detour legs keep clearance
-        self._infl = [prep(p.buffer(0.5 * margin)) for p in self.polys]
-        self.nodes = []
+        # bounding circles (centre, radius) of the zones: a cheap pure-Python pre-filter, so the
+        # per-step tests call shapely only near a zone
+        self._circles = []
         for p in self.polys:
-            off = p.buffer(margin, join_style=2, mitre_limit=3.0)
-            geoms = getattr(off, "geoms", [off])
-            for g in geoms:
-                self.nodes.extend(list(g.exterior.coords)[:-1])
+            c = p.centroid
+            r = max(math.hypot(x - c.x, y - c.y) for x, y in p.exterior.coords) if not p.is_empty else 0.0
+            self._circles.append((c.x, c.y, r + 1e-6))
+        self._paper = None        # lazily built visibility graph of the paper's reactive detour
+        self._planners: dict[float, ZonePlanner] = {}
 
     def __bool__(self):
         return bool(self.polys)
 
     def blocked(self, a, b) -> int:
         """Index of the first zone whose interior the segment a-b crosses, or -1."""
-        from shapely.geometry import LineString, Point
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < 1e-9:
-            geom = Point(a)
-        else:
-            geom = LineString([a, b])
-        for i, pp in enumerate(self._prep):
-            if pp.intersects(geom):
+        ax, ay = float(a[0]), float(a[1])
+        bx, by = float(b[0]), float(b[1])
+        geom = None
+        for i, (cx, cy, r) in enumerate(self._circles):
+            if _seg_point_dist(ax, ay, bx, by, cx, cy) > r:
+                continue                      # the segment cannot reach this zone
+            if geom is None:
+                from shapely.geometry import LineString, Point
+                geom = Point(ax, ay) if math.hypot(bx - ax, by - ay) < 1e-9 else LineString([(ax, ay), (bx, by)])
+            if self._prep[i].intersects(geom):
                 return i
         return -1
+
+    def inside(self, a) -> bool:
+        from shapely.geometry import Point
+        pt = Point(a)
+        return any(pp.contains(pt) for pp in self._prep)
+
+    # ------------------------------------------------------------------ planning (zone_planning)
+    def planner(self, margin: float) -> "ZonePlanner":
+        key = round(float(margin), 9)
+        if key not in self._planners:
+            self._planners[key] = ZonePlanner(self.polys, key)
+        return self._planners[key]
+
+    def plan(self, start, goal, margin: float, levels: int = 5) -> list[tuple[float, float]] | None:
+        """Planned path start -> goal keeping ``margin`` (see ZonePlanner.plan); if there is none,
+        the margin is halved up to ``levels - 1`` times.  None when no margin gives a path."""
+        m = float(margin)
+        for _ in range(max(1, levels)):
+            path = self.planner(m).plan(start, goal)
+            if path is not None:
+                return path
+            m *= 0.5
+        return None
+
+    # ------------------------------------------------------------------ the paper's reactive detour
+    def _paper_graph(self):
+        if self._paper is None:
+            from shapely.prepared import prep
+            # planning obstacles: zones inflated by half the margin, so detour legs keep clearance
+            infl = [prep(p.buffer(0.5 * self.margin)) for p in self.polys]
+            nodes = []
+            for p in self.polys:
+                off = p.buffer(self.margin, join_style=2, mitre_limit=3.0)
+                geoms = getattr(off, "geoms", [off])
+                for g in geoms:
+                    nodes.extend(list(g.exterior.coords)[:-1])
+            self._paper = (infl, nodes)
+        return self._paper
 
     def _edge_free(self, a, b, a_near: bool, b_near: bool) -> bool:
         """Planning test: the edge must avoid the inflated zones, except that an end point already
@@ -149,24 +223,20 @@ class ZoneMap:
         if a_near or b_near:
             return True
         line = LineString([a, b])
-        return not any(pp.intersects(line) for pp in self._infl)
+        return not any(pp.intersects(line) for pp in self._paper_graph()[0])
 
     def _near(self, a) -> bool:
         from shapely.geometry import Point
         pt = Point(a)
-        return any(pp.intersects(pt) for pp in self._infl)
-
-    def inside(self, a) -> bool:
-        from shapely.geometry import Point
-        pt = Point(a)
-        return any(pp.contains(pt) for pp in self._prep)
+        return any(pp.intersects(pt) for pp in self._paper_graph()[0])
 
     def detour(self, start, goal) -> list[tuple[float, float]] | None:
-        """Shortest visibility-graph path start -> goal (list of waypoints after start, ending with
-        goal), or None when there is none."""
+        """The paper's reactive fly-around (zone_planning false): shortest visibility-graph path
+        start -> goal around the zones offset by ``margin`` (list of waypoints after start, ending
+        with goal), or None when there is none."""
         if self.blocked(start, goal) < 0:
             return [tuple(goal)]
-        nodes = [tuple(start), tuple(goal)] + [n for n in self.nodes if not self.inside(n)]
+        nodes = [tuple(start), tuple(goal)] + [n for n in self._paper_graph()[1] if not self.inside(n)]
         nn = len(nodes)
         near = [self._near(n) for n in nodes]
         dist = [math.inf] * nn
@@ -197,6 +267,133 @@ class ZoneMap:
         path, u = [], 1
         while u != 0:
             path.append(nodes[u])
+            u = prev[u]
+        return path[::-1]
+
+
+class ZonePlanner:
+    """Shortest paths keeping a clearance ``margin`` from the zones (visibility graph).
+
+    Nodes: the vertices of every zone offset outward by ``margin`` (mitred, mitre limit 2), minus
+    those closer than the margin to another zone.  Node-to-node edges must keep the full margin
+    (the edges between neighbouring offset vertices of one zone run at exactly the margin, so the
+    test allows ``TOL``).  An edge from the start or to the goal, whose clearance c may be below the
+    margin, must keep min(margin, ENDPOINT_FACTOR c): a UAV close to a zone moves away from it, and
+    a target close to a zone is approached with the clearance it has.  Node-node edges are computed
+    once; a query adds the start's and goal's edges and runs Dijkstra.
+    """
+    TOL = 0.99
+    ENDPOINT_FACTOR = 0.9
+
+    def __init__(self, polys, margin: float):
+        import numpy as np
+        import shapely
+        from shapely.ops import unary_union
+        self.margin = float(margin)
+        self.union = unary_union(polys) if polys else None
+        if self.union is not None:
+            shapely.prepare(self.union)
+        raw = []
+        for p in polys:
+            off = p.buffer(self.margin, join_style="mitre", mitre_limit=2.0)
+            for g in getattr(off, "geoms", [off]):
+                raw.extend(g.exterior.coords[:-1])
+        nodes: list[tuple[float, float]] = []
+        if raw:
+            arr = np.asarray(raw, dtype=float)
+            clr = shapely.distance(shapely.points(arr), self.union)
+            seen = set()
+            for (x, y), c in zip(arr.tolist(), clr.tolist()):
+                key = (round(x, 6), round(y, 6))
+                if c >= self.margin * self.TOL and key not in seen:
+                    seen.add(key)
+                    nodes.append((x, y))
+        self.nodes = nodes
+        self._arr = np.asarray(nodes, dtype=float).reshape(-1, 2)
+        n = len(nodes)
+        self.adj: list[list[tuple[int, float]]] = [[] for _ in range(n)]
+        if n >= 2:
+            ii, jj = np.triu_indices(n, 1)
+            segs = np.stack([self._arr[ii], self._arr[jj]], axis=1)
+            ok = shapely.distance(shapely.linestrings(segs), self.union) >= self.margin * self.TOL
+            for i, j in zip(ii[ok].tolist(), jj[ok].tolist()):
+                w = math.hypot(nodes[i][0] - nodes[j][0], nodes[i][1] - nodes[j][1])
+                self.adj[i].append((j, w))
+                self.adj[j].append((i, w))
+
+    def clearance(self, pt) -> float:
+        """Distance from pt to the nearest zone (0 inside or on the boundary)."""
+        if self.union is None:
+            return math.inf
+        from shapely.geometry import Point
+        return float(self.union.distance(Point(float(pt[0]), float(pt[1]))))
+
+    def _seg_clearance(self, a, b) -> float:
+        from shapely.geometry import LineString
+        return float(self.union.distance(LineString([a, b])))
+
+    def _edges_from(self, pt, need: float) -> list[tuple[int, float]]:
+        """(node, length) of the nodes visible from pt with clearance >= need."""
+        import numpy as np
+        import shapely
+        n = len(self.nodes)
+        if n == 0:
+            return []
+        segs = np.empty((n, 2, 2))
+        segs[:, 0, 0], segs[:, 0, 1] = pt[0], pt[1]
+        segs[:, 1, :] = self._arr
+        ok = shapely.distance(shapely.linestrings(segs), self.union) >= need * self.TOL
+        return [(j, math.hypot(self.nodes[j][0] - pt[0], self.nodes[j][1] - pt[1]))
+                for j in np.flatnonzero(ok).tolist()]
+
+    def plan(self, start, goal) -> list[tuple[float, float]] | None:
+        """Shortest path start -> goal as the waypoints after start (ending with goal), or None when
+        there is none (or the start or goal is inside a zone)."""
+        start = (float(start[0]), float(start[1]))
+        goal = (float(goal[0]), float(goal[1]))
+        if self.union is None:
+            return [goal]
+        cs, cg = self.clearance(start), self.clearance(goal)
+        if cs <= 0.0 or cg <= 0.0:
+            return None
+        ms = min(self.margin, self.ENDPOINT_FACTOR * cs)
+        mg = min(self.margin, self.ENDPOINT_FACTOR * cg)
+        if math.hypot(goal[0] - start[0], goal[1] - start[1]) < 1e-9 or \
+                self._seg_clearance(start, goal) >= min(ms, mg) * self.TOL:
+            return [goal]
+        n = len(self.nodes)
+        to_goal = dict(self._edges_from(goal, mg))
+        if not to_goal:
+            return None
+        # Dijkstra: nodes 0..n-1, start = n, goal = n + 1
+        S, G = n, n + 1
+        dist = [math.inf] * (n + 2)
+        prev = [-1] * (n + 2)
+        dist[S] = 0.0
+        heap = [(0.0, S)]
+        while heap:
+            d, u = heapq.heappop(heap)
+            if d > dist[u]:
+                continue
+            if u == G:
+                break
+            if u == S:
+                edges = self._edges_from(start, ms)
+            else:
+                edges = self.adj[u]
+                if u in to_goal:
+                    edges = edges + [(G, to_goal[u])]
+            for v, w in edges:
+                nd = d + w
+                if nd < dist[v]:
+                    dist[v] = nd
+                    prev[v] = u
+                    heapq.heappush(heap, (nd, v))
+        if not math.isfinite(dist[G]):
+            return None
+        path, u = [goal], prev[G]
+        while u != S:
+            path.append(self.nodes[u])
             u = prev[u]
         return path[::-1]
 

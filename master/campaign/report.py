@@ -9,6 +9,7 @@ Statistics (``master.campaign.stats``; 95 % two-sided everywhere):
 * success counts: Wilson score interval of the proportion, scaled to counts; A vs B: Fisher's exact test;
 * means (remaining battery per UAV): Student t interval;
 * totals over runs (distance, collisions, photos): n x the t interval of the per-run mean;
+* intervals of quantities that cannot be negative are truncated at 0;
 * A vs B on per-run / per-UAV metrics: two-sided Mann-Whitney U;
 * trends (battery or distance vs wind probability, battery vs fleet size): least-squares slope with
   its t interval.
@@ -158,16 +159,17 @@ def figure_data(u, r) -> dict:
             k, m = int(sub["success"].sum()), len(sub)
             f5[(s, n)] = (k, m, st.wilson_ci(k, m))
     d["fig5"] = f5
-    d["fig6"] = {(s, a): st.mean_ci(u[(u["strategy"] == s) & (u["area"] == a)]["remaining_battery_pct"])
+    d["fig6"] = {(s, a): st.mean_ci(u[(u["strategy"] == s) & (u["area"] == a)]["remaining_battery_pct"], floor=0.0)
                  for s in strategies for a in areas}
     d["fig7"] = {(s, a, w): st.mean_ci(u[(u["strategy"] == s) & (u["area"] == a) & (u["wind"] == w)]
-                                       ["remaining_battery_pct"])
+                                       ["remaining_battery_pct"], floor=0.0)
                  for s in strategies for a in areas for w in winds}
-    d["fig8"] = {(s, w): st.total_ci(r[(r["strategy"] == s) & (r["wind"] == w)]["distance_m"] / 1000.0)
+    d["fig8"] = {(s, w): st.total_ci(r[(r["strategy"] == s) & (r["wind"] == w)]["distance_m"] / 1000.0, floor=0.0)
                  for s in strategies for w in winds}
-    d["fig9"] = {(s, kind): st.total_ci(r[r["strategy"] == s][col])
+    d["fig9"] = {(s, kind): st.total_ci(r[r["strategy"] == s][col], floor=0.0)
                  for s in strategies for kind, col in (("uav", "uav_collided"), ("zone", "zone_collided"))}
-    d["fig10"] = {(s, n): st.mean_ci(u[(u["strategy"] == s) & (u["n_uavs"] == n)]["remaining_battery_pct"])
+    d["fig10"] = {(s, n): st.mean_ci(u[(u["strategy"] == s) & (u["n_uavs"] == n)]["remaining_battery_pct"],
+                                     floor=0.0)
                   for s in strategies for n in fleets}
     return d
 

@@ -130,8 +130,9 @@ def _clean(values) -> np.ndarray:
     return a[np.isfinite(a)]
 
 
-def mean_ci(values, level: float = 0.95) -> CI:
-    """Mean and its t interval; n = 1 gives an unbounded interval (reported as the value alone)."""
+def mean_ci(values, level: float = 0.95, floor: float | None = None) -> CI:
+    """Mean and its t interval; n = 1 gives an unbounded interval (reported as the value alone).
+    ``floor``: truncate the interval there (0 for quantities that cannot be negative)."""
     a = _clean(values)
     n = a.size
     if n == 0:
@@ -141,12 +142,13 @@ def mean_ci(values, level: float = 0.95) -> CI:
         return CI(m, math.nan, math.nan, 1)
     s = float(a.std(ddof=1))
     h = t_ppf(0.5 + level / 2.0, n - 1) * s / math.sqrt(n)
-    return CI(m, m - h, m + h, n)
+    low = m - h if floor is None else max(floor, m - h)
+    return CI(m, low, m + h, n)
 
 
-def total_ci(values, level: float = 0.95) -> CI:
-    """Sum of n per-run values, with the t interval of the mean scaled by n."""
-    c = mean_ci(values, level)
+def total_ci(values, level: float = 0.95, floor: float | None = None) -> CI:
+    """Sum of n per-run values, with the t interval of the mean scaled by n (``floor`` as in mean_ci)."""
+    c = mean_ci(values, level, floor)
     if c.n == 0:
         return CI(0.0, math.nan, math.nan, 0)
     return CI(c.estimate * c.n, c.low * c.n, c.high * c.n, c.n)

@@ -1,5 +1,7 @@
 """SSP features against hand-computed values: nested systems, transformations, units, parameter sources,
 settings annotations of other tools, and the three ways of naming a scenario."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -140,3 +142,32 @@ def test_inspect_reports_structure_and_settings(tmp_path, chain_fmus):
     assert ("sub.g.y", "sink.u") in conns
     assert info["settings"]["step_size"] == 0.1 and info["settings"]["steps"] == 10
     assert info["gauss_seidel_order"] == ["src", "sub.g", "sink"]
+
+
+def test_ssp_2_0_document_is_read(tmp_path, chain_fmus):
+    # SSP 2.0 keeps the SSP1 namespaces; no 2.0 schema ships with fmpy, so the document is parsed unvalidated
+    xml = _chain(link_inner='<ssc:LinearTransformation factor="3" offset="1"/>').replace('version="1.0" name="chain"',
+                                                                                          'version="2.0" name="chain"')
+    r = _run(write_folder(tmp_path / "s", xml, chain_fmus))
+    assert np.all(r.frame["sub.g.u"] == 4.0)
+
+
+def test_each_fmu_is_unpacked_once_for_all_its_instances(tmp_path, chain_fmus, monkeypatch):
+    import zipfile
+    from master.fmi import cache
+    monkeypatch.setenv("COSIM_MASTER_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(cache, "_by_hash", {})
+    monkeypatch.setattr(cache, "_by_stat", {})
+    opened = []
+    real = zipfile.ZipFile.extractall
+
+    def counting(self, *a, **k):
+        opened.append(self.filename)
+        return real(self, *a, **k)
+    monkeypatch.setattr(zipfile.ZipFile, "extractall", counting)
+    folder = write_folder(tmp_path / "s", _chain(), chain_fmus)   # src and sink share Integrator.fmu
+    _run(folder)
+    _run(folder)
+    fmu_extractions = [f for f in opened if str(f).endswith(".fmu")]
+    assert sorted(Path(f).name for f in fmu_extractions) == ["Gain.fmu", "Integrator.fmu"]
+    assert len(list((tmp_path / "cache").iterdir())) == 2

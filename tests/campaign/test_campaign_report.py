@@ -1,0 +1,175 @@
+"""The report from a known, hand-made campaign: intervals and tests checked against hand computation
+and scipy; the statistics module against scipy on random data."""
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from master.campaign import stats as st
+from master.campaign.report import build_report, figure_data, table2, uav_frames
+from master.campaign.table import build_table
+
+scipy_stats = pytest.importorskip("scipy.stats")
+
+STRATS, FLEETS, AREAS, WINDS = ("A", "B"), (1, 2), ("free", "zones"), (0.0, 0.1)
+
+
+def _mission(strategy, n, area, wind, k):
+    """Deterministic hand-made per-UAV results: A succeeds less, zones cause zone collisions, ..."""
+    i = STRATS.index(strategy) * 100 + n * 10 + AREAS.index(area) * 4 + WINDS.index(wind) * 2 + k
+    battery = 30.0 + 7.0 * STRATS.index(strategy) + 5.0 * n - 40.0 * wind + (i % 5)
+    if area == "zones" and k == 0 and wind > 0:
+        outcome = "zone_collision"
+    elif strategy == "A" and n == 2 and area == "free" and wind == 0.0:
+        outcome = "uav_collision"
+    elif n == 1:
+        # strategy A: 1 success of 4 single-UAV runs, strategy B: 3 of 4
+        wins = {"A": {("free", 0.0)}, "B": {("free", 0.0), ("free", 0.1), ("zones", 0.0)}}[strategy]
+        outcome = "success" if (area, wind) in wins else "battery_return"
+    else:
+        outcome = "success" if (i % 3) else "incomplete"
+    return {"uav": f"uav{k + 1}", "index": k, "outcome": outcome, "success": outcome == "success",
+            "remaining_battery_pct": battery, "distance_m": 1000.0 + 10 * i, "photos": 3 + i % 4,
+            "removed_time": 20.0 + i if outcome.endswith("collision") else None}
+
+
+def make_campaign(folder: Path):
+    runs, rows = [], []
+    for s in STRATS:
+        for n in FLEETS:
+            for a in AREAS:
+                for w in WINDS:
+                    rid = f"{s}{n}{a}{int(w * 100):02d}"
+                    params = {"strategy": s, "n_uavs": n, "variant": a, "wind.probability": w}
+                    uavs = [_mission(s, n, a, w, k) for k in range(n)]
+                    total = {"strategy": s, "uavs": n, "scenario": f"paper_{a}", "wind_probability": w,
+                             "run_outcome": "completed", "successes": sum(u["success"] for u in uavs),
+                             "distance_m": sum(u["distance_m"] for u in uavs),
+                             "photos": sum(u["photos"] for u in uavs),
+                             "uav_collisions": sum(u["outcome"] == "uav_collision" for u in uavs) // 2,
+                             "zone_collisions": sum(u["outcome"] == "zone_collision" for u in uavs)}
+                    rec = {"run_id": rid, "params": params, "rep": 0, "seed": 1, "outcome": "completed",
+                           "error": None, "wall_time_s": 1.0, "inputs_sha256": "x", "scenario_sha256": "y",
+                           "summary": {"total": total, "uavs": uavs}}
+                    runs.append({"run_id": rid, "params": params, "rep": 0, "seed": 1, "inputs_sha256": "x"})
+                    rows.append(rec)
+    # one failed run (no summary): listed, never analysed
+    runs.append({"run_id": "broken", "params": {"strategy": "A", "n_uavs": 1, "variant": "free",
+                                                "wind.probability": 0.05}, "rep": 0, "seed": 1,
+                 "inputs_sha256": "x"})
+    rows.append({"run_id": "broken", "params": runs[-1]["params"], "rep": 0, "seed": 1, "outcome": "failed",
+                 "error": "worker process died with signal 11 (SIGSEGV)", "wall_time_s": 0.5, "inputs_sha256": "x"})
+    (folder / "runs").mkdir(parents=True)
+    for rec in rows:
+        (folder / "runs" / f"{rec['run_id']}.json").write_text(json.dumps(rec))
+    manifest = {"format": 1, "name": "hand", "description": "hand-made", "seed": 1, "repetitions": 1,
+                "kind": "uav", "param_keys": ["strategy", "n_uavs", "variant", "wind.probability"], "keep": "summary",
+                "options": {}, "runs": runs}
+    (folder / "campaign.json").write_text(json.dumps(manifest))
+    return rows
+
+
+@pytest.fixture
+def hand(tmp_path):
+    rows = make_campaign(tmp_path)
+    df = build_table(tmp_path)
+    u, r = uav_frames(df)
+    return tmp_path, rows, df, u, r
+
+
+def test_table_has_a_row_per_uav_and_a_total_per_run(hand):
+    _, rows, df, u, r = hand
+    assert len(df) == 16 * 1 + 8 * 1 + 8 * 2 + 1        # totals + 1-UAV rows + 2-UAV rows + the failed run
+    assert list(df.columns[:5]) == ["run_id", "strategy", "n_uavs", "variant", "wind.probability"]
+    assert len(u) == 24 and len(r) == 16                  # the failed run is not analysed
+
+
+def test_success_counts_wilson_and_fisher_by_hand(hand):
+    _, _, _, u, r = hand
+    fd = figure_data(u, r)
+    k, m, ci = fd["fig5"][("A", 1)]
+    assert (k, m) == (1, 4)
+    z = 1.959963984540054
+    p = 0.25
+    centre = (p + z * z / 8) / (1 + z * z / 4)
+    half = z * math.sqrt(p * (1 - p) / 4 + z * z / 64) / (1 + z * z / 4)
+    assert ci.low == pytest.approx(centre - half, abs=1e-12) and ci.high == pytest.approx(centre + half, abs=1e-12)
+    assert fd["fig5"][("B", 1)][:2] == (3, 4)
+    # Fisher exact for [[1, 3], [3, 1]]: hypergeometric weights 1, 16, 36, 16, 1 (of 70); p = (1+16+16+1)/70
+    assert st.fisher_exact(1, 3, 3, 1) == pytest.approx(34 / 70, abs=1e-12)
+    t2 = {x["key"]: x for x in table2(u, r)}
+    ka, kb = int(u[u.strategy == "A"]["success"].sum()), int(u[u.strategy == "B"]["success"].sum())
+    assert t2["success"]["A"] == f"{ka}/12" and t2["success"]["B"] == f"{kb}/12"
+    assert t2["success"]["p"] == pytest.approx(scipy_stats.fisher_exact([[ka, 12 - ka], [kb, 12 - kb]]).pvalue)
+
+
+def test_means_totals_and_tests_against_hand_computation(hand):
+    _, _, _, u, r = hand
+    fd = figure_data(u, r)
+    vals = np.array([_mission("A", n, "free", w, k)["remaining_battery_pct"]
+                     for n in FLEETS for w in WINDS for k in range(n)])
+    ci = fd["fig6"][("A", "free")]
+    half = scipy_stats.t.ppf(0.975, len(vals) - 1) * vals.std(ddof=1) / math.sqrt(len(vals))
+    assert ci.n == 6 and ci.estimate == pytest.approx(vals.mean())
+    assert (ci.low, ci.high) == (pytest.approx(vals.mean() - half), pytest.approx(vals.mean() + half))
+    # totals: n x (t interval of the run mean)
+    d = np.array([sum(_mission("B", n, a, 0.1, k)["distance_m"] for k in range(n)) / 1000
+                  for n in FLEETS for a in AREAS])
+    tot = fd["fig8"][("B", 0.1)]
+    h = scipy_stats.t.ppf(0.975, 3) * d.std(ddof=1) / 2
+    assert tot.estimate == pytest.approx(d.sum()) and tot.high == pytest.approx(d.sum() + 4 * h)
+    # collisions per impact point: removed UAVs
+    assert fd["fig9"][("A", "uav")].estimate == 2 and fd["fig9"][("B", "uav")].estimate == 0
+    assert fd["fig9"][("A", "zone")].estimate == 2 and fd["fig9"][("B", "zone")].estimate == 2
+    assert fd["fig9"][("A", "zone")].low == 0.0          # intervals of counts are truncated at 0
+    t2 = {x["key"]: x for x in table2(u, r)}
+    da, db = r[r.strategy == "A"]["distance_m"], r[r.strategy == "B"]["distance_m"]
+    assert t2["distance"]["p"] == pytest.approx(scipy_stats.mannwhitneyu(da, db, alternative="two-sided").pvalue)
+    assert t2["distance"]["lead"] == "A"          # A flew less: lower distance is better
+    ea, eb = u[u.strategy == "A"]["remaining_battery_pct"], u[u.strategy == "B"]["remaining_battery_pct"]
+    assert t2["energy"]["p"] == pytest.approx(scipy_stats.mannwhitneyu(ea, eb, alternative="two-sided").pvalue)
+    assert t2["energy"]["lead"] == "B" and t2["energy"]["better"] == ("B" if t2["energy"]["p"] < 0.05 else "none")
+    wind = u[u.wind > 0]
+    assert t2["energy_wind"]["n_A"] == len(wind[wind.strategy == "A"]) == 6
+
+
+def test_build_report_writes_figures_and_markdown(hand):
+    folder, *_ = hand
+    path = build_report(folder)
+    assert path == folder / "report" / "report.md"
+    text = path.read_text()
+    for k in ("fig5_success_per_fleet_size", "fig6_battery_per_area", "fig7_battery_per_wind",
+              "fig8_distance_per_wind", "fig9_collisions_per_impact", "fig10_battery_per_fleet_size"):
+        assert (folder / "report" / f"{k}.png").stat().st_size > 5000
+        assert f"({k}.png)" in text
+    assert "41.83%" in text and "215 total collisions" in text           # the paper's numbers, quoted
+    assert "| success_1 | 0 (A), 0 (B) | 1/4 (A), 3/4 (B) | **no** |" in text
+    assert "Fisher exact" in text and "Mann-Whitney U" in text
+    assert "worker process died with signal 11 (SIGSEGV)" in text
+    assert "## Where and why we differ" in text
+
+
+def test_stats_module_agrees_with_scipy():
+    rng = np.random.default_rng(1)
+    for df in (1, 2, 5, 30, 300):
+        assert st.t_ppf(0.975, df) == pytest.approx(scipy_stats.t.ppf(0.975, df), rel=1e-10)
+    for _ in range(60):
+        n1, n2 = rng.integers(1, 14, 2)
+        x = rng.integers(0, 6, n1).astype(float) if rng.random() < 0.5 else rng.normal(size=n1)
+        y = rng.integers(0, 6, n2).astype(float) if rng.random() < 0.5 else rng.normal(0.7, size=n2)
+        u, p = st.mann_whitney_u(x, y)
+        ref = scipy_stats.mannwhitneyu(x, y, alternative="two-sided")
+        assert u == pytest.approx(ref.statistic) and p == pytest.approx(ref.pvalue, rel=1e-9, abs=1e-12)
+        a, b, c, d = (int(v) for v in rng.integers(0, 25, 4))
+        assert st.fisher_exact(a, b, c, d) == pytest.approx(scipy_stats.fisher_exact([[a, b], [c, d]]).pvalue,
+                                                            rel=1e-9, abs=1e-12)
+    ci = st.wilson_ci(7, 20)
+    ref = scipy_stats.binomtest(7, 20).proportion_ci(method="wilson")
+    assert (ci.low, ci.high) == (pytest.approx(ref.low), pytest.approx(ref.high))
+    # exact Mann-Whitney by hand: [1, 2, 3] vs [4, 5, 6] -> U = 0, P(U <= 0) = 1/20, two-sided 0.1
+    assert st.mann_whitney_u([1, 2, 3], [4, 5, 6]) == (0.0, pytest.approx(0.1))
+    m = st.mean_ci([40, 50, 60])
+    assert m.estimate == 50 and m.low == pytest.approx(50 - 4.302652729749464 * 10 / math.sqrt(3))

@@ -1,0 +1,95 @@
+"""Campaign files: grid expansion, run identities and seeds, validation messages, the shipped campaigns."""
+from pathlib import Path
+
+import pytest
+
+from master.campaign.spec import canonical_json, load_campaign, run_id_for, seed_for
+from master.errors import ScenarioError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def camp(tmp_path, body: str, scenario="chain.ssp"):
+    if not (tmp_path / scenario).exists():
+        (tmp_path / scenario).write_bytes(b"PK\x05\x06" + b"\0" * 18)   # an empty zip is enough here
+    p = tmp_path / "c.yaml"
+    p.write_text(f"name: t\nscenario: {scenario}\n" + body)
+    return p
+
+
+def test_grid_is_the_cartesian_product_in_file_order(tmp_path):
+    c = load_campaign(camp(tmp_path, "repetitions: 2\ngrid:\n  param:a.x: [1, 2]\n  step: [0.1, 0.2, 0.5]\n"))
+    assert len(c.runs) == 12 and c.param_keys == ["param:a.x", "step"]
+    assert [(r.params["param:a.x"], r.params["step"], r.rep) for r in c.runs[:4]] == \
+        [(1, 0.1, 0), (1, 0.1, 1), (1, 0.2, 0), (1, 0.2, 1)]
+    r = c.runs[0]
+    assert r.overrides == {"a.x": 1} and r.options["step"] == 0.1
+    assert len({r.run_id for r in c.runs}) == 12 and len({r.seed for r in c.runs}) == 12
+
+
+def test_adding_grid_values_keeps_ids_and_seeds(tmp_path):
+    a = load_campaign(camp(tmp_path, "seed: 5\nrepetitions: 3\ngrid:\n  param:a.x: [1, 2]\n  param:b.y: [true]\n"))
+    b = load_campaign(camp(tmp_path, "seed: 5\nrepetitions: 4\ngrid:\n  param:b.y: [true, false]\n"
+                                     "  param:a.x: [3, 1.0, 2]\n"))
+    ids_b = {r.run_id: r.seed for r in b.runs}
+    for r in a.runs:      # same canonical parameters (1 == 1.0, key order irrelevant) -> same id and seed
+        assert ids_b[r.run_id] == r.seed
+    c = load_campaign(camp(tmp_path, "seed: 6\nrepetitions: 3\ngrid:\n  param:a.x: [1, 2]\n  param:b.y: [true]\n"))
+    assert [r.run_id for r in c.runs] == [r.run_id for r in a.runs]       # the id does not depend on the seed
+    assert all(x.seed != y.seed for x, y in zip(a.runs, c.runs))         # the seed does
+
+
+def test_identity_functions_are_canonical():
+    assert canonical_json({"b": 1.0, "a": [2.50, True]}) == '{"a":[2.5,true],"b":1}'
+    assert run_id_for({"x": 1.0}, 0) == run_id_for({"x": 1}, 0) != run_id_for({"x": 1}, 1)
+    s = seed_for(0, {"x": 1}, 0)
+    assert 0 <= s < 2 ** 31 and s == seed_for(0, {"x": 1.0}, 0)
+
+
+def test_explicit_runs_and_duplicates(tmp_path):
+    c = load_campaign(camp(tmp_path, "grid:\n  param:a.x: [1, 2]\nruns:\n  - {param:a.x: 3, algorithm: gauss-seidel}\n"))
+    assert [r.params for r in c.runs] == [{"param:a.x": 1}, {"param:a.x": 2},
+                                          {"param:a.x": 3, "algorithm": "gauss-seidel"}]
+    assert c.runs[2].options["algorithm"] == "gauss-seidel" and c.param_keys == ["param:a.x", "algorithm"]
+    with pytest.raises(ScenarioError, match="appears twice"):
+        load_campaign(camp(tmp_path, "grid:\n  param:a.x: [1, 2]\nruns:\n  - {param:a.x: 2.0}\n"))
+
+
+@pytest.mark.parametrize("body, message", [
+    ("grid:\n  param:a: [1]\n", "grid.param:a: expected param:COMPONENT.VARIABLE"),
+    ("grid:\n  strategy: [A]\n", "grid.strategy: for an SSP scenario a parameter is param:COMPONENT.VARIABLE"),
+    ("grid:\n  seed: [1, 2]\n", "grid.seed: is derived by the campaign"),
+    ("grid:\n  param:a.x: []\n", "grid.param:a.x: empty list of values"),
+    ("grid:\n  param:a.x: [1, 1.0]\n", "duplicate value 1"),
+    ("run:\n  step: -1\n", "run.step: expected a positive number, got -1"),
+    ("run:\n  stepsize: 1\n", "run.stepsize: unknown run option"),
+    ("keep: some\n", "keep: must be one of summary, all"),
+    ("repetitions: 0\n", "repetitions: expected an integer >= 1"),
+    ("grids: {}\n", "grids: unknown field"),
+])
+def test_bad_campaign_files_give_one_line_errors(tmp_path, body, message):
+    with pytest.raises(ScenarioError) as e:
+        load_campaign(camp(tmp_path, body))
+    assert message in str(e.value) and "\n" not in str(e.value) and str(tmp_path / "c.yaml") in str(e.value)
+
+
+def test_missing_scenario(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("name: t\nscenario: nowhere.ssp\n")
+    with pytest.raises(ScenarioError, match="scenario: scenario not found"):
+        load_campaign(p)
+
+
+def test_shipped_paper_campaign_is_the_papers_grid():
+    c = load_campaign(ROOT / "ssp" / "campaigns" / "paper.yaml")
+    assert c.kind == "uav" and len(c.runs) == 336 and c.repetitions == 3
+    assert sorted({r.params["strategy"] for r in c.runs}) == ["A", "B"]
+    assert sorted({r.params["n_uavs"] for r in c.runs}) == [1, 2, 3, 4]
+    assert sorted({r.params["variant"] for r in c.runs}) == ["free", "zones"]
+    assert sorted({r.params["wind.probability"] for r in c.runs}) == [0, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15]
+    assert len({r.run_id for r in c.runs}) == 336 and len({r.seed for r in c.runs}) == 336
+    r = c.runs[0]
+    assert r.overrides["stop_time"] == 1500 and r.overrides["step"] == 1
+    assert set(r.inputs["fmus"]) == {"UavBattery.fmu", "UavDynamics.fmu", "UavStrategy.fmu", "UavWind.fmu"}
+    s = load_campaign(ROOT / "ssp" / "campaigns" / "smoke.yaml")
+    assert s.kind == "uav" and 1 <= len(s.runs) <= 8
