@@ -25,7 +25,9 @@ _REAL = [  # name, unit, default, description
     ("return_threshold", "1", P.RETURN_THRESHOLD, "consumed fraction: return to base"),
     ("land_threshold", "1", P.LAND_THRESHOLD, "consumed fraction: land immediately"),
     ("arrival_radius", "m", P.ARRIVAL_RADIUS, "target / waypoint acceptance radius"),
-    ("avoid_margin", "m", P.AVOID_MARGIN, "outward offset of detour vertices"),
+    ("avoid_margin", "m", P.AVOID_MARGIN, "outward offset of the reactive detour vertices (zone_planning false)"),
+    ("plan_margin", "m", P.PLAN_MARGIN, "clearance of planned legs from the zones (zone_planning true)"),
+    ("brake_accel", "m/s2", P.WP_ACCEL, "deceleration assumed for the safety-net stopping distance"),
 ]
 _STR = [
     ("strategy", "A", "A: defined order, B: nearest remaining target first"),
@@ -47,6 +49,8 @@ class UavStrategy(UnitsMixin, Fmi2Slave):
         for name, default, desc in _STR:
             setattr(self, name, default)
             self.par_str(name, desc)
+        self.zone_planning = True
+        self.par_bool("zone_planning", "plan every leg around the zones (false: the paper's late 2 m detection)")
         self.uav_index = 0
         self.par_int("uav_index", "index of this UAV, 0..uav_count-1")
         self.uav_count = 1
@@ -70,8 +74,8 @@ class UavStrategy(UnitsMixin, Fmi2Slave):
                            ("photo_count", "photos taken"),
                            ("last_photo_target", "global index of the last photographed target (-1 none)"),
                            ("current_target", "global index of the target being flown to (-1 none)"),
-                           ("avoiding", "1 while flying a zone detour"),
-                           ("avoid_count", "number of detours planned")]:
+                           ("avoiding", "1 while flying a zone detour (or braking before a zone)"),
+                           ("avoid_count", "number of detours planned plus safety-net brakes")]:
             setattr(self, name, 0)
             self.out_int(name, desc)
         self.last_photo_target = -1
@@ -87,7 +91,8 @@ class UavStrategy(UnitsMixin, Fmi2Slave):
         kw = {n: getattr(self, n) for n, *_ in _REAL}
         kw.update({n: str(getattr(self, n)) for n, *_ in _STR})
         self._model = Strategy(StrategyParams(uav_index=int(self.uav_index),
-                                              uav_count=int(self.uav_count), **kw))
+                                              uav_count=int(self.uav_count),
+                                              zone_planning=bool(self.zone_planning), **kw))
 
     def exit_initialization_mode(self):
         self._build()

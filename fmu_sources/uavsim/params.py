@@ -107,3 +107,5 @@ LOOKAHEAD = 2.0                 # m restricted-zone look-ahead distance [PAPER]
 ARRIVAL_RADIUS = 2.0            # m target/waypoint acceptance radius, WPNAV_RADIUS = 200 cm [APWP]
 AVOID_MARGIN = 3.0              # m outward offset of detour vertices around a zone [ASSUME]
 CRUISE_ALTITUDE = TAKEOFF_ALTITUDE
+PLAN_MARGIN = WP_SPEED ** 2 / (2.0 * WP_ACCEL)  # m = 20 m: clearance of planned legs from the zones,
+                                #   the braking distance at cruise speed [APWP][ASSUME]

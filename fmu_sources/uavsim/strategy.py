@@ -141,6 +141,7 @@ class ZoneMap:
     """Restricted zones (shapely polygons): segment tests and the paper's reactive detours."""
 
     def __init__(self, zones, margin: float = P.AVOID_MARGIN):
+        import shapely
         from shapely.geometry import Polygon
         from shapely.prepared import prep
         self.polys = [Polygon(z).buffer(0) for z in zones]
@@ -152,7 +153,8 @@ class ZoneMap:
         self._circles = []
         for p in self.polys:
             c = p.centroid
-            r = max(math.hypot(x - c.x, y - c.y) for x, y in p.exterior.coords) if not p.is_empty else 0.0
+            r = max((math.hypot(x - c.x, y - c.y) for x, y in shapely.get_coordinates(p).tolist()),
+                    default=0.0)
             self._circles.append((c.x, c.y, r + 1e-6))
         self._paper = None        # lazily built visibility graph of the paper's reactive detour
         self._planners: dict[float, ZonePlanner] = {}
@@ -414,7 +416,10 @@ class StrategyParams:
     return_threshold: float = P.RETURN_THRESHOLD  # 1
     land_threshold: float = P.LAND_THRESHOLD    # 1
     arrival_radius: float = P.ARRIVAL_RADIUS    # m
-    avoid_margin: float = P.AVOID_MARGIN        # m
+    avoid_margin: float = P.AVOID_MARGIN        # m (paper's reactive detour)
+    zone_planning: bool = True                  # plan every leg around the zones
+    plan_margin: float = P.PLAN_MARGIN          # m clearance of planned legs
+    brake_accel: float = P.WP_ACCEL             # m/s^2 deceleration for the safety-net look-ahead
 
 
 class Strategy:
@@ -444,10 +449,21 @@ class Strategy:
         self.detour: list[tuple[float, float]] = []
         self.avoid_count = 0
         self.land_point = None
+        # zone_planning state: planned path (waypoints ending with the goal), the goal it was
+        # planned for, safety-net braking
+        self.planning = bool(self.p.zone_planning)
+        self.path: list[tuple[float, float]] = []
+        self.path_goal = None
+        self.plan_count = 0          # legs planned (with or without detour vertices)
+        self.brake_count = 0         # safety-net activations
+        self.braking = False
+        self.brake_point = (0.0, 0.0)
 
     # -------------------------------------------------------------- helpers
     @property
     def avoiding(self) -> bool:
+        if self.planning:
+            return self.braking or len(self.path) > 1
         return bool(self.detour)
 
     @property
@@ -481,10 +497,54 @@ class Strategy:
                 self.state = RETURN_DONE
 
     def _avoidance(self, x, y, vx, vy):
-        """Look-ahead check and detour management; returns the horizontal waypoint to fly to."""
+        """Zone handling; returns the horizontal waypoint to fly to."""
         goal = self._goal()
         if not self.zones:
             return goal
+        if self.planning:
+            return self._planned(x, y, vx, vy, goal)
+        return self._reactive(x, y, vx, vy, goal)
+
+    # ---- zone_planning true: plan each leg, safety net against drift
+    def _replan(self, x, y, goal):
+        self.path_goal = goal
+        path = self.zones.plan((x, y), goal, self.p.plan_margin)
+        self.path = list(path) if path else [tuple(goal)]
+        self.plan_count += 1
+        if len(self.path) > 1:
+            self.avoid_count += 1
+
+    def _planned(self, x, y, vx, vy, goal):
+        if goal != self.path_goal:                 # a new leg: plan it
+            self.braking = False
+            self._replan(x, y, goal)
+        gs = math.hypot(vx, vy)
+        if self.braking:
+            if gs > 0.5:
+                return self.brake_point
+            self.braking = False                   # stopped: go around from here
+            self._replan(x, y, goal)
+        path, r = self.path, self.p.arrival_radius
+        while len(path) > 1 and math.hypot(path[0][0] - x, path[0][1] - y) <= r:
+            path.pop(0)
+        wx, wy = path[0]
+        if gs > 0.5:
+            # last-resort safety net: where the UAV is going (along its velocity) within its
+            # stopping distance plus the look-ahead, but not beyond the waypoint it stops at
+            la = min(self.p.lookahead + gs * gs / (2.0 * max(self.p.brake_accel, 1e-6)),
+                     math.hypot(wx - x, wy - y))
+            if la > 1e-9 and self.zones.blocked((x, y), (x + la * vx / gs, y + la * vy / gs)) >= 0:
+                self.braking = True
+                self.brake_point = (float(x), float(y))
+                self.brake_count += 1
+                self.avoid_count += 1
+                return self.brake_point
+        if self.zones.blocked((x, y), (wx, wy)) >= 0:   # drifted: the way to the waypoint is blocked
+            self._replan(x, y, goal)
+        return self.path[0]
+
+    # ---- zone_planning false: the paper's late detection
+    def _reactive(self, x, y, vx, vy, goal):
         r = self.p.arrival_radius
         # advance along a detour
         while self.detour and len(self.detour) > 1 and \

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
-    ns: dict = {"_fail": _failer(rt)}
+    from ctypes import c_double
+    ns: dict = {"_fail": _failer(rt), "_D": c_double}
+    uses_ct = False
     body: list[str] = []
     tail: list[str] = []
     active = [i for i in order if rt.active[i]]
@@ -17,7 +19,15 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         k = rt.multiple[i]
         transfers, setters, step, getters, publish = rt.fast_ops(i)
         ns[f"H{i}"] = h * k
-        ns[f"d{i}"] = step
+        raw = rt.slaves[i].raw_step
+        if raw is not None:
+            ns[f"d{i}"] = raw
+            ns[f"CH{i}"] = c_double(h * k)
+            call = f"d{i}(ct, CH{i}, 1)"
+            uses_ct = True
+        else:
+            ns[f"d{i}"] = step
+            call = f"d{i}(t, H{i})"
         due = [] if k == 1 else [f"if n % {k} == 0:"]
         ind = "    " * (2 if due else 1)
         lines = []
@@ -27,7 +37,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         for j, s in enumerate(setters):
             ns[f"s{i}_{j}"] = s
             lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-        lines.append(f"{ind}if (st := d{i}(t, H{i})) > 1: _fail({i}, 'doStep', st, t)")
+        lines.append(f"{ind}if (st := {call}) > 1: _fail({i}, 'doStep', st, t)")
         gets = []
         for j, g in enumerate(getters):
             ns[f"g{i}_{j}"] = g
@@ -41,7 +51,8 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         if publish is not None:
             ns[f"p{i}"] = publish
             tail.append(f"    if (n + 1) % {k} == 0: p{i}()")
-    src = "def step(n, t):\n" + "\n".join(body + tail or ["    pass"]) + "\n"
+    head = ["    ct = _D(t)"] if uses_ct else []
+    src = "def step(n, t):\n" + "\n".join(head + body + tail or ["    pass"]) + "\n"
     exec(compile(src, f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>", "exec"), ns)
     fn = ns["step"]
     fn.source = src

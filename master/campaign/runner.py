@@ -202,13 +202,14 @@ def _default_workers() -> int:
 
 
 def run_campaign(path, output=None, workers=None, scheduler=None, progress=True, *, max_runs: int | None = None,
-                 retry_failed: bool = False) -> CampaignSummary:
+                 retry_failed: bool = False, run_filter=None) -> CampaignSummary:
     """Run the campaign file ``path`` (see docs/campaigns.md); returns a :class:`CampaignSummary`.
 
     ``output``: campaign folder (default ``results/<name>``); ``workers``: local worker processes (default:
     every core); ``scheduler``: address of a Dask distributed scheduler (the runs go there instead);
     ``max_runs``: run at most this many of the missing runs (the rest stay for the next invocation);
-    ``retry_failed``: run failed runs again.
+    ``retry_failed``: run failed runs again; ``run_filter``: a predicate on :class:`RunSpec` -- only the
+    missing runs it accepts run now (the others stay pending).
     """
     t_start = time.perf_counter()
     camp = load_campaign(path)
@@ -222,6 +223,8 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
             p.unlink(missing_ok=True)
         done, todo, s = plan_campaign(camp, out, retry_failed)
         s.skipped = len(done)
+        if run_filter is not None:
+            todo = [r for r in todo if run_filter(r)]
         if max_runs is not None:
             todo = todo[:max(0, int(max_runs))]
         tasks = [make_task(camp, r, out) for r in todo]

@@ -105,6 +105,10 @@ class Slave:
     def bound_step(self):
         return self.do_step
 
+    # When a slave offers a raw step, the compiled step calls it as raw(c_double(t), c_double(h), 1), sharing
+    # one c_double for t among all slaves of a master step (no per-call argument conversion).
+    raw_step = None
+
     def _logger_fn(self):
         sink, name = self.log, self.name
 
@@ -205,15 +209,22 @@ class Fmi2Slave(Slave):
     def do_step(self, t, h) -> int:
         return self._do_step(self.c, t, h, 1)
 
+    def _raw(self, name):
+        """A fresh function object without argtypes: called with ready ctypes arguments it skips the
+        per-argument conversion that fmpy's prototypes (argtypes) perform on every call."""
+        return self.fmu2.dll[name]
+
     def bound_get(self, typ, port):
         if typ == "String":
             return super().bound_get(typ, port)
-        return functools.partial(self._get[typ], c_void_p(self.c), port.vr_ptr, port.n, port.buf_ptr)
+        return functools.partial(self._raw(f"fmi2Get{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+                                 port.buf_ptr)
 
     def bound_set(self, typ, port):
         if typ == "String":
             return super().bound_set(typ, port)
-        return functools.partial(self._set[typ], c_void_p(self.c), port.vr_ptr, port.n, port.buf_ptr)
+        return functools.partial(self._raw(f"fmi2Set{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+                                 port.buf_ptr)
 
     def bound_step(self):
         f, c = self._do_step, c_void_p(self.c)
@@ -221,6 +232,10 @@ class Fmi2Slave(Slave):
         def step(t, h):
             return f(c, t, h, 1)
         return step
+
+    @property
+    def raw_step(self):
+        return functools.partial(self._raw("fmi2DoStep"), c_void_p(self.c)) if self._do_step is not None else None
 
     def terminate(self):
         if self.initialized:

@@ -1,0 +1,155 @@
+"""Throughput of the paper campaign (ssp/campaigns/paper.yaml, 336 runs) and a profile of one run.
+
+    python bench/bench_campaign.py                      # full campaign on every core + profile
+    python bench/bench_campaign.py --fraction 0.25      # every 4th run (stratified), extrapolated
+    python bench/bench_campaign.py --profile-only       # just the cProfile of one run
+
+Prints the wall time, runs per minute and per core, the mean run wall time by fleet size, the
+extrapolation to the full 336 runs, and the top entries of a cProfile of one warm run (4 UAVs by
+default) with the time grouped by layer (UAV model code inside the FMUs, the FMI calls, the master's
+step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
+
+The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
+before and after: other processes on the same cores make every number here slower.
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import os
+import pstats
+import shutil
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from master.campaign.execute import execute_run  # noqa: E402
+from master.campaign.runner import make_task, run_campaign  # noqa: E402
+from master.campaign.spec import load_campaign  # noqa: E402
+
+PAPER = ROOT / "ssp" / "campaigns" / "paper.yaml"
+
+LAYERS = [  # (name, substrings of the file path), first match wins
+    ("UAV model code (uavsim, in the FMUs)", ("uavsim", "/resources/Uav")),
+    ("pythonfmu slave layer", ("pythonfmu",)),
+    ("FMI calls (master/fmi)", ("master/fmi",)),
+    ("master step loop (algorithms, runner)", ("master/algorithms", "master/runner", "cosim-master step")),
+    ("UAV monitor (collisions, zones)", ("master/monitors",)),
+    ("mission outputs (summary, trajectory, map.png)", ("master/uav/outputs", "matplotlib", "PIL")),
+    ("scenario build + SSP parse (YAML, SSP, XSD)", ("master/uav/build", "master/ssp", "master/uav_scenario",
+                                                     "yaml", "lxml", "zipfile")),
+    ("recording (parquet)", ("master/recorder", "pyarrow")),
+    ("plan/instantiate (master/plan, runtime)", ("master/plan", "master/runtime", "fmpy")),
+]
+
+
+def _layer(filename: str) -> str:
+    for name, keys in LAYERS:
+        if any(k in filename for k in keys):
+            return name
+    return "other (numpy, shapely, python)"
+
+
+def profile_one(n_uavs: int, strategy: str, variant: str, wind: float, top: int = 20) -> None:
+    camp = load_campaign(PAPER)
+    pick = [r for r in camp.runs if r.params["n_uavs"] == n_uavs and r.params["strategy"] == strategy
+            and r.params["variant"] == variant and abs(r.params["wind.probability"] - wind) < 1e-12 and r.rep == 0]
+    r = pick[0]
+    tmp = Path(tempfile.mkdtemp(prefix="bench-campaign-prof-"))
+    try:
+        task = make_task(camp, r, tmp)
+        t0 = time.perf_counter()
+        rec = execute_run(task)           # cold: imports, FMU cache, first map
+        cold = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rec = execute_run(task)
+        warm = time.perf_counter() - t0
+        pr = cProfile.Profile()
+        pr.enable()
+        execute_run(task)
+        pr.disable()
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    tot = rec["summary"]["total"] if rec.get("summary") else {}
+    print(f"\n== profile of one run: {strategy}, {n_uavs} UAV(s), {variant}, wind {wind:g} "
+          f"(outcome {rec['outcome']}, simulated {tot.get('end_time')} s, flight time {tot.get('flight_time_s')})")
+    print(f"wall: cold {cold:.2f} s (first run in a process), warm {warm:.2f} s (a worker's steady state)")
+    stats = pstats.Stats(pr)
+    total = sum(v[2] for v in stats.stats.values())
+    by_layer = defaultdict(float)
+    for (fn, _, _), v in stats.stats.items():
+        by_layer[_layer(fn)] += v[2]
+    print(f"own time by layer (cProfile, total {total:.2f} s incl. profiler overhead):")
+    for name, t in sorted(by_layer.items(), key=lambda kv: -kv[1]):
+        print(f"  {t:7.2f} s  {100 * t / total:5.1f} %  {name}")
+    for key in ("tottime", "cumulative"):
+        buf = io.StringIO()
+        pstats.Stats(pr, stream=buf).strip_dirs().sort_stats(key).print_stats(top)
+        lines = buf.getvalue().splitlines()
+        start = next(i for i, ln in enumerate(lines) if ln.lstrip().startswith("ncalls"))
+        print(f"\ntop {top} by {key}:")
+        print("\n".join(lines[start:start + top + 1]))
+
+
+def run_bench(fraction: float, workers: int | None, output: Path | None, keep_output: bool) -> None:
+    camp = load_campaign(PAPER)
+    every = max(1, round(1 / fraction))
+    out = output or Path(tempfile.mkdtemp(prefix="bench-campaign-"))
+    if out.exists():
+        shutil.rmtree(out)
+    n_workers = workers or len(os.sched_getaffinity(0))
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    s = run_campaign(PAPER, output=out, workers=n_workers, progress=True,
+                     run_filter=(lambda r: r.index % every == 0) if every > 1 else None)
+    wall = time.perf_counter() - t0
+    load1 = os.getloadavg()[0]
+    import pandas as pd
+    df = pd.read_parquet(out / "results.parquet")
+    runs = df.drop_duplicates("run_id")
+    print(f"\n== campaign {camp.name}: {s.ran_now} of {len(camp.runs)} runs (every {every}), {n_workers} worker(s), "
+          f"{len(os.sched_getaffinity(0))} core(s); load average {load0:.2f} before, {load1:.2f} after")
+    print(s.describe())
+    rate = s.ran_now / wall * 60
+    print(f"wall {wall:.1f} s (incl. worker start and table), {rate:.1f} runs/min, "
+          f"{rate / n_workers:.1f} runs/min per core")
+    print(f"sum of run wall times {runs['wall_time_s'].sum():.1f} s -> pool efficiency "
+          f"{runs['wall_time_s'].sum() / (wall * n_workers) * 100:.0f} %")
+    est = wall * len(camp.runs) / max(1, s.ran_now)
+    print(f"full {len(camp.runs)} runs on {n_workers} core(s): {est:.0f} s = {est / 60:.1f} min "
+          f"({'measured' if every == 1 else 'extrapolated'}); target 120 s")
+    print("\nmean run wall time [s] by fleet size (warm workers):")
+    g = runs.groupby(["n_uavs", "strategy", "variant"])["wall_time_s"].mean().unstack(["strategy", "variant"])
+    print(g.round(2).to_string())
+    print(runs.groupby("n_uavs")["wall_time_s"].agg(["mean", "min", "max", "count"]).round(2).to_string())
+    if not keep_output and output is None:
+        shutil.rmtree(out, ignore_errors=True)
+    else:
+        print(f"campaign folder kept: {out}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--fraction", type=float, default=1.0, help="run every round(1/F)-th run (default 1: all 336)")
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--output", type=Path, default=None, help="campaign folder (default: a temporary one)")
+    ap.add_argument("--keep-output", action="store_true")
+    ap.add_argument("--profile-only", action="store_true")
+    ap.add_argument("--no-profile", action="store_true")
+    ap.add_argument("--profile-run", default="4,B,free,0.15", help="n_uavs,strategy,variant,wind (default 4,B,free,0.15)")
+    args = ap.parse_args()
+    if not args.profile_only:
+        run_bench(args.fraction, args.workers, args.output, args.keep_output)
+    if not args.no_profile:
+        n, s, v, w = args.profile_run.split(",")
+        profile_one(int(n), s, v, float(w))
+
+
+if __name__ == "__main__":
+    main()
