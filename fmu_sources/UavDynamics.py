@@ -14,7 +14,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.dynamics import Dynamics, DynamicsParams  # noqa: E402
 from uavsim.fmi import UnitsMixin  # noqa: E402
-from uavsim.geodesy import geodetic_from_enu  # noqa: E402
+from uavsim.geodesy import EnuFrame  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
     ("origin_lat", "deg", -7.2153, "latitude of the ENU origin (base), WGS84"),
@@ -77,12 +77,15 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
         self.ready = 0
         self.out_int("ready", "1 once the preflight check has passed")
         self._model = None
+        self._frame = None
+        self._geo_key = None
         self._publish()
 
     def _build(self):
         names = DynamicsParams.__dataclass_fields__
         kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}
         self._model = Dynamics(DynamicsParams(**kw))
+        self._frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
 
     def exit_initialization_mode(self):
         self._build()
@@ -100,9 +103,14 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
             self.vx, self.vy, self.vz = m.vel
             self.airspeed, self.groundspeed, self.tilt = m.airspeed, m.groundspeed, m.tilt_deg
             self.phase, self.ready = int(m.phase), int(m.ready)
-        lat, lon, alt = geodetic_from_enu(self.x, self.y, self.z, self.origin_lat, self.origin_lon,
-                                          self.origin_alt)
-        self.lat, self.lon, self.alt = float(lat), float(lon), float(alt)
+        fr = self._frame
+        if fr is None:     # before initialisation the origin parameters may still change
+            fr = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
+            self._geo_key = None
+        key = (self.x, self.y, self.z)
+        if key != self._geo_key or fr is not self._frame:    # not moved (e.g. landed): reuse
+            self.lat, self.lon, self.alt = fr.to_geodetic(self.x, self.y, self.z)
+            self._geo_key = key if fr is self._frame else None
 
     def do_step(self, current_time, step_size):
         if self._model is None:

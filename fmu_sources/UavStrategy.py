@@ -27,6 +27,7 @@ _REAL = [  # name, unit, default, description
     ("arrival_radius", "m", P.ARRIVAL_RADIUS, "target / waypoint acceptance radius"),
     ("avoid_margin", "m", P.AVOID_MARGIN, "outward offset of the reactive detour vertices (zone_planning false)"),
     ("plan_margin", "m", P.PLAN_MARGIN, "clearance of planned legs from the zones (zone_planning true)"),
+    ("lane_spacing", "m", P.LANE_SPACING, "extra planning clearance per UAV index (detour lanes)"),
     ("brake_accel", "m/s2", P.WP_ACCEL, "deceleration assumed for the safety-net stopping distance"),
 ]
 _STR = [

@@ -160,10 +160,14 @@ class Battery:
         return self.consumed >= 1.0
 
     def _update(self, airspeed, vz, motors_on):
+        self._update_power(electrical_power(airspeed, vz, motors_on, self.power_params))
+
+    def _update_power(self, demand: float) -> None:
+        """Current, terminal voltage and delivered power for the electrical power ``demand``."""
         bp = self.params
         emf = bp.cells * ocv_cell(self.soc, bp)
-        self.power = electrical_power(airspeed, vz, motors_on, self.power_params)
-        self.current, self.overload = current_for_power(self.power, emf, bp.resistance)
+        self.power = demand
+        self.current, self.overload = current_for_power(demand, emf, bp.resistance)
         self.voltage = emf - self.current * bp.resistance
         self.power = self.voltage * self.current
 
@@ -176,8 +180,10 @@ class Battery:
         if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
             n = int(math.ceil(dt / h0 - 1e-9))
         h = dt / n
+        # the inputs are held over the step, so the power demand is the same in every sub-step
+        demand = electrical_power(airspeed, vz, motors_on, self.power_params)
         for _ in range(n):
-            self._update(airspeed, vz, motors_on)
+            self._update_power(demand)
             self.charge_used += self.current * h
             self.energy_used += self.power * h
-        self._update(airspeed, vz, motors_on)
+        self._update_power(demand)

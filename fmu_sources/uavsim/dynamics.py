@@ -124,19 +124,180 @@ class Dynamics:
         return math.degrees(math.atan2(math.hypot(*self.a_cmd), self.params.g))
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float, cmd: int, sp=(0.0, 0.0, 0.0), wind=(0.0, 0.0, 0.0)) -> None:
-        """Advance by ``dt`` seconds with inputs held constant (fixed internal sub-steps)."""
-        if dt <= 0.0:
-            return
+    def _substeps(self, dt: float) -> tuple[int, float]:
         h0 = self.params.substep
         n = max(1, int(round(dt / h0)))
         if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
             n = int(math.ceil(dt / h0 - 1e-9))
-        h = dt / n
+        return n, dt / n
+
+    def step(self, dt: float, cmd: int, sp=(0.0, 0.0, 0.0), wind=(0.0, 0.0, 0.0)) -> None:
+        """Advance by ``dt`` seconds with inputs held constant (fixed internal sub-steps).
+
+        The sub-steps are those of :meth:`_substep` (the reference implementation), run by the
+        inlined loop :meth:`_run` (same arithmetic in the same order, so bit-identical: tested);
+        on the ground without a takeoff command nothing moves and the loop is skipped."""
+        if dt <= 0.0:
+            return
+        n, h = self._substeps(dt)
+        self.wind = (float(wind[0]), float(wind[1]), float(wind[2]))
+        cmd = int(cmd)
+        if self.phase == LANDED and cmd != CMD_TAKEOFF:
+            pass                                   # on the ground: nothing changes
+        elif self.phase == PREFLIGHT and cmd not in (CMD_TAKEOFF, CMD_GOTO):
+            pt = self.params.preflight_time - 1e-9
+            for _ in range(n):                     # only the preflight-check clock runs
+                self.preflight_elapsed += h
+                if self.preflight_elapsed >= pt:
+                    self.ready = True
+        else:
+            self._run(n, h, cmd, sp)
+        self.time += dt
+
+    def step_reference(self, dt: float, cmd: int, sp=(0.0, 0.0, 0.0), wind=(0.0, 0.0, 0.0)) -> None:
+        """:meth:`step` through the plain :meth:`_substep` (reference for the tests)."""
+        if dt <= 0.0:
+            return
+        n, h = self._substeps(dt)
         self.wind = (float(wind[0]), float(wind[1]), float(wind[2]))
         for _ in range(n):
             self._substep(h, int(cmd), sp)
         self.time += dt
+
+    def _run(self, n: int, h: float, cmd: int, sp) -> None:
+        """n sub-steps of :meth:`_substep` with the state in local variables (the hot loop)."""
+        p = self.params
+        sqrt, hypot, copysign = math.sqrt, math.hypot, math.copysign
+        speed, accel, pos_p, vel_p, vel_i = p.speed, p.accel, p.pos_p, p.vel_p, p.vel_i
+        lin = accel / (pos_p * pos_p)
+        accel_z, pos_z_p, speed_up, speed_dn = p.accel_z, p.pos_z_p, p.speed_up, p.speed_dn
+        lin_z = accel_z / (pos_z_p * pos_z_p)
+        land_speed, land_alt_low, takeoff_alt = p.land_speed, p.land_alt_low, p.takeoff_altitude
+        k = p.drag_k
+        amax = p.max_horizontal_accel
+        lim = accel * h
+        limz = accel_z * h
+        wx, wy = self.wind[0], self.wind[1]
+        spx, spy, spz = float(sp[0]), float(sp[1]), float(sp[2])
+        goto = cmd == CMD_GOTO
+        i = 0
+        while i < n:
+            if self.phase == PREFLIGHT or self.phase == LANDED:
+                self._substep(h, cmd, sp)          # rare: lift-off happens in the reference code
+                i += 1
+                continue
+            # ---- load the state
+            px, py, pz = self.pos
+            vx, vy = self.vel[0], self.vel[1]
+            vtx, vty = self.vt
+            vtz = self.vtz
+            ix, iy = self.integ
+            phase, mode = self.phase, self.mode
+            hx, hy = self.hold
+            hold_z = self.hold_z
+            ax = ay = 0.0
+            landed = False
+            while i < n:
+                i += 1
+                # ---- phase logic
+                if cmd == CMD_LAND and (phase == TAKEOFF or phase == FLY):
+                    phase = LAND
+                    hx, hy = px, py
+                if phase == FLY:
+                    if goto:
+                        mode = "goto"
+                    elif mode == "goto":
+                        mode = "hold"
+                        hx, hy = px, py
+                        hold_z = pz
+                if phase == FLY and mode == "goto":
+                    gx, gy, gz = spx, spy, spz
+                else:
+                    gx, gy = hx, hy
+                    if phase == TAKEOFF:
+                        gz = takeoff_alt
+                    elif phase == FLY:
+                        gz = hold_z
+                    else:
+                        gz = pz
+                # ---- horizontal controller
+                ex, ey = gx - px, gy - py
+                d = hypot(ex, ey)
+                if d <= 0.0:
+                    vmag = 0.0
+                elif d <= lin:
+                    vmag = pos_p * d
+                else:
+                    vmag = sqrt(2.0 * accel * (d - 0.5 * lin))
+                vmag = min(speed, vmag)
+                if d > 1e-9:
+                    vdx, vdy = vmag * ex / d, vmag * ey / d
+                else:
+                    vdx = vdy = 0.0
+                dvx, dvy = vdx - vtx, vdy - vty
+                dvm = hypot(dvx, dvy)
+                if dvm > lim:
+                    dvx, dvy = dvx * lim / dvm, dvy * lim / dvm
+                vtx += dvx
+                vty += dvy
+                sx = hypot(vx, vy)
+                evx, evy = vtx - vx, vty - vy
+                ax = dvx / h + vel_p * evx + vel_i * ix + k * sx * vx
+                ay = dvy / h + vel_p * evy + vel_i * iy + k * sx * vy
+                am = hypot(ax, ay)
+                if am > amax:
+                    ax, ay = ax * amax / am, ay * amax / am
+                else:
+                    ix += evx * h
+                    iy += evy * h
+                vax, vay = vx - wx, vy - wy
+                va = hypot(vax, vay)
+                vx += (ax - k * va * vax) * h
+                vy += (ay - k * va * vay) * h
+                # ---- vertical
+                ez = gz - pz
+                if phase == LAND:
+                    vzd = -(land_speed if pz <= land_alt_low else speed_dn)
+                else:
+                    aez = abs(ez)
+                    if aez <= 0.0:
+                        vzd = 0.0
+                    elif aez <= lin_z:
+                        vzd = pos_z_p * aez
+                    else:
+                        vzd = sqrt(2.0 * accel_z * (aez - 0.5 * lin_z))
+                    vzd = copysign(vzd, ez)
+                    vzd = max(-speed_dn, min(speed_up, vzd))
+                vtz += max(-limz, min(limz, vzd - vtz))
+                px += vx * h
+                py += vy * h
+                pz += vtz * h
+                # ---- transitions
+                if phase == TAKEOFF and pz >= takeoff_alt - 0.2:
+                    phase = FLY
+                    mode = "hold"
+                    hold_z = takeoff_alt
+                if phase == LAND and pz <= 0.0:
+                    landed = True
+                    break
+            # ---- store the state
+            self.pos = [px, py, pz]
+            self.vel = [vx, vy, vtz]
+            self.vt = [vtx, vty]
+            self.vtz = vtz
+            self.integ = [ix, iy]
+            self.a_cmd = [ax, ay]
+            self.phase, self.mode = phase, mode
+            self.hold = [hx, hy]
+            self.hold_z = hold_z
+            if landed:
+                self.pos[2] = 0.0
+                self.vel = [0.0, 0.0, 0.0]
+                self.vt = [0.0, 0.0]
+                self.vtz = 0.0
+                self.integ = [0.0, 0.0]
+                self.a_cmd = [0.0, 0.0]
+                self.phase = LANDED
 
     def _set_hold_here(self):
         self.hold = [self.pos[0], self.pos[1]]

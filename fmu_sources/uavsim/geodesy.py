@@ -145,3 +145,47 @@ def geodetic_from_enu(e, n, u, lat0, lon0, alt0=0.0):
     """Local ENU (e, n, u) [m] about (lat0, lon0, alt0) -> geodetic (deg, deg, m)."""
     x, y, z = ecef_from_enu(e, n, u, lat0, lon0, alt0)
     return geodetic_from_ecef(x, y, z)
+
+
+class EnuFrame:
+    """A fixed ENU origin with its constants precomputed, for scalar conversions in a hot loop.
+
+    ``to_geodetic(e, n, u)`` is the same computation as :func:`geodetic_from_enu` (ENU -> ECEF by
+    the rotation about the origin, then Bowring's estimate and two refinement iterations) written
+    with the ``math`` module on Python floats: it agrees with the numpy version to float64
+    rounding (tested), at a fraction of the cost (no numpy scalars, the origin's ECEF position and
+    rotation computed once).
+    """
+
+    __slots__ = ("lat0", "lon0", "alt0", "_x0", "_y0", "_z0", "_sp", "_cp", "_sl", "_cl")
+
+    def __init__(self, lat0: float, lon0: float, alt0: float = 0.0):
+        import math
+        self.lat0, self.lon0, self.alt0 = float(lat0), float(lon0), float(alt0)
+        p, l = math.radians(self.lat0), math.radians(self.lon0)
+        sp, cp, sl, cl = math.sin(p), math.cos(p), math.sin(l), math.cos(l)
+        n0 = WGS84_A / math.sqrt(1.0 - WGS84_E2 * sp * sp)
+        self._x0 = (n0 + self.alt0) * cp * cl
+        self._y0 = (n0 + self.alt0) * cp * sl
+        self._z0 = (n0 * (1.0 - WGS84_E2) + self.alt0) * sp
+        self._sp, self._cp, self._sl, self._cl = sp, cp, sl, cl
+
+    def to_geodetic(self, e: float, n: float, u: float) -> tuple[float, float, float]:
+        """ENU (m) -> (lat deg, lon deg, alt m) as Python floats."""
+        from math import atan2, cos, degrees, hypot, sin, sqrt
+        sp, cp, sl, cl = self._sp, self._cp, self._sl, self._cl
+        x = self._x0 + (-sl * e - sp * cl * n + cp * cl * u)
+        y = self._y0 + (cl * e - sp * sl * n + cp * sl * u)
+        z = self._z0 + (cp * n + sp * u)
+        a, b, e2, ep2 = WGS84_A, WGS84_B, WGS84_E2, WGS84_EP2
+        p = hypot(x, y)
+        lon = atan2(y, x)
+        theta = atan2(z * a, p * b)
+        st, ct = sin(theta), cos(theta)
+        lat = atan2(z + ep2 * b * st ** 3, p - e2 * a * ct ** 3)
+        for _ in range(2):
+            s = sin(lat)
+            lat = atan2(z + e2 * (a / sqrt(1.0 - e2 * s * s)) * s, p)
+        s, c = sin(lat), cos(lat)
+        alt = p * c + z * s - a * sqrt(1.0 - e2 * s * s)
+        return degrees(lat), degrees(lon), alt

@@ -109,3 +109,6 @@ AVOID_MARGIN = 3.0              # m outward offset of detour vertices around a z
 CRUISE_ALTITUDE = TAKEOFF_ALTITUDE
 PLAN_MARGIN = WP_SPEED ** 2 / (2.0 * WP_ACCEL)  # m = 20 m: clearance of planned legs from the zones,
                                 #   the braking distance at cruise speed [APWP][ASSUME]
+LANE_SPACING = 5.0              # m extra clearance per UAV index: UAV i plans at PLAN_MARGIN + i x 5 m
+                                #   (> 2 x the 2.6 m impact diameter), so detours of different UAVs
+                                #   around one zone use distinct corner waypoints [ASSUME]

@@ -419,6 +419,7 @@ class StrategyParams:
     avoid_margin: float = P.AVOID_MARGIN        # m (paper's reactive detour)
     zone_planning: bool = True                  # plan every leg around the zones
     plan_margin: float = P.PLAN_MARGIN          # m clearance of planned legs
+    lane_spacing: float = P.LANE_SPACING        # m extra clearance per UAV index (lanes)
     brake_accel: float = P.WP_ACCEL             # m/s^2 deceleration for the safety-net look-ahead
 
 
@@ -452,6 +453,9 @@ class Strategy:
         # zone_planning state: planned path (waypoints ending with the goal), the goal it was
         # planned for, safety-net braking
         self.planning = bool(self.p.zone_planning)
+        # each UAV plans on its own "lane": clearance plan_margin + lane_spacing * uav_index, so
+        # UAVs detouring around the same zone corner do not converge on one waypoint
+        self.margin = float(self.p.plan_margin) + float(self.p.lane_spacing) * max(0, int(self.p.uav_index))
         self.path: list[tuple[float, float]] = []
         self.path_goal = None
         self.plan_count = 0          # legs planned (with or without detour vertices)
@@ -508,7 +512,7 @@ class Strategy:
     # ---- zone_planning true: plan each leg, safety net against drift
     def _replan(self, x, y, goal):
         self.path_goal = goal
-        path = self.zones.plan((x, y), goal, self.p.plan_margin)
+        path = self.zones.plan((x, y), goal, self.margin)
         self.path = list(path) if path else [tuple(goal)]
         self.plan_count += 1
         if len(self.path) > 1:

@@ -27,8 +27,10 @@ outside episodes (no wind, no turbulence); each episode starts from a draw of th
 distribution N(0, sigma^2), so every sample has the Dryden variance.
 
 Optional discrete gust (MIL-F-8785C "1-cosine"): within each episode one gust of amplitude
-A = ``gust_amplitude`` * U_k along the mean wind, length T_g = ``gust_length`` s, starting at a
-uniformly drawn time in [0, D - T_g]:  u_g(t) = A/2 (1 - cos(2 pi (t - t_g)/T_g)).
+A = ``gust_amplitude`` * U_k along the mean wind, length T_g = min(``gust_length``, D) s (a gust
+longer than the episode is shortened to it, so the whole 1-cosine lies inside the episode), starting
+at t_g = kT + u (D - T_g) with u uniform in [0, 1) (t_g = kT when T_g = D):
+u_g(t) = A/2 (1 - cos(2 pi (t - t_g)/T_g)) for t_g <= t <= t_g + T_g.
 Gust and turbulence are scaled by the ramp factor U(t)/U_k, so the wind is continuous.
 
 Determinism: all random numbers for interval k are drawn when interval k is first entered, from
@@ -133,6 +135,17 @@ class Wind:
     def _episode_length(self) -> float:
         return min(self.p.duration, self.p.decision_interval)
 
+    def gust_window(self, k: int) -> tuple[float, float]:
+        """(start time, length) of the 1-cosine gust of interval k (whether or not wind occurs).
+
+        The gust length is clipped to the episode, T_g = min(gust_length, D), and its start is drawn
+        uniformly in [kT, kT + D - T_g], so the gust always lies inside the episode."""
+        p = self.p
+        D = self._episode_length()
+        tg_len = min(max(p.gust_length, 0.0), D)
+        iv = self._interval(max(int(k), 0))
+        return k * p.decision_interval + (D - tg_len) * iv.gust_start, tg_len
+
     def level_at(self, t: float) -> tuple[int, float]:
         """(level, mean speed U(t)) at time t."""
         p = self.p
@@ -179,10 +192,11 @@ class Wind:
         f = U / iv.speed            # ramp factor: gust and turbulence fade in/out with the episode
         if p.gusts:
             D = self._episode_length()
-            tg = max(0.0, D - p.gust_length) * iv.gust_start
-            s = tau - tg
-            if 0.0 <= s <= p.gust_length and p.gust_length > 0:
-                along += f * 0.5 * p.gust_amplitude * iv.speed * (1.0 - math.cos(2.0 * math.pi * s / p.gust_length))
+            tg_len = min(p.gust_length, D)           # a gust never outlasts its episode
+            if tg_len > 0.0:
+                s = tau - (D - tg_len) * iv.gust_start
+                if 0.0 <= s <= tg_len:
+                    along += f * 0.5 * p.gust_amplitude * iv.speed * (1.0 - math.cos(2.0 * math.pi * s / tg_len))
         if p.turbulence:
             tu = self._turbulence(iv, tau)
             along += f * float(tu[0])

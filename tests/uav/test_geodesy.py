@@ -115,3 +115,15 @@ def test_array_broadcasting_shapes():
     e, n, u = enu_from_geodetic(lat, 7.0, 0.0, 45.0, 7.0, 0.0)
     assert e.shape == n.shape == u.shape == (2, 2)
     assert float(n[0, 1]) == pytest.approx(111.13, abs=0.05)
+
+
+def test_enu_frame_scalar_fast_path_matches_numpy():
+    from uavsim.geodesy import EnuFrame
+    rng = np.random.default_rng(1)
+    for lat0, lon0, alt0 in ((-7.275, -35.965, 540.0), (52.5, 13.4, 34.0), (-89.0, 170.0, 2800.0), (0.0, 0.0, 0.0)):
+        fr = EnuFrame(lat0, lon0, alt0)
+        for e, n, u in rng.uniform([-5e4, -5e4, -100], [5e4, 5e4, 5e3], size=(200, 3)):
+            lat, lon, alt = fr.to_geodetic(float(e), float(n), float(u))
+            rl, ro, ra = geodetic_from_enu(e, n, u, lat0, lon0, alt0)
+            assert isinstance(lat, float) and isinstance(alt, float)
+            assert abs(lat - float(rl)) < 1e-12 and abs(lon - float(ro)) < 1e-12 and abs(alt - float(ra)) < 1e-8

@@ -133,3 +133,38 @@ def test_master_step_independence():
     a, b = run(0.05), run(1.0)
     assert len(a) == len(b) == 60
     assert max(abs(u - v) for ra, rb in zip(a, b) for u, v in zip(ra, rb)) < 1e-6
+
+
+def test_fast_loop_bit_identical_to_reference_substeps():
+    # Dynamics.step runs an inlined copy of _substep (the hot loop); over a whole flight with every
+    # phase (preflight, takeoff, goto legs, hold, gusty wind, landing, landed, re-takeoff) and
+    # several master steps it must give exactly the reference sub-step results
+    import random
+    rng = random.Random(5)
+    script = []
+    t = 0.0
+    while t < 140.0:
+        h = rng.choice([0.01, 0.05, 0.1, 0.37, 1.0])
+        if t < 3:
+            cmd = 0
+        elif t < 20:
+            cmd = 1
+        elif t < 80:
+            cmd = 2 if (t // 7) % 3 else 0
+        elif t < 120:
+            cmd = 3
+        else:
+            cmd = 1
+        sp = ((t // 15) * 37.0 - 60.0, 80.0 - (t // 11) * 29.0, 20.0 + (t // 20) * 3)
+        wind = (rng.uniform(-11, 3), rng.uniform(-4, 4), rng.uniform(-1, 1))
+        script.append((h, cmd, sp, wind))
+        t += h
+    a, b = Dynamics(), Dynamics()
+    phases = set()
+    for h, cmd, sp, wind in script:
+        a.step(h, cmd, sp, wind)
+        b.step_reference(h, cmd, sp, wind)
+        assert (a.pos, a.vel, a.vt, a.vtz, a.integ, a.a_cmd, a.phase, a.mode, a.hold, a.hold_z, a.ready) == \
+            (b.pos, b.vel, b.vt, b.vtz, b.integ, b.a_cmd, b.phase, b.mode, b.hold, b.hold_z, b.ready)
+        phases.add(a.phase)
+    assert phases == {0, 1, 2, 3, 4}

@@ -1,4 +1,4 @@
-"""UavStrategy (uavsim.strategy): assignment, Strategy A/B order, battery rules, zone fly-around."""
+"""UavStrategy (uavsim.strategy): assignment, Strategy A/B order, battery rules, zone planning and fly-around."""
 import math
 
 import pytest
@@ -6,8 +6,10 @@ from shapely.geometry import Point, Polygon
 
 from uavsim.dynamics import DynamicsParams
 from uavsim.sim import simulate_mission
+from uavsim import params as PP
 from uavsim.strategy import (LAND_BASE, LAND_NOW, LANDED_AWAY, LANDED_BASE, RETURN_DONE, RETURN_LOW,
-                             TRANSIT, Strategy, StrategyParams, ZoneMap, assign_targets, parse_points)
+                             TRANSIT, Strategy, StrategyParams, ZoneMap, ZonePlanner, assign_targets,
+                             parse_points, parse_zones)
 
 # hand-made layout (ENU m), base at (0, 0)
 LAYOUT = "100,0;-10,0;50,0;0,30"
@@ -31,6 +33,54 @@ def test_assignment_rules():
     lay = parse_points(LAYOUT)
     assert assign_targets(lay, 0, 2, "spatial") == [0, 2]
     assert assign_targets(lay, 1, 2, "spatial") == [1, 3]
+    # the sectors are about the base (ENU origin), not about the UAV's own pad: a pad passed as
+    # ``home`` (the old signature) changes nothing
+    assert assign_targets(lay, 0, 2, "spatial", (0.0, 8.0)) == [0, 2]
+    assert assign_targets(lay, 1, 2, "spatial", (-3.0, -4.0)) == [1, 3]
+
+
+def pads(n, spacing=8.0):
+    """The landing pads of the scenario builder (master.uav.build.pad_positions)."""
+    if n <= 1:
+        return [(0.0, 0.0)]
+    r = spacing / (2.0 * math.sin(math.pi / n))
+    return [(r * math.sin(2 * math.pi * i / n), r * math.cos(2 * math.pi * i / n)) for i in range(n)]
+
+
+# the paper area's 24 targets (ssp/scenarios/paper_area.yaml, ENU m about the base)
+PAPER_TARGETS = ("164.398,-276.305;-550.795,-580.196;375.904,495.305;127.999,275.398;52.304,522.105;"
+                 "378.999,-596.697;428.895,-559.701;275.597,-389.196;435.802,49.802;-240.303,-92.795;"
+                 "-566.004,-450.903;204.699,176.597;138.501,-139.601;596.696,577.004;226.100,-133.297;"
+                 "-437.903,265.796;30.404,-227.695;-16.997,467.402;520.904,-170.594;113.199,-194.504;"
+                 "-130.098,468.298;-327.396,147.796;-499.198,399.203;344.500,-312.804")
+PAPER_ZONES = ("70.404,-147.896;156.701,-38.700;111.896,-3.197;25.600,-112.404|"
+               "104.000,167.097;-2.695,174.297;-8.901,82.498;97.705,75.198|"
+               "-75.197,-141.205;-104.596,-1.195;-194.096,-20.097;-164.697,-159.996|"
+               "-343.598,211.602;-322.803,319.195;-387.797,331.703;-408.503,224.199")
+
+
+@pytest.mark.parametrize("assignment", ["equal", "roundrobin", "spatial"])
+@pytest.mark.parametrize("layout", ["paper", "ring"])
+def test_every_target_assigned_exactly_once(assignment, layout):
+    # each UAV's strategy instance computes its own list from its own parameters (its pad as home):
+    # together the lists must be a partition of the targets, for 1..8 UAVs
+    if layout == "paper":
+        targets = parse_points(PAPER_TARGETS)
+    else:   # targets on sector borders: equal bearings, ties broken by distance then index
+        targets = [(r * math.cos(a), r * math.sin(a)) for a in (0.0, math.pi / 2, math.pi, 1.5 * math.pi)
+                   for r in (30.0, 60.0, 90.0)]
+    n = len(targets)
+    for count in range(1, 9):
+        lists = []
+        for i, (hx, hy) in enumerate(pads(count)):
+            s = Strategy(StrategyParams(uav_index=i, uav_count=count, assignment=assignment,
+                                        targets=";".join(f"{x},{y}" for x, y in targets),
+                                        home_x=hx, home_y=hy))
+            lists.append(s.assigned)
+        flat = sorted(k for lst in lists for k in lst)
+        assert flat == list(range(n)), (assignment, count, lists)
+        sizes = [len(lst) for lst in lists]
+        assert max(sizes) - min(sizes) <= 1
 
 
 def photo_order(strategy):
@@ -104,13 +154,20 @@ def min_signed_distance(r):
                for x, y in zip(r.x, r.y))
 
 
+def min_signed_distance_polys(r, zones):
+    polys = [Polygon(z) for z in parse_zones(zones)]
+    return min(min(-p.exterior.distance(Point(x, y)) if p.contains(Point(x, y)) else p.exterior.distance(Point(x, y))
+                   for p in polys) for x, y in zip(r.x, r.y))
+
+
 @pytest.mark.parametrize("speed,lookahead,avoided", [
     (2.0, 2.0, True),     # braking distance v^2 / (2a) = 0.8 m < 2 m look-ahead: flies around
     (10.0, 25.0, True),   # 20 m braking distance < 25 m look-ahead: flies around
     (10.0, 2.0, False),   # the paper's 2 m look-ahead at 10 m/s (20 m to stop): enters the zone
 ])
-def test_zone_fly_around_square(speed, lookahead, avoided):
-    r = simulate_mission(StrategyParams(targets="100,0", zones=SQUARE_S, lookahead=lookahead),
+def test_zone_fly_around_square_paper_late_detection(speed, lookahead, avoided):
+    # zone_planning false: the paper's reactive behaviour, collision-prone at cruise speed
+    r = simulate_mission(StrategyParams(targets="100,0", zones=SQUARE_S, lookahead=lookahead, zone_planning=False),
                          dynamics=DynamicsParams(speed=speed), step=0.1, record_every=1, t_end=900)
     s = r.strategy
     assert s.avoid_count >= 1
@@ -139,3 +196,127 @@ def test_all_visited_returns_and_lands_at_base():
     assert s.state == LANDED_BASE and s.photo_count == 1
     assert math.hypot(r.dynamics.pos[0] - 5.0, r.dynamics.pos[1] - 5.0) <= 2.0
     assert RETURN_DONE in r.state and LAND_BASE in r.state
+
+
+# ---------------------------------------------------------------------- zone planning (default)
+def test_plan_margin_is_braking_distance_at_cruise():
+    assert PP.PLAN_MARGIN == pytest.approx(PP.WP_SPEED ** 2 / (2 * PP.WP_ACCEL)) == pytest.approx(20.0)
+    assert StrategyParams().zone_planning is True and StrategyParams().plan_margin == PP.PLAN_MARGIN
+
+
+def test_planner_keeps_margin_and_takes_shorter_side():
+    zp = ZonePlanner([Polygon([(40, -5), (60, -5), (60, 30), (40, 30)])], 20.0)
+    path = zp.plan((0.0, 0.0), (100.0, 0.0))
+    assert path[-1] == (100.0, 0.0)
+    # around the south side: (20, -25) -> (80, -25) are the mitred offset corners
+    assert path[:-1] == [pytest.approx((20.0, -25.0)), pytest.approx((80.0, -25.0))]
+    pts = [(0.0, 0.0)] + path
+    from shapely.geometry import LineString
+    for a, b in zip(pts, pts[1:]):
+        assert zp.union.distance(LineString([a, b])) >= 20.0 * 0.99
+    # a free leg is flown straight
+    assert zp.plan((0.0, 0.0), (0.0, 100.0)) == [(0.0, 100.0)]
+    # inside a zone: no path
+    assert zp.plan((50.0, 0.0), (100.0, 0.0)) is None
+
+
+def test_planner_target_within_margin_reduced_clearance():
+    # target 3 m east of the square: the approach keeps >= 0.9 x 3 m, the rest the full margin
+    zp = ZonePlanner([Polygon(SQUARE)], 20.0)
+    path = zp.plan((0.0, 0.0), (63.0, 0.0))
+    assert path is not None and path[-1] == (63.0, 0.0)
+    from shapely.geometry import LineString
+    pts = [(0.0, 0.0)] + path
+    clear = [zp.union.distance(LineString([a, b])) for a, b in zip(pts, pts[1:])]
+    assert min(clear[:-1]) >= 19.8 and clear[-1] >= 0.9 * 3.0 * 0.99
+
+
+def test_planned_square_is_avoided_at_cruise_speed_with_paper_lookahead():
+    # the case the paper's late detection fails (10 m/s, 2 m look-ahead): planned around, with margin
+    r = simulate_mission(StrategyParams(targets="100,0", zones=SQUARE_S, lookahead=2.0),
+                         step=0.1, record_every=1, t_end=900)
+    s = r.strategy
+    assert s.photo_count == 1 and s.state == LANDED_BASE
+    assert s.avoid_count >= 2 and s.brake_count == 0        # out and back detoured, no emergency
+    assert min_signed_distance(r) > 15.0
+
+
+NEAR_CASES = {
+    # name: (targets, zones, minimum clearance expected of the flown track)
+    "edge_3m": ("63,0", SQUARE_S, 2.0),
+    "corner": ("62,12", SQUARE_S, 1.5),
+    "behind": ("70,0;-20,5", SQUARE_S, 8.0),
+    "gap_10m": ("50,0", "40,-50;60,-50;60,-5;40,-5|40,5;60,5;60,50;40,50", 4.0),
+    "pocket": ("60,0", "40,-30;100,-30;100,-20;50,-20;50,20;100,20;100,30;40,30", 8.0),
+}
+
+
+@pytest.mark.parametrize("step", [0.1, 1.0])
+@pytest.mark.parametrize("case", sorted(NEAR_CASES))
+def test_targets_close_to_zones_reached_without_deadlock(case, step):
+    targets, zones, clearance = NEAR_CASES[case]
+    r = simulate_mission(StrategyParams(strategy="A", targets=targets, zones=zones), step=step,
+                         record_every=1, t_end=600)
+    s = r.strategy
+    assert s.state == LANDED_BASE and s.photo_count == len(parse_points(targets))
+    assert min_signed_distance_polys(r, zones) >= clearance
+    assert r.t[-1] < 200.0                 # no stalling: each leg is a few hundred metres at most
+
+
+def drive_xy(s, t, x, y, vx, vy, consumed=0.1):
+    s.step(t, x, y, 20.0, vx, vy, 2, consumed)
+    return s.sp[:2]
+
+
+def test_safety_net_brakes_then_goes_around():
+    s = Strategy(StrategyParams(targets="100,0", zones=SQUARE_S))
+    s.step(0.0, 0, 0, 0, 0, 0, 0, 0.0)
+    s.step(1.0, 0, 0, 10, 0, 0, 1, 0.0)
+    wp = drive_xy(s, 2.0, 0.0, 0.0, 0.0, 0.0)               # leg planned around the square
+    assert s.avoiding and s.plan_count == 1 and wp != (100.0, 0.0)
+    # a drift puts the UAV on course into the zone at 10 m/s (stopping distance 20 m + 2 m)
+    sp = drive_xy(s, 3.0, 20.0, 0.0, 10.0, 0.0)
+    assert s.braking and s.brake_count == 1 and sp == (20.0, 0.0)
+    sp = drive_xy(s, 4.0, 32.0, 0.0, 4.0, 0.0)              # still braking: hold the brake point
+    assert s.braking and sp == (20.0, 0.0)
+    sp = drive_xy(s, 5.0, 35.0, 0.0, 0.2, 0.0)              # stopped 5 m before the zone: re-plan
+    assert not s.braking and s.plan_count == 2 and s.avoiding
+    assert s.path[-1] == (100.0, 0.0)
+    from shapely.geometry import LineString
+    pts = [(35.0, 0.0)] + s.path
+    zp = ZonePlanner([Polygon(SQUARE)], 20.0)
+    assert all(zp.union.distance(LineString([a, b])) > 4.0 for a, b in zip(pts, pts[1:]))
+
+
+def test_return_and_landing_legs_are_planned():
+    # the target lies behind the zone: the return leg home must be planned around it as well
+    r = simulate_mission(StrategyParams(targets="100,0", zones=SQUARE_S, home_x=5.0, home_y=1.0),
+                         step=0.5, record_every=1, t_end=900)
+    s = r.strategy
+    assert s.state == LANDED_BASE and s.plan_count == 2        # out, home
+    assert math.hypot(r.dynamics.pos[0] - 5.0, r.dynamics.pos[1] - 1.0) <= 2.0
+    assert min_signed_distance(r) > 15.0
+
+
+@pytest.mark.parametrize("strategy", ["A", "B"])
+def test_paper_zones_four_uavs_fly_their_missions(strategy):
+    # the shipped headline scenario (paper_area_zones.yaml, 4 UAVs on their pads), no wind: every
+    # UAV visits its 6 targets, returns to its pad and keeps the planning margin from every zone
+    for i, (hx, hy) in enumerate(pads(4)):
+        r = simulate_mission(StrategyParams(strategy=strategy, uav_index=i, uav_count=4, targets=PAPER_TARGETS,
+                                            zones=PAPER_ZONES, home_x=hx, home_y=hy), step=1.0, t_end=1500)
+        s = r.strategy
+        assert s.state == LANDED_BASE and len(s.visited) == 6 and s.brake_count == 0
+        assert min_signed_distance_polys(r, PAPER_ZONES) > 15.0
+        assert r.consumed[-1] < 0.6
+
+
+def test_paper_zones_late_detection_enters_zones():
+    # zone_planning false reproduces the paper's collision-prone behaviour on the same scenario
+    hits = 0
+    for i, (hx, hy) in enumerate(pads(4)):
+        r = simulate_mission(StrategyParams(strategy="B", uav_index=i, uav_count=4, targets=PAPER_TARGETS,
+                                            zones=PAPER_ZONES, home_x=hx, home_y=hy, zone_planning=False),
+                             step=1.0, t_end=1500)
+        hits += min_signed_distance_polys(r, PAPER_ZONES) < 0.0
+    assert hits == 4

@@ -104,3 +104,46 @@ def test_one_minus_cosine_gust_peak():
         peaks.append(max(-w.at(k * 10.0 + i * 0.01)[0] for i in range(1000)))
     assert max(peaks) == pytest.approx(16.5, abs=1e-3)
     assert min(peaks) >= 11.0
+
+
+@pytest.mark.parametrize("interval,gust_length", [(1.0, 2.0), (1.0, 1.0), (10.0, 2.0), (0.5, 3.0)])
+def test_gust_longer_than_episode_is_clipped_to_it(interval, gust_length):
+    # the shipped scenarios decide the wind every 1 s with a 2 s gust: the gust is shortened to the
+    # episode (T_g = min(gust_length, D)) and lies wholly inside it; start uniform in [0, D - T_g]
+    D = interval
+    tg = min(gust_length, D)
+    U, amp = 9.0, 0.5
+    w = Wind(WindParams(probability=1.0, seed=5, gusts=True, p_weak=0.0, p_moderate=0.0,
+                        speed_strong=U, decision_interval=interval, duration=interval, ramp=0.0,
+                        gust_length=gust_length, gust_amplitude=amp))
+    starts = []
+    for k in range(200):
+        t0, length = w.gust_window(k)
+        assert length == pytest.approx(tg)
+        assert k * interval - 1e-12 <= t0 <= k * interval + D - tg + 1e-12
+        starts.append((t0 - k * interval) / max(D - tg, 1e-12) if D > tg else 0.0)
+        # the wind follows U + A/2 (1 - cos(2 pi s / T_g)) within the window, U outside it
+        for s in np.linspace(0.0, 1.0, 21):
+            t = t0 + s * tg
+            if t - k * interval >= D:       # the next episode starts at the end of this one
+                continue
+            expect = U + 0.5 * amp * U * (1.0 - math.cos(2.0 * math.pi * s))
+            assert -w.at(t)[0] == pytest.approx(expect, abs=1e-9)
+        if D > tg:
+            assert min(starts) >= 0.0 and max(starts) <= 1.0
+    # a full-length gust is reached in every episode: the peak is U (1 + amp)
+    peaks = [max(-w.at(k * interval + i * D / 400)[0] for i in range(400)) for k in range(20)]
+    assert min(peaks) == pytest.approx(U * (1 + amp), rel=2e-3)
+    if D > tg:   # the start is spread over the allowed range
+        assert max(starts) - min(starts) > 0.5
+
+
+def test_gust_inside_short_episode_with_ramp_is_continuous():
+    # 1 s decision interval, 0.25 s ramp, 2 s gust (the shipped scenarios with gusts on): the wind
+    # is continuous (no jump at the gust or episode edges) and zero between episodes
+    w = Wind(WindParams(probability=0.5, seed=11, gusts=True, turbulence=False, decision_interval=1.0,
+                        duration=1.0, ramp=0.25, gust_length=2.0))
+    h = 1e-4
+    xs = np.array([w.at(i * h)[0] for i in range(int(60 / h))])
+    assert np.max(np.abs(np.diff(xs))) < 0.1     # <= max slope (~ 1.5 U / ramp) x h
+    assert np.max(-xs) > 0.0
