@@ -382,19 +382,36 @@ def test_faulty_crash_mode_aborts_process(test_fmus, key):
     assert "survived" not in proc.stdout
 
 
-def test_faulty_python_modes(test_fmus):
-    # mode 1: an exception in do_step -> pythonfmu reports fmi2Fatal
-    s, vr = _slave(test_fmus["py:Faulty"], logger=lambda *a: None)
+_EXCEPTION_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    from fmpy import read_model_description, extract
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi1 import FMICallException
+    md = read_model_description(sys.argv[1])
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(sys.argv[1]),
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="f")
+    s.instantiate(callbacks=None)
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     s.setInteger([vr["mode"]], [1])
     s.exitInitializationMode()
-    with pytest.raises(FMICallException) as exc:
+    try:
         for i in range(10):
             s.doStep(0.1 * i, 0.1)
-    assert exc.value.status == 4
-    assert i == 5
-    s.freeInstance()
+    except FMICallException as exc:
+        print("status", exc.status, "step", i)
+    """
+)
+
+
+def test_faulty_python_modes(test_fmus):
+    # mode 1: an exception in do_step -> pythonfmu reports fmi2Fatal. Run in a child process: pythonfmu 0.7's
+    # binary over-releases a Python object on that path and the interpreter crashes later in garbage collection.
+    proc = subprocess.run([sys.executable, "-c", _EXCEPTION_SCRIPT, str(test_fmus["py:Faulty"])],
+                          capture_output=True, text=True, timeout=120)
+    assert "status 4 step 5" in proc.stdout, proc.stdout + proc.stderr
     # mode 2: do_step returns False -> fmi2Discard with Terminated = true
     s, vr = _slave(test_fmus["py:Faulty"], logger=lambda *a: None)
     s.setupExperiment(startTime=0.0)
