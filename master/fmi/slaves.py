@@ -211,8 +211,14 @@ class Fmi2Slave(Slave):
 
     def _raw(self, name):
         """A fresh function object without argtypes: called with ready ctypes arguments it skips the
-        per-argument conversion that fmpy's prototypes (argtypes) perform on every call."""
-        return self.fmu2.dll[name]
+        per-argument conversion that fmpy's prototypes (argtypes) perform on every call. It comes from a
+        PyDLL view of the same library handle, so the GIL is kept across the call instead of being released
+        and re-acquired three times per FMU step (the master is single-threaded; a pythonfmu binary
+        re-entering Python from this thread finds the GIL already held, which PyGILState_Ensure allows)."""
+        dll = getattr(self, "_pydll", None)
+        if dll is None:
+            dll = self._pydll = ctypes.PyDLL(self.fmu2.dll._name, handle=self.fmu2.dll._handle)
+        return dll[name]
 
     def bound_get(self, typ, port):
         if typ == "String":
