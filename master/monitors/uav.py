@@ -51,6 +51,8 @@ MISSION_DETAIL = {3: "all assigned targets visited, returning to base",
                   6: "battery 95 % consumed away from the base: landing where it is",
                   7: "landed at the base", 8: "landed away from the base"}
 
+TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map track
+
 #: Uav attributes naming a 'component.variable' the monitor reads (required ones first)
 REQUIRED_ROLES = ("x", "y", "z", "phase")
 OPTIONAL_ROLES = ("speed", "soc", "consumed", "energy", "missionState", "targetsAssigned", "targetsVisited",
@@ -223,6 +225,8 @@ class UavMonitor(Monitor):
         self.ctx = None
         self.start = None
         self.last_time = None
+        # the track behind map.png is thinned to one sample per TRACK_INTERVAL of simulated time (plus every
+        # removal), so that its memory stays bounded for long missions and large fleets
         self.track_t: list[float] = []
         self.track_p: list[np.ndarray] = []
         self.track_phase: list[np.ndarray] = []
@@ -294,7 +298,9 @@ class UavMonitor(Monitor):
         self._snapshot()
         self._track(self.start, self.p0, self.ph0)
 
-    def _track(self, t, p, ph):
+    def _track(self, t, p, ph, force=False):
+        if not force and self.track_t and t - self.track_t[-1] < TRACK_INTERVAL - 1e-9:
+            return
         self.track_t.append(float(t))
         self.track_p.append(p.copy())
         self.track_phase.append(ph.copy())
@@ -409,7 +415,7 @@ class UavMonitor(Monitor):
             p1[k] = p0[k] + f * seg[k]
         self.p0, self.ph0 = p1, ph1
         self.last_time = float(t1)
-        self._track(t1, p1, ph1)
+        self._track(t1, p1, ph1, force=bool(cut))
 
     def _mission_event(self, k, t, state, pos, consumed):
         rec = self.records[k]
@@ -448,6 +454,8 @@ class UavMonitor(Monitor):
 
     def finish(self, out_dir: Path | None, outcome: str) -> dict:
         self.sync()
+        if self.ctx is not None and self.track_t and self.track_t[-1] < self.last_time:
+            self._track(self.last_time, self.p0, self.ph0, force=True)   # the thinned track ends where the run did
         if self.ctx is not None:
             try:
                 self._snapshot()
