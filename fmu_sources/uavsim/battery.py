@@ -171,19 +171,63 @@ class Battery:
         self.voltage = emf - self.current * bp.resistance
         self.power = self.voltage * self.current
 
-    def step(self, dt: float, airspeed: float, vz: float, phase: int) -> None:
-        if dt <= 0.0:
-            return
-        motors_on = int(phase) in (1, 2, 3)
+    def _substeps(self, dt: float) -> tuple[int, float]:
         h0 = self.params.substep
         n = max(1, int(round(dt / h0)))
         if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
             n = int(math.ceil(dt / h0 - 1e-9))
-        h = dt / n
-        # the inputs are held over the step, so the power demand is the same in every sub-step
-        demand = electrical_power(airspeed, vz, motors_on, self.power_params)
+        return n, dt / n
+
+    def step_reference(self, dt: float, airspeed: float, vz: float, phase: int) -> None:
+        """:meth:`step` written plainly (reference for the tests)."""
+        if dt <= 0.0:
+            return
+        motors_on = int(phase) in (1, 2, 3)
+        n, h = self._substeps(dt)
         for _ in range(n):
-            self._update_power(demand)
+            self._update(airspeed, vz, motors_on)
             self.charge_used += self.current * h
             self.energy_used += self.power * h
-        self._update_power(demand)
+        self._update(airspeed, vz, motors_on)
+
+    def step(self, dt: float, airspeed: float, vz: float, phase: int) -> None:
+        """Advance by ``dt`` with the inputs held: coulomb counting on fixed sub-steps.
+
+        Same arithmetic as :meth:`step_reference` (bit-identical, tested), with the power demand
+        computed once (the inputs are held over the step) and the sub-step loop on local variables."""
+        if dt <= 0.0:
+            return
+        motors_on = int(phase) in (1, 2, 3)
+        n, h = self._substeps(dt)
+        bp = self.params
+        demand = electrical_power(airspeed, vz, motors_on, self.power_params)
+        cells, r, cap = bp.cells, bp.resistance, bp.capacity_c
+        xs, ys = bp.ocv_soc, bp.ocv_cell
+        x0, x1, y0, y1 = xs[0], xs[-1], ys[0], ys[-1]
+        bisect_right, sqrt = bisect.bisect_right, math.sqrt
+        q, e = self.charge_used, self.energy_used
+        for i in range(n + 1):
+            soc = max(0.0, 1.0 - q / cap)
+            if soc <= x0:
+                ocv = y0
+            elif soc >= x1:
+                ocv = y1
+            else:
+                j = bisect_right(xs, soc) - 1
+                ocv = ys[j] + (soc - xs[j]) / (xs[j + 1] - xs[j]) * (ys[j + 1] - ys[j])
+            emf = cells * ocv
+            if r <= 0.0:
+                cur, over = demand / emf, False
+            else:
+                disc = emf * emf - 4.0 * r * demand
+                if disc < 0.0:
+                    cur, over = emf / (2.0 * r), True
+                else:
+                    cur, over = (emf - sqrt(disc)) / (2.0 * r), False
+            volt = emf - cur * r
+            pw = volt * cur
+            if i < n:
+                q += cur * h
+                e += pw * h
+        self.charge_used, self.energy_used = q, e
+        self.current, self.overload, self.voltage, self.power = cur, over, volt, pw

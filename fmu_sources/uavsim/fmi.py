@@ -6,6 +6,7 @@ exponents) that FMI 2.0 requires for every unit used.
 """
 from __future__ import annotations
 
+from operator import attrgetter
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
@@ -48,8 +49,114 @@ class UnitReal(Real):
 _PAR = dict(causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed)
 
 
+_DEFAULT_ACCESSOR = "register_variable.<locals>.<lambda>"
+
+
+def _accessor(fn, self, var, kind):
+    """A fast accessor for var: the attribute name when pythonfmu's default getter/setter is used
+    (a plain attribute of the slave), else the registered callable; None if there is none."""
+    if fn is None:
+        return None
+    if getattr(fn, "__qualname__", "").endswith(_DEFAULT_ACCESSOR) and var.name == var.local_name:
+        return var.local_name
+    return fn
+
+
 class UnitsMixin:
-    """Mixin for Fmi2Slave subclasses: typed registration helpers and UnitDefinitions."""
+    """Mixin for Fmi2Slave subclasses: typed registration helpers, UnitDefinitions, and faster
+    get/set of values.
+
+    pythonfmu's ``get_real`` & co. test ``isinstance`` (an ABC check) and call a lambda per value;
+    the overrides below look the value references up in per-type tables built once (after all
+    variables are registered) and read/write the attributes directly.  Same results and the same
+    errors: an unknown reference or one of another type falls back to pythonfmu's method, which
+    raises its TypeError.
+    """
+
+    def _vr_tables(self):
+        cache = self.__dict__.get("_vr_cache")
+        if cache is None or cache[0] != len(self.vars):      # built once, after registration
+            tables = {}
+            for cls in (Real, Integer, Boolean, String):
+                get, put = {}, {}
+                for vr, var in self.vars.items():
+                    if isinstance(var, cls):
+                        get[vr] = _accessor(var.getter, self, var, "get")
+                        acc = _accessor(var.setter, self, var, "set")
+                        if acc is not None:
+                            put[vr] = acc
+                tables[cls] = (get, put)
+            cache = (len(self.vars), tables)
+            self.__dict__["_vr_cache"] = cache
+            self.__dict__["_vr_readers"] = {}
+        return cache[1]
+
+    def _get(self, cls, conv, vrs, fallback):
+        # one reader per (type, reference list), cached: the master asks for the same lists every step
+        tables = self._vr_tables()
+        readers = self.__dict__["_vr_readers"]
+        key = (cls, tuple(vrs))
+        read = readers.get(key)
+        if read is None:
+            get = tables[cls][0]
+            if any(vr not in get for vr in vrs):   # pythonfmu's method raises its TypeError
+                return getattr(super(UnitsMixin, self), fallback)(vrs)
+            acc = [get[vr] for vr in vrs]
+            if all(a.__class__ is str for a in acc):
+                names = tuple(acc)
+                if not names:
+                    def read():
+                        return []
+                elif len(names) == 1:
+                    name = names[0]
+
+                    def read(_self=self, _n=name, _c=conv):
+                        return [_c(getattr(_self, _n))]
+                else:
+                    ag = attrgetter(*names)
+
+                    def read(_self=self, _ag=ag, _c=conv):
+                        return [_c(v) for v in _ag(_self)]
+            else:
+                def read(_self=self, _acc=tuple(acc), _c=conv):
+                    return [_c(getattr(_self, a) if a.__class__ is str else a()) for a in _acc]
+            readers[key] = read
+        return read()
+
+    def _set(self, cls, vrs, values, fallback):
+        put = self._vr_tables()[cls][1]
+        for vr, value in zip(vrs, values):
+            a = put.get(vr)
+            if a is None:           # not settable / another type: pythonfmu sets again and raises
+                return getattr(super(UnitsMixin, self), fallback)(vrs, values)
+            if a.__class__ is str:
+                setattr(self, a, value)
+            else:
+                a(value)
+
+    def get_real(self, vrs):
+        return self._get(Real, float, vrs, "get_real")
+
+    def get_integer(self, vrs):
+        return self._get(Integer, int, vrs, "get_integer")
+
+    def get_boolean(self, vrs):
+        return self._get(Boolean, bool, vrs, "get_boolean")
+
+    def get_string(self, vrs):
+        return self._get(String, str, vrs, "get_string")
+
+    def set_real(self, vrs, values):
+        return self._set(Real, vrs, values, "set_real")
+
+    def set_integer(self, vrs, values):
+        return self._set(Integer, vrs, values, "set_integer")
+
+    def set_boolean(self, vrs, values):
+        return self._set(Boolean, vrs, values, "set_boolean")
+
+    def set_string(self, vrs, values):
+        return self._set(String, vrs, values, "set_string")
 
     def par_real(self, name, unit, description):
         self.register_variable(UnitReal(name, unit=unit, description=description, **_PAR))

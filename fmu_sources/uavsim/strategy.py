@@ -20,10 +20,11 @@ base; consumed >= land_threshold (0.95) -> land immediately where the UAV is.
 
 Restricted zones, ``zone_planning`` true (default): every leg (to a target, or home to the pad) is
 planned when it starts (i.e. whenever the goal changes): the shortest path from the position to the
-goal in a visibility graph whose nodes are the vertices of the zones offset outward by
-``plan_margin`` (default 20 m = V^2/(2 A), the braking distance at cruise speed; mitred) and whose
-edges keep at least that clearance from every zone.  An edge that starts or ends at a point with a
-smaller clearance c (the UAV itself, a target close to a zone) needs only min(plan_margin, 0.9 c),
+goal in a visibility graph whose nodes are the vertices of the zones offset outward by the margin
+m = ``plan_margin`` + ``lane_spacing`` * uav_index (plan_margin 20 m = V^2/(2 A), the braking
+distance at cruise speed; 5 m lanes, so that UAVs going round the same corner do not converge on
+one vertex; mitred) and whose edges keep at least m from every zone.  An edge that starts or ends
+at a point with a smaller clearance c (the UAV itself, a target close to a zone) needs only min(m, 0.9 c),
 so such a target is approached along the shortest free path with a reduced margin; if there is
 no path the margin is halved (down to 1/16) before giving up (then straight to the goal).  The path
 vertices are flown as intermediate waypoints (accepted within arrival_radius).  Last-resort safety

@@ -167,3 +167,33 @@ def test_stale_detection(tmp_path, built):
     (src / "uavsim" / "wind.py").write_text((SRC / "uavsim" / "wind.py").read_text())
     assert bf.stale_fmus(fmus, src) == ["UavBattery.fmu"]
     assert bf.stale_fmus(tmp_path / "nowhere", src) == [f"{n}.fmu" for n in bf.FMU_NAMES]
+
+
+def _shell(name):
+    spec = importlib.util.spec_from_file_location(f"shell_{name}", SRC / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return getattr(mod, name)(instance_name="t", resources=str(SRC), visible=False)
+
+
+@pytest.mark.parametrize("name", ["UavDynamics", "UavBattery", "UavWind", "UavStrategy"])
+def test_fast_get_set_equal_pythonfmu(name):
+    # uavsim.fmi.UnitsMixin replaces pythonfmu's get_*/set_* by table look-ups: same values, same errors
+    from pythonfmu import Fmi2Slave
+    from pythonfmu.variables import Boolean, Integer, Real, String
+    s = _shell(name)
+    s.exit_initialization_mode()
+    s.do_step(0.0, 0.5)
+    by_type = {t: [vr for vr, v in s.vars.items() if isinstance(v, t)] for t in (Real, Integer, Boolean, String)}
+    for t, fn in ((Real, "real"), (Integer, "integer"), (Boolean, "boolean"), (String, "string")):
+        vrs = by_type[t]
+        assert getattr(s, f"get_{fn}")(vrs) == getattr(Fmi2Slave, f"get_{fn}")(s, vrs)
+        other = [vr for tt, lst in by_type.items() if tt is not t for vr in lst][:1]
+        if other:
+            with pytest.raises(TypeError):
+                getattr(s, f"get_{fn}")(vrs[:1] + other)
+            with pytest.raises(TypeError):
+                getattr(s, f"set_{fn}")(other, [0])
+    reals = [vr for vr in by_type[Real] if s.vars[vr].causality.name in ("input", "parameter")]
+    s.set_real(reals, [float(i + 1) for i in range(len(reals))])
+    assert Fmi2Slave.get_real(s, reals) == [float(i + 1) for i in range(len(reals))]

@@ -320,3 +320,20 @@ def test_paper_zones_late_detection_enters_zones():
                              step=1.0, t_end=1500)
         hits += min_signed_distance_polys(r, PAPER_ZONES) < 0.0
     assert hits == 4
+
+
+def test_lanes_separate_the_detours_of_different_uavs():
+    # UAV i plans with plan_margin + i * lane_spacing: two UAVs sent round the same corner get
+    # waypoints >= lane_spacing apart (instead of one shared visibility-graph vertex)
+    paths = []
+    for i in range(4):
+        s = Strategy(StrategyParams(targets="100,0", zones=SQUARE_S, uav_index=i, uav_count=4))
+        assert s.margin == pytest.approx(PP.PLAN_MARGIN + i * PP.LANE_SPACING)
+        s.step(0.0, 0, 0, 0, 0, 0, 0, 0.0)
+        s.step(1.0, 0, 0, 10, 0, 0, 1, 0.0)
+        s.step(2.0, 0.0, 0.0, 20.0, 0.0, 0.0, 2, 0.0)
+        paths.append(list(s.path))
+    for a in range(4):
+        for b in range(a + 1, 4):
+            for p, q in zip(paths[a][:-1], paths[b][:-1]):
+                assert math.dist(p, q) >= PP.LANE_SPACING * 0.99
