@@ -140,41 +140,77 @@ class PythonFmuSlave(Slave):
         return OK if ok else DISCARD
 
     # -- fast-path operations: bound once, called every step ------------------------------------------------
-    def bound_get(self, typ, port):
-        obj, getter, buf, vrs = self.obj, getattr(self.obj, f"get_{typ.lower()}"), port.buf, port.extra
-        if typ == "Real" and port.n == 1:
-            var = obj.vars[vrs[0]]
-            g = var.getter
+    # The binary calls the slave's get_<type>/set_<type> methods; so do these operations. Where the class keeps
+    # pythonfmu's own implementation (which type-checks each variable and calls its getter or setter), the
+    # variables are checked once here and their getters/setters called directly, which is the same work.
+    def _direct(self, op, typ, vrs):
+        from pythonfmu import Fmi2Slave
+        from pythonfmu import variables as pv
+        name = f"{op}_{typ.lower()}"
+        if getattr(type(self.obj), name) is not getattr(Fmi2Slave, name):
+            return None
+        kind = {"Real": pv.Real, "Integer": pv.Integer, "Boolean": pv.Boolean, "String": pv.String}[typ]
+        found = []
+        for vr in vrs:
+            var = self.obj.vars.get(vr)
+            acc = None if var is None else (var.getter if op == "get" else var.setter)
+            if not isinstance(var, kind) or acc is None:
+                return None
+            found.append(acc)
+        return found
 
-            def op():
-                try:
-                    buf[0] = float(g())
-                except Exception:
-                    return self.get_port(typ, port)   # same call again, through the reporting path
-                if obj.log_queue:
-                    self._drain()
-                return OK
-            return op
-        return lambda: self.get_port(typ, port)
+    def bound_get(self, typ, port):
+        obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
+        getters = self._direct("get", typ, vrs)
+        method = getattr(obj, f"get_{typ.lower()}")
+        if getters is not None and len(getters) == 1:
+            g = getters[0]
+
+            def read():
+                buf[0] = conv(g())
+        elif getters is not None:
+            def read():
+                buf[:] = [conv(g()) for g in getters]
+        else:
+            def read():
+                buf[:] = method(vrs)
+
+        def op():
+            try:
+                read()
+            except Exception:
+                return self.get_port(typ, port)   # again through the reporting path
+            if obj.log_queue:
+                self._drain()
+            return OK
+        return op
 
     def bound_set(self, typ, port):
-        if typ == "Real" and port.n == 1:
-            obj = self.obj
-            setter = obj.vars[port.extra[0]].setter
-            buf = port.buf
-            if setter is None:
-                return lambda: self.set_port(typ, port)
+        obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
+        setters = self._direct("set", typ, vrs)
+        method = getattr(obj, f"set_{typ.lower()}")
+        if setters is not None and len(setters) == 1:
+            s0 = setters[0]
 
-            def op():
-                try:
-                    setter(float(buf[0]))
-                except Exception:
-                    return self.set_port(typ, port)
-                if obj.log_queue:
-                    self._drain()
-                return OK
-            return op
-        return lambda: self.set_port(typ, port)
+            def write():
+                s0(conv(buf[0]))
+        elif setters is not None:
+            def write():
+                for s, v in zip(setters, buf.tolist()):
+                    s(conv(v))
+        else:
+            def write():
+                method(vrs, [conv(v) for v in buf.tolist()])
+
+        def op():
+            try:
+                write()
+            except Exception:
+                return self.set_port(typ, port)
+            if obj.log_queue:
+                self._drain()
+            return OK
+        return op
 
     def bound_step(self):
         obj = self.obj
