@@ -253,8 +253,11 @@ def _loop(alg, rt, recorder, monitors, st, meta, progress):
             meta["last_time"] = t1
             for m in monitors:
                 m.after_step(n, t, t1)
-            if (n + 1) % every == 0 or n + 1 == steps:
+            if (n + 1) % every == 0 or n + 1 == steps or rt.stop_reason is not None:
                 sample(t1)
+            if rt.stop_reason is not None:
+                meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
+                break
             if bar is not None and (n & 255) == 0:
                 bar.update(min(256, steps - bar.n))
     finally:

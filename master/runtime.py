@@ -49,6 +49,7 @@ class Runtime:
         self.multiple = [int((step_multiples or {}).get(name, 1)) for name in self.names]
         self.active = [True] * n
         self.changed = False          # set when a component is taken out; algorithms rebuild their step
+        self.stop_reason = None       # set by a monitor that ends the run early
         self.slaves = [None] * n
         self._logging_on = logging_on
         self._inprocess = inprocess

@@ -238,14 +238,67 @@ def _fmt_p(p: float) -> str:
     return f"{p:.2g}" if p >= 0.001 else f"{p:.1e}"
 
 
-def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
-    """One row per published claim: the paper's value, ours, whether they agree, and why not."""
-    rows = []
+def _slope_sig(ci: st.CI):
+    return None if not math.isfinite(ci.low) else (ci.low > 0 or ci.high < 0)
 
-    def add(key, ours, agree, why=(), note=""):
+
+def _mwu(x, y):
+    return st.mann_whitney_u(np.asarray(x, float), np.asarray(y, float))[1]
+
+
+def _facts(u, r, fd) -> dict:
+    """Data-driven sentences that explain a comparison, keyed by claim."""
+    f: dict = {}
+    removed = u["outcome"].isin(["uav_collision", "zone_collision"])
+    if len(u):
+        kept = u[~removed]["remaining_battery_pct"]
+        f["battery_total"] = (f"{removed.mean() * 100:.0f} % of our UAV missions end in a collision, most of them "
+                              f"shortly after take-off with almost a full battery; over the other missions the mean "
+                              f"remaining battery is {kept.mean():.1f} %." if removed.any() and len(kept) else "")
+        f["battery_area"] = f["battery_total"]
+        f["battery_zones"] = f["battery_total"]
+    one = u[(u["n_uavs"] == 1) & (u["outcome"] == "success")]
+    if len(one):
+        f["success_1"] = (f"A single UAV can fly our whole 24-target tour: {len(one)} single-UAV missions succeeded "
+                          f"with {one['remaining_battery_pct'].mean():.1f} % battery left on average "
+                          f"({', '.join(f'{k[0]}/{k[1]}: {v}' for k, v in one.groupby(['strategy', 'area']).size().items())}).")
+    two = u[u["n_uavs"] == 2]
+    if len(two):
+        oc = two.groupby("strategy")["outcome"].value_counts().unstack(fill_value=0)
+        f["success_2"] = "Outcomes with 2 UAVs: " + "; ".join(
+            f"{s}: " + ", ".join(f"{k} {int(v)}" for k, v in oc.loc[s].items() if v) for s in oc.index) + "."
+    for s in ("A", "B"):
+        sub = u[(u["strategy"] == s) & (u["outcome"] == "uav_collision")]
+        if len(sub):
+            t = sub["removed_time"].astype(float)
+            f.setdefault("wall_ratio", "")
+            f["wall_ratio"] += (f"Strategy {s}: {len(sub)} UAVs removed by UAV-UAV collisions, median at "
+                                f"t = {t.median():.0f} s, in fleets of {', '.join(str(n) for n in sorted(set(sub['n_uavs'])))} "
+                                f"UAVs. ")
+    f["collisions"] = f.get("wall_ratio", "")
+    cells = r.groupby(["strategy", "n_uavs", "area"])["distance_m"].nunique()
+    many = r.groupby(["strategy", "n_uavs", "area"]).size()
+    idem = int(((cells == 1) & (many > 1)).sum())
+    if idem and len(set(r["wind"])) > 1:
+        f["battery_wind"] = (f"In {idem} of {len(cells)} (strategy, fleet, area) cells every run flew exactly the "
+                             "same distance whatever its wind probability and seed: the wind did not reach the UAVs. "
+                             "Check that the macro step is shorter than the wind decision interval: UavWind ramps "
+                             "each wind episode up from 0 at its start, and with a step equal to the interval every "
+                             "communication point falls on an episode start.")
+        f["distance_wind"] = f["battery_wind"]
+    return f
+
+
+def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
+    """One row per published claim: the paper's value, ours, whether they agree (direction; ``sig`` says
+    whether our difference or trend is statistically significant), the likely reasons and facts."""
+    rows = []
+    facts = _facts(u, r, fd)
+
+    def add(key, ours, agree, why=(), note="", sig=None):
         paper, quote = PAPER[key]
-        rows.append({"key": key, "paper": paper, "quote": quote, "ours": ours, "agree": agree,
-                     "why": list(why), "note": note})
+        rows.append({"key": key, "paper": paper, "quote": quote, "ours": ours, "agree": agree, "sig": sig,
+                     "why": list(why), "note": note, "fact": facts.get(key, "")})
 
     n_runs = r["run_id"].nunique()
     add("runs", f"{n_runs} completed runs", n_runs == 336,
@@ -253,7 +306,7 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
     f5 = fd["fig5"]
     fleets = fd["fleets"]
     maxes = ", ".join(str(f5.get(("A", n), (0, 0))[1]) for n in fleets)
-    add("max_success", maxes, maxes == "42, 84, 126, 168")
+    add("max_success", maxes, maxes == "42, 84, 126, 168", () if maxes == "42, 84, 126, 168" else ("campaign",))
 
     def succ(s, n):
         k, m, _ = f5.get((s, n), (0, 0, None))
@@ -266,46 +319,54 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
         add("success_2", f"{ka}/{ma} (A), {kb}/{mb} (B)", ka == 0 and kb > 0, ("geometry", "energy", "success_def"))
     srow = next(x for x in t2 if x["key"] == "success")
     add("success_dir", f"{srow['A']} (A) vs {srow['B']} (B), Fisher p = {_fmt_p(srow['p'])}",
-        srow["lead"] == "B", ("geometry", "collisions_model", "stochastic"))
+        None if srow["lead"] == "tie" else srow["lead"] == "B", ("geometry", "collisions_model", "stochastic"),
+        sig=srow["p"] < 0.05 if math.isfinite(srow["p"]) else None)
     bm = {s: st.mean_ci(u[u["strategy"] == s]["remaining_battery_pct"]) for s in ("A", "B")}
     erow = next(x for x in t2 if x["key"] == "energy")
     add("battery_total", f"{bm['A'].fmt(2, ' %')} (A), {bm['B'].fmt(2, ' %')} (B); Mann-Whitney p = "
                          f"{_fmt_p(erow['p'])}",
         bm["B"].estimate > bm["A"].estimate, ("energy", "geometry", "collisions_model"),
-        "ours: mean remaining battery of all UAV missions, 95 % t interval")
-    parts, agree = [], True
+        "ours: mean remaining battery of all UAV missions, 95 % t interval",
+        sig=erow["p"] < 0.05 if math.isfinite(erow["p"]) else None)
+    parts, agree, sig = [], True, True
     for a in fd["areas"]:
         ca, cb = fd["fig6"][("A", a)], fd["fig6"][("B", a)]
-        parts.append(f"{a}: A {ca.fmt(1)} vs B {cb.fmt(1)}")
+        p = _mwu(u[(u["strategy"] == "A") & (u["area"] == a)]["remaining_battery_pct"],
+                 u[(u["strategy"] == "B") & (u["area"] == a)]["remaining_battery_pct"])
+        parts.append(f"{a}: A {ca.fmt(1)} vs B {cb.fmt(1)} (p = {_fmt_p(p)})")
         agree &= ca.estimate > cb.estimate
-    add("battery_area", "; ".join(parts), agree, ("collisions_model", "geometry", "energy"))
+        sig &= math.isfinite(p) and p < 0.05
+    add("battery_area", "; ".join(parts), agree, ("collisions_model", "geometry", "energy"), sig=sig)
     sl = st.ols_slope(u["wind"] * 100.0, u["remaining_battery_pct"])
     add("battery_wind", f"slope {sl.fmt(3)} %-points per %-point of wind probability",
-        sl.estimate < 0, ("wind", "stochastic", "collisions_model"),
-        "least-squares slope over all UAV missions, 95 % t interval")
+        None if not math.isfinite(sl.estimate) else sl.estimate < 0, ("wind", "stochastic", "collisions_model"),
+        "least-squares slope over all UAV missions, 95 % t interval", sig=_slope_sig(sl))
     zones = [a for a in fd["areas"] if _is_zone(a)]
     free = [a for a in fd["areas"] if not _is_zone(a)]
     if zones and free:
-        bz = st.mean_ci(u[u["area"].isin(zones)]["remaining_battery_pct"])
-        bf = st.mean_ci(u[u["area"].isin(free)]["remaining_battery_pct"])
-        add("battery_zones", f"zones {bz.fmt(1, ' %')} vs free {bf.fmt(1, ' %')}", bz.estimate > bf.estimate,
-            ("collisions_model", "geometry"))
+        xz, xf = u[u["area"].isin(zones)]["remaining_battery_pct"], u[u["area"].isin(free)]["remaining_battery_pct"]
+        bz, bf, p = st.mean_ci(xz), st.mean_ci(xf), _mwu(xz, xf)
+        add("battery_zones", f"zones {bz.fmt(1, ' %')} vs free {bf.fmt(1, ' %')} (p = {_fmt_p(p)})",
+            bz.estimate > bf.estimate, ("collisions_model", "geometry"), sig=math.isfinite(p) and p < 0.05)
     drow = next(x for x in t2 if x["key"] == "distance")
     da, db = r[r["strategy"] == "A"]["distance_m"].sum() / 1000, r[r["strategy"] == "B"]["distance_m"].sum() / 1000
     add("distance_total", f"{da:.1f} km (A), {db:.1f} km (B); Mann-Whitney p = {_fmt_p(drow['p'])}", db < da,
-        ("geometry", "collisions_model"), "sum of the distance flown by every UAV of every run")
+        ("geometry", "collisions_model"), "sum of the distance flown by every UAV of every run",
+        sig=drow["p"] < 0.05 if math.isfinite(drow["p"]) else None)
     if zones and free:
-        dz = st.total_ci(r[r["area"].isin(zones)]["distance_m"] / 1000)
-        dfr = st.total_ci(r[r["area"].isin(free)]["distance_m"] / 1000)
-        add("distance_zones", f"zones {dz.fmt(1, ' km')} vs free {dfr.fmt(1, ' km')}", dz.estimate < dfr.estimate,
-            ("collisions_model", "geometry"))
+        xz, xf = r[r["area"].isin(zones)]["distance_m"] / 1000, r[r["area"].isin(free)]["distance_m"] / 1000
+        dz, dfr, p = st.total_ci(xz, floor=0.0), st.total_ci(xf, floor=0.0), _mwu(xz, xf)
+        add("distance_zones", f"zones {dz.fmt(1, ' km')} vs free {dfr.fmt(1, ' km')} (p = {_fmt_p(p)})",
+            dz.estimate < dfr.estimate, ("collisions_model", "geometry"), sig=math.isfinite(p) and p < 0.05)
     sl = st.ols_slope(r["wind"] * 100.0, r["distance_m"] / 1000.0)
-    add("distance_wind", f"slope {sl.fmt(3)} km per run per %-point of wind probability", sl.estimate > 0,
-        ("wind", "stochastic", "collisions_model"), "least-squares slope over runs, 95 % t interval")
+    add("distance_wind", f"slope {sl.fmt(3)} km per run per %-point of wind probability",
+        None if not math.isfinite(sl.estimate) else sl.estimate > 0, ("wind", "stochastic", "collisions_model"),
+        "least-squares slope over runs, 95 % t interval", sig=_slope_sig(sl))
     ca, cb = int(r[r["strategy"] == "A"]["collisions"].sum()), int(r[r["strategy"] == "B"]["collisions"].sum())
     crow = next(x for x in t2 if x["key"] == "collisions")
     add("collisions", f"{ca} (A), {cb} (B) UAVs removed; Mann-Whitney p = {_fmt_p(crow['p'])}", ca > cb,
-        ("collisions_count", "collisions_model", "geometry"))
+        ("collisions_count", "collisions_model", "geometry"),
+        sig=crow["p"] < 0.05 if math.isfinite(crow["p"]) else None)
     parts, agree = [], True
     for s in ("A", "B"):
         sub = r[r["strategy"] == s]
@@ -315,14 +376,15 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
         agree &= math.isfinite(ratio) and 2.0 <= ratio <= 4.0
     add("wall_ratio", "; ".join(parts), agree, ("collisions_model", "geometry", "collisions_count"),
         "agreement = ratio between 2 and 4 in both strategies")
-    parts, agree = [], True
+    parts, agree, sig = [], True, True
     for s in ("A", "B"):
         sub = u[u["strategy"] == s]
         sl = st.ols_slope(sub["n_uavs"], sub["remaining_battery_pct"])
         means = ", ".join(f"{n}: {fd['fig10'][(s, n)].estimate:.1f}" for n in fd["fleets"] if (s, n) in fd["fig10"])
         parts.append(f"{s}: slope {sl.fmt(2)} %/UAV (means {means})")
-        agree &= sl.estimate > 0
-    add("battery_fleet", "; ".join(parts), agree, ("energy", "geometry", "collisions_model"))
+        agree = agree and math.isfinite(sl.estimate) and sl.estimate > 0
+        sig = sig and bool(_slope_sig(sl))
+    add("battery_fleet", "; ".join(parts), agree, ("energy", "geometry", "collisions_model"), sig=sig)
     nb = sum(1 for x in t2 if x["better"] == "B")
     na = sum(1 for x in t2 if x["better"] == "A")
     lb = sum(1 for x in t2 if x["lead"] == "B")
@@ -330,6 +392,15 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
                   f"(B ahead, significant or not, on {lb} of {len(t2)})", nb == len(t2),
         ("stochastic", "geometry", "collisions_model"))
     return rows
+
+
+def _verdict(c: dict) -> str:
+    if c["agree"] is None:
+        return "n/a"
+    text = "yes" if c["agree"] else "**no**"
+    if c["sig"] is False:
+        text += " (not significant)"
+    return text
 
 
 # ============================================================================================ figures
@@ -508,22 +579,36 @@ def _uav_report(manifest, df, out: Path) -> str:
               "samples without ties, normal approximation with tie and continuity corrections otherwise); trends "
               "as least-squares slopes with t intervals. Unit of analysis: the UAV mission for success and "
               "remaining battery (as the paper's 42/84/126/168), the run for distance, photos and collisions. "
-              "Only completed runs are analysed.", ""]
+              "Only completed runs are analysed. Intervals of quantities that cannot be negative are truncated at 0. "
+              "Caveat: the UAV missions of one run are not independent (they share the wind and can collide with "
+              "each other), so intervals and tests that treat missions as independent are indicative.", ""]
     # comparison
     L += ["## Our numbers next to the paper's", ""]
-    rows = [[c["key"], c["paper"], c["ours"], "yes" if c["agree"] else "**no**"] for c in cmp_rows]
+    rows = [[c["key"], c["paper"], c["ours"], _verdict(c)] for c in cmp_rows]
     L += [_md_table(["quantity", "paper", "ours", "agrees"], rows), ""]
-    L += ["Quotes (paper, section V):", ""]
+    L += ["\"agrees\" compares directions (and the exact values where the paper gives them); \"not significant\" "
+          "means our own difference or trend is not significant at α = 0.05 (its p-value or interval is in the row).",
+          "", "Quotes (paper, section V):", ""]
     L += [f"- *{c['key']}*: {c['quote']}" + (f" — {c['note']}" if c["note"] else "") for c in cmp_rows]
     L += ["", "## Where and why we differ", ""]
-    diff = [c for c in cmp_rows if not c["agree"]]
+    diff = [c for c in cmp_rows if c["agree"] is False or c["sig"] is False]
     if not diff:
         L += ["Every published claim is reproduced in direction.", ""]
+    used: list[str] = []
     for c in diff:
-        reasons = " ".join(WHY[w] for w in c["why"] if w in WHY)
-        if "campaign" in c["why"]:
-            reasons = "This campaign does not cover the paper's full 336-run grid. " + reasons
-        L += [f"- **{c['key']}** — paper: {c['paper']}; ours: {c['ours']}. {reasons}"]
+        refs = []
+        for w in c["why"]:
+            if w in WHY and w not in used:
+                used.append(w)
+            if w in WHY:
+                refs.append(f"[{used.index(w) + 1}]")
+        lead = "This campaign does not cover the paper's full 336-run grid. " if "campaign" in c["why"] else ""
+        verdict = "differs" if c["agree"] is False else "same direction, not significant here"
+        L += [f"- **{c['key']}** ({verdict}) — paper: {c['paper']}; ours: {c['ours']}. {lead}{c['fact']} "
+              f"Likely causes: {' '.join(refs) or '-'}"]
+    if used:
+        L += ["", "Causes:", ""]
+        L += [f"{i + 1}. {WHY[w]}" for i, w in enumerate(used)]
     L += ["", _diagnostics(u, r), ""]
     # figures
     L += ["## Figures", ""]

@@ -84,8 +84,8 @@ class CampaignSummary:
             parts.append(f"Skipped {self.skipped} run{'s' if self.skipped != 1 else ''} already finished.")
         if self.stale:
             why = "; ".join(f"{k}: {v}" for k, v in sorted(self.stale_reasons.items()))
-            parts.append(f"{self.stale} finished run{'s were' if self.stale != 1 else ' was'} stale and "
-                         f"{'ran' if self.stale else 'run'} again or are queued ({why}).")
+            parts.append(f"{self.stale} earlier record{'s were' if self.stale != 1 else ' was'} stale ({why}): "
+                         "left out of the table and run again.")
         if self.unreadable:
             parts.append(f"{self.unreadable} unreadable record(s) were ignored and their runs queued again.")
         if self.foreign_records:

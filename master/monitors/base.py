@@ -26,6 +26,12 @@ class MonitorContext:
     def emit(self, event: dict) -> None:
         self.events.append(event)
 
+    def request_stop(self, reason: str) -> None:
+        """End the run after this step (e.g. every vehicle has landed): the outcome stays 'completed' and
+        run.json records when and why the run ended before its stop time."""
+        if self.rt.stop_reason is None:
+            self.rt.stop_reason = reason
+
 
 class Monitor:
     annotation_type = ""
