@@ -1,0 +1,131 @@
+"""A one-UAV mission runs in libcosim (libcosimpy) with the same trajectory as ours under Jacobi.
+
+The SSP is the one ``master.uav.build.build_scenario`` writes, given to libcosim unchanged: no variant
+was needed.  It contains String parameters (the strategy's ``targets``, ``strategy``, ``assignment``,
+``zones``), Integer connectors (``cmd``, ``phase``, ``mission_state``), Boolean parameters (the wind's
+``turbulence``/``gusts``), our settings and UAV-monitor annotations next to the OSP step annotation,
+and pythonfmu FMUs (whose binaries libcosim instantiates without a resource location, see
+``tests/peers/libcosim_runner.py``).  libcosim (libcosimpy 0.0.6 / libcosim 0.11.2) applies the
+String, Integer and Real parameters (the mission and the seeded wind would differ otherwise), ignores
+the foreign annotations and runs the mission.  Quick checks while writing this test, at step 0.5 s,
+also bit-identical: a 2-UAV SSP (three FMU files each shared by two components) and a scenario with
+``turbulence``/``gusts`` true (Boolean parameters applied: wind_z != 0).  What libcosim does not do is
+what our annotations ask of *our* master: the UAV monitor (collisions, zone entries, mission outputs
+such as summary.json) and the record settings; the stop time is given by the caller (``run_libcosim``
+steps until it).
+
+Comparison at every step: ``uav1_dyn.x/y/z``, ``uav1_bat.soc``, the strategy's ``cmd`` and
+``mission_state`` (plus photo count and wind), reals to ATOL = 1e-9, integers exactly.  Wind is on
+(probability 0.3, seed 3, 5 s decision intervals) so the seeded wind history is part of the check.
+
+* step 0.5 s: libcosim's time is integer nanoseconds (0.5 s = 500 000 000 ns) and n * 0.5 is exact in
+  binary, so both masters pass the same doStep arguments and the results are bit-identical
+  (measured: 0 for every variable).
+* step 0.1 s: libcosim passes fmi2DoStep the time t_n = n * 1e8 ns converted to double and the step
+  ``to_double_duration(dt, t_n)`` = double(t_n+1) - double(t_n) (libcosim src/cosim/fmi/v2/fmu.cpp,
+  slave_instance::do_step; src/cosim/time.hpp), i.e. 0.1 give or take a few ulps depending on n; we
+  pass n * 0.1 and exactly 0.1.  The dynamics' sub-step dt / round(dt / 0.01) and the wind ramp
+  (evaluated at t + dt) then differ in the last bits, so the trajectories differ by rounding only
+  (measured: <= 3.6e-13 m in position, 1.1e-16 in soc, 4.3e-14 m/s in wind; integers identical; the
+  same order of magnitude without wind).
+
+The libcosim run happens in a child process: libcosim runs the pythonfmu binaries, which re-enter the
+Python interpreter, and an exception driven through a pythonfmu 0.7 binary corrupts that interpreter;
+in a child process a failure cannot take the test session with it.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+import master
+from master.uav.build import build_scenario, default_fmu_dir
+from uavsim.geodesy import geodetic_from_enu
+
+TESTS = Path(__file__).resolve().parents[1]
+FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu"]
+ATOL = 1e-9
+BASE = (-7.275, -35.965, 540.0)
+STOP = 100.0        # s: the mission (5 s preflight, 3 targets 40-57 m away, landing) ends at ~75 s
+
+VARS = [("uav1_dyn", "x"), ("uav1_dyn", "y"), ("uav1_dyn", "z"), ("uav1_bat", "soc"), ("uav1_strat", "cmd"),
+        ("uav1_strat", "mission_state"), ("uav1_strat", "photo_count"), ("uav1_dyn", "phase"),
+        ("wind", "wind_x"), ("wind", "wind_level")]
+INTEGERS = {"uav1_strat.cmd", "uav1_strat.mission_state", "uav1_strat.photo_count", "uav1_dyn.phase",
+            "wind.wind_level"}
+
+pytestmark = [
+    pytest.mark.skipif(importlib.util.find_spec("libcosimpy") is None, reason="libcosimpy not installed"),
+    pytest.mark.skipif(not all((default_fmu_dir() / f).is_file() for f in FMUS),
+                       reason="UAV FMUs not built (python fmu_sources/build_fmus.py)"),
+]
+
+_LIBCOSIM_SCRIPT = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from peers.libcosim_runner import run_libcosim
+ssp, step, stop, out, variables = sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5], sys.argv[6]
+run_libcosim(ssp, step, stop, [tuple(v) for v in json.loads(variables)]).to_parquet(out)
+"""
+
+
+def _run_libcosim_child(ssp: Path, step: float, stop: float, out: Path) -> pd.DataFrame:
+    proc = subprocess.run([sys.executable, "-c", _LIBCOSIM_SCRIPT, str(TESTS), str(ssp), repr(step), repr(stop),
+                           str(out), json.dumps(VARS)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, f"libcosim run failed ({proc.returncode}):\n{proc.stderr[-3000:]}"
+    return pd.read_parquet(out)
+
+
+@pytest.fixture(scope="module")
+def one_uav_ssp(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("libcosim_uav")
+
+    def latlon(e, n):
+        lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
+        return [round(float(lat), 8), round(float(lon), 8)]
+
+    scenario = {"name": "libcosim_one_uav", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 1,
+                "strategy": "B", "targets": [latlon(0, 40), latlon(40, 40), latlon(40, 0)],
+                "wind": {"probability": 0.3, "decision_interval": 5.0}, "seed": 3, "step": 0.5,
+                "stop_time": STOP, "algorithm": "jacobi"}
+    y = tmp / "one_uav.yaml"
+    y.write_text(yaml.safe_dump(scenario, sort_keys=False))
+    return build_scenario(y, tmp / "one_uav.ssp")
+
+
+@pytest.mark.parametrize("step", [0.5, 0.1])
+def test_one_uav_mission_same_trajectory_in_libcosim(one_uav_ssp, tmp_path, step, record_property):
+    n = int(round(STOP / step))
+    theirs = _run_libcosim_child(one_uav_ssp, step, STOP, tmp_path / "libcosim.parquet")
+    ours = master.run(one_uav_ssp, output=None, algorithm="jacobi", step=step, record_interval=step,
+                      record=[f"{c}.{v}" for c, v in VARS]).frame
+    assert len(ours) == len(theirs) == n + 1
+    # times: ours t = n * h, libcosim's integer nanoseconds / 1e9
+    np.testing.assert_allclose(ours["time"], theirs["time"], rtol=0, atol=1e-12)
+    if step == 0.5:
+        assert np.array_equal(ours["time"].to_numpy(), theirs["time"].to_numpy())
+
+    worst = {}
+    for c, v in VARS:
+        key = f"{c}.{v}"
+        a, b = ours[key].to_numpy(), theirs[key].to_numpy()
+        if key in INTEGERS:
+            assert np.array_equal(a.astype(int), b.astype(int)), key
+        else:
+            np.testing.assert_allclose(a, b, rtol=0, atol=ATOL, err_msg=key)
+        worst[key] = float(np.max(np.abs(a.astype(float) - b.astype(float))))
+    record_property("max_abs_diff", json.dumps(worst))
+
+    # the mission really flew: three photos, back on the pad, wind blew in some intervals
+    last = theirs.iloc[-1]
+    assert last["uav1_strat.photo_count"] == 3 and last["uav1_strat.mission_state"] == 7    # landed at base
+    assert theirs["uav1_dyn.z"].max() > 19.0 and theirs["uav1_bat.soc"].iloc[-1] < 0.95
+    assert (theirs["wind.wind_level"] > 0).any() and theirs["wind.wind_x"].abs().max() > 1.0
