@@ -11,6 +11,27 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
+
+Measured (2 cores shared with other jobs, load average 2-3; FMUs of 2026-11-21 06:54; step 0.25 s,
+stop 1500 s):
+
+* full campaign, 2 workers: 336 runs in 440 s (45.8 runs/min, 22.9 runs/min per core), pool efficiency
+  98 %; the target of 120 s is not reached.
+* one warm run (single process), by fleet size 1/2/3/4 UAVs, wind 15 %:
+  A free 1.34/1.75/2.73/0.63 s, A zones 1.48/2.13/2.67/0.64 s, B free 1.25/1.87/1.93/2.36 s,
+  B zones 1.12/1.59/2.07/2.58 s (4 UAVs with strategy A collide after ~20 s: their components stop
+  stepping); the first run of a worker costs ~1 s more (imports, FMU cache).
+* profile of one warm 4-UAV B run (3.0 s, 6000 steps): UAV model code 31 %, numpy/builtins called by
+  it and the monitor 25 %, FMU-side get/set shell (uavsim/fmi.py) 16 %, master FMI calls 9 %, UAV monitor
+  8 %, mission outputs (summary, trajectory, map.png) 5 %, master loop 3 %; fixed part of a run (build
+  the SSP from YAML, unpack, plan, instantiate, outputs) 0.44 s.
+* what reaches the target, measured on that run: step 1.0 instead of 0.25 -> 1.19 s (needs UavWind to
+  publish the wind averaged over the step, or sampled inside it: with a 1 s step every communication
+  point falls on the start of a 1 s wind episode, where the ramp is 0, so no wind reaches the UAVs);
+  ending the run when every UAV has landed or was removed (UavMonitor calling ctx.request_stop; missions
+  end by t = 1065 s at the latest, 43 % of the 1500 s on average) -> 1.00 s; no map.png for campaign
+  runs (an outputs option) -> 0.68 s.  Applied to the campaign's mix (mean warm run ~1.7 s today) that
+  is about 0.5 s per run, 336 x 0.5 / 2 = ~85 s on 2 cores.
 """
 from __future__ import annotations
 
@@ -36,8 +57,8 @@ from master.campaign.spec import load_campaign  # noqa: E402
 PAPER = ROOT / "ssp" / "campaigns" / "paper.yaml"
 
 LAYERS = [  # (name, substrings of the file path), first match wins
+    ("FMU-side get/set shell (uavsim/fmi.py, pythonfmu)", ("uavsim/fmi.py", "pythonfmu")),
     ("UAV model code (uavsim, in the FMUs)", ("uavsim", "/resources/Uav")),
-    ("pythonfmu slave layer", ("pythonfmu",)),
     ("FMI calls (master/fmi)", ("master/fmi",)),
     ("master step loop (algorithms, runner)", ("master/algorithms", "master/runner", "cosim-master step")),
     ("UAV monitor (collisions, zones)", ("master/monitors",)),
@@ -74,12 +95,20 @@ def profile_one(n_uavs: int, strategy: str, variant: str, wind: float, top: int 
         pr.enable()
         execute_run(task)
         pr.disable()
+        # fixed cost of a run: the same run stopped after 4 steps (build the SSP from YAML, unpack it,
+        # plan, instantiate and initialise the FMUs, monitor finish: summary, trajectory, map.png)
+        short = dict(task, overrides=dict(task["overrides"], stop_time=4 * task["overrides"]["step"]))
+        t0 = time.perf_counter()
+        for _ in range(3):
+            execute_run(short)
+        fixed = (time.perf_counter() - t0) / 3
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     tot = rec["summary"]["total"] if rec.get("summary") else {}
     print(f"\n== profile of one run: {strategy}, {n_uavs} UAV(s), {variant}, wind {wind:g} "
           f"(outcome {rec['outcome']}, simulated {tot.get('end_time')} s, flight time {tot.get('flight_time_s')})")
-    print(f"wall: cold {cold:.2f} s (first run in a process), warm {warm:.2f} s (a worker's steady state)")
+    print(f"wall: cold {cold:.2f} s (first run in a process), warm {warm:.2f} s (a worker's steady state), "
+          f"fixed part {fixed:.2f} s (same run stopped after 4 steps)")
     stats = pstats.Stats(pr)
     total = sum(v[2] for v in stats.stats.values())
     by_layer = defaultdict(float)
@@ -142,7 +171,8 @@ def main():
     ap.add_argument("--keep-output", action="store_true")
     ap.add_argument("--profile-only", action="store_true")
     ap.add_argument("--no-profile", action="store_true")
-    ap.add_argument("--profile-run", default="4,B,free,0.15", help="n_uavs,strategy,variant,wind (default 4,B,free,0.15)")
+    ap.add_argument("--profile-run", default="4,B,free,0.15",
+                    help="n_uavs,strategy,variant,wind of the profiled run (default 4,B,free,0.15)")
     args = ap.parse_args()
     if not args.profile_only:
         run_bench(args.fraction, args.workers, args.output, args.keep_output)

@@ -1,0 +1,11 @@
+"""Campaigns: many runs of one scenario over a parameter grid, resumable, on local processes or Dask.
+
+* :mod:`.spec` -- campaign files, grid expansion, run ids, seeds, input fingerprints;
+* :mod:`.execute` -- one run as a worker executes it (returns its record);
+* :mod:`.pool` -- long-lived worker processes that survive crashing FMUs;
+* :mod:`.runner` -- ``run_campaign``: resume, stale detection, progress, Dask;
+* :mod:`.table` -- the tidy results table rebuilt from the records;
+* :mod:`.stats`, :mod:`.report` -- intervals, tests, figures and report.md.
+
+See docs/campaigns.md.
+"""

@@ -6,12 +6,16 @@ CosimError, a bad parameter or any Python exception becomes ``outcome: failed`` 
 ``error``.  A crash of the process (an FMU calling abort(), a segfault) cannot be caught here; the
 pool that ran the task records it (:func:`failure_record`).
 
+``used`` in the record holds the SHA-256 of the scenario file as this worker read it and of the FMUs
+the run loaded, so that the campaign can tell when an input changed while the campaign was running.
+
 The run's own files go to ``runs/<run_id>/`` (cleared first, so a run interrupted earlier leaves no
 trace); with ``keep: summary`` only the small files are kept afterwards.
 """
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import json
 import math
 import os
@@ -67,7 +71,7 @@ def _set_path(data: dict, key: str, value, shown: str):
     d[parts[-1]] = value
 
 
-def _build_uav(task: dict, out: Path) -> Path:
+def _build_uav(task: dict, out: Path, used: dict) -> Path:
     """The run's UAV scenario: base YAML + overrides + seed -> runs/<id>/scenario.yaml -> scenario.ssp."""
     import yaml
 
@@ -76,8 +80,10 @@ def _build_uav(task: dict, out: Path) -> Path:
     from ..uav_scenario import load_scenario_yaml
     src = Path(task["scenario"])
     try:
-        data = yaml.safe_load(src.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
+        raw = src.read_bytes()
+        used["scenario_sha256"] = hashlib.sha256(raw).hexdigest()
+        data = yaml.safe_load(raw.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise ScenarioError(f"cannot read the scenario: {exc}", file=str(src)) from None
     if not isinstance(data, dict):
         raise ScenarioError("expected a mapping of scenario fields", file=str(src))
@@ -85,7 +91,8 @@ def _build_uav(task: dict, out: Path) -> Path:
         _set_path(data, k, v, str(src))
     data["seed"] = int(task["seed"])
     head = (f"# campaign {task['campaign']}, run {task['run_id']} (rep {task['rep']}, seed {task['seed']})\n"
-            f"# base scenario: {task['inputs']['scenario']}; parameters: {json.dumps(task['params'], sort_keys=True)}\n")
+            f"# base scenario: {task['inputs']['scenario']}; "
+            f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")
     yml = out / "scenario.yaml"
     yml.write_text(head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
     scn = load_scenario_yaml(yml)
@@ -140,6 +147,7 @@ def execute_run(task: dict) -> dict:
     t0 = time.perf_counter()
     rec = base_record(task)
     rec["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    used: dict = {}
     out = Path(task["out_dir"])
     cdir = str(task["campaign_dir"]).rstrip(os.sep) + os.sep
     try:
@@ -152,11 +160,13 @@ def execute_run(task: dict) -> dict:
         kw.setdefault("log_level", "error")
         kw["write_csv"] = bool(opts.get("csv", True))
         if task["kind"] == "uav":
-            scenario = _build_uav(task, out)
+            scenario = _build_uav(task, out, used)
             params = {}
             seed = None            # the scenario's seed field (wind) is the run seed already
         else:
             scenario = Path(task["scenario"])
+            from .spec import _tree_sha, file_sha256
+            used["scenario_sha256"] = file_sha256(scenario) if scenario.is_file() else _tree_sha(scenario)
             params = dict(task["overrides"])
             seed = int(task["seed"])
             for k in ("stop_time", "step", "algorithm"):
@@ -182,6 +192,8 @@ def execute_run(task: dict) -> dict:
         rec["traceback"] = traceback.format_exc(limit=-8)
     if rec["error"]:
         rec["error"] = _one_line(rec["error"].replace(cdir, ""))
+    used["fmus"] = sorted({h for h in rec["fmus"].values() if h})
+    rec["used"] = used
     summary = out / "summary.json"
     if summary.is_file():
         try:

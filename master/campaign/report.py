@@ -252,16 +252,30 @@ def _facts(u, r, fd) -> dict:
     removed = u["outcome"].isin(["uav_collision", "zone_collision"])
     if len(u):
         kept = u[~removed]["remaining_battery_pct"]
-        f["battery_total"] = (f"{removed.mean() * 100:.0f} % of our UAV missions end in a collision, most of them "
-                              f"shortly after take-off with almost a full battery; over the other missions the mean "
-                              f"remaining battery is {kept.mean():.1f} %." if removed.any() and len(kept) else "")
+        rt = u[removed]["removed_time"].astype(float)
+        rb = u[removed]["remaining_battery_pct"].astype(float)
+        f["battery_total"] = (f"{removed.mean() * 100:.0f} % of our UAV missions end in a collision (median at "
+                              f"t = {rt.median():.0f} s, {rb.mean():.1f} % battery left on average); over the other "
+                              f"missions the mean remaining battery is {kept.mean():.1f} %."
+                              if removed.any() and len(kept) else "")
         f["battery_area"] = f["battery_total"]
         f["battery_zones"] = f["battery_total"]
+    if len(u) and "distance_m" in u.columns:
+        parts = []
+        for s in sorted(set(u["strategy"])):
+            sub = u[u["strategy"] == s]
+            rm = sub["outcome"].isin(["uav_collision", "zone_collision"])
+            d = sub[~rm]["distance_m"].astype(float)
+            parts.append(f"{s}: {rm.mean() * 100:.0f} % of missions removed by a collision, the others flew "
+                         f"{d.mean() / 1000:.2f} km on average")
+        f["distance_total"] = "Per UAV mission: " + "; ".join(parts) + "."
+        f["distance_wind"] = f.get("distance_wind", "")
     one = u[(u["n_uavs"] == 1) & (u["outcome"] == "success")]
     if len(one):
+        cells = one.groupby(["strategy", "area"]).size()
         f["success_1"] = (f"A single UAV can fly our whole 24-target tour: {len(one)} single-UAV missions succeeded "
                           f"with {one['remaining_battery_pct'].mean():.1f} % battery left on average "
-                          f"({', '.join(f'{k[0]}/{k[1]}: {v}' for k, v in one.groupby(['strategy', 'area']).size().items())}).")
+                          f"({', '.join(f'{k[0]}/{k[1]}: {v}' for k, v in cells.items())}).")
     two = u[u["n_uavs"] == 2]
     if len(two):
         oc = two.groupby("strategy")["outcome"].value_counts().unstack(fill_value=0)
@@ -273,8 +287,8 @@ def _facts(u, r, fd) -> dict:
             t = sub["removed_time"].astype(float)
             f.setdefault("wall_ratio", "")
             f["wall_ratio"] += (f"Strategy {s}: {len(sub)} UAVs removed by UAV-UAV collisions, median at "
-                                f"t = {t.median():.0f} s, in fleets of {', '.join(str(n) for n in sorted(set(sub['n_uavs'])))} "
-                                f"UAVs. ")
+                                f"t = {t.median():.0f} s, in fleets of "
+                                f"{', '.join(str(n) for n in sorted(set(sub['n_uavs'])))} UAVs. ")
     f["collisions"] = f.get("wall_ratio", "")
     cells = r.groupby(["strategy", "n_uavs", "area"])["distance_m"].nunique()
     many = r.groupby(["strategy", "n_uavs", "area"]).size()
@@ -297,6 +311,8 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
 
     def add(key, ours, agree, why=(), note="", sig=None):
         paper, quote = PAPER[key]
+        agree = None if agree is None else bool(agree)
+        sig = None if sig is None else bool(sig)
         rows.append({"key": key, "paper": paper, "quote": quote, "ours": ours, "agree": agree, "sig": sig,
                      "why": list(why), "note": note, "fact": facts.get(key, "")})
 
@@ -444,7 +460,8 @@ def draw_figures(fd: dict, out: Path) -> dict:
             k, m, ci = fd["fig5"][(s, n)]
             ax.bar(x, k, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if n == N[0] else None)
             if m:
-                ax.errorbar(x, k, yerr=[[k - ci.low * m], [ci.high * m - k]], fmt="none", ecolor="black", capsize=3)
+                ax.errorbar(x, k, yerr=[[max(0.0, k - ci.low * m)], [max(0.0, ci.high * m - k)]], fmt="none",
+                            ecolor="black", capsize=3)
             ax.annotate(f"{k}/{m}", (x, k), xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7)
     ax.set_xticks(np.arange(len(N)), [str(n) for n in N])
     ax.set_xlabel("UAVs in the fleet")

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import CosimError
-from .spec import Campaign, RunSpec, load_campaign
+from .spec import RESULT_OPTIONS, Campaign, RunSpec, load_campaign
 from .table import read_record, write_table
 
 __all__ = ["run_campaign", "CampaignSummary", "make_task", "plan_campaign"]
@@ -47,6 +47,7 @@ class CampaignSummary:
     stale_reasons: dict = field(default_factory=dict)
     unreadable: int = 0
     foreign_records: int = 0
+    changed_during_run: int = 0
     interrupted: bool = False
     wall_time_s: float = 0.0
     run_time_s: float = 0.0
@@ -86,6 +87,9 @@ class CampaignSummary:
             why = "; ".join(f"{k}: {v}" for k, v in sorted(self.stale_reasons.items()))
             parts.append(f"{self.stale} earlier record{'s were' if self.stale != 1 else ' was'} stale ({why}): "
                          "left out of the table and run again.")
+        if self.changed_during_run:
+            parts.append(f"{self.changed_during_run} run(s) used a scenario file or FMU that changed while the campaign "
+                         "was running: their records are marked stale and they run again next time.")
         if self.unreadable:
             parts.append(f"{self.unreadable} unreadable record(s) were ignored and their runs queued again.")
         if self.foreign_records:
@@ -132,11 +136,26 @@ def _stale_reasons(old: dict, new: dict) -> list[str]:
             out.append(f"FMU {k} changed")
     if old.get("options") != new.get("options"):
         out.append("run options changed")
-    if old.get("overrides") != new.get("overrides"):
+    def params(d):   # UAV scenarios carry step/stop_time/algorithm in their overrides too
+        return {k: v for k, v in (d.get("overrides") or {}).items() if k not in RESULT_OPTIONS}
+    if params(old) != params(new):
         out.append("parameters changed")
     if old.get("seed") != new.get("seed"):
         out.append("seed changed")
     return out or ["inputs changed"]
+
+
+def _changed_inputs(expected: dict, used: dict | None) -> list[str]:
+    """What the worker actually used that differs from the inputs hashed when the campaign started."""
+    if not used:
+        return []
+    out = []
+    if used.get("scenario_sha256") and used["scenario_sha256"] != expected.get("scenario_sha256"):
+        out.append(f"scenario file {expected.get('scenario')} changed")
+    known = set((expected.get("fmus") or {}).values())
+    if any(h not in known for h in used.get("fmus") or []):
+        out.append("an FMU changed")
+    return out
 
 
 def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False):
@@ -157,8 +176,8 @@ def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False):
             continue
         if rec.get("inputs_sha256") != r.inputs_sha256:
             s.stale += 1
-            for why in _stale_reasons(rec.get("inputs") or {}, r.inputs):
-                reasons[why] += 1
+            for why in rec.get("inputs_changed") or _stale_reasons(rec.get("inputs") or {}, r.inputs):
+                reasons[why if not rec.get("inputs_changed") else f"{why} during the run"] += 1
             todo.append(r)
             continue
         if rec.get("outcome") == "failed" and retry_failed:
@@ -237,10 +256,17 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
             bar.set_postfix(failed=0)
         counts = Counter()
 
+        by_id = {t["run_id"]: t for t in tasks}
+
         def on_result(rec: dict):
             if rec.get("outcome") not in ("completed", "failed"):
                 counts["not_recorded"] += 1     # interrupted inside the run: not a finished run
                 return
+            changed = _changed_inputs(by_id[rec["run_id"]]["inputs"], rec.get("used"))
+            if changed:                         # an input changed since the campaign hashed it: never current
+                rec["inputs_sha256"] = "changed-during-run"
+                rec["inputs_changed"] = changed
+                s.changed_during_run += 1
             _atomic_write(out / "runs" / f"{rec['run_id']}.json", json.dumps(rec, indent=1, default=str))
             counts[rec["outcome"]] += 1
             if bar is not None:

@@ -23,9 +23,16 @@ written by ``master.uav.build``).  After every master step [t0, t1] it
 
 ``finish`` hands everything to :mod:`master.uav.outputs`, which writes trajectory.csv, photos.csv,
 summary.csv, summary.json and map.png into the run folder and returns the summary stored in run.json.
+
+Cost (docs/uav_monitor.md, "Cost per step"): one ``take`` per buffer type into preallocated arrays; a step
+in which nothing read changed and nothing is checked is an *idle* step (airborne time and track only);
+mission states and photos are looked at only when their bytes changed; up to ``SMALL_FLEET`` UAVs the rest
+of the step runs on Python floats (``_step_small``), above on numpy vectors (``_step_vector``).  Both give
+the same bits as each other and as the plain vectorized algorithm.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -52,6 +59,9 @@ MISSION_DETAIL = {3: "all assigned targets visited, returning to base",
                   7: "landed at the base", 8: "landed away from the base"}
 
 TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map track
+#: up to this many UAVs the per-step bookkeeping runs on Python floats (for a few UAVs the fixed cost of
+#: ~30 numpy calls on tiny arrays is far more than the arithmetic); above, on numpy vectors
+SMALL_FLEET = 16
 
 #: Uav attributes naming a 'component.variable' the monitor reads (required ones first)
 REQUIRED_ROLES = ("x", "y", "z", "phase")
@@ -231,11 +241,20 @@ class UavMonitor(Monitor):
         self.track_p: list[np.ndarray] = []
         self.track_phase: list[np.ndarray] = []
         n = len(self.cfg.uavs)
-        self._dist = np.zeros(n)          # per-UAV accumulators, copied into the records by sync()
-        self._dist_xy = np.zeros(n)
-        self._ftime = np.zeros(n)
-        self._took_off = np.zeros(n, dtype=bool)
+        self._small = n <= SMALL_FLEET
+        # per-UAV accumulators, copied into the records by sync(): Python lists of floats for small fleets
+        # (the per-step loop works on Python floats), numpy vectors otherwise -- the same IEEE arithmetic
+        if self._small:
+            self._dist, self._dist_xy, self._ftime = [0.0] * n, [0.0] * n, [0.0] * n
+            self._took_off = [False] * n
+        else:
+            self._dist, self._dist_xy, self._ftime = np.zeros(n), np.zeros(n), np.zeros(n)
+            self._took_off = np.zeros(n, dtype=bool)
         self._removed = np.zeros(n, dtype=bool)
+        self._rm_idx = np.empty(0, dtype=np.intp)     # removed UAVs and where they were taken out
+        self._rm_pos = np.empty((0, 3))
+        self._idle = False
+        self.skip_idle = True     # False: every step takes the full path (for tests; same results)
 
     def required_variables(self) -> list[str]:
         out, seen = [], set()
@@ -275,9 +294,44 @@ class UavMonitor(Monitor):
             v[~have] = np.nan
         return v
 
-    def _positions(self) -> np.ndarray:
-        buf = self.ctx.buffer(self._xyz_type)
-        return np.take(buf, self._xyz_idx).astype(float)
+    def _setup_hot(self, ctx) -> None:
+        """Index arrays of the values read after every step (positions, phase, mission state, photo count):
+        per buffer type ONE index array and ONE preallocated array that ``np.take`` fills, with views per
+        role.  Positions are interleaved x, y, z per UAV, so their view is the (N, 3) position array."""
+        n = len(self.cfg.uavs)
+        parts: dict[str, list] = {}
+        where = {}
+        for role in ("xyz", "phase", "missionState", "photoCount"):
+            if role == "xyz":
+                typ, idx = self._xyz_type, self._xyz_idx.ravel()
+            else:
+                typ, idx, have = self._roles[role]
+                if typ is None:
+                    continue
+            lst = parts.setdefault(typ, [])
+            off = sum(len(a) for a in lst)
+            lst.append(idx)
+            where[role] = (typ, off, len(idx))
+        self._hot = []
+        out = {}
+        for typ, lst in parts.items():
+            idx = np.concatenate(lst).astype(np.intp)
+            out[typ] = np.empty(idx.size, dtype=ctx.buffer(typ).dtype)
+            self._hot.append((typ, idx, out[typ]))
+        view = {r: out[t][o:o + m] for r, (t, o, m) in where.items()}
+        self._pos_view = view["xyz"].reshape(n, 3)
+        self._ph_view = view["phase"]
+        self._ms_view = view.get("missionState")
+        self._pc_view = view.get("photoCount")
+
+    def _read_hot(self) -> list:
+        """Fill the hot arrays from the buffers; returns their bytes (to tell cheaply if anything changed)."""
+        buffer = self.ctx.buffer
+        key = []
+        for typ, idx, out in self._hot:
+            buffer(typ).take(idx, out=out, mode="clip")    # indices are valid; 'clip' avoids a buffer copy
+            key.append(out.tobytes())
+        return key
 
     def attach(self, ctx, start: float) -> None:
         self.ctx = ctx
@@ -289,29 +343,51 @@ class UavMonitor(Monitor):
                                 element="uav:UavMonitor")
         self._xyz_type = types.pop()
         self._xyz_idx = np.stack([self._roles[r][1] for r in ("x", "y", "z")], axis=1)
-        self.p0 = self._positions()
-        self.ph0 = self._read("phase")
-        ms = self._read("missionState")
-        self.ms0 = ms
-        pc = self._read("photoCount")
-        self.pc0 = pc
+        self._setup_hot(ctx)
+        self._key = self._read_hot()
+        self.p0 = self._pos_view.astype(float)
+        self.ph0 = self._ph_view.astype(float)
+        self.ms0 = self._role_values("missionState", self._ms_view)
+        self.pc0 = self._role_values("photoCount", self._pc_view)
+        self._ms_bytes = None if self._ms_view is None else self._ms_view.tobytes()
+        self._pc_bytes = None if self._pc_view is None else self._pc_view.tobytes()
+        self._air0 = (self.ph0 >= AIRBORNE_PHASES[0]) & (self.ph0 <= AIRBORNE_PHASES[-1])
+        self._p0l, self._ph0l = self.p0.tolist(), self.ph0.tolist()
         self._snapshot()
         self._track(self.start, self.p0, self.ph0)
+        self._prepare_idle(cut=False)
+
+    def _role_values(self, role, raw) -> np.ndarray | None:
+        """The float values of a role from its hot view (what ``_read`` gives: NaN for UAVs without it)."""
+        if raw is None:
+            return None
+        v = raw.astype(float)
+        have = self._roles[role][2]
+        if not have.all():
+            v[~have] = np.nan
+        return v
 
     def _track(self, t, p, ph, force=False):
         if not force and self.track_t and t - self.track_t[-1] < TRACK_INTERVAL - 1e-9:
             return
         self.track_t.append(float(t))
-        self.track_p.append(p.copy())
-        self.track_phase.append(ph.copy())
+        self.track_p.append(p)        # p0/p1/ph arrays are never modified once a step is done: no copy
+        self.track_phase.append(ph)
 
     def _snapshot(self, which=None):
+        if which is not None:       # one UAV (at its removal): read just its values
+            for role in REQUIRED_ROLES + OPTIONAL_ROLES:
+                typ, idx, have = self._roles.get(role, (None, None, None))
+                if typ is not None:
+                    self.records[which].last[role] = (float(self.ctx.buffer(typ)[idx[which]]) if have[which]
+                                                      else math.nan)
+            return
         for role in REQUIRED_ROLES + OPTIONAL_ROLES:
             v = self._read(role)
             if v is None:
                 continue
             for k, rec in enumerate(self.records):
-                if (which is None and not rec.removed) or k == which:
+                if not rec.removed:
                     rec.last[role] = float(v[k])
 
     # -- events -------------------------------------------------------------------------------
@@ -333,46 +409,188 @@ class UavMonitor(Monitor):
         rec.removed_reason = reason
         rec.removed_by = by
         rec.removed_pos = tuple(float(c) for c in pos)
+        self._rm_idx = np.flatnonzero(self._removed)
+        self._rm_pos = np.array([self.records[i].removed_pos for i in self._rm_idx], dtype=float).reshape(-1, 3)
         self._snapshot(which=k)     # its outputs are frozen at these values from now on
         self.ctx.deactivate(self.cfg.uavs[k].components)
 
     def after_step(self, n: int, t0: float, t1: float) -> None:
-        cfg, recs = self.cfg, self.records
-        p0, ph0 = self.p0, self.ph0
-        p1 = self._positions()
-        ph1 = self._read("phase")
-        removed = self._removed.copy()
-        for k in np.flatnonzero(removed):       # a removed UAV stays where it was taken out
-            p1[k] = recs[k].removed_pos
-        alive = ~removed
-        air0 = (ph0 >= AIRBORNE_PHASES[0]) & (ph0 <= AIRBORNE_PHASES[-1])
-        air1 = (ph1 >= AIRBORNE_PHASES[0]) & (ph1 <= AIRBORNE_PHASES[-1])
-        high = np.maximum(p0[:, 2], p1[:, 2]) > cfg.altitude_threshold
-        checked = alive & (air0 | air1) & high
+        key = self._read_hot()
+        if self._idle and key == self._key and self.skip_idle:
+            # nothing read changed and nothing is checked: only the airborne time and the track go on (this
+            # is what the full step below computes then, bit for bit: every other increment is +0.0)
+            if self._idle_fly:
+                dt = t1 - t0
+                if self._small:
+                    for k in self._idle_fly:
+                        self._ftime[k] += dt
+                else:
+                    self._ftime[self._idle_fly] += dt
+            self.last_time = float(t1)
+            if t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+                self._track(t1, self.p0, self.ph0)
+            return
+        self._key = key
+        p0 = self.p0
+        p1 = self._pos_view.astype(float)
+        ph1 = self._ph_view.astype(float)
+        removed = self._removed                 # not yet modified in this step (_remove() comes later)
+        if self._rm_idx.size:                   # a removed UAV stays where it was taken out
+            p1[self._rm_idx] = self._rm_pos
 
         # mission events and photos first: the strategy decided them on its inputs at t0
-        ms1 = self._read("missionState")
-        if ms1 is not None:
-            changed = np.flatnonzero(alive & (ms1 != self.ms0) & ~np.isnan(ms1))
-            cons = self._read("consumed")
-            for k in changed:
-                self._mission_event(k, t0, int(ms1[k]), p0[k], None if cons is None else float(cons[k]))
-            self.ms0 = ms1
-        pc1 = self._read("photoCount")
-        if pc1 is not None:
-            for k in np.flatnonzero(alive & (pc1 > self.pc0)):
-                self._photo(k, int(pc1[k] - self.pc0[k]), t0, p0[k])
-            self.pc0 = pc1
+        if self._ms_view is not None:
+            b = self._ms_view.tobytes()
+            if b != self._ms_bytes:
+                self._ms_bytes = b
+                ms1 = self._role_values("missionState", self._ms_view)
+                changed = np.flatnonzero(~removed & (ms1 != self.ms0) & ~np.isnan(ms1))
+                cons = self._read("consumed")
+                for k in changed:
+                    self._mission_event(k, t0, int(ms1[k]), p0[k], None if cons is None else float(cons[k]))
+                self.ms0 = ms1
+        if self._pc_view is not None:
+            b = self._pc_view.tobytes()
+            if b != self._pc_bytes:
+                self._pc_bytes = b
+                pc1 = self._role_values("photoCount", self._pc_view)
+                for k in np.flatnonzero(~removed & (pc1 > self.pc0)):
+                    self._photo(k, int(pc1[k] - self.pc0[k]), t0, p0[k])
+                self.pc0 = pc1
 
-        # collisions and zone incursions, in time order
+        if self._small:
+            self._step_small(t0, t1, p0, p1, ph1)
+        else:
+            self._step_vector(t0, t1, p0, p1, ph1)
+
+    def _step_small(self, t0, t1, p0, p1, ph1) -> None:
+        """The rest of a step on Python floats (few UAVs): the same operations as ``_step_vector``."""
+        cfg = self.cfg
+        lo, hi = AIRBORNE_PHASES[0], AIRBORNE_PHASES[-1]
+        thr = cfg.altitude_threshold
+        p0l, ph0l = self._p0l, self._ph0l
+        p1l, ph1l = p1.tolist(), ph1.tolist()
+        rem = self._removed.tolist()            # at the start of the step (a copy)
+        nu = len(rem)
+        flying = [False] * nu
+        checked = []
+        for k in range(nu):
+            f = lo <= ph0l[k] <= hi or lo <= ph1l[k] <= hi
+            flying[k] = f
+            if f and not rem[k]:
+                z0, z1 = p0l[k][2], p1l[k][2]
+                if (z0 > thr or z1 > thr) and z0 == z0 and z1 == z1:   # np.maximum(z0, z1) > thr
+                    checked.append(k)
         found = []
-        if checked.sum() >= 2:
+        if len(checked) >= 2:
+            for c in self.collider.check_few(t0, t1, p0, p1, checked, p0l, p1l):
+                found.append((c.time, 0, c.i, c.j, c))
+        zd = self.zone_detector
+        if zd is not None and checked:
+            near = [k for k in checked if zd.may_enter(p0l[k][0], p0l[k][1], p1l[k][0], p1l[k][1])]
+            if near:
+                mask = np.zeros(nu, dtype=bool)
+                mask[near] = True
+                for z in zd.check(t0, t1, p0, p1, mask):
+                    found.append((z.time, 1, z.vehicle, z.zone, z))
+        cut = self._handle(found, t0, t1) if found else {}
+
+        # distance flown and airborne time of the UAVs flying this step (up to their removal)
+        dt = t1 - t0
+        dist, dist_xy, ftime, took_off = self._dist, self._dist_xy, self._ftime, self._took_off
+        sqrt = math.sqrt
+        for k in range(nu):
+            f = cut[k] if k in cut else (0.0 if rem[k] else 1.0)
+            a, b = p0l[k], p1l[k]
+            dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+            sxy = dx * dx + dy * dy
+            dist[k] += f * sqrt(sxy + dz * dz)
+            dist_xy[k] += f * sqrt(sxy)
+            if flying[k]:
+                ftime[k] += f * dt
+                if not rem[k]:
+                    took_off[k] = True
+        for k, f in cut.items():        # removed UAVs: keep their position at removal in the track
+            p1[k] = p0[k] + f * (p1[k] - p0[k])
+            p1l[k] = p1[k].tolist()
+        self.p0, self.ph0, self._p0l, self._ph0l = p1, ph1, p1l, ph1l
+        self.last_time = float(t1)
+        if cut or t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+            self._track(t1, p1, ph1, force=bool(cut))
+        if cut:
+            self._idle = False
+            return
+        # can the next step be idle (see _prepare_idle)?  here nothing was removed, so rem is current
+        nchk = 0
+        fly = []
+        for k in range(nu):
+            if not rem[k] and lo <= ph1l[k] <= hi:
+                fly.append(k)
+                if p1l[k][2] > thr:
+                    nchk += 1
+        if nchk >= 2 or (nchk and zd is not None):
+            self._idle = False
+            return
+        isfinite = math.isfinite
+        self._idle = all(isfinite(c) for row in p1l for c in row)
+        self._idle_fly = fly
+
+    def _step_vector(self, t0, t1, p0, p1, ph1) -> None:
+        """The rest of a step on numpy vectors (many UAVs)."""
+        cfg = self.cfg
+        alive = ~self._removed                  # at the start of the step (a new array)
+        air0 = self._air0
+        air1 = (ph1 >= AIRBORNE_PHASES[0]) & (ph1 <= AIRBORNE_PHASES[-1])
+        flying = air0 | air1
+        high = np.maximum(p0[:, 2], p1[:, 2]) > cfg.altitude_threshold
+        checked = alive & flying & high
+        nchk = int(np.count_nonzero(checked))
+        found = []
+        if nchk >= 2:
             for c in self.collider.check(t0, t1, p0, p1, checked):
                 found.append((c.time, 0, c.i, c.j, c))
-        if self.zone_detector is not None and checked.any():
+        if self.zone_detector is not None and nchk:
             for z in self.zone_detector.check(t0, t1, p0, p1, checked):
                 found.append((z.time, 1, z.vehicle, z.zone, z))
-        cut = {}   # UAV index -> fraction of the step flown before removal
+        cut = self._handle(found, t0, t1) if found else {}
+
+        # distance flown and airborne time of the UAVs flying this step (up to their removal)
+        dt = t1 - t0
+        frac = alive.astype(float)
+        for k, f in cut.items():
+            frac[k] = f
+        seg = p1 - p0
+        sq = seg * seg
+        sxy = sq[:, 0] + sq[:, 1]
+        self._dist += frac * np.sqrt(sxy + sq[:, 2])
+        self._dist_xy += frac * np.sqrt(sxy)
+        self._ftime += frac * dt * flying
+        self._took_off |= alive & flying
+        for k, f in cut.items():        # removed UAVs: keep their position at removal in the track
+            p1[k] = p0[k] + f * seg[k]
+        self.p0, self.ph0, self._air0 = p1, ph1, air1
+        self.last_time = float(t1)
+        self._track(t1, p1, ph1, force=bool(cut))
+        self._prepare_idle(bool(cut))
+
+    def _prepare_idle(self, cut: bool) -> None:
+        """Can the next step take the idle path if nothing it reads changes?  Yes when then no UAV would be
+        checked (p1 = p0: the checked ones are the alive, airborne ones above the altitude threshold), no
+        removal happened in this step (the track point of a removed UAV moves to its removal point in the
+        next step) and the positions are finite (a NaN/inf position makes every distance increment NaN).
+        The idle step then adds dt to the airborne time of the alive UAVs in phases 1-3."""
+        ph, z = self.ph0, self.p0[:, 2]
+        air = (ph >= AIRBORNE_PHASES[0]) & (ph <= AIRBORNE_PHASES[-1]) & ~self._removed
+        nchk = int(np.count_nonzero(air & (z > self.cfg.altitude_threshold)))
+        busy = nchk >= 2 or (nchk >= 1 and self.zone_detector is not None)
+        self._idle = not cut and not busy and bool(np.isfinite(self.p0).all())
+        self._idle_fly = np.flatnonzero(air).tolist() if self._idle else []
+
+    def _handle(self, found, t0, t1) -> dict:
+        """Contacts and incursions in time order: removals and events.  Returns {UAV: fraction of the step
+        flown before its removal}."""
+        cfg = self.cfg
+        cut = {}
         dt = t1 - t0
         for time, kind, a, b, hit in sorted(found, key=lambda e: e[:4]):
             if kind == 0:
@@ -397,25 +615,7 @@ class UavMonitor(Monitor):
                             + ("" if hit.inside_at_end else " (cut a corner within the step)"))
                 cut[a] = hit.fraction
                 self._remove(a, time, "zone_collision", hit.zone_name, hit.position)
-
-        # distance flown and airborne time of the UAVs flying this step (up to their removal)
-        frac = alive.astype(float)
-        for k, f in cut.items():
-            frac[k] = f
-        seg = p1 - p0
-        sq = seg * seg
-        dxy = np.sqrt(sq[:, 0] + sq[:, 1])
-        self._dist += frac * np.sqrt(sq[:, 0] + sq[:, 1] + sq[:, 2])
-        self._dist_xy += frac * dxy
-        flying = air0 | air1
-        self._ftime += frac * dt * flying
-        self._took_off |= alive & flying
-        # removed UAVs: keep their position at removal in the track
-        for k, f in cut.items():
-            p1[k] = p0[k] + f * seg[k]
-        self.p0, self.ph0 = p1, ph1
-        self.last_time = float(t1)
-        self._track(t1, p1, ph1, force=bool(cut))
+        return cut
 
     def _mission_event(self, k, t, state, pos, consumed):
         rec = self.records[k]

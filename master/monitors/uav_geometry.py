@@ -31,7 +31,11 @@ cruise altitude this is the paper's planar disc test.
   identical to the brute-force all-pairs test (``check_bruteforce``).  For
   very small fleets (``<= small_n`` active vehicles, default 12, i.e. <= 66
   pairs) hashing costs more than it saves, so all pairs go straight to the
-  AABB filter.
+  AABB filter, and up to ``py_n`` (default 8) active vehicles that filter runs
+  on Python floats (a few numpy calls on tiny arrays cost more than the whole
+  test).  ``check_few`` is the entry point for callers that already hold the
+  positions as Python lists (the UAV monitor for small fleets).  All paths
+  hand the same candidate pairs, in the same order, to the same narrow phase.
 
 Restricted zones (``ZoneDetector``)
 -----------------------------------
@@ -43,6 +47,11 @@ p0->p1 (xy) intersects the zone (a corner cut between two samples).  The
 reported entry is the first point of the segment that meets the zone: fraction
 0 (time t0) if p0 is already in the zone, otherwise the fraction along the
 segment where it first reaches the polygon boundary.
+
+Cheap reject: a vehicle whose step segment's bounding box is disjoint from
+every zone's bounding box cannot meet a zone and is dropped before shapely
+(``may_enter`` is the same test on Python floats for one segment).  The
+result is unchanged (each vehicle's incursions do not depend on the others).
 """
 from __future__ import annotations
 
@@ -106,7 +115,7 @@ class CollisionDetector:
     """Continuous (swept) UAV-UAV collision detection with a spatial-hash broad phase."""
 
     def __init__(self, impact_diameter: float = 2.6, cell_size: float | None = None,
-                 small_n: int = 12):
+                 small_n: int = 16, py_n: int = 16, sweep: bool = True):
         if not impact_diameter > 0:
             raise ValueError("impact_diameter must be > 0")
         if cell_size is not None and not cell_size > 0:
@@ -114,6 +123,8 @@ class CollisionDetector:
         self.impact_diameter = float(impact_diameter)
         self.cell_size = None if cell_size is None else float(cell_size)
         self.small_n = int(small_n)
+        self.py_n = min(int(py_n), self.small_n)
+        self.sweep = bool(sweep)
         self.last_candidate_count = 0   # diagnostics: pairs passed to the narrow phase
 
     # ----------------------------------------------------------------- broad
@@ -129,7 +140,12 @@ class CollisionDetector:
         p0, p1, active = _as_inputs(p0, p1, active)
         idx = np.flatnonzero(active)
         if idx.size < 2:
+            self.last_candidate_count = 0
             return np.empty((0, 2), dtype=np.int64)
+        if idx.size <= self.py_n:
+            il = idx.tolist()
+            pi, pj = self._pairs_few(il, p0[idx].tolist(), p1[idx].tolist(), local=True)
+            return np.array([pi, pj], dtype=np.int64).T.reshape(-1, 2)
         a, b = p0[idx], p1[idx]
         r = 0.5 * self.impact_diameter
         lo = np.minimum(a, b) - r
@@ -138,6 +154,10 @@ class CollisionDetector:
         if m <= self.small_n:
             pa, pb = np.triu_indices(m, k=1)
             return self._aabb_filter(idx, lo, hi, pa, pb)
+        if self.sweep and self.cell_size is None:
+            pairs = self._sweep_pairs(idx, lo, hi, m)
+            if pairs is not None:
+                return pairs
         disp = np.linalg.norm(b - a, axis=1)
         cell = self._cell_size_for(disp)
 
@@ -193,6 +213,55 @@ class CollisionDetector:
         pa, pb = code // m, code % m
         return self._aabb_filter(idx, lo, hi, pa, pb)
 
+    def _sweep_pairs(self, idx, lo, hi, m):
+        """Sort and sweep on x: the pairs whose x intervals overlap, then the AABB filter; None when there
+        are more than ``16 m + 64`` x-overlapping pairs (e.g. a fleet lined up north-south), where the 2D
+        hash is the better broad phase.  Same pairs, in the same order, as the hash."""
+        order = np.argsort(lo[:, 0], kind="stable")
+        end = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+        cnt = end - np.arange(1, m + 1)
+        np.maximum(cnt, 0, out=cnt)
+        total = int(cnt.sum())
+        if total > 16 * m + 64:
+            return None
+        if total == 0:
+            self.last_candidate_count = 0
+            return np.empty((0, 2), dtype=np.int64)
+        first = np.repeat(np.arange(m), cnt)
+        start = np.cumsum(cnt) - cnt
+        second = first + 1 + (np.arange(total) - np.repeat(start, cnt))
+        ia, ib = order[first], order[second]
+        code = np.sort(np.minimum(ia, ib) * m + np.maximum(ia, ib))
+        return self._aabb_filter(idx, lo, hi, code // m, code % m)
+
+    def _pairs_few(self, idx, rows0, rows1, local=False):
+        """The AABB filter of ``_aabb_filter`` over all pairs of the few vehicles ``idx`` (ascending), on
+        Python floats: ``rows0[k]``/``rows1[k]`` are the (x, y, z) of vehicle ``idx[k]`` if ``local``, else
+        of vehicle ``k``.  Returns (pi, pj) lists of vehicle indices in the order of ``np.triu_indices``."""
+        r = 0.5 * self.impact_diameter
+        boxes = []
+        for n, k in enumerate(idx):
+            a = rows0[n if local else k]
+            b = rows1[n if local else k]
+            ax, ay, az = a
+            bx, by, bz = b
+            if not (ax == ax and ay == ay and az == az and bx == bx and by == by and bz == bz):
+                continue    # a NaN coordinate: np.minimum/maximum give a NaN bound, which overlaps nothing
+            boxes.append((k, (ax if ax <= bx else bx) - r, (ay if ay <= by else by) - r,
+                          (az if az <= bz else bz) - r, (ax if ax >= bx else bx) + r,
+                          (ay if ay >= by else by) + r, (az if az >= bz else bz) + r))
+        pi, pj = [], []
+        m = len(boxes)
+        for u in range(m - 1):
+            k, lx, ly, lz, hx, hy, hz = boxes[u]
+            for v in range(u + 1, m):
+                q, mx, my, mz, nx, ny, nz = boxes[v]
+                if lx <= nx and mx <= hx and ly <= ny and my <= hy and lz <= nz and mz <= hz:
+                    pi.append(k)
+                    pj.append(q)
+        self.last_candidate_count = len(pi)
+        return pi, pj
+
     def _aabb_filter(self, idx, lo, hi, pa, pb):
         # exact 3D AABB overlap filter
         ok = np.all((lo[pa] <= hi[pb]) & (lo[pb] <= hi[pa]), axis=1)
@@ -243,6 +312,19 @@ class CollisionDetector:
         pairs = self.candidate_pairs(p0, p1, active)
         return self._narrow(float(t0), float(t1), p0, p1, pairs[:, 0], pairs[:, 1])
 
+    def check_few(self, t0: float, t1: float, p0, p1, idx, rows0, rows1) -> list[Contact]:
+        """``check`` for a few active vehicles held as Python data: ``idx`` the active vehicles (ascending
+        list), ``rows0``/``rows1`` ``p0.tolist()``/``p1.tolist()`` of the (N, 3) float arrays p0/p1 (which
+        the narrow phase still uses).  Same result as ``check(t0, t1, p0, p1, active)``."""
+        if len(idx) < 2:
+            self.last_candidate_count = 0
+            return []
+        pi, pj = self._pairs_few(idx, rows0, rows1)
+        if not pi:
+            return []
+        return self._narrow(float(t0), float(t1), p0, p1, np.array(pi, dtype=np.int64),
+                            np.array(pj, dtype=np.int64))
+
     def check_bruteforce(self, t0: float, t1: float, p0, p1, active=None) -> list[Contact]:
         """Reference O(N^2) version of ``check`` (same narrow phase, all pairs)."""
         p0, p1, active = _as_inputs(p0, p1, active)
@@ -277,6 +359,35 @@ class ZoneDetector:
         for poly in self.polygons:
             shapely.prepare(poly)
         self._tree = shapely.STRtree(self.polygons) if len(polys) else None
+        # bounding boxes (minx, miny, maxx, maxy) of the zones and of all of them: the cheap reject
+        self.bounds = shapely.bounds(self.polygons).reshape(-1, 4) if len(polys) else np.empty((0, 4))
+        self._bounds_list = [tuple(map(float, b)) for b in self.bounds]
+        self._envelope = ((float(self.bounds[:, 0].min()), float(self.bounds[:, 1].min()),
+                           float(self.bounds[:, 2].max()), float(self.bounds[:, 3].max()))
+                          if len(polys) else None)
+
+    def may_enter(self, x0: float, y0: float, x1: float, y1: float) -> bool:
+        """False when the segment (x0, y0)-(x1, y1) certainly meets no zone: its bounding box is disjoint
+        from every zone's (Python floats; a NaN coordinate never rejects)."""
+        env = self._envelope
+        if env is None:
+            return False
+        if not (x0 == x0 and y0 == y0 and x1 == x1 and y1 == y1):
+            return True
+        if x0 <= x1:
+            lx, hx = x0, x1
+        else:
+            lx, hx = x1, x0
+        if y0 <= y1:
+            ly, hy = y0, y1
+        else:
+            ly, hy = y1, y0
+        if hx < env[0] or lx > env[2] or hy < env[1] or ly > env[3]:
+            return False
+        for bx0, by0, bx1, by1 in self._bounds_list:
+            if not (hx < bx0 or lx > bx1 or hy < by0 or ly > by1):
+                return True
+        return False
 
     def check(self, t0: float, t1: float, p0, p1, active=None) -> list[ZoneIncursion]:
         """Incursions of active vehicles during [t0, t1], sorted by (time, vehicle, zone)."""
@@ -286,6 +397,16 @@ class ZoneDetector:
             return []
         a, b = p0[idx], p1[idx]
         a2, b2 = a[:, :2], b[:, :2]
+        # cheap reject: the segment's bounding box must overlap a zone's (NaN never rejects)
+        lo, hi = np.minimum(a2, b2), np.maximum(a2, b2)
+        bd = self.bounds if len(self.bounds) <= 64 else np.array([self._envelope])
+        away = ((hi[:, None, 0] < bd[None, :, 0]) | (lo[:, None, 0] > bd[None, :, 2])
+                | (hi[:, None, 1] < bd[None, :, 1]) | (lo[:, None, 1] > bd[None, :, 3])).all(axis=1)
+        if away.all():
+            return []
+        if away.any():
+            near = ~away
+            idx, a, b, a2, b2 = idx[near], a[near], b[near], a2[near], b2[near]
         moving = np.any(a2 != b2, axis=1)
         geoms = np.empty(idx.size, dtype=object)
         if moving.any():

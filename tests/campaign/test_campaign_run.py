@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from conftest import write_chain_ssp
+from campaign_helpers import write_chain_ssp
 from master.campaign.runner import run_campaign
 from master.campaign.spec import load_campaign, seed_for
 
@@ -196,3 +196,17 @@ def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus
     assert got[crash]["error"].str.contains("KilledWorker").all()
     same_tables(got[~crash], ref[~crash])
     same_tables(got, ref, drop=("wall_time_s", "error"))
+
+
+def test_an_input_changed_while_the_campaign_runs_is_detected(tmp_path, chain_fmus):
+    from master.campaign.execute import execute_run
+    from master.campaign.runner import _changed_inputs, make_task
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    c = load_campaign(write_campaign(tmp_path))
+    task = make_task(c, c.runs[0], tmp_path / "out")
+    rec = execute_run(task)
+    assert rec["outcome"] == "completed" and _changed_inputs(task["inputs"], rec["used"]) == []
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus, k=9.0)     # the scenario changes after the campaign hashed it
+    rec = execute_run(task)
+    assert _changed_inputs(task["inputs"], rec["used"]) == ["scenario file chain.ssp changed"]
+    assert _changed_inputs({"fmus": {"a.fmu": "1"}}, {"fmus": ["2"]}) == ["an FMU changed"]

@@ -47,7 +47,8 @@ def test_identity_functions_are_canonical():
 
 
 def test_explicit_runs_and_duplicates(tmp_path):
-    c = load_campaign(camp(tmp_path, "grid:\n  param:a.x: [1, 2]\nruns:\n  - {param:a.x: 3, algorithm: gauss-seidel}\n"))
+    c = load_campaign(camp(tmp_path, "grid:\n  param:a.x: [1, 2]\n"
+                                     "runs:\n  - {param:a.x: 3, algorithm: gauss-seidel}\n"))
     assert [r.params for r in c.runs] == [{"param:a.x": 1}, {"param:a.x": 2},
                                           {"param:a.x": 3, "algorithm": "gauss-seidel"}]
     assert c.runs[2].options["algorithm"] == "gauss-seidel" and c.param_keys == ["param:a.x", "algorithm"]
@@ -89,7 +90,7 @@ def test_shipped_paper_campaign_is_the_papers_grid():
     assert sorted({r.params["wind.probability"] for r in c.runs}) == [0, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15]
     assert len({r.run_id for r in c.runs}) == 336 and len({r.seed for r in c.runs}) == 336
     r = c.runs[0]
-    assert r.overrides["stop_time"] == 1500 and r.overrides["step"] == 1
+    assert r.overrides["stop_time"] == 1500 and r.overrides["step"] == c.options["step"] <= 0.5
     assert set(r.inputs["fmus"]) == {"UavBattery.fmu", "UavDynamics.fmu", "UavStrategy.fmu", "UavWind.fmu"}
     s = load_campaign(ROOT / "ssp" / "campaigns" / "smoke.yaml")
     assert s.kind == "uav" and 1 <= len(s.runs) <= 8

@@ -220,3 +220,82 @@ def test_zone_boundary_counts_and_no_zones():
     assert ZoneDetector([]).check(0, 1, P([0, 0, 0]), P([1, 1, 0]), np.ones(1, bool)) == []
     with pytest.raises(ValueError):
         ZoneDetector([[(0, 0), (1, 1)]])
+
+
+# ------------------------------------------------------------ fast paths = reference paths
+def _astuples(cs):
+    import dataclasses
+    return [dataclasses.astuple(c) for c in cs]
+
+
+@pytest.mark.parametrize("n", [2, 3, 5, 8, 16, 17, 64, 300])
+def test_python_sweep_hash_paths_agree_bit_for_bit(n):
+    # dense enough for contacts; every broad phase must hand the same pairs to the same narrow phase
+    rng = np.random.default_rng(100 + n)
+    side = 6.0 * math.sqrt(n)
+    p0 = np.column_stack((rng.uniform(0, side, (n, 2)), rng.uniform(9, 11, n)))
+    p1 = p0 + rng.normal(0, 3, (n, 3)) * [1, 1, 0.1]
+    active = rng.random(n) > 0.15
+    active[:2] = True
+    ref = _astuples(CollisionDetector(small_n=0, sweep=False).check(0.0, 1.0, p0, p1, active))
+    assert ref == _astuples(CollisionDetector().check_bruteforce(0.0, 1.0, p0, p1, active))
+    for det in (CollisionDetector(), CollisionDetector(small_n=0), CollisionDetector(py_n=0),
+                CollisionDetector(small_n=1000, py_n=1000), CollisionDetector(sweep=False)):
+        assert _astuples(det.check(0.0, 1.0, p0, p1, active)) == ref
+    if n <= 64:
+        idx = np.flatnonzero(active).tolist()
+        few = CollisionDetector().check_few(0.0, 1.0, p0, p1, idx, p0.tolist(), p1.tolist())
+        assert _astuples(few) == ref
+    if n >= 16:
+        assert ref, "test data should contain contacts"
+
+
+def test_sweep_falls_back_to_hash_for_a_column_of_vehicles():
+    # all on one north-south line: every x interval overlaps, the sweep gives up, the hash answers
+    n = 200
+    p0 = np.column_stack((np.zeros(n), np.arange(n) * 2.0, np.full(n, 10.0)))
+    p1 = p0 + [0.5, 0.0, 0.0]
+    det = CollisionDetector()
+    got = det.check(0, 1, p0, p1, np.ones(n, bool))
+    assert _astuples(got) == _astuples(det.check_bruteforce(0, 1, p0, p1, np.ones(n, bool)))
+    assert len(got) == n - 1 and det.last_candidate_count < 5 * n
+
+
+def test_nan_positions_never_collide_in_any_path():
+    p0 = P([0, 0, 10], [1, 0, 10], [math.nan, 0, 10], [0.5, 0.5, 10])
+    p1 = p0.copy()
+    act = np.ones(4, bool)
+    ref = _astuples(CollisionDetector().check_bruteforce(0, 1, p0, p1, act))
+    assert {(c[0], c[1]) for c in ref} == {(0, 1), (0, 3), (1, 3)}
+    assert _astuples(CollisionDetector().check(0, 1, p0, p1, act)) == ref
+    assert _astuples(CollisionDetector().check_few(0, 1, p0, p1, [0, 1, 2, 3], p0.tolist(), p1.tolist())) == ref
+
+
+def test_zone_bounding_box_reject_is_exact():
+    zones = [SQUARE, [(40, 0), (60, 0), (50, 20)]]
+    det = ZoneDetector(zones, ["sq", "tri"])
+    rng = np.random.default_rng(3)
+    n = 400
+    p0 = np.column_stack((rng.uniform(-20, 80, (n, 2)), np.full(n, 5.0)))
+    p1 = p0 + np.column_stack((rng.normal(0, 8, (n, 2)), np.zeros(n)))
+    p1[:20] = p0[:20]                                           # hovering ones: point tests
+    act = np.ones(n, bool)
+    got = det.check(0, 1, p0, p1, act)
+    # reference: every vehicle through shapely, one at a time, no reject
+    import shapely
+    ref = set()
+    for k in range(n):
+        g = (shapely.Point(p0[k, :2]) if (p0[k, :2] == p1[k, :2]).all()
+             else shapely.LineString([p0[k, :2], p1[k, :2]]))
+        for z, poly in enumerate(det.polygons):
+            if g.intersects(poly):
+                ref.add((k, z))
+    assert {(z.vehicle, z.zone) for z in got} == ref and len(ref) > 10
+    for k in range(n):
+        may = det.may_enter(*p0[k, :2], *p1[k, :2])
+        assert may or all(kz[0] != k for kz in ref)
+    # the bounding box overlaps but the segment misses: shapely decides
+    assert det.may_enter(-3, 8, 3, 14) and det.check(0, 1, P([-3, 8, 0]), P([3, 14, 0]), np.ones(1, bool)) == []
+    assert not det.may_enter(-30, -30, -20, -20)
+    assert det.may_enter(math.nan, 0, 1, 1)                     # NaN never rejects
+    assert not ZoneDetector([]).may_enter(0, 0, 1, 1)

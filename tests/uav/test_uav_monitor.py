@@ -262,3 +262,94 @@ def test_bad_annotations():
         parse_config(etree.fromstring("<a/>"), "s.ssp")
     with pytest.raises(ScenarioError, match="not a number"):
         parse_config(annotation(["a"], impact="big"), "s.ssp")
+
+
+# ------------------------------------------------------------------ fast paths give the same results
+def _scripted_fleet(zones):
+    """Ten UAVs over 40 s in 0.5 s steps, covering what the monitor's fast paths must get exactly right:
+    a long all-on-the-ground start (idle steps), a UAV with a NaN altitude on its pad, a UAV-UAV crossing,
+    a zone incursion, a hovering UAV (identical positions while airborne), a UAV in take-off phase below
+    the altitude threshold (airborne time without checks), a landing, mission states and photos."""
+    names = [f"u{k}" for k in range(10)]
+    mon, ctx = make(names, zones=zones, homes=[(8.0 * k, -30.0) for k in range(10)])
+
+    def state(n, t):
+        k = int(n[1:])
+        home = (8.0 * k, -30.0, 0.0)
+        if k == 6 and 2.0 <= t < 4.0:
+            return (home[0], home[1], math.nan), 0
+        if t < 5.0 or k >= 6:
+            return home, 0
+        f = t - 5.0
+        if k == 0:
+            return (-60.0 + 6.0 * f, 0.0, 20.0), 2                      # east along y = 0
+        if k == 1:
+            return (0.0, -60.0 + 6.0 * f, 20.0), 2                      # north along x = 0: meets u0
+        if k == 2:
+            return (100.0 + 5.0 * f, 40.0 + 0.3 * f, 20.0), 2           # into the zone at x >= 150
+        if k == 3:
+            return ((300.0, 0.0, 20.0), 2) if t < 30.0 else ((300.0, 0.0, 0.0), 4)   # hovers, then lands
+        if k == 4:
+            return ((32.0, -30.0, 0.3), 1) if t >= 10.0 else (home, 0)  # lifting, below 0.5 m
+        if k == 5:
+            return ((-100.0 + 4.0 * f, 80.0, 20.0), 2) if t < 25.0 else ((-20.0, 80.0, 0.0), 4)
+        return home, 0
+
+    def load(t, step):
+        for n in names:
+            if f"{n}_dyn" in ctx.deactivated:     # the master: a removed UAV's outputs keep their values
+                continue
+            (x, y, z), ph = state(n, t)
+            ctx.set(n, x=x, y=y, z=z, phase=ph)
+        ms = 0 if t < 5.0 else 1 if t < 6.0 else 2 if t < 25.0 else 7
+        ctx.set("u5", mission_state=ms, consumed=0.001 * step)
+        if step in (20, 21, 40):    # photos in consecutive steps, then two within one step
+            ctx.set("u5", photo_count={20: 1, 21: 2, 40: 4}[step], last_photo_target=step % 3,
+                    last_photo_time=0.5 * step - 0.25, last_photo_x=1.0 * step, last_photo_y=-1.0)
+    return mon, ctx, load
+
+
+@pytest.mark.parametrize("zones", [True, False])
+def test_small_vector_and_idle_paths_agree_exactly(monkeypatch, zones):
+    import dataclasses
+    from master.monitors import uav as uav_mod
+    zone = [("z", [(150, 20), (200, 20), (200, 80), (150, 80)])] if zones else ()
+    runs = {}
+    for small in (True, False):
+        for skip_idle in (True, False):
+            monkeypatch.setattr(uav_mod, "SMALL_FLEET", 16 if small else 0)
+            mon, ctx, load = _scripted_fleet(zone)
+            assert mon._small is small
+            mon.skip_idle = skip_idle
+            load(0.0, 0)
+            mon.attach(ctx, 0.0)
+            for step in range(80):
+                load(0.5 * (step + 1), step + 1)
+                mon.after_step(step, 0.5 * step, 0.5 * (step + 1))
+            mon.sync()
+            mon._track(mon.last_time, mon.p0, mon.ph0, force=True)
+            runs[small, skip_idle] = (ctx.events, ctx.deactivated, [dataclasses.asdict(r) for r in mon.records],
+                                      mon.track_t, np.stack(mon.track_p), np.stack(mon.track_phase))
+    ref = runs[False, False]       # numpy vectors, every step in full: the original algorithm
+    ev = [(e["type"], e["event"], e["uav"]) for e in ref[0]]
+    assert ("uav", "collision", "u0") in ev and ("mission", "landed_base", "u5") in ev
+    assert (("zone", "zone_incursion", "u2") in ev) is zones
+    recs = ref[2]
+    assert math.isnan(recs[6]["distance"])                     # NaN altitude once: NaN distance, as before
+    assert recs[4]["flight_time"] == 30.5 and recs[4]["distance"] == pytest.approx(0.3)   # phase 1 from t1 = 10 s
+    assert len(recs[5]["photos"]) == 3 and recs[5]["photos"][2]["missed_before"] == 1
+    for key, got in runs.items():
+        for a, b, what in zip(ref, got, ("events", "deactivated", "records", "track_t", "track_p", "track_phase")):
+            if isinstance(a, np.ndarray):
+                assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), (key, what)
+            else:
+                assert repr(a) == repr(b), (key, what)     # repr: NaN-safe, bit-exact floats
+
+
+def test_idle_steps_share_track_arrays_and_memory_stays_flat():
+    # a long wait on the ground: the thinned track holds references to one position array, nothing per step
+    mon, ctx = make(["a", "b"])
+    fly(mon, ctx, lambda n, t: (0.0, 5.0 if n == "a" else -5.0, 0.0), phases=lambda n, t: 0, h=0.1, steps=1000)
+    assert len(mon.track_t) == 201                              # every 0.5 s of 100 s, plus the start
+    assert len({id(p) for p in mon.track_p}) <= 2
+    assert mon.records[0].mission_states == [] and ctx.events == []

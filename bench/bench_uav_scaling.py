@@ -1,0 +1,324 @@
+"""Scaling of the multi-UAV surveillance study: 1 to 256 UAVs, one-hour mission.
+
+Usage::
+
+    python bench/bench_uav_scaling.py                      # N = 1,4,16,64,256 at 1.0 s, N <= 16 also at 0.1 s
+    python bench/bench_uav_scaling.py --sizes 1,4 --no-write
+    python bench/bench_uav_scaling.py --stop-256 900       # shorter mission for N = 256, extrapolated
+
+For every fleet size N a scenario is generated (``make_scenario``): a square area centred on the base
+whose side grows with the fleet (1.2 km, the paper's area, up to 4 UAVs; 1.2 km x (N/4)^(1/4) above, so
+that the farthest target stays within a battery's reach), 2-6 targets per UAV (uniform, seeded), four
+restricted quadrilaterals scaled with the area (``--no-zones``: none), ``spatial`` assignment, strategy B,
+no wind, stop time 3600 s.  The UAV dynamics are step-size independent by design, so the main figure is
+at a 1.0 s step; for N <= 16 the 0.1 s step (the paper's) is measured too.
+
+Each (N, step) runs in its own subprocess (``--child``), which builds the SSP, runs it with
+``master.runner.run`` (results.parquet written, no CSV, UAV monitor and its outputs included), and
+reports as one JSON line: FMU count, steps, wall time of the run, time spent in the monitor's
+``after_step`` (perf_counter around each call), peak RSS (VmHWM of /proc/self/status) and the mission
+outcome.  The parent prints one table and writes it with the machine description to
+``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
+
+When ``--stop-N`` gives a shorter stop time for a fleet size (default: none), its wall time is
+extrapolated linearly to the one-hour mission (the fleet keeps stepping its FMUs until the stop time
+whether the UAVs fly or not, so the per-step cost after take-off is the relevant rate) and the table
+says so.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime as _dt
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+BASE = (-7.275, -35.965, 540.0)      # the paper area's base (ssp/scenarios/paper_area.yaml)
+PAPER_RADIUS = 700.0                 # m, radius of the area up to 4 UAVs (~ the paper's 1.2 km square)
+MISSION = 3600.0                     # s, one hour
+SIZES = (1, 4, 16, 64, 256)
+TARGETS_PER_UAV = (2, 6)             # inclusive range, drawn per UAV
+ZONE_HALF = 45.0                     # m, half-side of a restricted square
+
+
+def area_radius(n: int) -> float:
+    """Radius (m) of the disc-shaped area for a fleet of n UAVs: the paper's up to 4 UAVs, then growing
+    as (N/4)^(1/4) (1.98 km for 256), so that every UAV can still fly its sector and back on one charge."""
+    return PAPER_RADIUS * max(1.0, n / 4.0) ** 0.25
+
+
+def _zones_enu(n: int, radius: float) -> list[list[tuple[float, float]]]:
+    """Four squares (ENU m) at 55 % of the radius on the diagonals, clear of the landing-pad ring."""
+    from master.uav.build import pad_positions
+    ring = max(math.hypot(*p) for p in pad_positions(n))
+    r = max(0.55 * radius, ring + 150.0)
+    out = []
+    for k in range(4):
+        a = math.radians(45.0 + 90.0 * k)
+        cx, cy = r * math.sin(a), r * math.cos(a)
+        out.append([(cx - ZONE_HALF, cy - ZONE_HALF), (cx + ZONE_HALF, cy - ZONE_HALF),
+                    (cx + ZONE_HALF, cy + ZONE_HALF), (cx - ZONE_HALF, cy + ZONE_HALF)])
+    return out
+
+
+def make_scenario(n: int, *, step: float = 1.0, stop_time: float = MISSION, zones: bool = True, seed: int = 1):
+    """The UavScenario of the scaling study for n UAVs.
+
+    Targets: 2-6 per UAV (drawn per UAV, seeded by n), uniform in the annulus between the landing-pad ring
+    (+ 60 m, at least 80 m) and ``area_radius(n)``, at least 30 m from every zone, listed in clockwise
+    order from north -- the order of the pads -- so that ``equal`` assignment (contiguous blocks) gives
+    each UAV the targets of the sector in front of its own pad (a fleet flying out radially, as a real
+    operator would split the area, instead of criss-crossing the ring)."""
+    import shapely
+    from master.uav.build import pad_positions
+    from master.uav_scenario import UavScenario, WindConfig
+    from uavsim.geodesy import geodetic_from_enu
+
+    rng = np.random.default_rng(1000 + n)
+    radius = area_radius(n)
+    ring = max(math.hypot(*p) for p in pad_positions(n))
+    r_in = max(80.0, ring + 60.0)
+    zone_xy = _zones_enu(n, radius) if zones else []
+    keep_out = [shapely.Polygon(p).buffer(30.0) for p in zone_xy]
+    k_total = int(rng.integers(TARGETS_PER_UAV[0], TARGETS_PER_UAV[1] + 1, size=n).sum())
+    pts = []
+    while len(pts) < k_total:
+        a = rng.uniform(0.0, 2.0 * math.pi)                     # clockwise from north
+        r = math.sqrt(rng.uniform(r_in ** 2, radius ** 2))      # uniform in area
+        x, y = r * math.sin(a), r * math.cos(a)
+        if any(p.contains(shapely.Point(x, y)) for p in keep_out):
+            continue
+        pts.append((a, float(x), float(y)))
+    pts.sort()
+    lat0, lon0, alt0 = BASE
+
+    def ll(x, y):
+        la, lo, _ = geodetic_from_enu(x, y, 0.0, lat0, lon0, alt0)
+        return (round(float(la), 7), round(float(lo), 7))
+
+    return UavScenario(
+        name=f"scaling_{n}uav", base=BASE, n_uavs=n, strategy="B", assignment="equal",
+        targets=[ll(x, y) for _, x, y in pts],
+        zones=[{"name": f"zone{k + 1}", "polygon": [ll(x, y) for x, y in p]} for k, p in enumerate(zone_xy)],
+        wind=WindConfig(probability=0.0), seed=seed, step=step, stop_time=stop_time)
+
+
+# ------------------------------------------------------------------------------------------ child
+def _status_kb(field: str) -> int | None:
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return None
+
+
+def child(n: int, step: float, stop: float, zones: bool, profile: int) -> dict:
+    """One (N, step) run in this process; returns the measurements (printed as SCALING-RESULT json)."""
+    import master.runner as runner
+    from master.monitors import uav as uav_mod
+    from master.uav.build import build_ssp
+
+    tmp = Path(tempfile.mkdtemp(prefix=f"uav_scaling_{n}_"))
+    t = time.perf_counter()
+    ssp = build_ssp(make_scenario(n, step=step, stop_time=stop, zones=zones), tmp / f"scaling_{n}.ssp")
+    build_s = time.perf_counter() - t
+
+    mon_time = [0.0, 0]
+    after_step = uav_mod.UavMonitor.after_step
+
+    def timed_after_step(self, k, t0, t1, _pc=time.perf_counter):
+        c = _pc()
+        after_step(self, k, t0, t1)
+        mon_time[0] += _pc() - c
+        mon_time[1] += 1
+    uav_mod.UavMonitor.after_step = timed_after_step
+
+    loop = {}
+    orig_loop = getattr(runner, "_loop", None)
+    if orig_loop is not None:       # the step loop alone (recording included), and the memory around it
+        def timed_loop(*a, **kw):
+            loop["rss_start_kb"] = _status_kb("VmRSS")
+            c = time.perf_counter()
+            try:
+                return orig_loop(*a, **kw)
+            finally:
+                loop["s"] = time.perf_counter() - c
+                loop["rss_end_kb"] = _status_kb("VmRSS")
+                loop["hwm_loop_kb"] = _status_kb("VmHWM")
+        runner._loop = timed_loop
+
+    prof = None
+    if profile:
+        import cProfile
+        prof = cProfile.Profile()
+        prof.enable()
+    t = time.perf_counter()
+    res = runner.run(ssp, output=tmp / "out", write_csv=False, raise_on_error=False)
+    wall = time.perf_counter() - t
+    if prof is not None:
+        prof.disable()
+        import io
+        import pstats
+        s = io.StringIO()
+        pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(profile)
+        print(s.getvalue(), file=sys.stderr)
+    meta = res.metadata
+    tot = meta.get("monitors", {}).get("org.cosim-master.uav-monitor", {}).get("total", {})
+    out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": 3 * n + 1, "steps": meta.get("steps"),
+           "sim_s": meta.get("stop_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
+           "loop_s": loop.get("s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
+           "hwm_kb": _status_kb("VmHWM"), "rss_start_kb": loop.get("rss_start_kb"),
+           "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"),
+           "outcome": meta.get("outcome"), "error": meta.get("error"),
+           "successes": tot.get("successes"), "uav_collisions": tot.get("uav_collisions"),
+           "zone_collisions": tot.get("zone_collisions"), "targets": tot.get("targets_total"),
+           "targets_visited": tot.get("targets_visited")}
+    import shutil
+    shutil.rmtree(tmp, ignore_errors=True)
+    return out
+
+
+# ----------------------------------------------------------------------------------------- parent
+def run_one(n, step, stop, zones, timeout, profile=0) -> dict:
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(n), "--step", repr(step),
+           "--stop", repr(stop)] + ([] if zones else ["--no-zones"]) + (["--profile", str(profile)] if profile else [])
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"n": n, "step": step, "stop": stop, "error": f"timeout after {timeout} s"}
+    if profile:
+        print(p.stderr, file=sys.stderr)
+    for line in p.stdout.splitlines():
+        if line.startswith("SCALING-RESULT "):
+            return json.loads(line[len("SCALING-RESULT "):])
+    return {"n": n, "step": step, "stop": stop, "error": (p.stderr.strip().splitlines() or ["no result"])[-1]}
+
+
+def _machine() -> list[str]:
+    lines = []
+    try:
+        lines += subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines()[:15]
+    except OSError:
+        lines.append(f"{os.cpu_count()} CPUs (lscpu not available)")
+    lines.append(f"python {sys.version.split()[0]} ({platform.python_implementation()}), numpy {np.__version__}, "
+                 f"{platform.platform()}")
+    try:
+        lines.append("load average (1, 5, 15 min): " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+    except OSError:
+        pass
+    return lines
+
+
+HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loop | peak RSS MB | RSS growth in loop MB "
+          "| monitor us/step | monitor share | outcome |")
+
+
+def _row(r: dict, mission: float) -> str:
+    if r.get("error") and r.get("wall_s") is None:
+        return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | {r['error']} |"
+    scale = mission / r["sim_s"] if r["sim_s"] < mission - 1e-9 else 1.0
+    wall, loop = r["wall_s"], r["loop_s"]
+    ext = ""
+    if scale != 1.0:
+        # extrapolate the loop linearly to the one-hour mission; start-up and outputs stay as measured
+        ext = f" (measured {r['sim_s']:g} s, extrapolated to {mission:g} s)"
+        wall = wall - loop + loop * scale if loop is not None else wall * scale
+        loop = loop * scale if loop is not None else None
+    sim = r["sim_s"] * scale
+    growth = ((r["rss_end_kb"] - r["rss_start_kb"]) / 1024) if r.get("rss_end_kb") and r.get("rss_start_kb") else None
+    mon_us = 1e6 * r["monitor_s"] / max(1, r["monitor_calls"])
+    share = r["monitor_s"] / r["loop_s"] if r.get("loop_s") else r["monitor_s"] / r["wall_s"]
+    outcome = (f"{r['successes']}/{r['n']} success, {r['uav_collisions']} UAV coll., {r['zone_collisions']} zone coll., "
+               f"{r['targets_visited']}/{r['targets']} targets" if r.get("successes") is not None else r.get("outcome"))
+    if r.get("error"):
+        outcome += f"; {r['error']}"
+    return (f"| {r['n']} | {r['fmus']} | {r['step']:g} | {int(r['steps'] * scale)} | {sim:g} | {wall:.1f}{ext} | "
+            f"{sim / wall:.0f}x | {loop:.1f} | {sim / loop:.0f}x | {r['hwm_kb'] / 1024:.0f} | "
+            f"{'' if growth is None else f'{growth:.0f}'} | {mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default=",".join(map(str, SIZES)), help="comma-separated fleet sizes")
+    ap.add_argument("--step", type=float, default=1.0, help="main step size (s)")
+    ap.add_argument("--fine-step", type=float, default=0.1, help="second step size for small fleets (s)")
+    ap.add_argument("--fine-max", type=int, default=16, help="largest fleet also run at --fine-step (0: none)")
+    ap.add_argument("--stop", type=float, default=MISSION, help="stop time (s) of every run")
+    ap.add_argument("--stop-256", type=float, default=None, dest="stop_256",
+                    help="shorter stop time for N >= 256 (wall time extrapolated to --stop)")
+    ap.add_argument("--no-zones", action="store_true", help="scenarios without restricted zones")
+    ap.add_argument("--timeout", type=float, default=1800.0, help="per run (s)")
+    ap.add_argument("--no-write", action="store_true", help="print only, no bench/results file")
+    ap.add_argument("--profile", type=int, default=0, metavar="K",
+                    help="cProfile each run and print its top K functions by own time to stderr")
+    ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    zones = not args.no_zones
+    if args.child is not None:
+        r = child(args.child, args.step, args.stop, zones, args.profile)
+        print("SCALING-RESULT " + json.dumps(r))
+        return 0
+
+    runs = []
+    for n in map(int, args.sizes.split(",")):
+        stop = args.stop_256 if (args.stop_256 and n >= 256) else args.stop
+        runs.append((n, args.step, stop))
+        if args.fine_max and n <= args.fine_max and args.fine_step != args.step:
+            runs.append((n, args.fine_step, args.stop))
+    rows, results = [], []
+    t_all = time.perf_counter()
+    for n, step, stop in runs:
+        t = time.perf_counter()
+        r = run_one(n, step, stop, zones, args.timeout, args.profile)
+        results.append(r)
+        rows.append(_row(r, args.stop))
+        print(f"  N={n} step={step:g} stop={stop:g}: {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)
+    total = time.perf_counter() - t_all
+    table = "\n".join([HEADER, "|" + "---|" * (HEADER.count("|") - 1)] + rows)
+    print(table)
+    print(f"(benchmark wall {total:.0f} s; RTF = simulated s / wall s)")
+    if not args.no_write:
+        _write(table, results, total, zones, args.stop)
+    return 0
+
+
+def _write(table: str, results: list, total: float, zones: bool, mission: float) -> None:
+    date = _dt.date.today().isoformat()
+    out = ROOT / "bench" / "results" / f"uav_scaling_{date}.md"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    text = [f"# UAV study scaling, {date}", "",
+            "`python bench/bench_uav_scaling.py` (see its docstring): one-hour surveillance mission "
+            f"({mission:g} s), scenario per fleet size from `make_scenario` (disc area of radius "
+            "700 m x max(1, N/4)^(1/4), 2-6 targets per UAV, "
+            + ("four 90 m restricted squares" if zones else "no zones")
+            + ", strategy B, equal assignment of angle-sorted targets, no wind), each run in its own subprocess.",
+            "",
+            "- wall s: `master.runner.run` from opening the SSP to run.json (FMU loading, the loop, the UAV "
+            "outputs: trajectory.csv, summary, map.png); results.parquet written, no CSV.",
+            "- loop s: the step loop alone (`master.runner._loop`, recording included); RTF loop = sim s / loop s.",
+            "- peak RSS: VmHWM of the child process (whole run, outputs included); RSS growth in loop: VmRSS "
+            "after the loop minus before it.",
+            "- monitor us/step: mean time in the UAV monitor's `after_step` per master step (perf_counter around "
+            "each call); share: of the loop time.",
+            "", table, "", f"Benchmark wall time {total:.0f} s.", "", "## Machine", "", "```", *_machine(), "```", "",
+            "## Raw results", "", "```json", json.dumps(results, indent=1), "```", ""]
+    out.write_text("\n".join(text))
+    print(f"wrote {out.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
