@@ -50,6 +50,9 @@ class UavWind(UnitsMixin, Fmi2Slave):
         self.par_bool("turbulence", "enable Dryden turbulence")
         self.gusts = False
         self.par_bool("gusts", "enable discrete 1-cosine gusts")
+        self.step_mean = True
+        self.par_bool("step_mean", "output the mean wind over the coming step (true) or the wind at the "
+                                   "communication point (false)")
         for name, desc in [("wind_x", "air velocity east"), ("wind_y", "air velocity north"),
                            ("wind_z", "air velocity up"), ("wind_speed", "horizontal wind speed")]:
             setattr(self, name, 0.0)
@@ -71,8 +74,13 @@ class UavWind(UnitsMixin, Fmi2Slave):
         self._build()
         self._publish(self._t)
 
-    def _publish(self, t):
-        wx, wy, wz, lvl = self._model.at(t)
+    def _publish(self, t, h=0.0):
+        # with step_mean the output held over [t, t + h] is the wind's mean over that interval, assuming
+        # the next step is as long as the last one (fixed-step masters); at initialization h is unknown
+        if self.step_mean and h > 0.0:
+            wx, wy, wz, lvl = self._model.mean_over(t, t + h)
+        else:
+            wx, wy, wz, lvl = self._model.at(t)
         self.wind_x, self.wind_y, self.wind_z = wx, wy, wz
         self.wind_speed = (wx * wx + wy * wy) ** 0.5
         self.wind_level = int(lvl)
@@ -80,5 +88,5 @@ class UavWind(UnitsMixin, Fmi2Slave):
     def do_step(self, current_time, step_size):
         if self._model is None:
             self._build()
-        self._publish(current_time + step_size)
+        self._publish(current_time + step_size, step_size)
         return True

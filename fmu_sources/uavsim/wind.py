@@ -179,6 +179,28 @@ class Wind:
             iv.turb_n += 1
         return iv.turb
 
+    def mean_over(self, t0: float, t1: float, resolution: float = 0.05) -> tuple[float, float, float, int]:
+        """Mean air velocity over [t0, t1] (midpoint rule on sub-intervals of at most ``resolution``) and
+        the strongest level seen in it.
+
+        A master holds an output constant over its communication step (zero-order hold); a vehicle fed the
+        instantaneous wind at t0 would feel an episode's onset ramp (0 at the episode start) for the whole
+        step and, with steps as long as the episodes, no wind at all. Fed the step mean, it receives the
+        same impulse whatever the step."""
+        h = t1 - t0
+        if h <= 0.0:
+            return self.at(t0)
+        m = min(200, max(1, int(math.ceil(h / resolution - 1e-9))))
+        sx = sy = sz = 0.0
+        level = 0
+        for j in range(m):
+            wx, wy, wz, lv = self.at(t0 + (j + 0.5) * h / m)
+            sx += wx
+            sy += wy
+            sz += wz
+            level = max(level, lv)
+        return sx / m, sy / m, sz / m, level
+
     def at(self, t: float) -> tuple[float, float, float, int]:
         """(w_x, w_y, w_z, level) at time t [m/s]."""
         p = self.p

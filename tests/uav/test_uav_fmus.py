@@ -112,11 +112,26 @@ def test_battery_fmu_hover(built):
 def test_wind_fmu_matches_python_model(built):
     from uavsim.wind import Wind, WindParams
     r = simulate_fmu(str(built["UavWind"]), stop_time=100.0, step_size=0.5, output_interval=0.5,
-                     start_values={"probability": 0.5, "seed": 3, "turbulence": True})
+                     start_values={"probability": 0.5, "seed": 3, "turbulence": True, "step_mean": False})
     w = Wind(WindParams(probability=0.5, seed=3, turbulence=True))
     for t, wx, lvl in zip(r["time"], r["wind_x"], r["wind_level"]):
         ex, _, _, el = w.at(float(t))
         assert wx == ex and lvl == el
+
+
+def test_wind_fmu_step_mean_gives_the_same_impulse_for_any_step(built):
+    # episodes of 1 s with 0.25 s ramps: sampled at whole seconds the wind would always be 0
+    sv = {"probability": 0.6, "seed": 5, "decision_interval": 1.0, "duration": 1.0, "ramp": 0.25}
+    from uavsim.wind import Wind, WindParams
+    w = Wind(WindParams(probability=0.6, seed=5, decision_interval=1.0, duration=1.0, ramp=0.25))
+    for h in (0.1, 0.5, 1.0):
+        # integral of wind_x over [h, 60] (the first step holds the value at t = 0: the step is not yet known)
+        n = int(round((60.0 - h) / 0.001))
+        exact = sum(w.at(h + (j + 0.5) * 0.001)[0] for j in range(n)) * 0.001
+        r = simulate_fmu(str(built["UavWind"]), stop_time=60.0, step_size=h, output_interval=h, start_values=sv)
+        held = float(sum(r["wind_x"][1:-1])) * h        # what a zero-order hold delivers over [h, 60]
+        assert exact < -10.0                            # the wind really blew
+        assert held == pytest.approx(exact, rel=2e-3), h
 
 
 def test_strategy_fmu_assignment_and_command(built):
