@@ -117,10 +117,11 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         params: dict | None = None, record: list[str] | None = None, record_interval=None,
         log_level: str = "warning", seed: int | None = None, step_multiples: dict | None = None,
         inprocess: bool = True, progress: bool = False, raise_on_error: bool = True,
-        write_csv: bool = True) -> Result:
+        write_csv: bool = True, products: str = "all") -> Result:
     """Run a scenario (.ssp archive, unpacked SSP folder or .ssd file) and return its recorded results.
 
-    ``output=None`` keeps the results in memory only. On a failure the results recorded so far stay on
+    ``output=None`` keeps the results in memory only. ``products="summary"`` asks monitors for their summary
+    files only (campaigns). On a failure the results recorded so far stay on
     disk, run.json says what happened, and a CosimError is raised (or returned in the Result's metadata
     with ``raise_on_error=False``).
     """
@@ -214,6 +215,7 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         if rt is not None:
             rt.terminate()
         for m in monitors:
+            m.products = products
             try:
                 meta.setdefault("monitors", {})[m.annotation_type] = m.finish(out_dir, meta["outcome"])
             except CosimError as exc:  # a monitor's report must not hide the run's own outcome

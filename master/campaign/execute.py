@@ -159,6 +159,8 @@ def execute_run(task: dict) -> dict:
               if k in opts}
         kw.setdefault("log_level", "error")
         kw["write_csv"] = bool(opts.get("csv", True))
+        if task.get("keep", "all") == "summary":
+            kw["products"] = "summary"       # no map or trajectory that pruning would delete anyway
         if task["kind"] == "uav":
             scenario = _build_uav(task, out, used)
             params = {}

@@ -35,6 +35,7 @@ class MonitorContext:
 
 class Monitor:
     annotation_type = ""
+    products = "all"      # "summary": a campaign wants the summary files only (set by run(products=...))
 
     def __init__(self, element, plan, shown_as: str):
         self.element = element

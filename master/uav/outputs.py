@@ -454,8 +454,11 @@ def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
 
 
 # ------------------------------------------------------------------------------- entry point
-def write_outputs(out_dir, mon, run_outcome: str) -> dict:
-    """Write the mission outputs into out_dir (None: nothing written) and return the run.json summary."""
+def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict:
+    """Write the mission outputs into out_dir (None: nothing written) and return the run.json summary.
+
+    products="summary" (campaigns) writes photos.csv, summary.csv and summary.json only: no trajectory.csv,
+    no map.png, which are the costly ones."""
     errors = []
     uavs = uav_summaries(mon, run_outcome)
     total = total_summary(mon, uavs, run_outcome)
@@ -463,11 +466,13 @@ def write_outputs(out_dir, mon, run_outcome: str) -> dict:
     if out_dir is None or not Path(out_dir).is_dir():
         return _clean(result)
     out_dir = Path(out_dir)
-    df = _read_results(out_dir)
+    full = products != "summary"
+    df = _read_results(out_dir) if full else None
     traj = None
     try:
-        traj = trajectory_frame(mon, df)
-        traj.to_csv(out_dir / "trajectory.csv", index=False)
+        if full:
+            traj = trajectory_frame(mon, df)
+            traj.to_csv(out_dir / "trajectory.csv", index=False)
     except Exception as exc:   # noqa: BLE001 - one failed output must not stop the others
         errors.append(f"trajectory.csv: {type(exc).__name__}: {exc}")
     try:
@@ -479,7 +484,8 @@ def write_outputs(out_dir, mon, run_outcome: str) -> dict:
     except Exception as exc:   # noqa: BLE001
         errors.append(f"summary.csv: {type(exc).__name__}: {exc}")
     try:
-        draw_map(mon, uavs, total, out_dir / "map.png", traj)
+        if full:
+            draw_map(mon, uavs, total, out_dir / "map.png", traj)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"map.png: {type(exc).__name__}: {exc}")
     if errors:
