@@ -2,33 +2,36 @@
 
 Usage::
 
-    python bench/bench_uav_scaling.py                      # N = 1,4,16,64,256 at 1.0 s, N <= 16 also at 0.1 s
-    python bench/bench_uav_scaling.py --sizes 1,4 --no-write
-    python bench/bench_uav_scaling.py --stop-256 900       # shorter mission for N = 256, extrapolated
+    python bench/bench_uav_scaling.py                    # N = 1,4,16,64,256 at 1.0 s, N <= 16 also at 0.1 s
+    python bench/bench_uav_scaling.py --sizes 1,4 --stop 600 --no-write      # quick look
+    python bench/bench_uav_scaling.py --stop-256 900     # shorter mission for N >= 256, extrapolated
+    python bench/bench_uav_scaling.py --sizes 256 --stop 600 --profile 40 --no-write   # what dominates
 
-For every fleet size N a scenario is generated (``make_scenario``): a square area centred on the base
-whose side grows with the fleet (1.2 km, the paper's area, up to 4 UAVs; 1.2 km x (N/4)^(1/4) above, so
-that the farthest target stays within a battery's reach), 2-6 targets per UAV (uniform, seeded), four
-restricted quadrilaterals scaled with the area (``--no-zones``: none), ``spatial`` assignment, strategy B,
-no wind, stop time 3600 s.  The UAV dynamics are step-size independent by design, so the main figure is
-at a 1.0 s step; for N <= 16 the 0.1 s step (the paper's) is measured too.
+Scenario per fleet size N (``make_scenario``, built with ``master.uav.build.build_ssp``): a disc-shaped
+area about the base whose radius is 700 m (about the paper's 1.2 km square) up to 4 UAVs and grows as
+(N/4)^(1/4) above (1.98 km for 256), so that every UAV can fly its sector and back on one charge; 2-6
+targets per UAV (drawn per UAV, seeded by N) uniform in the area outside the landing-pad ring, listed
+clockwise from north like the pads, so that ``equal`` assignment gives each UAV the sector in front of its
+pad; four 90 m restricted squares on the diagonals beyond the pad ring (``--no-zones``: none); strategy B,
+no wind, stop time 3600 s.  The UAV dynamics are step-size independent by design, so the main figure is at
+a 1.0 s step; for N <= 16 the 0.1 s step (the paper's) is measured too.
 
 Each (N, step) runs in its own subprocess (``--child``), which builds the SSP, runs it with
-``master.runner.run`` (results.parquet written, no CSV, UAV monitor and its outputs included), and
-reports as one JSON line: FMU count, steps, wall time of the run, time spent in the monitor's
-``after_step`` (perf_counter around each call), peak RSS (VmHWM of /proc/self/status) and the mission
-outcome.  The parent prints one table and writes it with the machine description to
-``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
+``master.runner.run`` (results.parquet written, no CSV, UAV monitor and its outputs included) and reports
+one JSON line: FMU count, steps, wall time of the run, time of the step loop (``master.runner._loop``
+wrapped), time in the monitor's ``after_step`` (perf_counter around each call), peak RSS (VmHWM of
+/proc/self/status, whole run), VmRSS before and after the loop, the size of the monitor's map track and
+the mission outcome.  The parent prints one table and writes it with the machine description and the raw
+numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
 
-When ``--stop-N`` gives a shorter stop time for a fleet size (default: none), its wall time is
-extrapolated linearly to the one-hour mission (the fleet keeps stepping its FMUs until the stop time
-whether the UAVs fly or not, so the per-step cost after take-off is the relevant rate) and the table
-says so.
+``--stop-256 S`` runs fleets of 256 and more for S s only and extrapolates their loop time linearly to
+``--stop`` (start-up and outputs as measured); the table says so.  This is pessimistic: the first part of
+the mission, with the whole fleet airborne, costs the most per step.  ``--block-rows R`` is an experiment
+on the recorder (R-row blocks instead of its default).
 """
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import datetime as _dt
 import json
 import math
@@ -126,9 +129,17 @@ def _status_kb(field: str) -> int | None:
     return None
 
 
-def child(n: int, step: float, stop: float, zones: bool, profile: int) -> dict:
+def child(n: int, step: float, stop: float, zones: bool, profile: int, block_rows: int = 0) -> dict:
     """One (N, step) run in this process; returns the measurements (printed as SCALING-RESULT json)."""
     import master.runner as runner
+    if block_rows:      # experiment: the recorder's block length (rows held in memory before a flush)
+        import master.recorder as rec_mod
+        init = rec_mod.Recorder.__init__
+
+        def small_blocks(self, *a, **kw):
+            kw["block_rows"] = block_rows
+            init(self, *a, **kw)
+        rec_mod.Recorder.__init__ = small_blocks
     from master.monitors import uav as uav_mod
     from master.uav.build import build_ssp
 
@@ -146,6 +157,13 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int) -> dict:
         mon_time[0] += _pc() - c
         mon_time[1] += 1
     uav_mod.UavMonitor.after_step = timed_after_step
+    monitors = []
+    attach = uav_mod.UavMonitor.attach
+
+    def keep_attach(self, ctx, start):
+        monitors.append(self)
+        return attach(self, ctx, start)
+    uav_mod.UavMonitor.attach = keep_attach
 
     loop = {}
     orig_loop = getattr(runner, "_loop", None)
@@ -177,12 +195,17 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int) -> dict:
         pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(profile)
         print(s.getvalue(), file=sys.stderr)
     meta = res.metadata
+    track_mb = None
+    if monitors:        # the monitor's map track: distinct arrays only (idle steps share one)
+        m = monitors[0]
+        arrays = {id(a): a.nbytes for a in list(m.track_p) + list(m.track_phase)}
+        track_mb = (sum(arrays.values()) + 8 * 3 * len(m.track_t)) / 2 ** 20
     tot = meta.get("monitors", {}).get("org.cosim-master.uav-monitor", {}).get("total", {})
     out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": 3 * n + 1, "steps": meta.get("steps"),
            "sim_s": meta.get("stop_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
            "loop_s": loop.get("s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
            "hwm_kb": _status_kb("VmHWM"), "rss_start_kb": loop.get("rss_start_kb"),
-           "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"),
+           "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
            "successes": tot.get("successes"), "uav_collisions": tot.get("uav_collisions"),
            "zone_collisions": tot.get("zone_collisions"), "targets": tot.get("targets_total"),
@@ -193,9 +216,10 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int) -> dict:
 
 
 # ----------------------------------------------------------------------------------------- parent
-def run_one(n, step, stop, zones, timeout, profile=0) -> dict:
+def run_one(n, step, stop, zones, timeout, profile=0, block_rows=0) -> dict:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(n), "--step", repr(step),
            "--stop", repr(stop)] + ([] if zones else ["--no-zones"]) + (["--profile", str(profile)] if profile else [])
+    cmd += ["--block-rows", str(block_rows)] if block_rows else []
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -223,13 +247,13 @@ def _machine() -> list[str]:
     return lines
 
 
-HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loop | peak RSS MB | RSS growth in loop MB "
-          "| monitor us/step | monitor share | outcome |")
+HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loop | peak RSS MB "
+          "| RSS growth in loop MB | monitor track MB | monitor us/step | monitor share | outcome |")
 
 
 def _row(r: dict, mission: float) -> str:
     if r.get("error") and r.get("wall_s") is None:
-        return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | {r['error']} |"
+        return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | | {r['error']} |"
     scale = mission / r["sim_s"] if r["sim_s"] < mission - 1e-9 else 1.0
     wall, loop = r["wall_s"], r["loop_s"]
     ext = ""
@@ -241,14 +265,17 @@ def _row(r: dict, mission: float) -> str:
     sim = r["sim_s"] * scale
     growth = ((r["rss_end_kb"] - r["rss_start_kb"]) / 1024) if r.get("rss_end_kb") and r.get("rss_start_kb") else None
     mon_us = 1e6 * r["monitor_s"] / max(1, r["monitor_calls"])
+    track = "" if r.get("track_mb") is None else f"{r['track_mb']:.1f}"
     share = r["monitor_s"] / r["loop_s"] if r.get("loop_s") else r["monitor_s"] / r["wall_s"]
-    outcome = (f"{r['successes']}/{r['n']} success, {r['uav_collisions']} UAV coll., {r['zone_collisions']} zone coll., "
-               f"{r['targets_visited']}/{r['targets']} targets" if r.get("successes") is not None else r.get("outcome"))
+    outcome = (f"{r['successes']}/{r['n']} success, {r['uav_collisions']} UAV coll., "
+               f"{r['zone_collisions']} zone coll., {r['targets_visited']}/{r['targets']} targets"
+               if r.get("successes") is not None else r.get("outcome"))
     if r.get("error"):
         outcome += f"; {r['error']}"
     return (f"| {r['n']} | {r['fmus']} | {r['step']:g} | {int(r['steps'] * scale)} | {sim:g} | {wall:.1f}{ext} | "
             f"{sim / wall:.0f}x | {loop:.1f} | {sim / loop:.0f}x | {r['hwm_kb'] / 1024:.0f} | "
-            f"{'' if growth is None else f'{growth:.0f}'} | {mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
+            f"{'' if growth is None else f'{growth:.0f}'} | {track} | "
+            f"{mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
 
 
 def main(argv=None) -> int:
@@ -265,11 +292,13 @@ def main(argv=None) -> int:
     ap.add_argument("--no-write", action="store_true", help="print only, no bench/results file")
     ap.add_argument("--profile", type=int, default=0, metavar="K",
                     help="cProfile each run and print its top K functions by own time to stderr")
+    ap.add_argument("--block-rows", type=int, default=0, metavar="R",
+                    help="experiment: run the recorder with R-row blocks instead of its default")
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     zones = not args.no_zones
     if args.child is not None:
-        r = child(args.child, args.step, args.stop, zones, args.profile)
+        r = child(args.child, args.step, args.stop, zones, args.profile, args.block_rows)
         print("SCALING-RESULT " + json.dumps(r))
         return 0
 
@@ -283,7 +312,7 @@ def main(argv=None) -> int:
     t_all = time.perf_counter()
     for n, step, stop in runs:
         t = time.perf_counter()
-        r = run_one(n, step, stop, zones, args.timeout, args.profile)
+        r = run_one(n, step, stop, zones, args.timeout, args.profile, args.block_rows)
         results.append(r)
         rows.append(_row(r, args.stop))
         print(f"  N={n} step={step:g} stop={stop:g}: {time.perf_counter() - t:.0f} s", file=sys.stderr, flush=True)

@@ -474,13 +474,19 @@ class UavMonitor(Monitor):
         nu = len(rem)
         flying = [False] * nu
         checked = []
+        fly_next, n_next = [], 0        # alive in phases 1-3 at t1 / and above the threshold (see below)
         for k in range(nu):
-            f = lo <= ph0l[k] <= hi or lo <= ph1l[k] <= hi
-            flying[k] = f
-            if f and not rem[k]:
-                z0, z1 = p0l[k][2], p1l[k][2]
-                if (z0 > thr or z1 > thr) and z0 == z0 and z1 == z1:   # np.maximum(z0, z1) > thr
-                    checked.append(k)
+            a1 = lo <= ph1l[k] <= hi
+            if a1 or lo <= ph0l[k] <= hi:
+                flying[k] = True
+                if not rem[k]:
+                    z0, z1 = p0l[k][2], p1l[k][2]
+                    if (z0 > thr or z1 > thr) and z0 == z0 and z1 == z1:   # np.maximum(z0, z1) > thr
+                        checked.append(k)
+                    if a1:
+                        fly_next.append(k)
+                        if z1 > thr:
+                            n_next += 1
         found = []
         if len(checked) >= 2:
             for c in self.collider.check_few(t0, t1, p0, p1, checked, p0l, p1l):
@@ -517,23 +523,13 @@ class UavMonitor(Monitor):
         self.last_time = float(t1)
         if cut or t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
             self._track(t1, p1, ph1, force=bool(cut))
-        if cut:
-            self._idle = False
-            return
-        # can the next step be idle (see _prepare_idle)?  here nothing was removed, so rem is current
-        nchk = 0
-        fly = []
-        for k in range(nu):
-            if not rem[k] and lo <= ph1l[k] <= hi:
-                fly.append(k)
-                if p1l[k][2] > thr:
-                    nchk += 1
-        if nchk >= 2 or (nchk and zd is not None):
+        # can the next step be idle (see _prepare_idle)?  without a removal in this step, rem is current
+        if cut or n_next >= 2 or (n_next and zd is not None):
             self._idle = False
             return
         isfinite = math.isfinite
         self._idle = all(isfinite(c) for row in p1l for c in row)
-        self._idle_fly = fly
+        self._idle_fly = fly_next
 
     def _step_vector(self, t0, t1, p0, p1, ph1) -> None:
         """The rest of a step on numpy vectors (many UAVs)."""
@@ -662,4 +658,4 @@ class UavMonitor(Monitor):
             except Exception:   # noqa: BLE001 - buffers may be gone after a failed start
                 pass
         from ..uav.outputs import write_outputs
-        return write_outputs(out_dir, self, outcome)
+        return write_outputs(out_dir, self, outcome, self.products)
