@@ -104,8 +104,10 @@ def _dispatch(args) -> int:
                      seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
                      inprocess=not args.no_inprocess)
         m = result.metadata
-        print(f"{m['outcome']}: {m['steps']} steps of {m['step_size']:g} s ({m['algorithm']}), "
-              f"{m.get('rows_recorded', 0)} rows in {result.output_dir}, wall {m['wall_time_s']:.2f} s")
+        ended = m.get("ended_early")
+        print(f"{m['outcome']}: {m.get('steps_done', m['steps'])} steps of {m['step_size']:g} s ({m['algorithm']}), "
+              f"{m.get('rows_recorded', 0)} rows in {result.output_dir}, wall {m['wall_time_s']:.2f} s"
+              + (f"; ended at t={ended['time']:g} s: {ended['reason']}" if ended else ""))
         return 0
     if args.command == "inspect":
         from .inspect_scenario import format_inspect, inspect

@@ -15,6 +15,8 @@ import pyarrow.parquet as pq
 
 from .plan import Var
 
+BLOCK_VALUES = 2_000_000
+
 ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Boolean": pa.bool_(), "String": pa.string()}
 
 
@@ -35,18 +37,20 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
 
 
 class Recorder:
-    def __init__(self, out_dir: Path | None, variables: list[Var], rt, block_rows: int = 4096,
+    def __init__(self, out_dir: Path | None, variables: list[Var], rt, block_rows: int | None = None,
                  csv: bool = True, parquet: bool = True):
         self.variables = variables
         self.columns = ["time"] + [v.qualified for v in variables]
         self.rt = rt
-        self.block_rows = block_rows
+        # a block holds about BLOCK_VALUES values (4096 rows of a narrow table, fewer rows of a wide one), so
+        # that memory stays bounded whatever the number of recorded variables
+        self.block_rows = block_rows or max(64, min(4096, BLOCK_VALUES // max(1, len(variables))))
         # numeric values (Real, Integer, Boolean) share one float64 block, grouped by type so that each type
         # fills a contiguous run of columns with one np.take per row
         self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
                           key=lambda kv: ("Real", "Integer", "Boolean").index(kv[1].type))
         self.str_ = [(k, v) for k, v in enumerate(variables) if v.type == "String"]
-        self.block = np.empty((block_rows, 1 + len(self.num)), dtype=np.float64)
+        self.block = np.empty((self.block_rows, 1 + len(self.num)), dtype=np.float64)
         self.str_rows: list[list[str]] = []
         self.fill = 0
         self.rows_written = 0
@@ -68,7 +72,10 @@ class Recorder:
         if self.out_dir is not None:
             if parquet:
                 self.parquet_path = self.out_dir / "results.parquet"
-                self._pq = pq.ParquetWriter(str(self.parquet_path), self.schema)
+                # column statistics for thousands of columns times many row groups would make the footer,
+                # which the writer keeps in memory until close, the largest thing in a long wide run
+                self._pq = pq.ParquetWriter(str(self.parquet_path), self.schema,
+                                            write_statistics=len(variables) <= 256)
             if csv:
                 self.csv_path = self.out_dir / "results.csv"
                 self._csv = open(self.csv_path, "w", encoding="utf-8", newline="")

@@ -259,7 +259,10 @@ def _loop(alg, rt, recorder, monitors, st, meta, progress):
                 sample(t1)
             if rt.stop_reason is not None:
                 meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
+                meta["steps_done"] = n + 1
                 break
+        else:
+            meta["steps_done"] = steps
             if bar is not None and (n & 255) == 0:
                 bar.update(min(256, steps - bar.n))
     finally:

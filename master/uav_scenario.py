@@ -86,6 +86,7 @@ class UavScenario:
     impact_diameter: float = 2.6                     # m (paper)
     lookahead: float = 2.0                           # m, zone detection distance (paper)
     algorithm: str = "jacobi"
+    end_when_all_landed: bool = False                # end the run once every UAV has landed or crashed
 
     # ----------------------------------------------------------- local frame
     def targets_enu(self) -> np.ndarray:
@@ -297,6 +298,8 @@ def _scenario_from_dict(data: Any, path) -> UavScenario:
         kw["lookahead"] = v.number("lookahead", data["lookahead"], lo=0)
     if "algorithm" in data:
         kw["algorithm"] = v.choice("algorithm", data["algorithm"], ALGORITHMS)
+    if "end_when_all_landed" in data:
+        kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
     scn = UavScenario(**kw)
     if scn.stop_time < scn.step:
         v.fail("stop_time", f"must be >= step ({scn.step:g}), got {scn.stop_time:g}")

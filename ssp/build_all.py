@@ -47,7 +47,8 @@ def main(argv=None) -> int:
     for area, n, strategy in variants(args.all):
         base = load_scenario_yaml(AREAS[area])
         name = f"paper_{area}_{n}uav_{strategy}"
-        scn = dataclasses.replace(base, name=name, n_uavs=n, strategy=strategy)
+        # shipped missions end when the fleet has landed (or crashed) instead of idling to the stop time
+        scn = dataclasses.replace(base, name=name, n_uavs=n, strategy=strategy, end_when_all_landed=True)
         path = build_ssp(scn, out / f"{name}.ssp", args.fmus)
         size = path.stat().st_size
         total += size

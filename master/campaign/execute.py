@@ -90,6 +90,8 @@ def _build_uav(task: dict, out: Path, used: dict) -> Path:
     for k, v in task["overrides"].items():
         _set_path(data, k, v, str(src))
     data["seed"] = int(task["seed"])
+    # a campaign run ends when its fleet has landed (the summary is the same; the idle rest is skipped)
+    data.setdefault("end_when_all_landed", True)
     head = (f"# campaign {task['campaign']}, run {task['run_id']} (rep {task['rep']}, seed {task['seed']})\n"
             f"# base scenario: {task['inputs']['scenario']}; "
             f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")

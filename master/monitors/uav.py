@@ -89,6 +89,7 @@ class MonitorConfig:
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     home_tolerance: float = 5.0
     success_battery: float = 0.05
+    end_when_done: bool = False           # end the run once every UAV has landed after flying, or is removed
     scenario: str = ""
     strategy: str = ""
     assignment: str = ""
@@ -199,6 +200,7 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
                 num(mon, "originAltitude", 0.0, "uav:UavMonitor")),
         home_tolerance=num(mon, "homeTolerance", 5.0, "uav:UavMonitor"),
         success_battery=num(mon, "successBattery", 0.05, "uav:UavMonitor"),
+        end_when_done=mon.get("endWhenAllLanded", "false").strip().lower() in ("true", "1"),
         scenario=mon.get("scenario", ""), strategy=mon.get("strategy", ""), assignment=mon.get("assignment", ""),
         seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
 
@@ -462,6 +464,15 @@ class UavMonitor(Monitor):
             self._step_small(t0, t1, p0, p1, ph1)
         else:
             self._step_vector(t0, t1, p0, p1, ph1)
+        if self.cfg.end_when_done and PHASE_LANDED in ph1:
+            # nothing happens to a fleet that has landed (or crashed) for good: stop instead of idling to the
+            # stop time; a UAV that never took off keeps the run going (it may still be waiting for its turn)
+            done = self._removed | ((ph1 == PHASE_LANDED) & np.asarray(self._took_off, dtype=bool))
+            if self.ms0 is not None:   # and the strategy has registered the landing (landed_base / landed_away)
+                ms = np.asarray(self.ms0, dtype=float)
+                done &= self._removed | (ms == 7) | (ms == 8)
+            if done.all():
+                self.ctx.request_stop("every UAV has landed or been removed")
 
     def _step_small(self, t0, t1, p0, p1, ph1) -> None:
         """The rest of a step on Python floats (few UAVs): the same operations as ``_step_vector``."""

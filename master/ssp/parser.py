@@ -320,19 +320,21 @@ class _Reader:
                     raise ScenarioError(f"connector {name!r} of {owner or 'the top system'} is not declared",
                                         file=shown_as, element=f"Connection {conn.src} -> {conn.dst}", line=conn.line)
             outgoing.setdefault(self._key(src), []).append((self._key(dst), conn))
-        flat = []
+        flat, found, walked = [], set(), set()
         for src, dst, conn, _ in self.edges:
             skey = self._key(src)
-            if skey[0] not in self.components:
+            if skey[0] not in self.components or skey in walked:
                 continue
-            self._walk(skey, skey, None, False, outgoing, flat, set(), conn.line)
+            walked.add(skey)
+            self._walk(skey, skey, None, False, outgoing, flat, found, set())
         return flat
 
     @staticmethod
     def _key(node):
         return (node[0].rstrip("."), node[1])
 
-    def _walk(self, origin, node, trans, suppress, outgoing, flat, seen, line):
+    def _walk(self, origin, node, trans, suppress, outgoing, flat, found, seen):
+        """Depth-first from a component output through system connectors to component inputs."""
         if node in seen:
             return
         seen = seen | {node}
@@ -340,11 +342,11 @@ class _Reader:
             t = _compose(trans, conn.transformation)
             sup = suppress or conn.suppress_unit_conversion
             if nxt[0] in self.components:
-                if not any((c.src_component, c.src_connector, c.dst_component, c.dst_connector) == (*origin, *nxt)
-                           for c in flat):
+                if (origin, nxt) not in found:
+                    found.add((origin, nxt))
                     flat.append(Connection(origin[0], origin[1], nxt[0], nxt[1], t, sup, conn.line))
             else:
-                self._walk(origin, nxt, t, sup, outgoing, flat, seen, line)
+                self._walk(origin, nxt, t, sup, outgoing, flat, found, seen)
 
 
 def _compose(first: Transformation | None, second: Transformation | None) -> Transformation | None:

@@ -131,7 +131,8 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
                  ("altitudeThreshold", repr(ALTITUDE_THRESHOLD)), ("originLatitude", repr(float(lat0))),
                  ("originLongitude", repr(float(lon0))), ("originAltitude", repr(float(alt0))),
                  ("homeTolerance", repr(HOME_TOLERANCE)), ("successBattery", repr(SUCCESS_BATTERY)),
-                 ("seed", str(scn.seed)), ("windProbability", repr(float(scn.wind.probability)))):
+                 ("seed", str(scn.seed)), ("windProbability", repr(float(scn.wind.probability))),
+                 ("endWhenAllLanded", "true" if scn.end_when_all_landed else "false")):
         mon.set(k, v)
     for u in uavs:
         d, b, s = u["dyn"], u["bat"], u["strat"]

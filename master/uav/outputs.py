@@ -182,13 +182,20 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
 
 
 # ------------------------------------------------------------------------------- tables
-def _read_results(out_dir: Path):
+def _read_results(out_dir: Path, mon=None):
+    """The recorded series the outputs use (only their columns: a large fleet records thousands)."""
     path = out_dir / "results.parquet"
     if not path.is_file():
         return None
     import pandas as pd
+    import pyarrow.parquet as pq
     try:
-        return pd.read_parquet(path)
+        columns = None
+        if mon is not None:
+            present = set(pq.read_schema(path).names)
+            wanted = {"time"} | {q for spec in mon.cfg.uavs for q in spec.vars.values()}
+            columns = [c for c in pq.read_schema(path).names if c in wanted and c in present]
+        return pd.read_parquet(path, columns=columns)
     except Exception:   # noqa: BLE001 - a truncated file after a crash
         return None
 
@@ -467,7 +474,7 @@ def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict
         return _clean(result)
     out_dir = Path(out_dir)
     full = products != "summary"
-    df = _read_results(out_dir) if full else None
+    df = _read_results(out_dir, mon) if full else None
     traj = None
     try:
         if full:

@@ -184,3 +184,20 @@ def test_shipped_archives_are_fresh(tmp_path):
                    capture_output=True)
     stale = [p.name for p in shipped if p.read_bytes() != (tmp_path / p.name).read_bytes()]
     assert not stale, f"stale SSP archives {stale}: run 'python ssp/build_all.py'"
+
+
+def test_run_ends_when_the_fleet_has_landed(short_run, tmp_path):
+    """end_when_all_landed: the same mission ends at the landing instead of idling to the stop time, and the
+    mission summary (targets, photos, distance, outcome) is the one of the full-length run."""
+    ssp = build_scenario(write_yaml(tmp_path / "e.yaml", end_when_all_landed=True), tmp_path / "e.ssp")
+    r = run(ssp, output=tmp_path / "out")
+    ended = r.metadata["ended_early"]
+    assert ended["reason"] == "every UAV has landed or been removed" and ended["time"] < 120.0
+    full = json.loads((short_run.output_dir / "summary.json").read_text())["uavs"][0]
+    early = json.loads((tmp_path / "out" / "summary.json").read_text())["uavs"][0]
+    for key in ("outcome", "targets_visited", "photos", "distance_m", "flight_time_s"):
+        assert early[key] == full[key], key
+    # the landing happened inside the step the run ended with
+    states = pd.read_csv(tmp_path / "out" / "events.csv")
+    landed = states[states["event"] == "landed_base"]["time"]
+    assert len(landed) == 1 and landed.iloc[0] <= ended["time"] + 1e-9
