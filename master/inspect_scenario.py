@@ -15,7 +15,7 @@ def inspect(scenario, **overrides) -> dict:
     shown_as = str(scenario)
     src = open_scenario(scenario)
     try:
-        model = read_ssd(src.ssd_path, src.root, shown_root=shown_as if src.tempdir or src.root == scenario else "")
+        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
         plan = build_plan(model, shown_as)
         info: dict = {"scenario": shown_as, "name": model.name, "ssp_version": model.version, "components": {}}
         for name, comp in model.components.items():

@@ -74,9 +74,12 @@ class Plan:
     def split(self, qualified: str):
         """Split 'a.b.c.var' into component and variable, preferring the longest known component name."""
         best = None
-        for comp in self.variables:
-            if qualified.startswith(comp + ".") and (best is None or len(comp) > len(best)):
-                best = comp
+        cut = qualified.rfind(".")
+        while cut > 0:                        # longest prefix first: one dictionary look-up per dot
+            if qualified[:cut] in self.variables:
+                best = qualified[:cut]
+                break
+            cut = qualified.rfind(".", 0, cut)
         if best is None:
             raise ScenarioError(f"{qualified!r} does not start with a component name "
                                 f"(components: {', '.join(self.variables)})", file=self.shown_as)
@@ -170,9 +173,16 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
                                     file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
             value = conv[0] * value + conv[1]
         plan.params.append((v, value, pv.origin))
+    add_overrides(plan, params)
+    return plan
+
+
+def add_overrides(plan: Plan, params: dict[str, object] | None) -> None:
+    """Values given on the command line (or the API), after those of the SSD so that they win; checks every
+    value the plan sets."""
     for qualified, raw in (params or {}).items():
         comp, _, name = plan.split(qualified)
-        v = variables[comp][name]
+        v = plan.variables[comp][name]
         plan.params.append((v, parse_value(v, raw, qualified), "command line"))
     for v, _, origin in plan.params:
         if v.causality in ("output", "calculatedParameter", "local", "independent") and v.variability != "tunable":
@@ -181,7 +191,6 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
                                     file=origin)
         if v.variability == "constant":
             raise ScenarioError(f"{v.qualified} is a constant and cannot be given a value", file=origin)
-    return plan
 
 
 def _line(origin: str):

@@ -16,7 +16,7 @@ from .algorithms.ordering import algebraic_loops, gauss_seidel_order
 from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
 from .monitors import MonitorContext, monitors_for
-from .plan import build_plan
+from .plan import add_overrides, build_plan
 from .recorder import Recorder, select_variables
 from .runtime import Runtime
 from .ssp.archive import file_sha256, open_scenario
@@ -140,13 +140,12 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
     try:
         if scenario.is_file():
             meta["scenario_sha256"] = file_sha256(scenario)
-        model = read_ssd(src.ssd_path, src.root, shown_root=shown_as if src.tempdir or src.root == scenario else "")
-        shown_ssd = shown_as
-        plan = build_plan(model, shown_ssd, None)
+        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
+        plan = build_plan(model, shown_as)
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
         user_params.update(params or {})
-        plan = build_plan(model, shown_ssd, user_params) if user_params else plan
-        st = resolve_settings(model, shown_ssd, start_time=start_time, stop_time=stop_time, step=step,
+        add_overrides(plan, user_params)
+        st = resolve_settings(model, shown_as, start_time=start_time, stop_time=stop_time, step=step,
                               algorithm=algorithm, record_interval=record_interval, step_multiples=step_multiples,
                               fmus=plan.fmus)
         for name in st.step_multiples:

@@ -11,6 +11,7 @@ from __future__ import annotations
 class Algorithm:
     name = "base"
     gauss_seidel = False
+    info: dict = {}          # facts for run.json; an algorithm with facts sets its own dict in stepping_order
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
@@ -19,8 +20,6 @@ class Algorithm:
         self.order = self.stepping_order(rt, plan)
         self._build()
         return self.info
-
-    info: dict = {}
 
     def stepping_order(self, rt, plan) -> list[int]:
         return list(range(len(rt.slaves)))

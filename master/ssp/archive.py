@@ -21,6 +21,12 @@ class ScenarioSource:
     root: Path          # folder that component sources are relative to
     tempdir: Path | None = None
 
+    @property
+    def shown_root(self) -> str:
+        """How files inside the scenario are named in messages: under the archive's or folder's name; files
+        next to a bare .ssd keep their own paths."""
+        return str(self.path) if self.tempdir is not None or self.root == self.path else ""
+
     def close(self) -> None:
         if self.tempdir is not None:
             shutil.rmtree(self.tempdir, ignore_errors=True)
