@@ -14,6 +14,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.battery import Battery, BatteryParams, PowerParams  # noqa: E402
 from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.kernels import load as load_kernels  # noqa: E402
 
 _POWER = [  # name, unit, default, description  (PowerParams fields)
     ("mass", "kg", P.MASS, "take-off mass"),
@@ -71,7 +72,8 @@ class UavBattery(UnitsMixin, Fmi2Slave):
         pk = {n: getattr(self, n) for n, *_ in _POWER}
         bk = {n: getattr(self, n) for n, *_ in _BATT}
         self._model = Battery(PowerParams(rotor_count=int(self.rotor_count), **pk),
-                              BatteryParams(cells=int(self.cells), **bk))
+                              BatteryParams(cells=int(self.cells), **bk),
+                              kernels=load_kernels(os.path.join(_HERE, "uavsim")))
 
     def exit_initialization_mode(self):
         self._build()

@@ -14,6 +14,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.dynamics import Dynamics, DynamicsParams  # noqa: E402
 from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.kernels import load as load_kernels  # noqa: E402
 from uavsim.geodesy import EnuFrame  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
@@ -84,7 +85,7 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
     def _build(self):
         names = DynamicsParams.__dataclass_fields__
         kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}
-        self._model = Dynamics(DynamicsParams(**kw))
+        self._model = Dynamics(DynamicsParams(**kw), kernels=load_kernels(os.path.join(_HERE, "uavsim")))
         self._frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
 
     def exit_initialization_mode(self):

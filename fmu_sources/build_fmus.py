@@ -3,7 +3,9 @@
     python fmu_sources/build_fmus.py [--dest DIR] [--check]
 
 Each FMU's resources/ holds the shell script (e.g. UavDynamics.py), the package uavsim/ (all its
-*.py files; the shells put resources/ first on sys.path, so the bundled copy is used) and
+*.py files and kernels.c; the shells put resources/ first on sys.path, so the bundled copy is used),
+the compiled kernels ``uavsim/_uavsim_kernels.so`` (built here with the C compiler, ``$CC`` or gcc;
+without one the FMUs run the bit-identical Python twins, only slower: uavsim/kernels.py) and
 ``sources.sha256``: one line "<sha256>  <path relative to fmu_sources/>" per bundled source file.
 ``stale_fmus(fmu_dir, src_dir)`` compares those lists with the current files, so a test can detect
 a shipped FMU that was not rebuilt after a source change (``--check`` does the same from the
@@ -13,7 +15,9 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import os
 import shutil
+import subprocess
 import sys
 import tempfile
 import zipfile
@@ -34,7 +38,28 @@ def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
     src_dir = Path(src_dir)
     files = [f"{name}.py"]
     files += sorted(f"uavsim/{p.name}" for p in (src_dir / "uavsim").glob("*.py"))
+    files += ["uavsim/kernels.c"]
     return files
+
+
+#: -ffp-contract=off: no fused multiply-add, so the compiled kernels round exactly as the Python twins
+KERNEL_FLAGS = ["-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]
+
+
+def compile_kernels(dest_dir: Path | str, src_dir: Path | str = HERE) -> Path | None:
+    """Compile uavsim/kernels.c into dest_dir/_uavsim_kernels.so; None (and a warning) without a compiler."""
+    from uavsim.kernels import LIBRARY
+    out = Path(dest_dir) / LIBRARY
+    cc = os.environ.get("CC", "gcc")
+    cmd = [cc, *KERNEL_FLAGS, "-o", str(out), str(Path(src_dir) / "uavsim" / "kernels.c"), "-lm"]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True)
+    except FileNotFoundError:
+        print(f"warning: no C compiler ({cc}); the FMUs will run the Python kernels", file=sys.stderr)
+        return None
+    except subprocess.CalledProcessError as exc:
+        raise SystemExit(f"compiling the kernels failed: {' '.join(cmd)}\n{exc.stderr}") from None
+    return out
 
 
 def source_hashes(name: str, src_dir: Path | str = HERE) -> dict[str, str]:
@@ -94,6 +119,7 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
         (stage / HASH_FILE).write_text(format_hashes(source_hashes(name, src_dir)))
         if str(src_dir) not in sys.path:
             sys.path.insert(0, str(src_dir))
+        compile_kernels(pkg, src_dir)
         out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
                                    project_files=[pkg, stage / HASH_FILE])
     return Path(out)

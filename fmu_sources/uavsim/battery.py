@@ -35,6 +35,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
+from . import kernels as _kernels
 from . import params as P
 
 
@@ -136,9 +137,13 @@ def current_for_power(power: float, emf: float, r: float) -> tuple[float, bool]:
 class Battery:
     power_params: PowerParams = field(default_factory=PowerParams)
     params: BatteryParams = field(default_factory=BatteryParams)
+    #: uavsim.kernels.Kernels to count with (default: kernels.load())
+    kernels: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         bp = self.params
+        self._count = (self.kernels or _kernels.load()).make_battery()
+        self._kparams = None
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J
         self.power = 0.0
@@ -194,40 +199,21 @@ class Battery:
         """Advance by ``dt`` with the inputs held: coulomb counting on fixed sub-steps.
 
         Same arithmetic as :meth:`step_reference` (bit-identical, tested), with the power demand
-        computed once (the inputs are held over the step) and the sub-step loop on local variables."""
+        computed once (the inputs are held over the step) and the sub-step loop in the kernels of
+        :mod:`uavsim.kernels`."""
         if dt <= 0.0:
             return
         motors_on = int(phase) in (1, 2, 3)
         n, h = self._substeps(dt)
-        bp = self.params
+        kp = self._kparams
+        if kp is None:
+            bp = self.params
+            m = len(bp.ocv_soc)
+            kp = self._kparams = (float(bp.cells), bp.resistance, bp.capacity_c, float(m),
+                                  *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
         demand = electrical_power(airspeed, vz, motors_on, self.power_params)
-        cells, r, cap = bp.cells, bp.resistance, bp.capacity_c
-        xs, ys = bp.ocv_soc, bp.ocv_cell
-        x0, x1, y0, y1 = xs[0], xs[-1], ys[0], ys[-1]
-        bisect_right, sqrt = bisect.bisect_right, math.sqrt
-        q, e = self.charge_used, self.energy_used
-        for i in range(n + 1):
-            soc = max(0.0, 1.0 - q / cap)
-            if soc <= x0:
-                ocv = y0
-            elif soc >= x1:
-                ocv = y1
-            else:
-                j = bisect_right(xs, soc) - 1
-                ocv = ys[j] + (soc - xs[j]) / (xs[j + 1] - xs[j]) * (ys[j + 1] - ys[j])
-            emf = cells * ocv
-            if r <= 0.0:
-                cur, over = demand / emf, False
-            else:
-                disc = emf * emf - 4.0 * r * demand
-                if disc < 0.0:
-                    cur, over = emf / (2.0 * r), True
-                else:
-                    cur, over = (emf - sqrt(disc)) / (2.0 * r), False
-            volt = emf - cur * r
-            pw = volt * cur
-            if i < n:
-                q += cur * h
-                e += pw * h
+        s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, n, h, demand]
+        self._count(s, kp)
+        q, e, cur, over, volt, pw = s[:6]
         self.charge_used, self.energy_used = q, e
-        self.current, self.overload, self.voltage, self.power = cur, over, volt, pw
+        self.current, self.overload, self.voltage, self.power = cur, bool(over), volt, pw

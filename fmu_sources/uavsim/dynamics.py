@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from . import kernels as _kernels
 from . import params as P
 
 PREFLIGHT, TAKEOFF, FLY, LAND, LANDED = 0, 1, 2, 3, 4
@@ -90,9 +91,13 @@ class DynamicsParams:
 @dataclass
 class Dynamics:
     params: DynamicsParams = field(default_factory=DynamicsParams)
+    #: uavsim.kernels.Kernels to run the flying sub-steps with (default: kernels.load())
+    kernels: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         p = self.params
+        self._fly = (self.kernels or _kernels.load()).make_fly()
+        self._kparams = None
         self.time = 0.0
         self.pos = [p.home_x, p.home_y, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -135,7 +140,7 @@ class Dynamics:
         """Advance by ``dt`` seconds with inputs held constant (fixed internal sub-steps).
 
         The sub-steps are those of :meth:`_substep` (the reference implementation), run by the
-        inlined loop :meth:`_run` (same arithmetic in the same order, so bit-identical: tested);
+        kernels of :mod:`uavsim.kernels` (same arithmetic in the same order, so bit-identical: tested);
         on the ground without a takeoff command nothing moves and the loop is skipped."""
         if dt <= 0.0:
             return
@@ -164,140 +169,51 @@ class Dynamics:
             self._substep(h, int(cmd), sp)
         self.time += dt
 
-    def _run(self, n: int, h: float, cmd: int, sp) -> None:
-        """n sub-steps of :meth:`_substep` with the state in local variables (the hot loop)."""
+    def _kernel_params(self) -> tuple:
         p = self.params
-        sqrt, hypot, copysign = math.sqrt, math.hypot, math.copysign
-        speed, accel, pos_p, vel_p, vel_i = p.speed, p.accel, p.pos_p, p.vel_p, p.vel_i
-        lin = accel / (pos_p * pos_p)
-        accel_z, pos_z_p, speed_up, speed_dn = p.accel_z, p.pos_z_p, p.speed_up, p.speed_dn
-        lin_z = accel_z / (pos_z_p * pos_z_p)
-        land_speed, land_alt_low, takeoff_alt = p.land_speed, p.land_alt_low, p.takeoff_altitude
-        k = p.drag_k
-        amax = p.max_horizontal_accel
-        lim = accel * h
-        limz = accel_z * h
-        wx, wy = self.wind[0], self.wind[1]
+        return (p.speed, p.accel, p.pos_p, p.vel_p, p.vel_i, p.accel_z, p.pos_z_p, p.speed_up, p.speed_dn,
+                p.land_speed, p.land_alt_low, p.takeoff_altitude, p.drag_k, p.max_horizontal_accel)
+
+    def _run(self, n: int, h: float, cmd: int, sp) -> None:
+        """n sub-steps of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
+        the reference code."""
+        kp = self._kparams
+        if kp is None:
+            kp = self._kparams = self._kernel_params()
         spx, spy, spz = float(sp[0]), float(sp[1]), float(sp[2])
-        goto = cmd == CMD_GOTO
+        wx, wy = self.wind[0], self.wind[1]
         i = 0
         while i < n:
             if self.phase == PREFLIGHT or self.phase == LANDED:
                 self._substep(h, cmd, sp)          # rare: lift-off happens in the reference code
                 i += 1
                 continue
-            # ---- load the state
-            px, py, pz = self.pos
-            vx, vy = self.vel[0], self.vel[1]
-            vtx, vty = self.vt
-            vtz = self.vtz
-            ix, iy = self.integ
-            phase, mode = self.phase, self.mode
-            hx, hy = self.hold
-            hold_z = self.hold_z
-            ax = ay = 0.0
-            landed = False
-            while i < n:
-                i += 1
-                # ---- phase logic
-                if cmd == CMD_LAND and (phase == TAKEOFF or phase == FLY):
-                    phase = LAND
-                    hx, hy = px, py
-                if phase == FLY:
-                    if goto:
-                        mode = "goto"
-                    elif mode == "goto":
-                        mode = "hold"
-                        hx, hy = px, py
-                        hold_z = pz
-                if phase == FLY and mode == "goto":
-                    gx, gy, gz = spx, spy, spz
-                else:
-                    gx, gy = hx, hy
-                    if phase == TAKEOFF:
-                        gz = takeoff_alt
-                    elif phase == FLY:
-                        gz = hold_z
-                    else:
-                        gz = pz
-                # ---- horizontal controller
-                ex, ey = gx - px, gy - py
-                d = hypot(ex, ey)
-                if d <= 0.0:
-                    vmag = 0.0
-                elif d <= lin:
-                    vmag = pos_p * d
-                else:
-                    vmag = sqrt(2.0 * accel * (d - 0.5 * lin))
-                vmag = min(speed, vmag)
-                if d > 1e-9:
-                    vdx, vdy = vmag * ex / d, vmag * ey / d
-                else:
-                    vdx = vdy = 0.0
-                dvx, dvy = vdx - vtx, vdy - vty
-                dvm = hypot(dvx, dvy)
-                if dvm > lim:
-                    dvx, dvy = dvx * lim / dvm, dvy * lim / dvm
-                vtx += dvx
-                vty += dvy
-                sx = hypot(vx, vy)
-                evx, evy = vtx - vx, vty - vy
-                ax = dvx / h + vel_p * evx + vel_i * ix + k * sx * vx
-                ay = dvy / h + vel_p * evy + vel_i * iy + k * sx * vy
-                am = hypot(ax, ay)
-                if am > amax:
-                    ax, ay = ax * amax / am, ay * amax / am
-                else:
-                    ix += evx * h
-                    iy += evy * h
-                vax, vay = vx - wx, vy - wy
-                va = hypot(vax, vay)
-                vx += (ax - k * va * vax) * h
-                vy += (ay - k * va * vay) * h
-                # ---- vertical
-                ez = gz - pz
-                if phase == LAND:
-                    vzd = -(land_speed if pz <= land_alt_low else speed_dn)
-                else:
-                    aez = abs(ez)
-                    if aez <= 0.0:
-                        vzd = 0.0
-                    elif aez <= lin_z:
-                        vzd = pos_z_p * aez
-                    else:
-                        vzd = sqrt(2.0 * accel_z * (aez - 0.5 * lin_z))
-                    vzd = copysign(vzd, ez)
-                    vzd = max(-speed_dn, min(speed_up, vzd))
-                vtz += max(-limz, min(limz, vzd - vtz))
-                px += vx * h
-                py += vy * h
-                pz += vtz * h
-                # ---- transitions
-                if phase == TAKEOFF and pz >= takeoff_alt - 0.2:
-                    phase = FLY
-                    mode = "hold"
-                    hold_z = takeoff_alt
-                if phase == LAND and pz <= 0.0:
-                    landed = True
-                    break
-            # ---- store the state
-            self.pos = [px, py, pz]
-            self.vel = [vx, vy, vtz]
-            self.vt = [vtx, vty]
-            self.vtz = vtz
-            self.integ = [ix, iy]
-            self.a_cmd = [ax, ay]
-            self.phase, self.mode = phase, mode
-            self.hold = [hx, hy]
-            self.hold_z = hold_z
+            pos, vel, vt, integ, hold = self.pos, self.vel, self.vt, self.integ, self.hold
+            s = [pos[0], pos[1], pos[2], vel[0], vel[1], vt[0], vt[1], self.vtz, integ[0], integ[1],
+                 0.0, 0.0, hold[0], hold[1], self.hold_z, self.phase, 1 if self.mode == "goto" else 0, 0,
+                 i, n, h, cmd, spx, spy, spz, wx, wy]
+            i = self._fly(s, kp)
+            (px, py, pz, vx, vy, vtx, vty, vtz, ix, iy, ax, ay, hx, hy, hold_z, phase, mode,
+             landed) = s[:18]
             if landed:
-                self.pos[2] = 0.0
+                self.pos = [px, py, 0.0]
                 self.vel = [0.0, 0.0, 0.0]
                 self.vt = [0.0, 0.0]
                 self.vtz = 0.0
                 self.integ = [0.0, 0.0]
                 self.a_cmd = [0.0, 0.0]
                 self.phase = LANDED
+            else:
+                self.pos = [px, py, pz]
+                self.vel = [vx, vy, vtz]
+                self.vt = [vtx, vty]
+                self.vtz = vtz
+                self.integ = [ix, iy]
+                self.a_cmd = [ax, ay]
+                self.phase = int(phase)
+            self.mode = "goto" if mode else "hold"
+            self.hold = [hx, hy]
+            self.hold_z = hold_z
 
     def _set_hold_here(self):
         self.hold = [self.pos[0], self.pos[1]]
@@ -343,14 +259,14 @@ class Dynamics:
                 gz = self.pos[2]
         # ---------------- horizontal controller
         ex, ey = gx - self.pos[0], gy - self.pos[1]
-        d = math.hypot(ex, ey)
+        d = math.sqrt(ex * ex + ey * ey)
         vmag = min(p.speed, sqrt_controller(d, p.pos_p, p.accel))
         if d > 1e-9:
             vdx, vdy = vmag * ex / d, vmag * ey / d
         else:
             vdx = vdy = 0.0
         dvx, dvy = vdx - self.vt[0], vdy - self.vt[1]
-        dvm = math.hypot(dvx, dvy)
+        dvm = math.sqrt(dvx * dvx + dvy * dvy)
         lim = p.accel * h
         if dvm > lim:
             dvx, dvy = dvx * lim / dvm, dvy * lim / dvm
@@ -358,12 +274,12 @@ class Dynamics:
         self.vt[1] += dvy
         aff_x, aff_y = dvx / h, dvy / h
         k = p.drag_k
-        sx = math.hypot(self.vel[0], self.vel[1])
+        sx = math.sqrt(self.vel[0] * self.vel[0] + self.vel[1] * self.vel[1])
         evx, evy = self.vt[0] - self.vel[0], self.vt[1] - self.vel[1]
         ax = aff_x + p.vel_p * evx + p.vel_i * self.integ[0] + k * sx * self.vel[0]
         ay = aff_y + p.vel_p * evy + p.vel_i * self.integ[1] + k * sx * self.vel[1]
         amax = p.max_horizontal_accel
-        am = math.hypot(ax, ay)
+        am = math.sqrt(ax * ax + ay * ay)
         saturated = am > amax
         if saturated:
             ax, ay = ax * amax / am, ay * amax / am
@@ -373,7 +289,7 @@ class Dynamics:
         self.a_cmd = [ax, ay]
         wx, wy, wz = self.wind
         vax, vay = self.vel[0] - wx, self.vel[1] - wy
-        va = math.hypot(vax, vay)
+        va = math.sqrt(vax * vax + vay * vay)
         self.vel[0] += (ax - k * va * vax) * h
         self.vel[1] += (ay - k * va * vay) * h
         # ---------------- vertical (kinematic, acceleration-limited reference)

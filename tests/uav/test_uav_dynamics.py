@@ -135,10 +135,10 @@ def test_master_step_independence():
     assert max(abs(u - v) for ra, rb in zip(a, b) for u, v in zip(ra, rb)) < 1e-6
 
 
-def test_fast_loop_bit_identical_to_reference_substeps():
-    # Dynamics.step runs an inlined copy of _substep (the hot loop); over a whole flight with every
-    # phase (preflight, takeoff, goto legs, hold, gusty wind, landing, landed, re-takeoff) and
-    # several master steps it must give exactly the reference sub-step results
+def test_fast_loop_bit_identical_to_reference_substeps(any_kernels):
+    # Dynamics.step runs the flying sub-steps in a kernel (Python or compiled twin of _substep); over a
+    # whole flight with every phase (preflight, takeoff, goto legs, hold, gusty wind, landing, landed,
+    # re-takeoff) and several master steps it must give exactly the reference sub-step results
     import random
     rng = random.Random(5)
     script = []
@@ -159,7 +159,7 @@ def test_fast_loop_bit_identical_to_reference_substeps():
         wind = (rng.uniform(-11, 3), rng.uniform(-4, 4), rng.uniform(-1, 1))
         script.append((h, cmd, sp, wind))
         t += h
-    a, b = Dynamics(), Dynamics()
+    a, b = Dynamics(kernels=any_kernels), Dynamics()
     phases = set()
     for h, cmd, sp, wind in script:
         a.step(h, cmd, sp, wind)

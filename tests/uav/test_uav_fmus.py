@@ -15,18 +15,13 @@ import pythonfmu.builder  # noqa: F401
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
+from conftest import build_fmus_module
+
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "fmu_sources"
 
 
-def _build_module():
-    spec = importlib.util.spec_from_file_location("uav_build_fmus", SRC / "build_fmus.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-bf = _build_module()
+bf = build_fmus_module()
 
 # connector contract (docs/uav_connectors.md): name -> (causality, type)
 CONTRACT = {

@@ -1,0 +1,243 @@
+"""The UAV models' hot loops, twice: in Python (here) and compiled (kernels.c, loaded with ctypes).
+
+A campaign spends most of its time in the dynamics' 0.01 s sub-steps (about 25 per 0.25 s master step
+and UAV); the compiled twin does them ~30x faster.  Both twins use the same slot layout (below) and only
++ - * / sqrt, comparisons and copysign, in the same order, so they give bit-identical results
+(tests/uav/test_uav_kernels.py): whether the shared library loads changes the speed, never a result.
+
+The library is compiled by ``fmu_sources/build_fmus.py`` into each FMU's ``resources/uavsim/`` (next
+to this file).  :func:`load` finds it there, or in a folder the FMU shell names (its resources folder,
+for when ``uavsim`` was imported from elsewhere first); without it the Python twins run.  Set
+``UAVSIM_PURE_PYTHON=1`` to force the Python twins.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+from math import copysign, sqrt
+from pathlib import Path
+
+LIBRARY = "_uavsim_kernels.so"
+
+# dynamics state slots (kernels.c: the first enum)
+(S_PX, S_PY, S_PZ, S_VX, S_VY, S_VTX, S_VTY, S_VTZ, S_IX, S_IY, S_AX, S_AY, S_HX, S_HY, S_HOLDZ, S_PHASE,
+ S_MODE, S_LANDED, S_I, S_N, S_H, S_CMD, S_SPX, S_SPY, S_SPZ, S_WX, S_WY) = range(27)
+N_STATE = 27
+# dynamics parameter slots
+(P_SPEED, P_ACCEL, P_POS_P, P_VEL_P, P_VEL_I, P_ACCEL_Z, P_POS_Z_P, P_SPEED_UP, P_SPEED_DN, P_LAND_SPEED,
+ P_LAND_ALT_LOW, P_TAKEOFF_ALT, P_DRAG_K, P_AMAX) = range(14)
+N_PARAM = 14
+# battery state slots; battery parameters: cells, resistance, capacity (C), m, m soc values, m ocv values
+B_Q, B_E, B_CUR, B_OVER, B_VOLT, B_POW, B_N, B_H, B_DEMAND = range(9)
+N_BSTATE = 9
+
+TAKEOFF, FLY, LAND = 1, 2, 3
+CMD_GOTO, CMD_LAND = 2, 3
+MODE_HOLD, MODE_GOTO = 0, 1
+
+
+def fly_py(s: list, p) -> int:
+    """Flying sub-steps s[S_I] .. s[S_N] (or until touch-down) of Dynamics; state in and out in s."""
+    speed, accel, pos_p, vel_p, vel_i = p[P_SPEED], p[P_ACCEL], p[P_POS_P], p[P_VEL_P], p[P_VEL_I]
+    lin = accel / (pos_p * pos_p)
+    accel_z, pos_z_p, speed_up, speed_dn = p[P_ACCEL_Z], p[P_POS_Z_P], p[P_SPEED_UP], p[P_SPEED_DN]
+    lin_z = accel_z / (pos_z_p * pos_z_p)
+    land_speed, land_alt_low, takeoff_alt = p[P_LAND_SPEED], p[P_LAND_ALT_LOW], p[P_TAKEOFF_ALT]
+    k, amax = p[P_DRAG_K], p[P_AMAX]
+    n, cmd, h = int(s[S_N]), int(s[S_CMD]), s[S_H]
+    goto = cmd == CMD_GOTO
+    lim, limz = accel * h, accel_z * h
+    wx, wy, spx, spy, spz = s[S_WX], s[S_WY], s[S_SPX], s[S_SPY], s[S_SPZ]
+    px, py, pz, vx, vy = s[S_PX], s[S_PY], s[S_PZ], s[S_VX], s[S_VY]
+    vtx, vty, vtz, ix, iy = s[S_VTX], s[S_VTY], s[S_VTZ], s[S_IX], s[S_IY]
+    hx, hy, hold_z = s[S_HX], s[S_HY], s[S_HOLDZ]
+    phase, mode, i = int(s[S_PHASE]), int(s[S_MODE]), int(s[S_I])
+    ax = ay = 0.0
+    landed = 0
+    while i < n:
+        i += 1
+        if cmd == CMD_LAND and (phase == TAKEOFF or phase == FLY):
+            phase = LAND
+            hx, hy = px, py
+        if phase == FLY:
+            if goto:
+                mode = MODE_GOTO
+            elif mode == MODE_GOTO:
+                mode = MODE_HOLD
+                hx, hy = px, py
+                hold_z = pz
+        if phase == FLY and mode == MODE_GOTO:
+            gx, gy, gz = spx, spy, spz
+        else:
+            gx, gy = hx, hy
+            if phase == TAKEOFF:
+                gz = takeoff_alt
+            elif phase == FLY:
+                gz = hold_z
+            else:
+                gz = pz
+        # horizontal controller
+        ex, ey = gx - px, gy - py
+        d = sqrt(ex * ex + ey * ey)
+        if d <= 0.0:
+            vmag = 0.0
+        elif d <= lin:
+            vmag = pos_p * d
+        else:
+            vmag = sqrt(2.0 * accel * (d - 0.5 * lin))
+        vmag = min(speed, vmag)
+        if d > 1e-9:
+            vdx, vdy = vmag * ex / d, vmag * ey / d
+        else:
+            vdx = vdy = 0.0
+        dvx, dvy = vdx - vtx, vdy - vty
+        dvm = sqrt(dvx * dvx + dvy * dvy)
+        if dvm > lim:
+            dvx, dvy = dvx * lim / dvm, dvy * lim / dvm
+        vtx += dvx
+        vty += dvy
+        sx = sqrt(vx * vx + vy * vy)
+        evx, evy = vtx - vx, vty - vy
+        ax = dvx / h + vel_p * evx + vel_i * ix + k * sx * vx
+        ay = dvy / h + vel_p * evy + vel_i * iy + k * sx * vy
+        am = sqrt(ax * ax + ay * ay)
+        if am > amax:
+            ax, ay = ax * amax / am, ay * amax / am
+        else:
+            ix += evx * h
+            iy += evy * h
+        vax, vay = vx - wx, vy - wy
+        va = sqrt(vax * vax + vay * vay)
+        vx += (ax - k * va * vax) * h
+        vy += (ay - k * va * vay) * h
+        # vertical
+        ez = gz - pz
+        if phase == LAND:
+            vzd = -(land_speed if pz <= land_alt_low else speed_dn)
+        else:
+            aez = abs(ez)
+            if aez <= 0.0:
+                vzd = 0.0
+            elif aez <= lin_z:
+                vzd = pos_z_p * aez
+            else:
+                vzd = sqrt(2.0 * accel_z * (aez - 0.5 * lin_z))
+            vzd = copysign(vzd, ez)
+            vzd = max(-speed_dn, min(speed_up, vzd))
+        vtz += max(-limz, min(limz, vzd - vtz))
+        px += vx * h
+        py += vy * h
+        pz += vtz * h
+        # transitions
+        if phase == TAKEOFF and pz >= takeoff_alt - 0.2:
+            phase = FLY
+            mode = MODE_HOLD
+            hold_z = takeoff_alt
+        if phase == LAND and pz <= 0.0:
+            landed = 1
+            break
+    s[S_PX:S_I + 1] = [px, py, pz, vx, vy, vtx, vty, vtz, ix, iy, ax, ay, hx, hy, hold_z, phase, mode, landed, i]
+    return i
+
+
+def battery_py(s: list, p) -> int:
+    """Coulomb counting over s[B_N] sub-steps of s[B_H] at the held demand s[B_DEMAND]; state in s."""
+    cells, r, cap, m = p[0], p[1], p[2], int(p[3])
+    xs, ys = p[4:4 + m], p[4 + m:4 + 2 * m]
+    x0, x1, y0, y1 = xs[0], xs[-1], ys[0], ys[-1]
+    n, h, demand = int(s[B_N]), s[B_H], s[B_DEMAND]
+    q, e = s[B_Q], s[B_E]
+    for i in range(n + 1):
+        soc = max(0.0, 1.0 - q / cap)
+        if soc <= x0:
+            ocv = y0
+        elif soc >= x1:
+            ocv = y1
+        else:
+            lo, hi = 0, m                 # bisect_right(xs, soc), written out as kernels.c does it
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if soc < xs[mid]:
+                    hi = mid
+                else:
+                    lo = mid + 1
+            j = lo - 1
+            ocv = ys[j] + (soc - xs[j]) / (xs[j + 1] - xs[j]) * (ys[j + 1] - ys[j])
+        emf = cells * ocv
+        if r <= 0.0:
+            cur, over = demand / emf, 0
+        else:
+            disc = emf * emf - 4.0 * r * demand
+            if disc < 0.0:
+                cur, over = emf / (2.0 * r), 1
+            else:
+                cur, over = (emf - sqrt(disc)) / (2.0 * r), 0
+        volt = emf - cur * r
+        pw = volt * cur
+        if i < n:
+            q += cur * h
+            e += pw * h
+    s[B_Q:B_POW + 1] = [q, e, cur, over, volt, pw]
+    return n
+
+
+class Kernels:
+    """The two loops behind one interface.  ``make_fly()`` and ``make_battery()`` return a function
+    ``f(state, params)`` for ONE model instance (its own buffers: instances may step in different
+    threads) that updates the state list in place; ``compiled`` says which twin runs."""
+
+    def __init__(self, lib=None):
+        self.compiled = lib is not None
+        self.library = getattr(lib, "_name", None)
+        self._lib = lib
+
+    def make_fly(self):
+        return fly_py if self._lib is None else _bind(self._lib.uav_fly, N_STATE, S_I)
+
+    def make_battery(self):
+        return battery_py if self._lib is None else _bind(self._lib.uav_battery, N_BSTATE, B_N)
+
+
+def _bind(c_fn, size: int, result_slot: int):
+    buf = (ctypes.c_double * size)()
+    arrays = {}
+
+    def run(s, p):
+        a = arrays.get(p)
+        if a is None:         # parameters are a tuple fixed per model instance: converted once
+            a = arrays[p] = (ctypes.c_double * len(p))(*p)
+        buf[:] = s
+        c_fn(buf, a)          # no argtypes: the arrays pass as pointers
+        s[:] = buf
+        return int(s[result_slot])
+    return run
+
+
+_loaded: dict = {}
+
+
+def load(*folders) -> Kernels:
+    """The compiled kernels from the first of (this file's folder, *folders) that holds the library,
+    else the Python twins.  Cached per library path."""
+    if os.environ.get("UAVSIM_PURE_PYTHON", "") not in ("", "0"):
+        return _python()
+    for folder in (Path(__file__).resolve().parent, *map(Path, folders)):
+        path = folder / LIBRARY
+        key = str(path)
+        if key in _loaded:
+            return _loaded[key]
+        if path.is_file():
+            try:
+                lib = ctypes.PyDLL(key)     # keeps the GIL: the loops are short
+            except OSError:            # another platform or architecture: the Python twins serve
+                continue
+            _loaded[key] = Kernels(lib)
+            return _loaded[key]
+    return _python()
+
+
+def _python() -> Kernels:
+    k = _loaded.get(None)
+    if k is None:
+        k = _loaded[None] = Kernels(None)
+    return k

@@ -1,0 +1,41 @@
+"""Fixtures of the UAV model tests: both twins of the hot loops (uavsim.kernels)."""
+import importlib.util
+import shutil
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[2] / "fmu_sources"
+
+
+def build_fmus_module():
+    """fmu_sources/build_fmus.py as a module (it is a script, not part of a package)."""
+    spec = importlib.util.spec_from_file_location("uav_build_fmus", SRC / "build_fmus.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="session")
+def compiled_kernels(tmp_path_factory):
+    """uavsim.kernels.Kernels of kernels.c compiled here (as build_fmus.py compiles it for the FMUs)."""
+    import os
+
+    from uavsim import kernels
+    compile_kernels = build_fmus_module().compile_kernels
+    if shutil.which(os.environ.get("CC", "gcc")) is None:
+        pytest.skip("no C compiler: the compiled kernels cannot be built here")
+    folder = tmp_path_factory.mktemp("kernels")
+    assert compile_kernels(folder) is not None
+    k = kernels.load(folder)
+    assert k.compiled, "the compiled kernels did not load"
+    return k
+
+
+@pytest.fixture(params=["python", "compiled"])
+def any_kernels(request):
+    """Each twin in turn."""
+    from uavsim import kernels
+    if request.param == "python":
+        return kernels.Kernels(None)
+    return request.getfixturevalue("compiled_kernels")
