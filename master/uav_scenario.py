@@ -28,10 +28,11 @@ import numpy as np
 import shapely
 import yaml
 
+from master import yamlio
 from master.errors import ScenarioError
 from uavsim.geodesy import enu_from_geodetic
 
-__all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml",
+__all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
            "STRATEGIES", "ASSIGNMENTS", "ALGORITHMS", "MAX_RANGE_M"]
 
@@ -209,7 +210,8 @@ def _check_geometry(v: _V, scn: UavScenario, where: dict[str, str]):
                                           "(a target in a restricted zone cannot be visited)")
 
 
-def _scenario_from_dict(data: Any, path) -> UavScenario:
+def scenario_from_dict(data: Any, path) -> UavScenario:
+    """Validate the fields of a scenario (as read from YAML); ``path`` names the file in errors."""
     v = _V(path)
     if not isinstance(data, dict):
         v.fail("(top level)", f"expected a mapping of scenario fields, got {type(data).__name__}")
@@ -321,13 +323,13 @@ def load_scenario_yaml(path) -> UavScenario:
     except OSError as exc:
         raise ScenarioError(f"cannot read: {exc.strerror or exc}", file=str(path), element="file")
     try:
-        data = yaml.safe_load(text)
+        data = yamlio.load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "yaml"
         raise ScenarioError(f"invalid YAML: {getattr(exc, 'problem', None) or exc}",
                             file=str(path), element=where)
-    return _scenario_from_dict(data, path)
+    return scenario_from_dict(data, path)
 
 
 def scenario_to_dict(scn: UavScenario) -> dict:
@@ -519,7 +521,7 @@ def load_paper_config(folder) -> UavScenario:
 
     # field-level validation reported against init.properties keys
     try:
-        return _scenario_from_dict(data, props_path)
+        return scenario_from_dict(data, props_path)
     except ScenarioError as exc:
         fld = exc.element or ""
         rev = {v_[0]: k for k, v_ in PAPER_KEYS.items()}

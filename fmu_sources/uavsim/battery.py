@@ -93,6 +93,26 @@ def electrical_power(airspeed: float, vz: float, motors_on: bool, p: PowerParams
     return (shaft_power(airspeed, p) + climb) / p.efficiency + p.avionics_power
 
 
+def power_function(p: PowerParams):
+    """:func:`electrical_power` for fixed parameters ``p``, with the constant sub-expressions evaluated
+    once (same operations in the same order, so the same results bit for bit: tested)."""
+    v0 = p.v0
+    p0, pi, eff, avionics, weight = p.p0, p.pi, p.efficiency, p.avionics_power, p.weight
+    tip2, v0_4x4, v0_2x2 = p.tip_speed ** 2, 4.0 * v0 ** 4, 2.0 * v0 * v0
+    drag = 0.5 * p.rho * p.flat_plate_area
+    sqrt = math.sqrt
+
+    def power(airspeed: float, vz: float, motors_on: bool) -> float:
+        if not motors_on:
+            return avionics
+        v2 = airspeed * airspeed
+        blade = p0 * (1.0 + 3.0 * v2 / tip2)
+        induced = pi * sqrt(max(0.0, sqrt(1.0 + v2 * v2 / v0_4x4) - v2 / v0_2x2))
+        shaft = blade + induced + drag * v2 * abs(airspeed)
+        return (shaft + max(0.0, weight * vz)) / eff + avionics
+    return power
+
+
 @dataclass
 class BatteryParams:
     cells: int = P.CELLS
@@ -143,6 +163,7 @@ class Battery:
     def __post_init__(self):
         bp = self.params
         self._count = (self.kernels or _kernels.load()).make_battery()
+        self._power = power_function(self.power_params)
         self._kparams = None
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J
@@ -211,7 +232,7 @@ class Battery:
             m = len(bp.ocv_soc)
             kp = self._kparams = (float(bp.cells), bp.resistance, bp.capacity_c, float(m),
                                   *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
-        demand = electrical_power(airspeed, vz, motors_on, self.power_params)
+        demand = self._power(airspeed, vz, motors_on)
         s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, n, h, demand]
         self._count(s, kp)
         q, e, cur, over, volt, pw = s[:6]

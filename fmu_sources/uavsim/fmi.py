@@ -89,18 +89,20 @@ class UnitsMixin:
             cache = (len(self.vars), tables)
             self.__dict__["_vr_cache"] = cache
             self.__dict__["_vr_readers"] = {}
+            self.__dict__["_vr_writers"] = {}
         return cache[1]
 
-    def _get(self, cls, conv, vrs, fallback):
-        # one reader per (type, reference list), cached: the master asks for the same lists every step
+    def _reader(self, cls, conv, vrs):
+        """A function returning the values of ``vrs`` (cached per type and reference list: the master
+        asks for the same lists every step), or None if one of them is not a readable ``cls``."""
         tables = self._vr_tables()
         readers = self.__dict__["_vr_readers"]
         key = (cls, tuple(vrs))
         read = readers.get(key)
         if read is None:
             get = tables[cls][0]
-            if any(vr not in get for vr in vrs):   # pythonfmu's method raises its TypeError
-                return getattr(super(UnitsMixin, self), fallback)(vrs)
+            if any(vr not in get for vr in vrs):
+                return None
             acc = [get[vr] for vr in vrs]
             if all(a.__class__ is str for a in acc):
                 names = tuple(acc)
@@ -121,18 +123,61 @@ class UnitsMixin:
                 def read(_self=self, _acc=tuple(acc), _c=conv):
                     return [_c(getattr(_self, a) if a.__class__ is str else a()) for a in _acc]
             readers[key] = read
+        return read
+
+    def _writer(self, cls, vrs):
+        """A function setting ``vrs`` to a list of values (cached like the readers), or None if one of
+        them is not a settable ``cls``."""
+        tables = self._vr_tables()
+        writers = self.__dict__["_vr_writers"]
+        key = (cls, tuple(vrs))
+        write = writers.get(key)
+        if write is None:
+            put = tables[cls][1]
+            if any(vr not in put for vr in vrs):
+                return None
+            acc = tuple(put[vr] for vr in vrs)
+            plain = type(self).__setattr__ is object.__setattr__
+            if plain and all(a.__class__ is str and not hasattr(type(self), a) for a in acc):
+                # plain instance attributes (no property, no __setattr__): one dict update is setattr
+                def write(values, _update=self.__dict__.update, _names=acc):
+                    _update(zip(_names, values))
+            else:
+                def write(values, _self=self, _acc=acc):
+                    for a, v in zip(_acc, values):
+                        if a.__class__ is str:
+                            setattr(_self, a, v)
+                        else:
+                            a(v)
+            writers[key] = write
+        return write
+
+    def _get(self, cls, conv, vrs, fallback):
+        read = self._reader(cls, conv, vrs)
+        if read is None:                 # pythonfmu's method raises its TypeError
+            return getattr(super(UnitsMixin, self), fallback)(vrs)
         return read()
 
     def _set(self, cls, vrs, values, fallback):
-        put = self._vr_tables()[cls][1]
-        for vr, value in zip(vrs, values):
-            a = put.get(vr)
-            if a is None:           # not settable / another type: pythonfmu sets again and raises
-                return getattr(super(UnitsMixin, self), fallback)(vrs, values)
-            if a.__class__ is str:
-                setattr(self, a, value)
-            else:
-                a(value)
+        write = self._writer(cls, vrs)
+        if write is None:                # not settable / another type: pythonfmu sets again and raises
+            return getattr(super(UnitsMixin, self), fallback)(vrs, values)
+        write(values)
+
+    def cosim_bind(self, op: str, typ: str, vrs):
+        """In-process masters' fast path (cosim-master's master/fmi/inprocess.py): for op "get" a function
+        returning the values of ``vrs`` as ``get_<typ>(vrs)`` would, for "set" a function of the values
+        doing what ``set_<typ>(vrs, values)`` does; None when the call would fail (the master then uses
+        the FMI functions, which raise the error)."""
+        cls = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}.get(typ)
+        if cls is None:
+            return None
+        vrs = [int(v) for v in vrs]
+        if op == "get":
+            return self._reader(cls, {Real: float, Integer: int, Boolean: bool, String: str}[cls], vrs)
+        if op == "set":
+            return self._writer(cls, vrs)
+        return None
 
     def get_real(self, vrs):
         return self._get(Real, float, vrs, "get_real")

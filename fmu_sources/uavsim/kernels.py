@@ -213,7 +213,9 @@ def _bind(c_fn, size: int, result_slot: int):
     return run
 
 
-_loaded: dict = {}
+_loaded: dict = {}       # library path (None: the Python twins) -> Kernels
+_found: dict = {}        # folders asked for -> Kernels (every FMU instance asks; the answer is fixed)
+_HERE = Path(__file__).resolve().parent
 
 
 def load(*folders) -> Kernels:
@@ -221,18 +223,25 @@ def load(*folders) -> Kernels:
     else the Python twins.  Cached per library path."""
     if os.environ.get("UAVSIM_PURE_PYTHON", "") not in ("", "0"):
         return _python()
-    for folder in (Path(__file__).resolve().parent, *map(Path, folders)):
-        path = folder / LIBRARY
-        key = str(path)
-        if key in _loaded:
-            return _loaded[key]
-        if path.is_file():
+    key = tuple(str(f) for f in folders)
+    k = _found.get(key)
+    if k is None:
+        k = _found[key] = _search((_HERE, *map(Path, folders)))
+    return k
+
+
+def _search(folders) -> Kernels:
+    for folder in folders:
+        path = str(folder / LIBRARY)
+        if path in _loaded:
+            return _loaded[path]
+        if os.path.isfile(path):
             try:
-                lib = ctypes.PyDLL(key)     # keeps the GIL: the loops are short
+                lib = ctypes.PyDLL(path)     # keeps the GIL: the loops are short
             except OSError:            # another platform or architecture: the Python twins serve
                 continue
-            _loaded[key] = Kernels(lib)
-            return _loaded[key]
+            _loaded[path] = Kernels(lib)
+            return _loaded[path]
     return _python()
 
 

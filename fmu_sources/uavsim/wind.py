@@ -191,6 +191,11 @@ class Wind:
         if h <= 0.0:
             return self.at(t0)
         m = min(200, max(1, int(math.ceil(h / resolution - 1e-9))))
+        di = self.p.decision_interval
+        k0 = int(math.floor((t0 + 0.5 * h / m) / di + 1e-12))
+        k1 = int(math.floor((t0 + (m - 0.5) * h / m) / di + 1e-12))
+        if k0 >= 0 and not any(self._interval(k).occurs for k in range(k0, k1 + 1)):
+            return 0.0, 0.0, 0.0, 0          # calm intervals (most of them): every sample is zero
         sx = sy = sz = 0.0
         level = 0
         for j in range(m):

@@ -77,12 +77,13 @@ def _build_uav(task: dict, out: Path, used: dict) -> Path:
 
     from ..errors import ScenarioError
     from ..uav.build import build_ssp
-    from ..uav_scenario import load_scenario_yaml
+    from .. import yamlio
+    from ..uav_scenario import scenario_from_dict
     src = Path(task["scenario"])
     try:
         raw = src.read_bytes()
         used["scenario_sha256"] = hashlib.sha256(raw).hexdigest()
-        data = yaml.safe_load(raw.decode("utf-8"))
+        data = yamlio.load(raw.decode("utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise ScenarioError(f"cannot read the scenario: {exc}", file=str(src)) from None
     if not isinstance(data, dict):
@@ -96,8 +97,8 @@ def _build_uav(task: dict, out: Path, used: dict) -> Path:
             f"# base scenario: {task['inputs']['scenario']}; "
             f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")
     yml = out / "scenario.yaml"
-    yml.write_text(head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
-    scn = load_scenario_yaml(yml)
+    yml.write_text(head + yamlio.dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
+    scn = scenario_from_dict(data, yml)       # what was just written, without parsing it again
     return build_ssp(scn, out / "scenario.ssp")
 
 

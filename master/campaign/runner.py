@@ -318,6 +318,9 @@ def _cleanup_orphans(out: Path, camp: Campaign):
 
 
 # --------------------------------------------------------------------------------------------- Dask
+#: how often a run is submitted again after Dask reported its worker killed (see _run_dask)
+DASK_KILLED_RETRIES = 2
+
 def _run_dask(scheduler, tasks: list[dict], on_result):
     """Submit every task to a Dask distributed scheduler; records come back as the futures finish.
 
@@ -332,16 +335,27 @@ def _run_dask(scheduler, tasks: list[dict], on_result):
     client = scheduler if hasattr(scheduler, "submit") else Client(scheduler, timeout="30s")
     token = uuid.uuid4().hex[:8]
     futures = {}
+    attempts: dict[str, int] = {}
+
+    def submit(t):
+        n = attempts[t["run_id"]] = attempts.get(t["run_id"], 0) + 1
+        f = client.submit(execute_run, t, key=f"cosim-run-{t['run_id']}-{token}-{n}", pure=False)
+        futures[f] = t
+        return f
+
     try:
-        for t in tasks:
-            f = client.submit(execute_run, t, key=f"cosim-run-{t['run_id']}-{token}", pure=False)
-            futures[f] = t
-        for f in as_completed(list(futures)):
+        pending = as_completed([submit(t) for t in tasks])
+        for f in pending:
             t = futures.pop(f)
             try:
                 rec = f.result()
             except Exception as exc:   # noqa: BLE001 - the run failed outside execute_run
-                rec = failure_record(t, _dask_reason(exc))
+                if type(exc).__name__ == "KilledWorker" and attempts[t["run_id"]] <= DASK_KILLED_RETRIES:
+                    # Dask blames every run assigned to a worker that died, queued ones too: only a run
+                    # that kills a worker again when run again is the culprit
+                    pending.add(submit(t))
+                    continue
+                rec = failure_record(t, _dask_reason(exc, attempts[t["run_id"]]))
             on_result(rec)
     finally:
         if futures:
@@ -353,9 +367,9 @@ def _run_dask(scheduler, tasks: list[dict], on_result):
             client.close()
 
 
-def _dask_reason(exc: Exception) -> str:
+def _dask_reason(exc: Exception, attempts: int = 1) -> str:
     name = type(exc).__name__
     if name == "KilledWorker":
-        return ("worker process died (Dask KilledWorker: every worker that tried this run died while running it, "
-                "e.g. an FMU crashed the process)")
+        return (f"worker process died (Dask KilledWorker, {attempts} attempt(s): every worker that tried this run "
+                "died while running it, e.g. an FMU crashed the process)")
     return f"{name}: {exc}"

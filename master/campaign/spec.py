@@ -26,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from .. import yamlio
 from ..errors import ScenarioError
 
 __all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
@@ -201,7 +202,7 @@ def load_campaign(path) -> Campaign:
     except OSError as exc:
         err("file", f"cannot read: {exc.strerror or exc}")
     try:
-        data = yaml.safe_load(text)
+        data = yamlio.load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         err(f"line {mark.line + 1}" if mark is not None else "yaml",

@@ -159,11 +159,29 @@ class PythonFmuSlave(Slave):
             found.append(acc)
         return found
 
+    def _bound(self, op, typ, vrs):
+        """The slave's own fast accessor, if its class offers ``cosim_bind(op, typ, vrs)`` (documented in
+        docs/architecture.md: a function equivalent to get_<typ>(vrs) / set_<typ>(vrs, values))."""
+        bind = getattr(self.obj, "cosim_bind", None)
+        if bind is None:
+            return None
+        try:
+            return bind(op, typ, list(vrs))
+        except Exception:       # noqa: BLE001 - an optional shortcut: the FMI functions remain
+            return None
+
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
-        getters = self._direct("get", typ, vrs)
+        bound = self._bound("get", typ, vrs)
+        getters = None if bound is not None else self._direct("get", typ, vrs)
         method = getattr(obj, f"get_{typ.lower()}")
-        if getters is not None and len(getters) == 1:
+        if bound is not None and len(vrs) == 1:
+            def read():
+                buf[0] = bound()[0]
+        elif bound is not None:
+            def read():
+                buf[:] = bound()
+        elif getters is not None and len(getters) == 1:
             g = getters[0]
 
             def read():
@@ -187,9 +205,16 @@ class PythonFmuSlave(Slave):
 
     def bound_set(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
-        setters = self._direct("set", typ, vrs)
+        bound = self._bound("set", typ, vrs)
+        setters = None if bound is not None else self._direct("set", typ, vrs)
         method = getattr(obj, f"set_{typ.lower()}")
-        if setters is not None and len(setters) == 1:
+        if bound is not None and typ == "Real":
+            def write():                 # a float64 buffer's tolist() holds Python floats already
+                bound(buf.tolist())
+        elif bound is not None:
+            def write():
+                bound([conv(v) for v in buf.tolist()])
+        elif setters is not None and len(setters) == 1:
             s0 = setters[0]
 
             def write():

@@ -23,17 +23,29 @@ def _load_builtin():
     from . import uav  # noqa: F401  (registers itself)
 
 
-def monitors_for(model, plan, shown_as) -> list[Monitor]:
-    try:
-        _load_builtin()
-    except ImportError:
-        pass
+_entry_points_scanned = False
+
+
+def _load_entry_points():
+    global _entry_points_scanned
+    if _entry_points_scanned:      # scanning the installed distributions costs ~10 ms: once per process
+        return
+    _entry_points_scanned = True
     try:
         from importlib.metadata import entry_points
         for ep in entry_points(group="cosim_master.monitors"):
             MONITORS.setdefault(ep.name, ep.load())
     except Exception:
         pass
+
+
+def monitors_for(model, plan, shown_as) -> list[Monitor]:
+    try:
+        _load_builtin()
+    except ImportError:
+        pass
+    if any(typ not in MONITORS for typ in model.annotations):
+        _load_entry_points()
     found = []
     for typ, element in model.annotations.items():
         cls = MONITORS.get(typ)

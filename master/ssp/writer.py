@@ -67,8 +67,8 @@ class SspBuilder:
         fmu_path = Path(fmu_path)
         params = dict(params or {})
         if connectors is None:
-            from fmpy import read_model_description
-            md = read_model_description(str(fmu_path))
+            from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
+            md = load_fmu(fmu_path).md
             connectors = []
             for v in md.modelVariables:
                 if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):

@@ -1,19 +1,8 @@
 """Fixtures of the UAV model tests: both twins of the hot loops (uavsim.kernels)."""
-import importlib.util
 import shutil
-from pathlib import Path
 
 import pytest
-
-SRC = Path(__file__).resolve().parents[2] / "fmu_sources"
-
-
-def build_fmus_module():
-    """fmu_sources/build_fmus.py as a module (it is a script, not part of a package)."""
-    spec = importlib.util.spec_from_file_location("uav_build_fmus", SRC / "build_fmus.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from build_script import build_fmus_module
 
 
 @pytest.fixture(scope="session")

@@ -15,7 +15,7 @@ import pythonfmu.builder  # noqa: F401
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import build_fmus_module
+from build_script import build_fmus_module
 
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "fmu_sources"
