@@ -42,6 +42,7 @@ _PARAMS = [  # name, unit, default, description
     ("preflight_time", "s", P.PREFLIGHT_TIME, "duration of the preflight check"),
     ("substep", "s", P.SUBSTEP, "internal integration sub-step"),
 ]
+_GEODETIC = ("lat", "lon", "alt")
 _OUT_REAL = [
     ("x", "m", "east position"), ("y", "m", "north position"), ("z", "m", "height above origin (up)"),
     ("vx", "m/s", "east velocity"), ("vy", "m/s", "north velocity"), ("vz", "m/s", "up velocity"),
@@ -71,7 +72,8 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
             setattr(self, name, 0.0)
             self.in_real(name, unit, desc)
         for name, unit, desc in _OUT_REAL:
-            setattr(self, name, 0.0)
+            if name not in _GEODETIC:          # lat, lon, alt are computed when read (properties below)
+                setattr(self, name, 0.0)
             self.out_real(name, unit, desc)
         self.phase = 0
         self.out_int("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed")
@@ -79,7 +81,7 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
         self.out_int("ready", "1 once the preflight check has passed")
         self._model = None
         self._frame = None
-        self._geo_key = None
+        self._geo_key = self._geo = None
         self._publish()
 
     def _build(self):
@@ -104,14 +106,23 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
             self.vx, self.vy, self.vz = m.vel
             self.airspeed, self.groundspeed, self.tilt = m.airspeed, m.groundspeed, m.tilt_deg
             self.phase, self.ready = int(m.phase), int(m.ready)
+
+    # The geodetic position is an output few masters read every step (cosim-master reads recorded-only
+    # outputs when it samples), and the exact ENU -> WGS84 conversion is the costliest part of publishing
+    # the outputs, so it is computed when read, once per position.
+    def _geodetic(self):
+        key = (self.x, self.y, self.z)
         fr = self._frame
         if fr is None:     # before initialisation the origin parameters may still change
-            fr = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
-            self._geo_key = None
-        key = (self.x, self.y, self.z)
-        if key != self._geo_key or fr is not self._frame:    # not moved (e.g. landed): reuse
-            self.lat, self.lon, self.alt = fr.to_geodetic(self.x, self.y, self.z)
-            self._geo_key = key if fr is self._frame else None
+            return EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt).to_geodetic(*key)
+        if key != self._geo_key:
+            self._geo = fr.to_geodetic(*key)
+            self._geo_key = key
+        return self._geo
+
+    lat = property(lambda self: self._geodetic()[0])
+    lon = property(lambda self: self._geodetic()[1])
+    alt = property(lambda self: self._geodetic()[2])
 
     def do_step(self, current_time, step_size):
         if self._model is None:

@@ -173,7 +173,7 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         recorded = select_variables(plan, record, connected)
         if record and not recorded:
             raise CosimError(f"no variable matches the record patterns {record}", element="--record")
-        observed = recorded + [plan.var(q) for m in monitors for q in m.required_variables()]
+        observed = [plan.var(q) for m in monitors for q in m.required_variables()]
         if out_dir is not None:
             out_dir.mkdir(parents=True, exist_ok=True)
             log_file = open(out_dir / "fmu.log", "w", encoding="utf-8")
@@ -183,7 +183,8 @@ def run(scenario, *, stop_time=None, start_time=None, step=None, algorithm=None,
         loops = algebraic_loops(plan)
         meta["algebraic_loops"] = loops
         # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
-        rt = Runtime(plan, observed, log, st.step_multiples, logging_on=(log_level != "none"), inprocess=inprocess)
+        rt = Runtime(plan, observed, log, st.step_multiples, logging_on=(log_level != "none"), inprocess=inprocess,
+                     sampled=recorded)
         recorder = Recorder(out_dir, recorded, rt, csv=write_csv)
         rt.instantiate(st.start, st.stop)
         rt.apply_start_values(st.start)
@@ -245,7 +246,7 @@ def _loop(alg, rt, recorder, monitors, st, meta, progress):
         from tqdm import tqdm
         bar = tqdm(total=steps, unit="step", mininterval=0.5, leave=False)
     step = alg.step
-    sample = recorder.sample
+    sample, read_samples = recorder.sample, rt.read_samples
     try:
         for n in range(steps):
             t = start + n * h          # integer step counting: no drift from accumulated additions
@@ -255,15 +256,16 @@ def _loop(alg, rt, recorder, monitors, st, meta, progress):
             for m in monitors:
                 m.after_step(n, t, t1)
             if (n + 1) % every == 0 or n + 1 == steps or rt.stop_reason is not None:
+                read_samples(t1)
                 sample(t1)
             if rt.stop_reason is not None:
                 meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
                 meta["steps_done"] = n + 1
                 break
+            if bar is not None and (n & 255) == 255:
+                bar.update(256)
         else:
             meta["steps_done"] = steps
-            if bar is not None and (n & 255) == 0:
-                bar.update(min(256, steps - bar.n))
     finally:
         if bar is not None:
             bar.close()

@@ -1,7 +1,8 @@
 """The running system: slave instances, the value buffers that connect them, and the life cycle.
 
 Layout of the buffers (one set per base type): every value the master reads from a slave (connected
-outputs, recorded and monitored variables) lives in ``out[T]``, contiguous per slave; every value it
+outputs, recorded and monitored variables) lives in ``out[T]``, contiguous per slave (the ones read after
+every step first, then the ones read only when the results are sampled); every value it
 writes to a slave lives in ``inb[T]``, contiguous per slave, with ``src[T]`` giving for each input slot
 the index in ``out[T]`` it comes from. A transfer is therefore one ``np.take`` (plus a multiply-add where
 a unit conversion or linear transformation applies) and one FMI setter call per slave and type.
@@ -40,7 +41,9 @@ def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, logging_o
 
 class Runtime:
     def __init__(self, plan: Plan, observed: list[Var], log: LogSink, step_multiples: dict[str, int] | None = None,
-                 logging_on: bool = False, inprocess: bool = False):
+                 logging_on: bool = False, inprocess: bool = False, sampled: list[Var] | None = None):
+        """``observed``: variables read after every step (monitors); ``sampled``: variables needed only when
+        the results are sampled (recording), read by :meth:`read_samples` then, not after every step."""
         self.plan = plan
         self.log = log
         self.names = list(plan.fmus)
@@ -54,7 +57,9 @@ class Runtime:
         self._logging_on = logging_on
         self._inprocess = inprocess
 
-        # what is read from each slave: connection sources first, then recorded/monitored variables
+        # what is read from each slave: connection sources first, then monitored variables (both after every
+        # step), then the variables only recorded (read when a sample is taken; a component on a multiple of
+        # the step reads them with its step, because its outputs are staged)
         reads: list[dict[str, list[Var]]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
         seen = set()
 
@@ -66,6 +71,12 @@ class Runtime:
             want(ln.src)
         for v in observed:
             want(v)
+        self._n_step_reads = [{t: len(reads[i][t]) for t in BASE_TYPES} for i in range(n)]
+        for v in sampled or ():
+            want(v)
+        for i in range(n):
+            if self.multiple[i] > 1:
+                self._n_step_reads[i] = {t: len(reads[i][t]) for t in BASE_TYPES}
         self.out: dict[str, np.ndarray] = {}
         self.out_pos: dict[str, int] = {}             # qualified name -> index in out[its type]
         self.out_slice: dict[str, list[tuple[int, int]]] = {}
@@ -117,10 +128,12 @@ class Runtime:
             slave.instantiate()
             slave.setup(start, stop)
         self._bind_ports()
+        self.bind_samples()
 
     def _bind_ports(self):
         n = len(self.names)
         self.read_ports = [[] for _ in range(n)]
+        self.sample_ports = [[] for _ in range(n)]
         self.staging = [None] * n
         self.write_ports = [[] for _ in range(n)]
         self.init_ports = [[] for _ in range(n)]
@@ -130,8 +143,13 @@ class Runtime:
             staged = []
             for t in BASE_TYPES:
                 a, b = self.out_slice[t][i]
+                c = a + self._n_step_reads[i][t]
+                if b > c:
+                    vrs = [v.vr for v in self._reads[i][t][c - a:]]
+                    self.sample_ports[i].append((t, slave.make_port(t, vrs, self.out[t][c:b])))
+                b = c
                 if b > a:
-                    vrs = [v.vr for v in self._reads[i][t]]
+                    vrs = [v.vr for v in self._reads[i][t][:b - a]]
                     view = self.out[t][a:b]
                     if self.multiple[i] > 1:
                         # a slower component's new outputs become visible when its macro step ends
@@ -170,8 +188,28 @@ class Runtime:
         publish = functools.partial(self.publish, i) if self.staging[i] else None
         return transfers, setters, slave.bound_step(), getters, publish
 
+    def bind_samples(self):
+        """Bind the reads of the recorded-only variables (after instantiation; see :meth:`read_samples`)."""
+        self._sample_ops = [[(slave.bound_get(t, port), slave, t) for t, port in self.sample_ports[i]]
+                            for i, slave in enumerate(self.slaves)]
+
+    def read_samples(self, t: float):
+        """Read the variables that are only recorded, from every active component (a component taken out
+        keeps the values it had)."""
+        active = self.active
+        for i, ops in enumerate(self._sample_ops):
+            if ops and active[i]:
+                for op, slave, typ in ops:
+                    st = op()
+                    if st > WARNING:
+                        raise slave.fail(f"getting recorded outputs ({typ})", st, t)
+
     def deactivate(self, i: int):
         if self.active[i]:
+            for op, slave, typ in self._sample_ops[i]:    # its recorded values freeze at its last step
+                st = op()
+                if st > WARNING:
+                    raise slave.fail(f"getting recorded outputs ({typ})", st)
             self.active[i] = False
             self.changed = True
 
@@ -204,8 +242,9 @@ class Runtime:
                 raise slave.fail(f"setting inputs ({typ})", st, t)
 
     def get_outputs(self, i: int, t: float):
+        """Every output the master reads from slave i (the step's and the recorded-only ones)."""
         slave = self.slaves[i]
-        for typ, port in self.read_ports[i]:
+        for typ, port in self.read_ports[i] + self.sample_ports[i]:
             st = slave.get_port(typ, port)
             if st > WARNING:
                 raise slave.fail(f"getting outputs ({typ})", st, t)
