@@ -160,6 +160,33 @@ def test_multi_rate_component_holds_its_inputs_and_outputs(tmp_path, test_fmus):
     assert r.metadata["step_multiples"] == {"slow": 5}
 
 
+def test_recorded_only_outputs_are_read_when_sampled(tmp_path, test_fmus):
+    # probe.y and slow.y feed nothing: the master reads them only when it records a row (slow, on a step
+    # multiple, with its step). Rows taken every 0.3 s must equal the every-step rows at those times, and
+    # the values must be the current ones: probe.y(t) = (t - h) - h (two Jacobi delays behind ramp.y = t)
+    h = 0.1
+    b = SspBuilder("rec", stop=1.8, step=h, step_multiples={"slow": 3})
+    b.add_component("ramp", test_fmus["c2:Integrator"], params={"x0": 0.0})
+    b.add_component("one", test_fmus["c2:Integrator"], params={"x0": 1.0})
+    b.add_component("g", test_fmus["c2:Gain"])
+    b.add_component("probe", test_fmus["c2:Integrator"], params={"a": 0.0})
+    b.add_component("slow", test_fmus["c2:Integrator"])
+    b.connect("one", "y", "ramp", "u")
+    b.connect("ramp", "y", "g", "u")
+    b.connect("g", "y", "probe", "u")
+    b.connect("ramp", "y", "slow", "u")
+    ssp = b.write(tmp_path / "rec.ssp")
+    every = master.run(ssp, output=None, record=["probe.y", "slow.y"]).frame
+    coarse = master.run(ssp, output=None, record=["probe.y", "slow.y"], record_interval=0.3).frame
+    assert list(coarse["time"]) == pytest.approx([0.3 * k for k in range(7)])
+    sub = every.iloc[::3].reset_index(drop=True)
+    assert coarse.equals(sub)
+    # probe integrates g.y = ramp.y delayed one step: x(t_n) = sum_{j<n} h * g.y(t_j), g.y(t_j) = t_{j-1}
+    n = np.arange(len(every))
+    expect = h * h * np.maximum(n - 1, 0) * np.maximum(n - 2, 0) / 2.0
+    np.testing.assert_allclose(every["probe.y"], expect, atol=1e-12)
+
+
 def test_exact_step_count_and_times_without_drift(tmp_path, test_fmus):
     b = SspBuilder("long", start=0.0, stop=1000.0, step=0.1)
     b.add_component("i", test_fmus["c2:Integrator"], params={"x0": 0.0})

@@ -207,3 +207,43 @@ def test_fast_get_set_equal_pythonfmu(name):
     reals = [vr for vr in by_type[Real] if s.vars[vr].causality.name in ("input", "parameter")]
     s.set_real(reals, [float(i + 1) for i in range(len(reals))])
     assert Fmi2Slave.get_real(s, reals) == [float(i + 1) for i in range(len(reals))]
+
+
+@pytest.mark.parametrize("name", ["UavDynamics", "UavBattery", "UavWind", "UavStrategy"])
+def test_cosim_bind_equals_the_fmi_methods(name):
+    # the in-process fast path (cosim_bind) reads what get_* returns and writes what set_* writes;
+    # a request that get_*/set_* would refuse gets None (the master then calls the FMI method)
+    from pythonfmu.variables import Integer, Real
+    s = _shell(name)
+    s.exit_initialization_mode()
+    s.do_step(0.0, 0.5)
+    for t, typ in ((Real, "Real"), (Integer, "Integer")):
+        vrs = [vr for vr, v in s.vars.items() if isinstance(v, t)]
+        assert s.cosim_bind("get", typ, vrs)() == getattr(s, f"get_{typ.lower()}")(vrs)
+        settable = [vr for vr in vrs if s.vars[vr].causality.name in ("input", "parameter")]
+        if settable:
+            values = [float(i) + 0.5 if t is Real else i + 7 for i in range(len(settable))]
+            s.cosim_bind("set", typ, settable)(values)
+            assert getattr(s, f"get_{typ.lower()}")(settable) == values
+    reals = [vr for vr, v in s.vars.items() if isinstance(v, Real)]
+    ints = [vr for vr, v in s.vars.items() if isinstance(v, Integer)]
+    if ints:
+        assert s.cosim_bind("get", "Real", reals[:1] + ints[:1]) is None
+    assert s.cosim_bind("get", "Real", [10 ** 6]) is None
+    assert s.cosim_bind("frobnicate", "Real", reals) is None
+
+
+def test_geodetic_outputs_follow_the_position():
+    # lat/lon/alt are computed when read: after every step they equal the conversion of (x, y, z)
+    from uavsim.geodesy import EnuFrame
+    s = _shell("UavDynamics")
+    s.exit_initialization_mode()
+    names = {v.name: vr for vr, v in s.vars.items()}
+    geo = [names["lat"], names["lon"], names["alt"]]
+    frame = EnuFrame(s.origin_lat, s.origin_lon, s.origin_alt)
+    s.cmd, s.sp_x, s.sp_y, s.sp_z = 2, 300.0, -120.0, 30.0
+    for k in range(40):
+        s.do_step(k * 1.0, 1.0)
+        if k % 7 == 0:
+            assert s.get_real(geo) == list(frame.to_geodetic(s.x, s.y, s.z))
+    assert s.z > 20.0 and s.get_real(geo)[2] > s.origin_alt + 20.0
