@@ -58,6 +58,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--output", "-o", default=None, help="campaign folder (default: results/<campaign name>)")
     c.add_argument("--workers", type=int, default=None, help="local worker processes (default: every core)")
     c.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    c.add_argument("--retry-failed", action="store_true", help="run the runs recorded as failed again")
+    c.add_argument("--max-runs", type=int, default=None, metavar="N",
+                   help="run at most N of the missing runs now (the rest stay for the next invocation)")
     c.add_argument("--no-progress", action="store_true")
     c.add_argument("--debug", action="store_true")
 
@@ -119,7 +122,8 @@ def _dispatch(args) -> int:
     if args.command == "campaign":
         from .campaign.runner import run_campaign
         summary = run_campaign(args.campaign_yaml, output=args.output, workers=args.workers,
-                               scheduler=args.scheduler, progress=not args.no_progress)
+                               scheduler=args.scheduler, progress=not args.no_progress,
+                               retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
         return 0 if summary.ok else 1
     if args.command == "report":

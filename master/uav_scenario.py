@@ -88,6 +88,7 @@ class UavScenario:
     lookahead: float = 2.0                           # m, zone detection distance (paper)
     algorithm: str = "jacobi"
     end_when_all_landed: bool = False                # end the run once every UAV has landed or crashed
+    zone_planning: bool = True                       # plan legs around zones (false: the paper's late detection)
 
     # ----------------------------------------------------------- local frame
     def targets_enu(self) -> np.ndarray:
@@ -302,6 +303,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
         kw["algorithm"] = v.choice("algorithm", data["algorithm"], ALGORITHMS)
     if "end_when_all_landed" in data:
         kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
+    if "zone_planning" in data:
+        kw["zone_planning"] = v.boolean("zone_planning", data["zone_planning"])
     scn = UavScenario(**kw)
     if scn.stop_time < scn.step:
         v.fail("stop_time", f"must be >= step ({scn.step:g}), got {scn.stop_time:g}")
@@ -349,7 +352,8 @@ def scenario_to_dict(scn: UavScenario) -> dict:
                  "turbulence": scn.wind.turbulence, "gusts": scn.wind.gusts},
         "seed": scn.seed, "step": scn.step, "stop_time": scn.stop_time,
         "impact_diameter": scn.impact_diameter, "lookahead": scn.lookahead,
-        "algorithm": scn.algorithm,
+        "algorithm": scn.algorithm, "end_when_all_landed": scn.end_when_all_landed,
+        "zone_planning": scn.zone_planning,
     }
 
 
@@ -397,6 +401,7 @@ PAPER_KEYS: dict[str, tuple[str, str]] = {
     "simulation.stop_time": ("stop_time", "float"),
     "collision.impact_diameter": ("impact_diameter", "float"),
     "restricted.lookahead": ("lookahead", "float"),
+    "restricted.zone_planning": ("zone_planning", "bool"),
     "master.algorithm": ("algorithm", "str"),
 }
 #: the landing point (first line of targets.txt) may differ from the base by this much

@@ -202,6 +202,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         b.add_component(s, fmus["strat"], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
             "targets": targets_s, "zones": zones_s, "lookahead": float(scn.lookahead),
+            "zone_planning": bool(scn.zone_planning),
             "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):
             b.connect(s, v, d, v)

@@ -98,8 +98,9 @@ def test_resume_after_max_runs_gives_the_same_table(reference, tmp_path, chain_f
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path)
     out = tmp_path / "out"
-    s1 = run_campaign(camp, output=out, workers=2, progress=False, max_runs=3)
-    assert (s1.ran_now, s1.pending) == (3, 7) and not s1.complete
+    from master.cli import main
+    # the command line's --max-runs / --retry-failed are run_campaign's max_runs / retry_failed
+    assert main(["campaign", str(camp), "-o", str(out), "--workers", "2", "--no-progress", "--max-runs", "3"]) == 1
     assert len(table(out)) == 3
     s2 = run_campaign(camp, output=out, workers=2, progress=False)
     assert (s2.skipped, s2.ran_now, s2.pending) == (3, 7, 0)
@@ -110,6 +111,9 @@ def test_resume_after_max_runs_gives_the_same_table(reference, tmp_path, chain_f
     # failed runs are finished runs; retry_failed runs them again (and they fail the same way)
     s4 = run_campaign(camp, output=out, workers=2, progress=False, retry_failed=True)
     assert (s4.skipped, s4.ran_now, s4.failed) == (6, 4, 4)
+    same_tables(table(out), table(d / "out"))
+    assert main(["campaign", str(camp), "-o", str(out), "--workers", "2", "--no-progress", "--retry-failed",
+                 "--max-runs", "1"]) == 1
     same_tables(table(out), table(d / "out"))
 
 

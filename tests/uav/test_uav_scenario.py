@@ -65,6 +65,21 @@ def test_dump_round_trip(tmp_path):
     assert scenario_to_dict(s)["base"] == {"lat": s.base[0], "lon": s.base[1], "alt": s.base[2]}
 
 
+def test_zone_planning_reaches_every_strategy(tmp_path):
+    # zone_planning (default true) becomes the strategy FMUs' zone_planning parameter, so a campaign can
+    # switch to the paper's late detection with one key
+    from master.inspect_scenario import inspect
+    from master.uav.build import build_scenario
+    for value, expect in ((None, True), (False, False)):
+        data = minimal(n_uavs=2) if value is None else minimal(n_uavs=2, zone_planning=value)
+        s = load_scenario_yaml(write(tmp_path, data, name=f"zp_{value}.yaml"))
+        assert s.zone_planning is expect
+        assert load_scenario_yaml(write(tmp_path, scenario_to_dict(s), name="again.yaml")) == s
+        info = inspect(build_scenario(tmp_path / f"zp_{value}.yaml", tmp_path / f"zp_{value}.ssp"))
+        got = {p["variable"]: p["value"] for p in info["parameters"] if p["variable"].endswith(".zone_planning")}
+        assert got == {"uav1_strat.zone_planning": expect, "uav2_strat.zone_planning": expect}
+
+
 # --------------------------------------------------------------- validation
 BAD = [
     (minimal(n_uavs=0), "n_uavs: must be >= 1, got 0"),
@@ -102,7 +117,8 @@ BAD = [
     (minimal(stop_time=float("nan")), "stop_time: must be finite, got nan"),
     (minimal(colour="red"), "colour: unknown field (expected one of name, base, n_uavs, strategy, targets, "
                             "takeoff_altitude, assignment, zones, wind, seed, step, stop_time, "
-                            "impact_diameter, lookahead, algorithm, end_when_all_landed)"),
+                            "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning)"),
+    (minimal(zone_planning="late"), "zone_planning: expected true or false, got 'late'"),
     ({k: v for k, v in minimal().items() if k != "strategy"}, "strategy: missing required field"),
     (minimal(zones={"a": 1}), "zones: expected a list of {name, polygon}"),
     (minimal(zones=[{"name": "z"}]), "zones[0].polygon: missing required field"),
