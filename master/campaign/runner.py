@@ -142,6 +142,8 @@ def _stale_reasons(old: dict, new: dict) -> list[str]:
         out.append("parameters changed")
     if old.get("seed") != new.get("seed"):
         out.append("seed changed")
+    if old.get("code_sha256") != new.get("code_sha256"):
+        out.append("cosim-master's code changed")
     return out or ["inputs changed"]
 
 

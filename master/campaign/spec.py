@@ -88,6 +88,34 @@ def file_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+#: modules that only read finished records (the report, the table): editing them changes no run's result
+REPORT_ONLY = ("campaign/report.py", "campaign/stats.py", "campaign/table.py", "cli.py", "inspect_scenario.py")
+_code_sha: str | None = None
+
+
+def code_sha256() -> str:
+    """Hash of the code a run executes besides its FMUs: the master package (without the report-only
+    modules) and the ``uavsim`` package (UAV campaigns import it; in-process runs may use the installed
+    copy).  Part of every run's inputs, so a campaign resumed after a code change reruns its runs."""
+    global _code_sha
+    if _code_sha is None:
+        import master
+        h = hashlib.sha256()
+        roots = [Path(master.__file__).resolve().parent]
+        try:
+            import uavsim
+            roots.append(Path(uavsim.__file__).resolve().parent)
+        except ImportError:     # pragma: no cover - installed with the project
+            pass
+        for root in roots:
+            for f in sorted(list(root.rglob("*.py")) + list(root.rglob("*.c"))):
+                rel = f"{root.name}/{f.relative_to(root).as_posix()}"
+                if rel.split("/", 1)[1] not in REPORT_ONLY and "__pycache__" not in rel:
+                    h.update(rel.encode() + b"\0" + file_sha256(f).encode() + b"\0")
+        _code_sha = h.hexdigest()
+    return _code_sha
+
+
 # ---------------------------------------------------------------------------------------------- model
 @dataclass
 class RunSpec:
@@ -345,13 +373,14 @@ def load_campaign(path) -> Campaign:
             for k in UAV_SCENARIO_OPTIONS:
                 if k in opts:
                     overrides[k] = opts[k]
+        code = code_sha256()
         for rep in range(reps):
             rid = run_id_for(params, rep)
             s = seed_for(seed, params, rep)
             inputs = {"scenario": labels[vkey], "scenario_sha256": scen_hash[vkey],
                       "fmus": fmu_hash if kind == "uav" else ssp_fmus[vkey],
                       "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts},
-                      "overrides": overrides, "seed": s}
+                      "overrides": overrides, "seed": s, "code_sha256": code}
             runs.append(RunSpec(len(runs), rid, params, rep, s, scen_files[vkey], labels[vkey], opts, overrides,
                                 canonical(inputs)))
     ids = [r.run_id for r in runs]

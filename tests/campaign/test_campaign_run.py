@@ -158,7 +158,7 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     same_tables(table(out), table(ref))
 
 
-def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus):
+def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch):
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path, CAMPAIGN.replace("runs:\n  - {param:gain.k: 5.0, param:integ.a: abc}     "
                                                      "# bad parameter value: a Python-level failure\n"
@@ -181,6 +181,11 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus):
     after = table(out)
     assert (after["scenario_sha256"] != before["scenario_sha256"]).all()
     same_tables(after, before, drop=("wall_time_s", "scenario_sha256"))   # k is a grid parameter: same results
+    # the master's (or uavsim's) code is an input too: after an upgrade the records are stale
+    import master.campaign.spec as spec
+    monkeypatch.setattr(spec, "_code_sha", "0" * 64)
+    s = run_campaign(camp, output=out, workers=2, progress=False, max_runs=0)
+    assert s.stale == 6 and s.stale_reasons == {"cosim-master's code changed": 6}
 
 
 def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus):
