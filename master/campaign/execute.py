@@ -198,6 +198,8 @@ def execute_run(task: dict) -> dict:
     if rec["error"]:
         rec["error"] = _one_line(rec["error"].replace(cdir, ""))
     used["fmus"] = sorted({h for h in rec["fmus"].values() if h})
+    from .spec import code_sha256
+    used["code_sha256"] = code_sha256()      # a Dask worker may run another installed version
     rec["used"] = used
     summary = out / "summary.json"
     if summary.is_file():

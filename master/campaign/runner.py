@@ -157,6 +157,8 @@ def _changed_inputs(expected: dict, used: dict | None) -> list[str]:
     known = set((expected.get("fmus") or {}).values())
     if any(h not in known for h in used.get("fmus") or []):
         out.append("an FMU changed")
+    if used.get("code_sha256") and expected.get("code_sha256") and used["code_sha256"] != expected["code_sha256"]:
+        out.append("cosim-master's code differs where the run ran")
     return out
 
 

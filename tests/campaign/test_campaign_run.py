@@ -219,3 +219,5 @@ def test_an_input_changed_while_the_campaign_runs_is_detected(tmp_path, chain_fm
     rec = execute_run(task)
     assert _changed_inputs(task["inputs"], rec["used"]) == ["scenario file chain.ssp changed"]
     assert _changed_inputs({"fmus": {"a.fmu": "1"}}, {"fmus": ["2"]}) == ["an FMU changed"]
+    assert _changed_inputs({"code_sha256": "a"}, {"code_sha256": "b"}) == ["cosim-master's code differs where the run ran"]
+    assert _changed_inputs(task["inputs"], rec["used"]) == ["scenario file chain.ssp changed"]   # same code here
