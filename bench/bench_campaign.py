@@ -12,26 +12,27 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
 
-Measured (2 cores shared with other jobs, load average 2-3; FMUs of 2026-11-21 06:54; step 0.25 s,
-stop 1500 s):
+Measured on 2026-11-21 (2 cores; step 0.25 s, stop 1500 s, runs end when the fleet has landed):
 
-* full campaign, 2 workers: 336 runs in 440 s (45.8 runs/min, 22.9 runs/min per core), pool efficiency
-  98 %; the target of 120 s is not reached.
-* one warm run (single process), by fleet size 1/2/3/4 UAVs, wind 15 %:
-  A free 1.34/1.75/2.73/0.63 s, A zones 1.48/2.13/2.67/0.64 s, B free 1.25/1.87/1.93/2.36 s,
-  B zones 1.12/1.59/2.07/2.58 s (4 UAVs with strategy A collide after ~20 s: their components stop
-  stepping); the first run of a worker costs ~1 s more (imports, FMU cache).
-* profile of one warm 4-UAV B run (3.0 s, 6000 steps): UAV model code 31 %, numpy/builtins called by
-  it and the monitor 25 %, FMU-side get/set shell (uavsim/fmi.py) 16 %, master FMI calls 9 %, UAV monitor
-  8 %, mission outputs (summary, trajectory, map.png) 5 %, master loop 3 %; fixed part of a run (build
-  the SSP from YAML, unpack, plan, instantiate, outputs) 0.44 s.
-* what reaches the target, measured on that run: step 1.0 instead of 0.25 -> 1.19 s (needs UavWind to
-  publish the wind averaged over the step, or sampled inside it: with a 1 s step every communication
-  point falls on the start of a 1 s wind episode, where the ramp is 0, so no wind reaches the UAVs);
-  ending the run when every UAV has landed or was removed (UavMonitor calling ctx.request_stop; missions
-  end by t = 1065 s at the latest, 43 % of the 1500 s on average) -> 1.00 s; no map.png for campaign
-  runs (an outputs option) -> 0.68 s.  Applied to the campaign's mix (mean warm run ~1.7 s today) that
-  is about 0.5 s per run, 336 x 0.5 / 2 = ~85 s on 2 cores.
+* 09:20 UTC, load average 0.6 before: **336 runs in 89.5 s** (225 runs/min, 112.7 runs/min per core), pool
+  efficiency 98 %, 0 failed; the CLI right after: 92.7 s.  Target 120 s: met.  Mean warm run by fleet size
+  1/2/3/4 UAVs: 0.52/0.47/0.68/0.43 s (4 UAVs under A collide early); one warm 4-UAV B run 0.55 s, of which
+  0.06 s is the fixed part (build the SSP from YAML, unpack, plan, instantiate, outputs).
+* what got it there from 173 s (the same command earlier that day), each measured on warm single runs:
+  the dynamics' 0.01 s sub-steps and the battery's coulomb counting in compiled kernels built into the FMUs
+  (bit-identical Python twins, uavsim/kernels.py; 4-UAV run 1.15 -> 0.78 s); the master binding our FMU
+  shells' fast accessors (cosim_bind: one attribute getter or one dict update per port; -> ~0.7 s);
+  the run's fixed part 0.11 -> 0.06 s (model descriptions from the per-process FMU cache instead of
+  re-reading them for every component of the SSP being written, libyaml, record patterns compiled to one
+  regular expression, entry points scanned once, the written scenario not parsed again); calm wind steps
+  short-cut; recorded-only outputs (lat/lon/alt & co.) read when a row is sampled, and UavDynamics
+  computing lat/lon/alt only when read.
+* per step of a 1-UAV run (0.25 s step, ~125 us): UAV monitor ~27 us, dynamics ~18 us (of which the 25
+  compiled sub-steps are ~2 us; the rest is Python around them), strategy ~15 us, wind ~12 us (windy
+  intervals), battery ~11 us, and ~35 us of master transfers and get/set calls over the four FMUs.
+  Further gains need fewer Python calls per step (a vectorised fleet model) rather than faster models.
+* earlier (06:54 FMUs, before the changes that made runs end when the fleet has landed and skip map.png):
+  440 s.
 """
 from __future__ import annotations
 
