@@ -188,8 +188,48 @@ TABLE2 = [
 ]
 
 
-def table2(u, r, alpha: float = 0.05) -> list[dict]:
-    """Table II: for each metric, A and B, the test, its p-value and which strategy is better."""
+def pair_keys(df, manifest) -> dict | None:
+    """run_id -> the key that matches a strategy-A run with its strategy-B twin (every other parameter and the
+    repetition: the runs that share their seed in a campaign with ``paired: [strategy]``); None when the
+    campaign is not paired on the strategy."""
+    if "strategy" not in (manifest.get("paired") or []) or df is None or "uav" not in df.columns:
+        return None
+    from .spec import canonical_json
+    keys = [k for k in manifest.get("param_keys", []) if k != "strategy" and k in df.columns] + ["rep"]
+    tot = df[df["uav"] == "total"]
+    return {rid: canonical_json([_plain(v) for v in row])
+            for rid, row in zip(tot["run_id"], tot[keys].itertuples(index=False))}
+
+
+def _plain(v):
+    return v.item() if hasattr(v, "item") else v
+
+
+def _paired(data, col, level, pairs, success: bool):
+    """(test, p, number of pairs, mean B - A) over the A/B twins of ``data`` (runs, or UAVs by name)."""
+    d = data[data["run_id"].isin(list(pairs))].copy()
+    d["_key"] = d["run_id"].map(pairs)
+    if level == "uav":
+        d["_key"] = d["_key"] + "/" + d["uav"].astype(str)
+    a = d[d["strategy"] == "A"].drop_duplicates("_key").set_index("_key")[col]
+    b = d[d["strategy"] == "B"].drop_duplicates("_key").set_index("_key")[col]
+    common = a.index.intersection(b.index)
+    a, b = a.loc[common], b.loc[common]
+    if success:
+        a, b = a.astype(bool), b.astype(bool)
+        n10, n01 = int((a & ~b).sum()), int((~a & b).sum())
+        return "McNemar exact", st.mcnemar_exact(n10, n01) if len(common) else math.nan, len(common), \
+            float((b.astype(float) - a.astype(float)).mean()) if len(common) else math.nan
+    diff = b.astype(float).to_numpy() - a.astype(float).to_numpy()
+    diff = diff[np.isfinite(diff)]
+    _, p, _ = st.wilcoxon_signed_rank(diff)
+    return "Wilcoxon signed-rank", p, int(diff.size), float(diff.mean()) if diff.size else math.nan
+
+
+def table2(u, r, alpha: float = 0.05, pairs: dict | None = None) -> list[dict]:
+    """Table II: for each metric, A and B, the test, its p-value and which strategy is better.  With
+    ``pairs`` (see :func:`pair_keys`) each row also has the paired test over the A/B twins, which then
+    decides "better" (same wind for both strategies: the more sensitive comparison)."""
     rows = []
     for key, label, level, col, better, wind_only in TABLE2:
         data = u if level == "uav" else r
@@ -225,6 +265,10 @@ def table2(u, r, alpha: float = 0.05) -> list[dict]:
             lead = "A"
         row["lead"] = lead
         p = row["p"]
+        if pairs:
+            test, pp, npairs, mean_diff = _paired(data, col, level, pairs, key == "success")
+            row.update(paired_test=test, paired_p=pp, n_pairs=npairs, paired_mean_diff=mean_diff)
+            p = pp
         row["better"] = lead if (lead != "tie" and math.isfinite(p) and p < alpha) else "none"
         row["sense"] = better
         rows.append(row)
@@ -586,7 +630,8 @@ def _uav_report(manifest, df, out: Path) -> str:
     u, r = uav_frames(df)
     fd = figure_data(u, r)
     files = draw_figures(fd, out)
-    t2 = table2(u, r)
+    pairs = pair_keys(df, manifest)
+    t2 = table2(u, r, pairs=pairs)
     cmp_rows = paper_comparison(u, r, fd, t2)
     L = [f"# Campaign report: {manifest['name']}", ""]
     L += [f"- {x}" for x in _campaign_facts(manifest, df)]
@@ -598,7 +643,11 @@ def _uav_report(manifest, df, out: Path) -> str:
               "remaining battery (as the paper's 42/84/126/168), the run for distance, photos and collisions. "
               "Only completed runs are analysed. Intervals of quantities that cannot be negative are truncated at 0. "
               "Caveat: the UAV missions of one run are not independent (they share the wind and can collide with "
-              "each other), so intervals and tests that treat missions as independent are indicative.", ""]
+              "each other), so intervals and tests that treat missions as independent are indicative."
+              + (" The campaign is paired on the strategy (same seed, i.e. same wind, for A and B): Table II also "
+                 "compares each A run with its B twin, with Wilcoxon's signed-rank test (zeros dropped; exact "
+                 "without ties, else the normal approximation with tie correction) and McNemar's exact test for "
+                 "successes, and the paired test decides which strategy is better." if pairs else ""), ""]
     # comparison
     L += ["## Our numbers next to the paper's", ""]
     rows = [[c["key"], c["paper"], c["ours"], _verdict(c)] for c in cmp_rows]
@@ -666,10 +715,20 @@ def _uav_report(manifest, df, out: Path) -> str:
     L += [_md_table(["strategy", "UAV-UAV", "zone (wall)"], rows), ""]
     # table II
     L += ["## Table II - which strategy is better (α = 0.05)", ""]
-    rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]),
-             x["better"] if x["better"] != "none" else f"no significant difference ({x['lead']} ahead)",
-             "B"] for x in t2]
-    L += [_md_table(["metric", "Strategy A", "Strategy B", "test", "p", "better (ours)", "paper"], rows), ""]
+    verdict = [x["better"] if x["better"] != "none" else f"no significant difference ({x['lead']} ahead)"
+               for x in t2]
+    if pairs:
+        rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]),
+                 f"{x['paired_test']}, {x['n_pairs']} pairs", _fmt_p(x["paired_p"]), v, "B"]
+                for x, v in zip(t2, verdict)]
+        L += [_md_table(["metric", "Strategy A", "Strategy B", "unpaired test", "p", "paired test", "paired p",
+                         "better (ours, paired)", "paper"], rows), ""]
+        L += ["The campaign is paired on the strategy (`paired: [strategy]`): each strategy-A run has a strategy-B "
+              "twin with the same parameters, repetition and seed, i.e. the same wind. The paired tests compare the "
+              "twins (per run, or per UAV of the same index) and decide \"better\".", ""]
+    else:
+        rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]), v, "B"] for x, v in zip(t2, verdict)]
+        L += [_md_table(["metric", "Strategy A", "Strategy B", "test", "p", "better (ours)", "paper"], rows), ""]
     L += ["Direction: more successes, photos and remaining energy are better; less distance and fewer collisions "
           "are better (the paper's reading). \"with wind\" rows use the runs with a wind probability above 0.", ""]
     L += ["## Failed runs", "", _failures_md(df)]

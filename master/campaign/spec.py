@@ -32,7 +32,7 @@ from ..errors import ScenarioError
 __all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
            "RUN_OPTIONS", "RESULT_OPTIONS"]
 
-TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep")
+TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep", "paired")
 #: fixed run options (``run:``), also allowed as grid/runs keys
 RUN_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record", "csv",
                "log_level", "timeout", "step_multiples")
@@ -148,6 +148,7 @@ class Campaign:
     options: dict               # fixed run options
     runs: list                  # [RunSpec] in run order
     text: str                   # the campaign file as read
+    paired: list = field(default_factory=list)   # parameters left out of the seeds (common random numbers)
 
     @property
     def by_id(self) -> dict:
@@ -157,7 +158,8 @@ class Campaign:
         """What ``campaign.json`` holds: the resolved campaign, enough to rebuild the table and report."""
         return {"format": 1, "name": self.name, "description": self.description, "campaign_file": str(self.path),
                 "seed": self.seed, "repetitions": self.repetitions, "kind": self.kind,
-                "param_keys": list(self.param_keys), "keep": self.keep, "options": self.options,
+                "param_keys": list(self.param_keys), "paired": list(self.paired), "keep": self.keep,
+                "options": self.options,
                 "runs": [{"run_id": r.run_id, "params": r.params, "rep": r.rep, "seed": r.seed,
                           "scenario": r.scenario_label, "inputs_sha256": r.inputs_sha256} for r in self.runs]}
 
@@ -342,6 +344,16 @@ def load_campaign(path) -> Campaign:
         psets = [{}]
     if variants and None not in scen_files and any("variant" not in p for p in psets):
         err("runs", "a run without variant needs a base scenario (scenario:)")
+    # ---- paired: parameters left out of the seed, so runs that differ only in them share their random
+    # numbers (common random numbers: strategy A and B meet the same wind)
+    paired = data.get("paired") or []
+    if isinstance(paired, str):
+        paired = [paired]
+    if not isinstance(paired, list) or not all(isinstance(k, str) for k in paired):
+        err("paired", "expected a parameter name or a list of them")
+    for k in paired:
+        if k not in param_keys:
+            err("paired", f"{k!r} is not a parameter of this campaign (parameters: {', '.join(param_keys) or 'none'})")
 
     # ---- input fingerprints (hashes once per scenario file)
     scen_hash = {k: file_sha256(p) if p.is_file() else _tree_sha(p) for k, p in scen_files.items()}
@@ -376,7 +388,7 @@ def load_campaign(path) -> Campaign:
         code = code_sha256()
         for rep in range(reps):
             rid = run_id_for(params, rep)
-            s = seed_for(seed, params, rep)
+            s = seed_for(seed, {k: v for k, v in params.items() if k not in paired}, rep)
             inputs = {"scenario": labels[vkey], "scenario_sha256": scen_hash[vkey],
                       "fmus": fmu_hash if kind == "uav" else ssp_fmus[vkey],
                       "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts},
@@ -386,7 +398,8 @@ def load_campaign(path) -> Campaign:
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):  # pragma: no cover - a 48-bit collision
         err("grid", "two runs got the same run id; change the campaign seed or a parameter spelling")
-    return Campaign(path.resolve(), name, str(description), seed, reps, kind, param_keys, keep, options, runs, text)
+    return Campaign(path.resolve(), name, str(description), seed, reps, kind, param_keys, keep, options, runs, text,
+                    list(paired))
 
 
 def _check_options(err, where, opts: dict):

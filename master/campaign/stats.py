@@ -9,6 +9,9 @@
 * :func:`mann_whitney_u` -- two-sided Mann-Whitney U test as scipy's ``method="auto"``: exact null
   distribution when either sample has at most 8 values and there are no ties, else the normal
   approximation with tie correction and continuity correction;
+* :func:`wilcoxon_signed_rank` -- two-sided Wilcoxon signed-rank test of paired differences (zeros dropped;
+  exact for up to 50 differences without ties, else normal with tie correction, as scipy's "approx");
+* :func:`mcnemar_exact` -- two-sided exact McNemar test of paired yes/no outcomes;
 * :func:`ols_slope` -- least-squares slope with its t interval.
 
 The test suite checks every function against scipy.stats and against hand computation.
@@ -21,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["t_ppf", "t_cdf", "norm_ppf", "mean_ci", "total_ci", "wilson_ci", "fisher_exact", "mann_whitney_u",
-           "ols_slope", "CI"]
+           "wilcoxon_signed_rank", "mcnemar_exact", "ols_slope", "CI"]
 
 Z975 = 1.959963984540054
 
@@ -238,6 +241,53 @@ def mann_whitney_u(x, y) -> tuple[float, float]:
     else:
         p = 2.0 * _mwu_exact_sf(int(round(u)), n1, n2)
     return u1, float(min(1.0, max(0.0, p)))
+
+
+def _signed_rank_exact_cdf(t: int, n: int) -> float:
+    """P(T+ <= t) under H0 for n non-zero differences without ties: count the subsets of {1..n} with sum <= t."""
+    top = n * (n + 1) // 2
+    counts = [0] * (top + 1)
+    counts[0] = 1
+    for k in range(1, n + 1):
+        for s in range(top, k - 1, -1):
+            counts[s] += counts[s - k]
+    return sum(counts[:max(0, t) + 1]) / 2.0 ** n
+
+
+def wilcoxon_signed_rank(d) -> tuple[float, float, str]:
+    """Two-sided Wilcoxon signed-rank test of paired differences ``d`` (zeros dropped, as scipy's
+    ``zero_method="wilcox"``); returns (T+ = sum of the ranks of the positive differences, p-value, method).
+    Exact null distribution for at most 50 differences without ties (method "exact"), else the normal
+    approximation with the tie correction of the variance and no continuity correction (scipy's
+    ``method="approx"``, ``correction=False``): mid-ranks make the exact distribution invalid with ties."""
+    d = _clean(d)
+    d = d[d != 0.0]
+    n = d.size
+    if n == 0:
+        return math.nan, math.nan, "none"
+    ranks, ties = _ranks(np.abs(d))
+    t_plus = float(ranks[d > 0].sum())
+    if n <= 50 and not (ties > 1).any():
+        t = int(round(t_plus))
+        top = n * (n + 1) // 2
+        p = 2.0 * min(_signed_rank_exact_cdf(t, n), _signed_rank_exact_cdf(top - t, n))
+        return t_plus, float(min(1.0, p)), "exact"
+    mean = n * (n + 1) / 4.0
+    var = n * (n + 1) * (2 * n + 1) / 24.0 - float((ties ** 3 - ties).sum()) / 48.0
+    if var <= 0:
+        return t_plus, 1.0, "approx"
+    z = (t_plus - mean) / math.sqrt(var)
+    return t_plus, float(min(1.0, 2.0 * norm_sf(abs(z)))), "approx"
+
+
+def mcnemar_exact(b: int, c: int) -> float:
+    """Two-sided exact McNemar test: b and c are the discordant pairs (first yes / second no, and the
+    reverse); under H0 min(b, c) is Binomial(b + c, 1/2)."""
+    n = int(b) + int(c)
+    if n == 0:
+        return 1.0
+    k = min(int(b), int(c))
+    return float(min(1.0, 2.0 * sum(math.comb(n, i) for i in range(k + 1)) / 2.0 ** n))
 
 
 def ols_slope(x, y, level: float = 0.95) -> CI:

@@ -172,3 +172,59 @@ def test_stats_module_agrees_with_scipy():
     assert st.mann_whitney_u([1, 2, 3], [4, 5, 6]) == (0.0, pytest.approx(0.1))
     m = st.mean_ci([40, 50, 60])
     assert m.estimate == 50 and m.low == pytest.approx(50 - 4.302652729749464 * 10 / math.sqrt(3))
+
+
+def test_paired_tests_agree_with_scipy_and_hand_computation():
+    rng = np.random.default_rng(7)
+    for _ in range(80):
+        n = int(rng.integers(1, 70))
+        d = rng.integers(-4, 5, n).astype(float) if rng.random() < 0.5 else rng.normal(0.3, size=n)
+        t, p, method = st.wilcoxon_signed_rank(d)
+        nz = d[d != 0]
+        if nz.size == 0:
+            assert math.isnan(p)
+            continue
+        ref = scipy_stats.wilcoxon(nz, zero_method="wilcox", correction=False, method=method)
+        # scipy's two-sided statistic is min(T+, T-); ours is T+
+        assert min(t, nz.size * (nz.size + 1) / 2 - t) == pytest.approx(ref.statistic)
+        assert p == pytest.approx(ref.pvalue, rel=1e-9, abs=1e-12)
+        b, c = (int(v) for v in rng.integers(0, 30, 2))
+        assert st.mcnemar_exact(b, c) == pytest.approx(scipy_stats.binomtest(min(b, c), b + c, 0.5).pvalue
+                                                       if b + c else 1.0, rel=1e-12)
+    # by hand: d = (1, 2, 3) all positive -> T+ = 6, P(T+ >= 6) = 1/8, two-sided 0.25
+    assert st.wilcoxon_signed_rank([1.0, 2.0, 3.0]) == (6.0, pytest.approx(0.25), "exact")
+    # McNemar: 0 vs 5 discordant pairs -> 2 * (1/2)^5 = 0.0625
+    assert st.mcnemar_exact(0, 5) == pytest.approx(0.0625)
+
+
+def test_paired_campaign_compares_twins(hand):
+    # with paired: [strategy] each A run has a B twin (same n, area, wind, rep); the paired tests run on the
+    # twins' differences, derived here from _mission by hand
+    from master.campaign.report import pair_keys
+    folder, _, df, u, r = hand
+    manifest = json.loads((folder / "campaign.json").read_text())
+    assert pair_keys(df, manifest) is None                       # not paired: no twins
+    manifest["paired"] = ["strategy"]
+    pairs = pair_keys(df, manifest)
+    t2 = {x["key"]: x for x in table2(u, r, pairs=pairs)}
+    twins = [(n, a, w, k) for n in FLEETS for a in AREAS for w in WINDS for k in range(n)]
+    energy = [_mission("B", *c)["remaining_battery_pct"] - _mission("A", *c)["remaining_battery_pct"] for c in twins]
+    assert t2["energy"]["n_pairs"] == 12 and t2["energy"]["paired_test"] == "Wilcoxon signed-rank"
+    # every twin differs by the same 7 points: 12 ties, so the normal approximation with tie correction
+    assert t2["energy"]["paired_p"] == pytest.approx(
+        scipy_stats.wilcoxon(energy, correction=False, method="approx").pvalue)
+    runs = [(n, a, w) for n in FLEETS for a in AREAS for w in WINDS]
+    dist = [sum(_mission("B", n, a, w, k)["distance_m"] - _mission("A", n, a, w, k)["distance_m"] for k in range(n))
+            for n, a, w in runs]
+    assert t2["distance"]["n_pairs"] == 8
+    assert t2["distance"]["paired_p"] == pytest.approx(
+        scipy_stats.wilcoxon(dist, correction=False, method="approx").pvalue)
+    a_only = sum(_mission("A", *c)["success"] and not _mission("B", *c)["success"] for c in twins)
+    b_only = sum(_mission("B", *c)["success"] and not _mission("A", *c)["success"] for c in twins)
+    assert t2["success"]["paired_test"] == "McNemar exact"
+    assert t2["success"]["paired_p"] == pytest.approx(scipy_stats.binomtest(min(a_only, b_only), a_only + b_only).pvalue)
+    # the paired p decides "better": B has 7 points more battery in every twin
+    assert t2["energy"]["better"] == ("B" if t2["energy"]["paired_p"] < 0.05 else "none")
+    (folder / "campaign.json").write_text(json.dumps(manifest))
+    text = build_report(folder).read_text()
+    assert "paired test" in text and "Wilcoxon signed-rank, 12 pairs" in text

@@ -67,11 +67,26 @@ def test_explicit_runs_and_duplicates(tmp_path):
     ("keep: some\n", "keep: must be one of summary, all"),
     ("repetitions: 0\n", "repetitions: expected an integer >= 1"),
     ("grids: {}\n", "grids: unknown field"),
+    ("paired: [param:a.x]\n", "paired: 'param:a.x' is not a parameter of this campaign"),
+    ("grid:\n  param:a.x: [1]\npaired: {a: 1}\n", "paired: expected a parameter name or a list of them"),
 ])
 def test_bad_campaign_files_give_one_line_errors(tmp_path, body, message):
     with pytest.raises(ScenarioError) as e:
         load_campaign(camp(tmp_path, body))
     assert message in str(e.value) and "\n" not in str(e.value) and str(tmp_path / "c.yaml") in str(e.value)
+
+
+def test_paired_parameters_are_left_out_of_the_seed(tmp_path):
+    # paired: [param:s.k] -> runs differing only in s.k share their seed (common random numbers); ids differ
+    body = "seed: 3\nrepetitions: 2\ngrid:\n  param:s.k: [1, 2]\n  param:w.p: [0.1, 0.2]\n"
+    plain = load_campaign(camp(tmp_path, body))
+    paired = load_campaign(camp(tmp_path, body + "paired: param:s.k\n"))
+    assert paired.paired == ["param:s.k"] and paired.manifest()["paired"] == ["param:s.k"]
+    assert [r.run_id for r in paired.runs] == [r.run_id for r in plain.runs]
+    by = {(r.params["param:s.k"], r.params["param:w.p"], r.rep): r.seed for r in paired.runs}
+    for (k, w, rep), s in by.items():
+        assert s == by[(3 - k, w, rep)] == seed_for(3, {"param:w.p": w}, rep)
+    assert len(set(by.values())) == 4 and len({r.seed for r in plain.runs}) == 8
 
 
 def test_missing_scenario(tmp_path):
@@ -88,7 +103,12 @@ def test_shipped_paper_campaign_is_the_papers_grid():
     assert sorted({r.params["n_uavs"] for r in c.runs}) == [1, 2, 3, 4]
     assert sorted({r.params["variant"] for r in c.runs}) == ["free", "zones"]
     assert sorted({r.params["wind.probability"] for r in c.runs}) == [0, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15]
-    assert len({r.run_id for r in c.runs}) == 336 and len({r.seed for r in c.runs}) == 336
+    # paired on the strategy: A and B of the same grid point and repetition fly the same wind
+    assert c.paired == ["strategy"]
+    assert len({r.run_id for r in c.runs}) == 336 and len({r.seed for r in c.runs}) == 168
+    seeds = {(r.params["strategy"], r.params["n_uavs"], r.params["variant"], r.params["wind.probability"], r.rep):
+             r.seed for r in c.runs}
+    assert all(seeds[("A", *k[1:])] == seeds[("B", *k[1:])] for k in seeds)
     r = c.runs[0]
     assert r.overrides["stop_time"] == 1500 and r.overrides["step"] == c.options["step"] <= 0.5
     assert set(r.inputs["fmus"]) == {"UavBattery.fmu", "UavDynamics.fmu", "UavStrategy.fmu", "UavWind.fmu"}
