@@ -325,17 +325,21 @@ def _cleanup_orphans(out: Path, camp: Campaign):
 #: how often a run is submitted again after Dask reported its worker killed (see _run_dask)
 DASK_KILLED_RETRIES = 2
 
+
 def _run_dask(scheduler, tasks: list[dict], on_result):
     """Submit every task to a Dask distributed scheduler; records come back as the futures finish.
 
     The runs' own folders are written by the Dask workers (a shared filesystem is assumed for them);
-    the records travel back with the results and are written here.
+    the records travel back with the results and are written here.  Each worker thread runs its tasks in a
+    child process of its own (``isolated.run_isolated``), so a crashing FMU or the run ``timeout`` costs the
+    run only, with the same failure records as the local pool.
     """
     import uuid
 
     from distributed import Client, as_completed
 
-    from .execute import execute_run, failure_record
+    from .execute import failure_record
+    from .isolated import run_isolated
     client = scheduler if hasattr(scheduler, "submit") else Client(scheduler, timeout="30s")
     token = uuid.uuid4().hex[:8]
     futures = {}
@@ -343,7 +347,8 @@ def _run_dask(scheduler, tasks: list[dict], on_result):
 
     def submit(t):
         n = attempts[t["run_id"]] = attempts.get(t["run_id"], 0) + 1
-        f = client.submit(execute_run, t, key=f"cosim-run-{t['run_id']}-{token}-{n}", pure=False)
+        # each run in a child process of the Dask worker: a crash or a timeout is the run's failure record
+        f = client.submit(run_isolated, t, key=f"cosim-run-{t['run_id']}-{token}-{n}", pure=False)
         futures[f] = t
         return f
 
