@@ -164,7 +164,8 @@ class Battery:
         bp = self.params
         self._count = (self.kernels or _kernels.load()).make_battery()
         self._power = power_function(self.power_params)
-        self._kparams = None
+        self._kparams = (float(bp.cells), bp.resistance, bp.capacity_c, float(len(bp.ocv_soc)),
+                         *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J
         self.power = 0.0
@@ -226,15 +227,9 @@ class Battery:
             return
         motors_on = int(phase) in (1, 2, 3)
         n, h = self._substeps(dt)
-        kp = self._kparams
-        if kp is None:
-            bp = self.params
-            m = len(bp.ocv_soc)
-            kp = self._kparams = (float(bp.cells), bp.resistance, bp.capacity_c, float(m),
-                                  *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
         demand = self._power(airspeed, vz, motors_on)
         s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, n, h, demand]
-        self._count(s, kp)
+        self._count(s, self._kparams)
         q, e, cur, over, volt, pw = s[:6]
         self.charge_used, self.energy_used = q, e
         self.current, self.overload, self.voltage, self.power = cur, bool(over), volt, pw

@@ -97,7 +97,7 @@ class Dynamics:
     def __post_init__(self):
         p = self.params
         self._fly = (self.kernels or _kernels.load()).make_fly()
-        self._kparams = None
+        self._kparams = self._kernel_params()
         self.time = 0.0
         self.pos = [p.home_x, p.home_y, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -178,8 +178,6 @@ class Dynamics:
         """n sub-steps of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
         the reference code."""
         kp = self._kparams
-        if kp is None:
-            kp = self._kparams = self._kernel_params()
         spx, spy, spz = float(sp[0]), float(sp[1]), float(sp[2])
         wx, wy = self.wind[0], self.wind[1]
         i = 0
@@ -195,25 +193,18 @@ class Dynamics:
             i = self._fly(s, kp)
             (px, py, pz, vx, vy, vtx, vty, vtz, ix, iy, ax, ay, hx, hy, hold_z, phase, mode,
              landed) = s[:18]
-            if landed:
-                self.pos = [px, py, 0.0]
-                self.vel = [0.0, 0.0, 0.0]
-                self.vt = [0.0, 0.0]
-                self.vtz = 0.0
-                self.integ = [0.0, 0.0]
-                self.a_cmd = [0.0, 0.0]
-                self.phase = LANDED
-            else:
-                self.pos = [px, py, pz]
-                self.vel = [vx, vy, vtz]
-                self.vt = [vtx, vty]
-                self.vtz = vtz
-                self.integ = [ix, iy]
-                self.a_cmd = [ax, ay]
-                self.phase = int(phase)
+            self.pos = [px, py, pz]
+            self.vel = [vx, vy, vtz]
+            self.vt = [vtx, vty]
+            self.vtz = vtz
+            self.integ = [ix, iy]
+            self.a_cmd = [ax, ay]
+            self.phase = int(phase)
             self.mode = "goto" if mode else "hold"
             self.hold = [hx, hy]
             self.hold_z = hold_z
+            if landed:
+                self._touch_down()
 
     def _set_hold_here(self):
         self.hold = [self.pos[0], self.pos[1]]
@@ -312,10 +303,14 @@ class Dynamics:
             self.mode = "hold"
             self.hold_z = p.takeoff_altitude
         if self.phase == LAND and self.pos[2] <= 0.0:
-            self.pos[2] = 0.0
-            self.vel = [0.0, 0.0, 0.0]
-            self.vt = [0.0, 0.0]
-            self.vtz = 0.0
-            self.integ = [0.0, 0.0]
-            self.a_cmd = [0.0, 0.0]
-            self.phase = LANDED
+            self._touch_down()
+
+    def _touch_down(self) -> None:
+        """On the ground after a landing: at rest, controller state cleared."""
+        self.pos[2] = 0.0
+        self.vel = [0.0, 0.0, 0.0]
+        self.vt = [0.0, 0.0]
+        self.vtz = 0.0
+        self.integ = [0.0, 0.0]
+        self.a_cmd = [0.0, 0.0]
+        self.phase = LANDED
