@@ -1,54 +1,37 @@
-"""Monitors: plugins that look at the system between steps (collisions, zone incursions, ...).
+"""Monitors: observers that look at the system between steps (collisions, zone incursions, ...) and may
+take components out or end the run.
 
-A monitor is switched on by an annotation in the SSD whose ``type`` it registered for, so the master
-itself stays generic. Third-party monitors register through the ``cosim_master.monitors`` entry point
-group (name = annotation type, value = class).
+A monitor is switched on by an annotation in the SSD whose ``type`` it registered for, so the engine itself
+stays generic. Monitors of other packages (the UAV study's, third parties') register through the
+``cosim_master.monitors`` entry point group (name = annotation type, value = class).
 """
 from __future__ import annotations
 
+from ..registry import Registry
 from .base import Monitor, MonitorContext
 
-MONITORS: dict[str, type[Monitor]] = {}
+MONITORS: Registry[type[Monitor]] = Registry("monitor", "cosim_master.monitors")
 
 
 def register(annotation_type: str):
+    """Class decorator: the monitor is switched on by SSD annotations of this type."""
     def deco(cls):
         cls.annotation_type = annotation_type
-        MONITORS[annotation_type] = cls
-        return cls
+        return MONITORS.register(annotation_type, cls)
     return deco
 
 
-def _load_builtin():
-    from . import uav  # noqa: F401  (registers itself)
-
-
-_entry_points_scanned = False
-
-
-def _load_entry_points():
-    global _entry_points_scanned
-    if _entry_points_scanned:      # scanning the installed distributions costs ~10 ms: once per process
-        return
-    _entry_points_scanned = True
-    try:
-        from importlib.metadata import entry_points
-        for ep in entry_points(group="cosim_master.monitors"):
-            MONITORS.setdefault(ep.name, ep.load())
-    except Exception:
-        pass
-
-
 def monitors_for(model, plan, shown_as) -> list[Monitor]:
-    try:
-        _load_builtin()
-    except ImportError:
-        pass
-    if any(typ not in MONITORS for typ in model.annotations):
-        _load_entry_points()
+    """One monitor per SSD annotation whose type a monitor registered for (a registered monitor that cannot
+    be loaded is an error: the scenario must not run without it)."""
     found = []
     for typ, element in model.annotations.items():
-        cls = MONITORS.get(typ)
+        cls = MONITORS.find(typ) if typ else None
         if cls is not None:
+            if not getattr(cls, "annotation_type", ""):
+                cls.annotation_type = typ
             found.append(cls(element, plan, shown_as))
     return found
+
+
+__all__ = ["MONITORS", "Monitor", "MonitorContext", "monitors_for", "register"]

@@ -1,0 +1,111 @@
+"""One registry per extension kind: algorithms, monitors, observers, sinks, scenario kinds.
+
+Built-in extensions register themselves when their module is imported (the packages import every module
+of their folder, so a new built-in is one new file); installed packages publish theirs under an entry point
+group (``cosim_master.<kind>``: name = the key, value = ``module:object``). The CLI, the SSD settings
+annotation, campaigns and scenario files all look names up here, so a new name is known everywhere at once.
+
+A plugin that is named but fails to load is an error, never a silent fallback: a UAV scenario whose
+monitor cannot be imported must not run without it.
+"""
+from __future__ import annotations
+
+from typing import Callable, Generic, Iterator, TypeVar
+
+from .errors import CosimError
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    def __init__(self, kind: str, group: str, builtins: Callable[[], None] | None = None):
+        self.kind = kind                  # shown in messages: "algorithm", "monitor", ...
+        self.group = group                # entry point group
+        self._items: dict[str, T] = {}
+        self._builtins = builtins         # imports the built-in modules (they register themselves)
+        self._builtins_loaded = builtins is None
+        self._entry_points: dict | None = None
+
+    # -- registration ----------------------------------------------------------------------------------
+    def register(self, name: str, obj: T | None = None, *, replace: bool = False):
+        """``REG.register("name", obj)`` or, as a class decorator, ``@REG.register("name")``."""
+        def add(o):
+            if not replace and name in self._items and self._items[name] is not o:
+                raise CosimError(f"{self.kind} {name!r} is registered twice ({self._items[name]!r} and {o!r})",
+                                 element=self.group)
+            self._items[name] = o
+            if isinstance(o, type) and getattr(o, "registered_name", None) in (None, ""):
+                o.registered_name = name
+            return o
+        return add if obj is None else add(obj)
+
+    def unregister(self, name: str) -> None:
+        self._items.pop(name, None)
+
+    # -- look-up ---------------------------------------------------------------------------------------
+    def _load_builtins(self):
+        if not self._builtins_loaded:
+            self._builtins_loaded = True
+            self._builtins()
+
+    def _scan(self) -> dict:
+        if self._entry_points is None:     # scanning the installed distributions costs ~10 ms: once a process
+            from importlib.metadata import entry_points
+            self._entry_points = {ep.name: ep for ep in entry_points(group=self.group)}
+        return self._entry_points
+
+    def _load(self, name: str) -> T | None:
+        ep = self._scan().get(name)
+        if ep is None:
+            return None
+        try:
+            obj = ep.load()
+        except Exception as exc:  # noqa: BLE001 - any import failure of a named plugin is the user's error
+            raise CosimError(f"the {self.kind} {name!r} is installed ({ep.value}) but cannot be loaded: "
+                             f"{type(exc).__name__}: {' '.join(str(exc).split())}", element=self.group) from None
+        if name not in self._items:
+            self.register(name, obj)
+        return self._items[name]
+
+    def get(self, name: str, *, element: str | None = None) -> T:
+        found = self.find(name)
+        if found is None:
+            raise CosimError(f"unknown {self.kind} {name!r} (known: {', '.join(self.names()) or 'none'})",
+                             element=element or self.group)
+        return found
+
+    def find(self, name: str) -> T | None:
+        """The extension registered as ``name``, or None when there is none (an entry point that fails to
+        load raises)."""
+        self._load_builtins()
+        if name in self._items:
+            return self._items[name]
+        return self._load(name)
+
+    def names(self) -> list[str]:
+        """Every name, built-in, registered at run time or published by an installed package."""
+        self._load_builtins()
+        return sorted(set(self._items) | set(self._scan()))
+
+    def load_all(self) -> dict[str, T]:
+        for name in self.names():
+            self.find(name)
+        return dict(self._items)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.names()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+
+def import_submodules(package: str) -> Callable[[], None]:
+    """A ``builtins`` loader that imports every module of ``package`` (so that each registers itself)."""
+    def load():
+        import importlib
+        import pkgutil
+        pkg = importlib.import_module(package)
+        for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
+            if not info.name.startswith("_"):
+                importlib.import_module(f"{package}.{info.name}")
+    return load
