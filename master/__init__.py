@@ -5,9 +5,16 @@ from .errors import CosimError, FmuError, ScenarioError  # noqa: E402
 
 
 def run(scenario, **options):
-    """Run a scenario; see master.runner.run for the options."""
+    """Run a scenario from start to stop; see master.runner.run and master.execution.Options."""
     from .runner import run as _run
     return _run(scenario, **options)
+
+
+def __getattr__(name):   # lazy: ``import master`` stays cheap (campaign workers, the CLI's --help)
+    if name == "Execution":
+        from .execution import Execution
+        return Execution
+    raise AttributeError(name)
 
 
 def inspect(scenario, **options):
@@ -16,4 +23,4 @@ def inspect(scenario, **options):
     return _inspect(scenario, **options)
 
 
-__all__ = ["run", "inspect", "CosimError", "FmuError", "ScenarioError", "__version__"]
+__all__ = ["run", "inspect", "Execution", "CosimError", "FmuError", "ScenarioError", "__version__"]

@@ -6,6 +6,7 @@ import json
 import sys
 
 from . import __version__
+from .algorithms import ALGORITHMS
 from .errors import CosimError
 
 
@@ -29,7 +30,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--stop-time", type=float)
     r.add_argument("--start-time", type=float)
     r.add_argument("--step", type=float, help="master step size in seconds")
-    r.add_argument("--algorithm", choices=["jacobi", "gauss-seidel"])
+    r.add_argument("--algorithm", choices=ALGORITHMS.names())
     r.add_argument("--output", "-o", default=None, help="result folder (default: results/<scenario name>)")
     r.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[])
     r.add_argument("--record", action="append", metavar="PATTERN", default=[],
@@ -50,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--json", action="store_true")
     i.add_argument("--step", type=float)
     i.add_argument("--stop-time", type=float)
-    i.add_argument("--algorithm", choices=["jacobi", "gauss-seidel"])
+    i.add_argument("--algorithm", choices=ALGORITHMS.names())
     i.add_argument("--debug", action="store_true")
 
     c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)")

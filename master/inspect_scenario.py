@@ -4,19 +4,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order
-from .plan import build_plan
-from .runner import resolve_settings
-from .ssp.archive import open_scenario
-from .ssp.parser import read_ssd
+from .execution import prepare
+from .settings import resolve_settings
 
 
 def inspect(scenario, **overrides) -> dict:
-    scenario = Path(scenario)
-    shown_as = str(scenario)
-    src = open_scenario(scenario)
+    p = prepare(Path(scenario))
+    model, plan, shown_as = p.model, p.plan, p.shown_as
     try:
-        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
-        plan = build_plan(model, shown_as)
         info: dict = {"scenario": shown_as, "name": model.name, "ssp_version": model.version, "components": {}}
         for name, comp in model.components.items():
             fmu = plan.fmus[name]
@@ -51,7 +46,7 @@ def inspect(scenario, **overrides) -> dict:
         info["annotations"] = sorted(k for k in model.annotations if k)
         return info
     finally:
-        src.close()
+        p.source.close()
 
 
 def format_inspect(info: dict) -> str:

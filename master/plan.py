@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
-from .fmi.slaves import base_type
+from .fmi.slave import base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
 
@@ -167,6 +167,11 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         value = _check_value(v, pv.value, pv.type, pv.origin, where)
         src_unit = getattr(pv, "unit", None)
         if v.type == "Real" and src_unit and v.unit and src_unit != v.unit:
+            for u in (src_unit, v.unit):
+                if units.get(u) is None:
+                    raise ScenarioError(f"unit {u} has no definition in the SSD or the FMU, so {src_unit} cannot "
+                                        f"be converted to {v.unit}", file=pv.origin.rsplit(":", 1)[0], element=where,
+                                        line=_line(pv.origin))
             conv = conversion(units.get(src_unit), units.get(v.unit))
             if conv is None:
                 raise ScenarioError(f"unit {src_unit} cannot be converted to {v.unit}",

@@ -92,6 +92,9 @@ class Registry(Generic[T]):
             self.find(name)
         return dict(self._items)
 
+    def __getitem__(self, name: str) -> T:
+        return self.get(name)
+
     def __contains__(self, name: str) -> bool:
         return name in self.names()
 

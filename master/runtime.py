@@ -13,30 +13,15 @@ import functools
 
 import numpy as np
 
-from .errors import CosimError, FmuError
-from .fmi.cache import LoadedFmu
+from .errors import CosimError
 from .fmi.logsink import LogSink
-from .fmi.slaves import BASE_TYPES, DTYPES, WARNING, Fmi2Slave, Fmi3Slave
+from .fmi.factory import make_slave
+from .fmi.slave import BASE_TYPES, DTYPES, WARNING
 from .plan import Plan, Var
 
 
 def _dtype(t):
     return DTYPES.get(t, object)
-
-
-def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, logging_on: bool, inprocess: bool):
-    md = fmu.md
-    if md.coSimulation is None and md.modelExchange is not None:
-        from .fmi.model_exchange import Fmi2MeSlave
-        return Fmi2MeSlave(name, fmu, log, shown_as, logging_on)
-    if fmu.fmi_version.startswith("3"):
-        return Fmi3Slave(name, fmu, log, shown_as, logging_on)
-    if inprocess:
-        from .fmi.inprocess import try_inprocess
-        slave = try_inprocess(name, fmu, log, shown_as, logging_on)
-        if slave is not None:
-            return slave
-    return Fmi2Slave(name, fmu, log, shown_as, logging_on)
 
 
 class Runtime:
@@ -123,7 +108,7 @@ class Runtime:
         for i, name in enumerate(self.names):
             fmu = self.plan.fmus[name]
             shown = f"{self.plan.shown_as}/{self.plan.model.components[name].source}"
-            slave = make_slave(name, fmu, self.log, shown, self._logging_on, self._inprocess)
+            slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess)
             self.slaves[i] = slave
             slave.instantiate()
             slave.setup(start, stop)
@@ -231,9 +216,6 @@ class Runtime:
             for k, mapping in maps:
                 view[k] = mapping.get(out[src[k]], out[src[k]])
 
-    def transfer(self, i: int):
-        self._transfer(self.xfer[i])
-
     def set_inputs(self, i: int, t: float):
         slave = self.slaves[i]
         for typ, port in self.write_ports[i]:
@@ -252,11 +234,6 @@ class Runtime:
     def publish(self, i: int):
         for buf, view in self.staging[i]:
             view[:] = buf
-
-    def do_step(self, i: int, t: float, h: float):
-        st = self.slaves[i].do_step(t, h)
-        if st > WARNING:
-            raise self.slaves[i].fail("doStep", st, t)
 
     # -- initialization ---------------------------------------------------------------------
     def initialize(self, start: float, order: list[int], has_algebraic_loop: bool, loop_desc: str,

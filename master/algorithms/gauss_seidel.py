@@ -2,10 +2,12 @@
 graph, each reading the outputs its predecessors produced in this same step."""
 from __future__ import annotations
 
+from . import ALGORITHMS
 from .base import Algorithm
 from .ordering import gauss_seidel_order
 
 
+@ALGORITHMS.register("gauss-seidel")
 class GaussSeidel(Algorithm):
     name = "gauss-seidel"
     gauss_seidel = True

@@ -30,7 +30,6 @@ class LoadedFmu:
     sha256: str
     unzip_dir: Path
     md: object              # fmpy ModelDescription
-    variables: dict         # name -> fmpy ScalarVariable
 
     @property
     def fmi_version(self) -> str:
@@ -79,13 +78,13 @@ def load_fmu(path: str | os.PathLike, shown_as: str | None = None) -> LoadedFmu:
         _by_stat[key] = sha
     loaded = _by_hash.get(sha)
     if loaded is not None:
-        return loaded if loaded.path == path else LoadedFmu(path, sha, loaded.unzip_dir, loaded.md, loaded.variables)
+        return loaded if loaded.path == path else LoadedFmu(path, sha, loaded.unzip_dir, loaded.md)
     unzip_dir = _extract(path, sha, shown_as)
     from fmpy import read_model_description
     try:
         md = read_model_description(str(unzip_dir), validate=True)
     except Exception as exc:  # fmpy raises bare Exceptions with the schema message
         raise FmuError(f"invalid modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
-    loaded = LoadedFmu(path, sha, unzip_dir, md, {v.name: v for v in md.modelVariables})
+    loaded = LoadedFmu(path, sha, unzip_dir, md)
     _by_hash[sha] = loaded
     return loaded

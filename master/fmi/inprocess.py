@@ -17,7 +17,7 @@ import traceback
 
 from ..errors import FmuError
 from .logsink import STATUS_LEVEL
-from .slaves import DISCARD, ERROR, FATAL, OK, Port, Slave
+from .slave import DISCARD, ERROR, FATAL, OK, Port, Slave
 
 _CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
 
@@ -25,10 +25,6 @@ _CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
 def is_pythonfmu(fmu) -> bool:
     return (fmu.md.coSimulation is not None and (fmu.unzip_dir / "resources" / "slavemodule.txt").is_file()
             and (fmu.md.generationTool or "").lower().startswith("pythonfmu"))
-
-
-def try_inprocess(name, fmu, log, shown_as, logging_on):
-    return PythonFmuSlave(name, fmu, log, shown_as) if is_pythonfmu(fmu) else None
 
 
 def _slave_class(module, model_identifier):
@@ -63,6 +59,7 @@ class PythonFmuSlave(Slave):
             raise FmuError(f"no Fmi2Slave class found in {module_name}.py", file=shown_as, element=f"component {name}")
         self.cls = cls
         self.obj = None
+        self.can_save_state = bool(getattr(fmu.md.coSimulation, "canGetAndSetFMUstate", False))
 
     # -- calls, each followed by forwarding the slave's log queue --------------------------------------------
     def _drain(self):
@@ -257,6 +254,19 @@ class PythonFmuSlave(Slave):
         if self.obj.log_queue:
             self._drain()
         return FATAL
+
+    def save_state(self, t=None):
+        if not self.can_save_state:
+            return super().save_state(t)
+        st, state = self._call("get_fmu_state", self.obj._get_fmu_state)
+        self.check("get_fmu_state", st, t)
+        return state
+
+    def restore_state(self, token, t=None):
+        if not self.can_save_state:
+            return super().restore_state(token, t)
+        st, _ = self._call("set_fmu_state", self.obj._set_fmu_state, token)
+        self.check("set_fmu_state", st, t)
 
     def terminate(self):
         if self.initialized:

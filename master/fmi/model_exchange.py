@@ -7,42 +7,34 @@ and FMI 3.0 model exchange (reported when the scenario is loaded).
 """
 from __future__ import annotations
 
-from ctypes import byref
-
 from ..errors import FmuError
-from .slaves import ERROR, OK, Fmi2Slave, load_library
-
-
-class _NoInput:
-    @staticmethod
-    def apply(t):
-        return None
+from .fmi2 import Fmi2Slave
+from .fmpy_adapter import cvode_solver
+from .slave import ERROR, OK
 
 
 class Fmi2MeSlave(Fmi2Slave):
     kind = "ModelExchange"
+    _library_kind = "fmi2me"
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False, rtol=1e-10):
-        from fmpy.fmi2 import FMU2Model
-        self.name, self.fmu, self.log, self.shown_as = name, fmu, log, shown_as
-        self.instantiated = self.initialized = False
-        self.fmu2 = load_library(FMU2Model, name, fmu, shown_as, fmu.md.modelExchange.modelIdentifier)
-        self.logging_on = logging_on
-        self._f = self.fmu2._functions
-        self.c = None
+        super().__init__(name, fmu, log, shown_as, logging_on)
+        # rollback would also need the solver's state: not offered for model exchange
+        self.can_save_state = False
         self.rtol = rtol
         self.nx = fmu.md.numberOfContinuousStates
         self.nz = fmu.md.numberOfEventIndicators
         self.solver = None
 
-    def instantiate(self):
-        super().instantiate()
+    @staticmethod
+    def _fmi_kind(fmu):
+        return fmu.md.modelExchange
 
     def _instantiate_call(self):
         return 0  # fmi2ModelExchange
 
     def _event_iteration(self, t):
-        m = self.fmu2
+        m = self.lib.obj
         while True:
             try:
                 (new_needed, terminate, nominals_changed, values_changed,
@@ -59,20 +51,19 @@ class Fmi2MeSlave(Fmi2Slave):
     def exit_init(self, t):
         super().exit_init(t)
         self._event_iteration(t)
-        self.fmu2.enterContinuousTimeMode()
-        from fmpy.sundials import CVodeSolver
-        m = self.fmu2
-        self.solver = CVodeSolver(nx=self.nx, nz=self.nz, get_x=m.getContinuousStates, set_x=m.setContinuousStates,
-                                  get_dx=m.getDerivatives, get_z=m.getEventIndicators,
-                                  get_nominals=m.getNominalsOfContinuousStates, set_time=m.setTime,
-                                  input=_NoInput, startTime=t, relativeTolerance=self.rtol)
+        self.lib.obj.enterContinuousTimeMode()
+        self.solver = cvode_solver(self.lib.obj, self.nx, self.nz, t, self.rtol)
         self.time = t
 
     def bound_step(self):
         return self.do_step
 
+    @property
+    def raw_step(self):
+        return None
+
     def do_step(self, t, h) -> int:
-        m = self.fmu2
+        m = self.lib.obj
         t_end = t + h
         time = t
         try:

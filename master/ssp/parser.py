@@ -15,9 +15,9 @@ from . import xsd
 from .model import (SSP_TYPES, Component, Connection, Connector, MasterSettings, ParameterValue,
                     SystemModel, Transformation, Unit)
 from .settings_annotations import read_master_settings
+from ..units import BASE_UNITS
 
 FMU_TYPES = ("application/x-fmu-sharedlibrary",)
-BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 
 
 def _local(el) -> str:

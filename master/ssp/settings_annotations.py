@@ -21,7 +21,6 @@ from .model import MasterSettings
 
 OUR_TYPE = "org.cosim-master.settings"
 OUR_NS = "https://cosim-master.org/ssp/settings"
-ALGORITHMS = ("jacobi", "gauss-seidel")
 
 
 def _local(el):
@@ -56,8 +55,9 @@ def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
                 s.record_interval = _positive(el.get("recordInterval"), "recordInterval", shown_as, el)
             alg = el.get("algorithm")
             if alg is not None:
+                from ..algorithms import ALGORITHMS
                 if alg not in ALGORITHMS:
-                    raise ScenarioError(f"unknown algorithm {alg!r} (known: {', '.join(ALGORITHMS)})",
+                    raise ScenarioError(f"unknown algorithm {alg!r} (known: {', '.join(ALGORITHMS.names())})",
                                         file=shown_as, element="Settings", line=el.sourceline)
                 s.algorithm = alg
             for c in _iter_local(el, "Component"):

@@ -7,7 +7,7 @@ import pytest
 from lxml import etree
 
 from master.errors import ScenarioError
-from master.monitors import MONITORS, _load_builtin
+from master.monitors import MONITORS
 from master.monitors.uav import MONITOR_TYPE, UavMonitor, parse_config
 
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -94,7 +94,6 @@ def fly(mon, ctx, positions, phases=None, t_start=0.0, h=1.0, steps=10):
 
 
 def test_registered():
-    _load_builtin()
     assert MONITORS[MONITOR_TYPE] is UavMonitor
 
 

@@ -1,8 +1,8 @@
-"""Buffered, streaming recording of time series to Parquet and CSV.
+"""Recording: an observer that samples the recorded variables on the record grid into blocks of rows and
+hands each full block to the output sinks (Parquet, CSV, memory, ...).
 
-Rows are assembled into a preallocated block and written a block at a time (one Parquet row group,
-one CSV append), so memory stays bounded for long runs and every flushed block is on disk if the run
-fails later. ``close`` always flushes what is left.
+Rows are assembled into a preallocated block and written a block at a time, so memory stays bounded for
+long runs and every flushed block is on disk if the run fails later. ``finish`` always flushes what is left.
 """
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
-from .plan import Var
+from ..plan import Var
+from .base import Observer
 
 ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Boolean": pa.bool_(), "String": pa.string()}
 
@@ -37,16 +37,33 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     return chosen
 
 
-class Recorder:
-    def __init__(self, out_dir: Path | None, variables: list[Var], rt, block_rows: int | None = None,
-                 csv: bool = True, parquet: bool = True):
+class Recording(Observer):
+    """Samples at the start, every ``every`` steps, at the last step and when the run ends early."""
+    name = "recording"
+
+    def __init__(self, variables: list[Var], sinks: list, out_dir: Path | None, every: int = 1,
+                 steps: int | None = None, block_rows: int | None = None):
         self.variables = variables
-        self.columns = ["time"] + [v.qualified for v in variables]
-        self.rt = rt
+        self.sinks = sinks
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.every = every
+        self.steps = steps
         # Blocks of 4096 rows whatever the width: a wide table (a 256-UAV fleet records ~8000 columns) cut
         # into short row groups costs far more memory when read back (measured: 128-row groups of 8000
         # columns, 9 GB to read one hour) than the block itself (4096 x 8000 x 8 B = 260 MB).
         self.block_rows = block_rows or 4096
+        self.rows_written = 0
+        self.schema = pa.schema([pa.field("time", pa.float64())] +
+                                [pa.field(v.qualified, ARROW_TYPES[v.type]) for v in variables])
+        self._open = []
+
+    def sampled_variables(self) -> list[str]:
+        return [v.qualified for v in self.variables]
+
+    def attach(self, ctx, start: float) -> None:
+        super().attach(ctx, start)
+        rt = self.rt = ctx.rt
+        variables = self.variables
         # numeric values (Real, Integer, Boolean) share one float64 block, grouped by type so that each type
         # fills a contiguous run of columns with one np.take per row
         self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
@@ -55,7 +72,6 @@ class Recorder:
         self.block = np.empty((self.block_rows, 1 + len(self.num)), dtype=np.float64)
         self.str_rows: list[list[str]] = []
         self.fill = 0
-        self.rows_written = 0
         self.column_of = {k: col for col, (k, _) in enumerate(self.num, start=1)}
         self.gather = []
         col = 1
@@ -65,24 +81,17 @@ class Recorder:
                 self.gather.append((rt.out[typ], np.array(pos, dtype=np.intp), col, col + len(pos)))
                 col += len(pos)
         self.str_pos = [rt.out_pos[v.qualified] for _, v in self.str_]
-        self.schema = pa.schema([pa.field("time", pa.float64())] +
-                                [pa.field(v.qualified, ARROW_TYPES[v.type]) for v in variables])
-        self.out_dir = Path(out_dir) if out_dir is not None else None
-        self.parquet_path = self.csv_path = None
-        self._pq = None
-        self._csv = None
-        if self.out_dir is not None:
-            if parquet:
-                self.parquet_path = self.out_dir / "results.parquet"
-                # column statistics for thousands of columns times many row groups would make the footer,
-                # which the writer keeps in memory until close, the largest thing in a long wide run
-                self._pq = pq.ParquetWriter(str(self.parquet_path), self.schema,
-                                            write_statistics=len(variables) <= 256)
-            if csv:
-                self.csv_path = self.out_dir / "results.csv"
-                self._csv = open(self.csv_path, "w", encoding="utf-8", newline="")
-                self._csv.write(",".join(_csv_quote(c) for c in self.columns) + "\n")
-        self._memory: list[pa.Table] | None = [] if self.out_dir is None else None
+        for sink in self.sinks:
+            if self.out_dir is not None or not sink.needs_folder:
+                sink.open(self.out_dir, self.schema)
+                self._open.append(sink)
+        self.sample(start)
+
+    def after_step(self, n: int, t0: float, t1: float) -> None:
+        rt = self.rt
+        if (n + 1) % self.every == 0 or n + 1 == self.steps or rt.stop_reason is not None:
+            rt.read_samples(t1)
+            self.sample(t1)
 
     def sample(self, t: float) -> None:
         row = self.block[self.fill]
@@ -117,53 +126,22 @@ class Recorder:
         return pa.Table.from_arrays(arrays, schema=self.schema)
 
     def flush(self) -> None:
-        if self.fill == 0:
+        if getattr(self, "fill", 0) == 0:
             return
         table = self._table()
-        if self._pq is not None:
-            self._pq.write_table(table)
-        if self._csv is not None:
-            self._write_csv(table)
-        if self._memory is not None:
-            self._memory.append(table)
+        for sink in self._open:
+            sink.write(table)
         self.rows_written += self.fill
         self.fill = 0
         self.str_rows = []
 
-    def _write_csv(self, table: pa.Table) -> None:
-        cols = []
-        for name, col in zip(table.column_names, table.columns):
-            typ = col.type
-            vals = col.to_numpy(zero_copy_only=False)
-            if pa.types.is_floating(typ):
-                cols.append([repr(float(x)) for x in vals])   # repr round-trips a double exactly
-            elif pa.types.is_boolean(typ):
-                cols.append(["true" if x else "false" for x in vals])
-            elif pa.types.is_string(typ):
-                cols.append([_csv_quote(str(x)) for x in vals])
-            else:
-                cols.append([str(int(x)) for x in vals])
-        self._csv.write("".join(",".join(r) + "\n" for r in zip(*cols)))
-        self._csv.flush()
-
-    def close(self) -> None:
+    def finish(self, out_dir, outcome) -> dict:
         try:
             self.flush()
         finally:
-            if self._pq is not None:
-                self._pq.close()
-                self._pq = None
-            if self._csv is not None:
-                self._csv.close()
-                self._csv = None
+            for sink in self._open:
+                sink.close()
+        return {"rows": self.rows_written}
 
-    def memory_table(self) -> pa.Table | None:
-        if self._memory is None:
-            return None
-        return pa.concat_tables(self._memory) if self._memory else self.schema.empty_table()
-
-
-def _csv_quote(s: str) -> str:
-    if any(ch in s for ch in ',"\n'):
-        return '"' + s.replace('"', '""') + '"'
-    return s
+    def files(self) -> list[Path]:
+        return [p for s in self._open for p in s.files()]

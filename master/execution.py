@@ -1,0 +1,407 @@
+"""``Execution``: one co-simulation, stepped from Python. Everything that runs a system goes through it: the
+``run`` function and the CLI, algorithms with rollback, interactive use, live streams.
+
+Life cycle (as libcosim's ``execution``)::
+
+    ex = Execution("scenario.ssp", step=0.1, output="out")   # nothing read yet
+    ex.setup()              # parse the SSP, check it against the FMUs, resolve settings, choose observers
+    ex.initialize()         # instantiate the FMUs, start values, initialization mode, first sample
+    ex.step()               # one master step; returns the new time
+    ex.simulate_until(5.0)  # steps until t >= 5.0 (or the run ends early)
+    token = ex.save_state(); ...; ex.restore_state(token)     # rollback (FMUs that can get/set their state)
+    ex.close()              # terminate and free the FMUs, finish observers, write run.json
+
+``initialize`` calls ``setup`` and ``close`` may be called at any point (also after a failure): it keeps what
+was recorded. ``with Execution(...) as ex:`` closes on leaving. Time is counted in whole steps
+(t = start + n*h), so it does not drift.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import __version__
+from .algorithms import get_algorithm
+from .algorithms.ordering import algebraic_loops, gauss_seidel_order
+from .errors import CosimError, ScenarioError
+from .fmi.logsink import LogSink
+from .monitors import monitors_for
+from .observers.base import ObserverContext
+from .observers.recording import Recording, select_variables
+from .plan import add_overrides, build_plan
+from .runtime import Runtime
+from .settings import resolve_settings
+from .sinks import SINKS
+from .ssp.archive import file_sha256, open_scenario
+from .ssp.parser import read_ssd
+
+
+@dataclass
+class Options:
+    """What a run can be told (the keyword arguments of ``run`` and ``Execution``)."""
+    stop_time: float | None = None
+    start_time: float | None = None
+    step: float | None = None
+    algorithm: str | None = None
+    output: str | os.PathLike | None = "results"     # None: results kept in memory only
+    params: dict | None = None                        # "component.variable" -> value
+    record: list[str] | None = None                   # shell patterns on "component.variable"
+    record_interval: float | None = None
+    log_level: str = "warning"
+    seed: int | None = None                           # given to every component parameter named "seed"
+    step_multiples: dict | None = None                # component -> k: it steps every k master steps
+    inprocess: bool = True                            # pythonfmu FMUs called in process
+    progress: bool = False                            # a progress bar on stderr
+    write_csv: bool = True
+    products: str = "all"                             # "summary": monitors write their summary files only
+    sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
+
+
+@dataclass
+class Prepared:
+    """A scenario resolved against its FMUs and the options, before anything is instantiated (shared by
+    ``Execution.setup`` and ``inspect``)."""
+    shown_as: str
+    source: object             # ssp.archive.ScenarioSource (close it when done)
+    model: object              # ssp.model.SystemModel
+    plan: object               # plan.Plan
+    user_params: dict
+
+
+def prepare(scenario, *, params: dict | None = None, seed: int | None = None) -> Prepared:
+    scenario = Path(scenario)
+    shown_as = str(scenario)
+    src = open_scenario(scenario)
+    try:
+        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
+        plan = build_plan(model, shown_as)
+        user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
+        user_params.update(params or {})
+        add_overrides(plan, user_params)
+    except BaseException:
+        src.close()
+        raise
+    return Prepared(shown_as, src, model, plan, user_params)
+
+
+def _seed_params(plan_vars, seed) -> dict:
+    """A run seed is given to every component parameter named 'seed' (documented convention)."""
+    out = {}
+    for comp, vars_ in plan_vars.items():
+        v = vars_.get("seed")
+        if v is not None and v.causality == "parameter":
+            out[f"{comp}.seed"] = int(seed)
+    return out
+
+
+@dataclass
+class ExecutionState:
+    """A saved point of an execution (``save_state``): every FMU's state and the master's buffers."""
+    n: int
+    tokens: list
+    buffers: dict
+    active: list
+    staging: list = field(default_factory=list)
+
+
+class Execution:
+    def __init__(self, scenario, *, observers=(), manipulators=(), **options):
+        self.wall0 = _time.perf_counter()
+        self.scenario = Path(scenario)
+        self.options = Options(**options)
+        self.extra_observers = list(observers)
+        self.manipulators = list(manipulators)
+        self.out_dir = Path(self.options.output) if self.options.output is not None else None
+        self.metadata: dict = {"scenario": str(self.scenario), "package_version": __version__,
+                               "python": sys.version.split()[0], "platform": platform.platform(),
+                               "seed": self.options.seed, "outcome": "error"}
+        self.events: list = []
+        self.monitors: list = []
+        self.observers: list = []
+        self.recording: Recording | None = None
+        self.rt: Runtime | None = None
+        self.log: LogSink | None = None
+        self.prepared: Prepared | None = None
+        self.n = 0                       # steps done
+        self.closed = False
+        self._set_up = self._initialized = False
+
+    # -- setup --------------------------------------------------------------------------------------------
+    def setup(self) -> None:
+        if self._set_up:
+            return
+        o, meta = self.options, self.metadata
+        if self.scenario.is_file():
+            meta["scenario_sha256"] = file_sha256(self.scenario)
+        self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed)
+        model, plan, shown_as = p.model, p.plan, p.shown_as
+        st = self.settings = resolve_settings(
+            model, shown_as, start_time=o.start_time, stop_time=o.stop_time, step=o.step, algorithm=o.algorithm,
+            record_interval=o.record_interval, step_multiples=o.step_multiples, fmus=plan.fmus)
+        for name in st.step_multiples:
+            if name not in plan.fmus:
+                raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
+                                    element="Settings")
+        self.algorithm = get_algorithm(st.algorithm)
+        meta.update({"algorithm": st.algorithm, "step_size": st.step, "step_size_source": st.step_source,
+                     "start_time": st.start, "stop_time": st.stop, "steps": st.steps,
+                     "record_interval": st.step * st.record_every, "step_multiples": st.step_multiples,
+                     "parameters_overridden": dict(p.user_params),
+                     "fmus": {name: {"source": model.components[name].source, "sha256": f.sha256,
+                                     "fmi_version": f.fmi_version,
+                                     "kind": "CoSimulation" if f.md.coSimulation else "ModelExchange",
+                                     "generation_tool": f.md.generationTool}
+                              for name, f in plan.fmus.items()}})
+        self.monitors = monitors_for(model, plan, shown_as)
+        for m in self.monitors:
+            m.products = o.products
+        connected, seen = [], set()
+        for ln in plan.links:
+            if ln.src.qualified not in seen:
+                seen.add(ln.src.qualified)
+                connected.append(ln.src)
+        record = o.record or model.settings.record or None
+        recorded = select_variables(plan, record, connected)
+        if record and not recorded:
+            raise CosimError(f"no variable matches the record patterns {record}", element="--record")
+        sink_names = o.sinks or ((["parquet"] + (["csv"] if o.write_csv else [])) if self.out_dir is not None
+                                 else ["memory"])
+        self.sinks = [SINKS.get(name, element="sinks")() for name in sink_names]
+        self.recording = Recording(recorded, self.sinks, self.out_dir, every=st.record_every, steps=st.steps)
+        # monitors first: they may take components out or end the run, which the recording's sample reflects
+        self.observers = [*self.monitors, *self.extra_observers, self.recording]
+        self._set_up = True
+
+    # -- initialization -----------------------------------------------------------------------------------
+    def initialize(self) -> None:
+        if self._initialized:
+            return
+        self.setup()
+        o, st, plan, meta = self.options, self.settings, self.prepared.plan, self.metadata
+        if self.out_dir is not None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+            log_file = open(self.out_dir / "fmu.log", "w", encoding="utf-8")
+        else:
+            log_file = None
+        self.log = LogSink(o.log_level, file=log_file)
+        loops = algebraic_loops(plan)
+        meta["algebraic_loops"] = loops
+        observed = [plan.var(q) for ob in self.observers for q in ob.required_variables()]
+        sampled = [plan.var(q) for ob in self.observers for q in ob.sampled_variables()]
+        # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
+        self.rt = rt = Runtime(plan, observed, self.log, st.step_multiples, logging_on=(o.log_level != "none"),
+                               inprocess=o.inprocess, sampled=sampled)
+        rt.instantiate(st.start, st.stop)
+        rt.apply_start_values(st.start)
+        init_order = gauss_seidel_order(plan, rt.names).order
+        loop_desc = "; ".join(" -> ".join(lp) for lp in loops) or "(none declared)"
+        rt.initialize(st.start, init_order, bool(loops), loop_desc)
+        meta["algorithm_info"] = self.algorithm.prepare(rt, plan, st.step)
+        self.ctx = ObserverContext(rt, self.events)
+        for ob in self.observers:
+            ob.attach(self.ctx, st.start)
+        for mp in self.manipulators:
+            mp.attach(self.ctx, st.start)
+        meta["last_time"] = st.start
+        self._initialized = True
+
+    # -- stepping -----------------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        st = self.settings
+        return st.start + self.n * st.step
+
+    @property
+    def stop_time(self) -> float:
+        return self.settings.stop
+
+    @property
+    def done(self) -> bool:
+        """The stop time is reached or an observer ended the run."""
+        return self.n >= self.settings.steps or (self.rt is not None and self.rt.stop_reason is not None)
+
+    def step(self) -> float:
+        """One master step; returns the time reached."""
+        if not self._initialized:
+            self.initialize()
+        if self.done:
+            raise CosimError(f"the run has ended at t={self.time:g}; no further step", element="step")
+        self._steps(self.n + 1)
+        return self.time
+
+    def simulate_until(self, t: float | None = None) -> float:
+        """Step until the time reaches ``t`` (default: the stop time) or the run ends; returns the time."""
+        if not self._initialized:
+            self.initialize()
+        st = self.settings
+        target = st.steps if t is None else min(st.steps, _steps_to(st.start, st.step, t))
+        if target > self.n and not self.done:
+            self._steps(target)
+        return self.time
+
+    def _steps(self, target: int) -> None:
+        st, meta, rt = self.settings, self.metadata, self.rt
+        start, h = st.start, st.step
+        step = self.algorithm.step
+        observers = self.observers
+        manipulators = self.manipulators
+        bar = None
+        if self.options.progress:
+            from tqdm import tqdm
+            bar = tqdm(total=target - self.n, unit="step", mininterval=0.5, leave=False)
+        n = self.n
+        try:
+            while n < target:
+                t = start + n * h          # integer step counting: no drift from accumulated additions
+                for mp in manipulators:
+                    mp.before_step(n, t)
+                step(n, t)
+                t1 = start + (n + 1) * h
+                meta["last_time"] = t1
+                for ob in observers:
+                    ob.after_step(n, t, t1)
+                n += 1
+                self.n = n
+                if rt.stop_reason is not None:
+                    meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
+                    break
+                if bar is not None and (n & 255) == 0:
+                    bar.update(256)
+        finally:
+            self.n = n
+            meta["steps_done"] = n
+            if bar is not None:
+                bar.close()
+
+    # -- state (rollback) ---------------------------------------------------------------------------------
+    def check_state_support(self) -> None:
+        """One line naming every component that cannot save and restore its state, before a run needs it."""
+        self.initialize()
+        cannot = [s.name for s, on in zip(self.rt.slaves, self.rt.active) if on and not s.can_save_state]
+        if cannot:
+            raise CosimError(f"components {', '.join(cannot)} cannot save and restore their state "
+                             "(canGetAndSetFMUstate is not true), which rollback needs", file=self.prepared.shown_as,
+                             element="rollback")
+
+    def save_state(self) -> ExecutionState:
+        """The state of every FMU and of the master's buffers at the current time. Observers are not saved:
+        an algorithm rolls back within a step, before they see it."""
+        self.initialize()
+        rt, t = self.rt, self.time
+        tokens = [s.save_state(t) if on else None for s, on in zip(rt.slaves, rt.active)]
+        buffers = {k: {t_: a.copy() for t_, a in getattr(rt, k).items()} for k in ("out", "inb")}
+        staging = [[buf.copy() for buf, _ in st] if st else None for st in rt.staging]
+        return ExecutionState(self.n, tokens, buffers, list(rt.active), staging)
+
+    def restore_state(self, state: ExecutionState) -> None:
+        rt = self.rt
+        t = self.settings.start + state.n * self.settings.step
+        for s, token in zip(rt.slaves, state.tokens):
+            if token is not None:
+                s.restore_state(token, t)
+        for k, by_type in state.buffers.items():
+            for t_, a in by_type.items():
+                getattr(rt, k)[t_][:] = a
+        for st, saved in zip(rt.staging, state.staging):
+            if st:
+                for (buf, _), copy in zip(st, saved):
+                    buf[:] = copy
+        self.n = state.n
+        self.metadata["last_time"] = self.time
+
+    def release_state(self, state: ExecutionState) -> None:
+        for s, token in zip(self.rt.slaves, state.tokens):
+            if token is not None:
+                s.release_state(token)
+        state.tokens = [None] * len(state.tokens)
+
+    # -- the end ------------------------------------------------------------------------------------------
+    def close(self, outcome: str | None = None, error: CosimError | None = None) -> dict:
+        """Terminate and free the FMUs, finish the observers, write run.json; returns the metadata. Safe to
+        call at any point and more than once."""
+        meta = self.metadata
+        if self.closed:
+            return meta
+        self.closed = True
+        if outcome is not None:
+            meta["outcome"] = outcome
+        if error is not None:
+            meta["error"] = str(error)
+            if error.time is not None:
+                meta["failed_at"] = error.time
+        try:
+            if self._initialized and self.recording is not None:
+                meta["rows_recorded"] = self.recording.finish(self.out_dir, meta["outcome"])["rows"]
+            if self.rt is not None:
+                self.rt.terminate()
+            if self._initialized:
+                for m in [*self.monitors, *self.extra_observers]:
+                    try:
+                        info = m.finish(self.out_dir, meta["outcome"])
+                    except CosimError as exc:  # a monitor's report must not hide the run's own outcome
+                        meta.setdefault("monitor_errors", []).append(str(exc))
+                        continue
+                    key = getattr(m, "annotation_type", "") or getattr(m, "name", "") or type(m).__name__
+                    if m in self.monitors:
+                        meta.setdefault("monitors", {})[key] = info
+                    elif info:
+                        meta.setdefault("observers", {})[key] = info
+            if self.log is not None:
+                meta["fmu_log_counts"] = {k: v for k, v in self.log.counts.items() if v}
+                self.log.close()
+        finally:
+            if self.prepared is not None:
+                self.prepared.source.close()
+            meta["wall_time_s"] = _time.perf_counter() - self.wall0
+            if self.out_dir is not None and self.out_dir.exists():
+                if self.events:
+                    _write_events(self.out_dir, self.events)
+                tmp = self.out_dir / "run.json.tmp"
+                tmp.write_text(json.dumps(meta, indent=2, default=_json_default))
+                os.replace(tmp, self.out_dir / "run.json")
+        return meta
+
+    def memory_table(self):
+        """The recorded rows of a run kept in memory (``output=None``), as a pyarrow Table."""
+        for s in getattr(self, "sinks", ()):
+            if hasattr(s, "table") and hasattr(s, "blocks"):
+                return s.table()
+        return None
+
+    def __enter__(self) -> "Execution":
+        return self
+
+    def __exit__(self, typ, exc, tb) -> None:
+        if typ is None:
+            self.close("completed" if self.done else "stopped")
+        elif isinstance(exc, KeyboardInterrupt):
+            self.close("interrupted", CosimError("interrupted by the user", time=self.metadata.get("last_time")))
+        else:
+            self.close("error", exc if isinstance(exc, CosimError) else None)
+
+
+def _steps_to(start: float, h: float, t: float) -> int:
+    """The number of steps whose end reaches ``t`` (a time within 1e-9 steps of a grid point counts as on it)."""
+    import math
+    k = (t - start) / h
+    return max(0, int(math.ceil(k - 1e-9)))
+
+
+def _write_events(out_dir: Path, events: list) -> None:
+    import pandas as pd
+    pd.DataFrame(events).to_csv(out_dir / "events.csv", index=False)
+
+
+def _json_default(o):
+    try:
+        import numpy as np
+        if isinstance(o, np.generic):
+            return o.item()
+    except ImportError:
+        pass
+    return str(o)

@@ -1,0 +1,150 @@
+"""FMI 2.0 co-simulation instances: fmpy loads the library, the hot path calls the C functions directly."""
+from __future__ import annotations
+
+import ctypes
+import functools
+from ctypes import byref, c_char_p, c_double, c_int, c_uint, c_void_p
+
+from .fmpy_adapter import fmi2_callbacks, load_library
+from .slave import ERROR, OK, Port, Slave
+
+
+class Fmi2Slave(Slave):
+    """FMI 2.0 co-simulation through fmpy's library loading, with direct ctypes calls on the hot path."""
+
+    def __init__(self, name, fmu, log, shown_as, logging_on=False):
+        super().__init__(name, fmu, log, shown_as)
+        self.lib = load_library(self._library_kind, name, fmu, shown_as, self._model_identifier(fmu))
+        self.logging_on = logging_on
+        self._f = self.lib
+        self.c = None
+        self.can_save_state = bool(getattr(self._fmi_kind(fmu), "canGetAndSetFMUstate", False))
+
+    _library_kind = "fmi2cs"
+
+    @staticmethod
+    def _fmi_kind(fmu):
+        return fmu.md.coSimulation
+
+    def _model_identifier(self, fmu):
+        return self._fmi_kind(fmu).modelIdentifier
+
+    def instantiate(self):
+        cb = self._callbacks = fmi2_callbacks(self._logger_fn())
+        uri = (self.fmu.unzip_dir / "resources").as_uri()
+        comp = self._f["fmi2Instantiate"](self.name.encode(), self._instantiate_call(), self.fmu.md.guid.encode(),
+                                          uri.encode(),
+                                          byref(cb), 0, 1 if self.logging_on else 0)
+        if not comp:
+            raise self.fail("fmi2Instantiate", ERROR)
+        self.c = comp
+        self.lib.bind_instance(comp)
+        self.instantiated = True
+        f, c = self._f, comp
+        self._do_step = f.get("fmi2DoStep")
+        self._get = {"Real": f["fmi2GetReal"], "Integer": f["fmi2GetInteger"], "Boolean": f["fmi2GetBoolean"]}
+        self._set = {"Real": f["fmi2SetReal"], "Integer": f["fmi2SetInteger"], "Boolean": f["fmi2SetBoolean"]}
+
+    def _instantiate_call(self):
+        return 1  # fmi2CoSimulation
+
+    def setup(self, start, stop, tolerance=None):
+        st = self._f["fmi2SetupExperiment"](self.c, 1 if tolerance else 0, tolerance or 0.0, start,
+                                             1 if stop is not None else 0, stop if stop is not None else 0.0)
+        self.check("fmi2SetupExperiment", st, start)
+
+    def enter_init(self, t):
+        self.check("fmi2EnterInitializationMode", self._f["fmi2EnterInitializationMode"](self.c), t)
+
+    def exit_init(self, t):
+        self.check("fmi2ExitInitializationMode", self._f["fmi2ExitInitializationMode"](self.c), t)
+        self.initialized = True
+
+    # scalar access for start values and inspection
+    def set_value(self, typ, vr, value):
+        vrs = (c_uint * 1)(vr)
+        if typ == "Real":
+            st = self._f["fmi2SetReal"](self.c, vrs, 1, (c_double * 1)(value))
+        elif typ in ("Integer", "Boolean"):
+            st = self._f["fmi2Set" + typ](self.c, vrs, 1, (c_int * 1)(int(value)))
+        else:
+            st = self._f["fmi2SetString"](self.c, vrs, 1, (c_char_p * 1)(str(value).encode()))
+        return st
+
+    # bulk access: a Port is bound once, then moved with one call
+    def make_port(self, typ, vrs, buf):
+        port = Port(vrs, buf, c_double if typ == "Real" else (c_int if typ != "String" else None))
+        if typ == "String":
+            port.extra = (c_char_p * port.n)()
+        return port
+
+    def get_port(self, typ, port) -> int:
+        if typ == "String":
+            st = self._f["fmi2GetString"](self.c, port.vr_ptr, port.n, port.extra)
+            for i in range(port.n):
+                v = port.extra[i]
+                port.buf[i] = v.decode("utf-8", "replace") if v is not None else ""
+            return st
+        return self._get[typ](self.c, port.vr_ptr, port.n, port.buf_ptr)
+
+    def set_port(self, typ, port) -> int:
+        if typ == "String":
+            port.extra[:] = [str(v).encode() for v in port.buf]
+            return self._f["fmi2SetString"](self.c, port.vr_ptr, port.n, port.extra)
+        return self._set[typ](self.c, port.vr_ptr, port.n, port.buf_ptr)
+
+    def do_step(self, t, h) -> int:
+        return self._do_step(self.c, t, h, 1)
+
+    def _raw(self, name):
+        return self.lib.raw(name)
+
+    def bound_get(self, typ, port):
+        if typ == "String":
+            return super().bound_get(typ, port)
+        return functools.partial(self._raw(f"fmi2Get{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+                                 port.buf_ptr)
+
+    def bound_set(self, typ, port):
+        if typ == "String":
+            return super().bound_set(typ, port)
+        return functools.partial(self._raw(f"fmi2Set{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+                                 port.buf_ptr)
+
+    def bound_step(self):
+        f, c = self._do_step, c_void_p(self.c)
+
+        def step(t, h):
+            return f(c, t, h, 1)
+        return step
+
+    @property
+    def raw_step(self):
+        return functools.partial(self._raw("fmi2DoStep"), c_void_p(self.c)) if self._do_step is not None else None
+
+    def save_state(self, t=None):
+        if not self.can_save_state:
+            return super().save_state(t)
+        state = c_void_p()
+        self.check("fmi2GetFMUstate", self._f["fmi2GetFMUstate"](self.c, byref(state)), t)
+        return state
+
+    def restore_state(self, token, t=None):
+        if not self.can_save_state:
+            return super().restore_state(token, t)
+        self.check("fmi2SetFMUstate", self._f["fmi2SetFMUstate"](self.c, token), t)
+
+    def release_state(self, token):
+        if token is not None and self.instantiated:
+            self._f["fmi2FreeFMUstate"](self.c, byref(token))
+
+    def terminate(self):
+        if self.initialized:
+            self.initialized = False
+            return self._f["fmi2Terminate"](self.c)
+        return OK
+
+    def free(self):
+        if self.instantiated:
+            self.instantiated = False
+            self._f["fmi2FreeInstance"](self.c)

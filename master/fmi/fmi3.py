@@ -1,0 +1,148 @@
+"""FMI 3.0 co-simulation instances; variables of one base type may span several concrete FMI 3 types."""
+from __future__ import annotations
+
+import ctypes
+from ctypes import POINTER, byref, c_char_p, c_double, c_uint, c_void_p
+
+import numpy as np
+
+from .fmpy_adapter import fmi3_callbacks, load_library
+from .slave import ERROR, OK, Port, Slave
+
+
+def _ptr(arr: np.ndarray, ctype):
+    return arr.ctypes.data_as(POINTER(ctype))
+
+
+class Fmi3Slave(Slave):
+    """FMI 3.0 co-simulation; variables of one base type may span several concrete FMI 3 types."""
+
+    def __init__(self, name, fmu, log, shown_as, logging_on=False):
+        super().__init__(name, fmu, log, shown_as)
+        self.lib = load_library("fmi3cs", name, fmu, shown_as, fmu.md.coSimulation.modelIdentifier)
+        self.logging_on = logging_on
+        self._f = self.lib
+        self.can_save_state = bool(getattr(fmu.md.coSimulation, "canGetAndSetFMUState", False))
+        self.c = None
+        self._vtype = {v.valueReference: v.type for v in fmu.md.modelVariables}
+
+    def instantiate(self):
+        self._log_cb, self._iu_cb = fmi3_callbacks(self._logger_fn())
+        resources = str(self.fmu.unzip_dir / "resources") + "/"
+        comp = self._f["fmi3InstantiateCoSimulation"](
+            self.name.encode(), self.fmu.md.guid.encode(), resources.encode(), False, self.logging_on,
+            False, False, None, 0, None, self._log_cb, self._iu_cb)
+        if not comp:
+            raise self.fail("fmi3InstantiateCoSimulation", ERROR)
+        self.c = comp
+        self.lib.bind_instance(comp)
+        self.instantiated = True
+        self._last_successful = c_double()
+        self._flags = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool())
+
+    def setup(self, start, stop, tolerance=None):
+        self._start, self._stop, self._tol = start, stop, tolerance
+
+    def enter_init(self, t):
+        st = self._f["fmi3EnterInitializationMode"](self.c, self._tol is not None, self._tol or 0.0, self._start,
+                                                    self._stop is not None, self._stop or 0.0)
+        self.check("fmi3EnterInitializationMode", st, t)
+
+    def exit_init(self, t):
+        self.check("fmi3ExitInitializationMode", self._f["fmi3ExitInitializationMode"](self.c), t)
+        self.initialized = True
+
+    _CT = {"Float64": c_double, "Float32": ctypes.c_float, "Int8": ctypes.c_int8, "UInt8": ctypes.c_uint8,
+           "Int16": ctypes.c_int16, "UInt16": ctypes.c_uint16, "Int32": ctypes.c_int32, "UInt32": ctypes.c_uint32,
+           "Int64": ctypes.c_int64, "UInt64": ctypes.c_uint64, "Enumeration": ctypes.c_int64,
+           "Boolean": ctypes.c_bool}
+
+    def _fn(self, op, t3):
+        return self._f[f"fmi3{op}{'Int64' if t3 == 'Enumeration' else t3}"]
+
+    def set_value(self, typ, vr, value):
+        t3 = self._vtype[vr]
+        vrs = (c_uint * 1)(vr)
+        if t3 == "String":
+            return self._f["fmi3SetString"](self.c, vrs, 1, (c_char_p * 1)(str(value).encode()), 1)
+        ct = self._CT[t3]
+        return self._fn("Set", t3)(self.c, vrs, 1, (ct * 1)(value), 1)
+
+    def make_port(self, typ, vrs, buf):
+        """Split the references by concrete FMI 3 type; each group gets its own typed scratch array."""
+        port = Port(vrs, buf, c_double if typ == "Real" else None)
+        groups = []
+        for t3 in sorted({self._vtype[int(v)] for v in port.vrs}):
+            idx = np.array([i for i, v in enumerate(port.vrs) if self._vtype[int(v)] == t3], dtype=np.intp)
+            g_vrs = np.ascontiguousarray(port.vrs[idx])
+            if t3 == "String":
+                scratch = (c_char_p * len(idx))()
+            else:
+                scratch = (self._CT[t3] * len(idx))()
+            groups.append((t3, idx, g_vrs, _ptr(g_vrs, c_uint), scratch))
+        # the common all-Float64 case moves the master's buffer directly
+        port.extra = None if (typ == "Real" and len(groups) == 1 and groups[0][0] == "Float64") else groups
+        return port
+
+    def get_port(self, typ, port) -> int:
+        if port.extra is None:
+            return self._f["fmi3GetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, port.n)
+        worst = OK
+        for t3, idx, g_vrs, vr_ptr, scratch in port.extra:
+            n = len(idx)
+            if t3 == "String":
+                st = self._f["fmi3GetString"](self.c, vr_ptr, n, scratch, n)
+                for k, i in enumerate(idx):
+                    port.buf[i] = scratch[k].decode("utf-8", "replace") if scratch[k] else ""
+            else:
+                st = self._fn("Get", t3)(self.c, vr_ptr, n, scratch, n)
+                port.buf[idx] = np.ctypeslib.as_array(scratch) if t3 != "Boolean" else [bool(x) for x in scratch]
+            worst = max(worst, st)
+        return worst
+
+    def set_port(self, typ, port) -> int:
+        if port.extra is None:
+            return self._f["fmi3SetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, port.n)
+        worst = OK
+        for t3, idx, g_vrs, vr_ptr, scratch in port.extra:
+            n = len(idx)
+            if t3 == "String":
+                scratch[:] = [str(port.buf[i]).encode() for i in idx]
+                st = self._f["fmi3SetString"](self.c, vr_ptr, n, scratch, n)
+            else:
+                vals = port.buf[idx]
+                scratch[:] = [bool(x) for x in vals] if t3 == "Boolean" else vals.tolist()
+                st = self._fn("Set", t3)(self.c, vr_ptr, n, scratch, n)
+            worst = max(worst, st)
+        return worst
+
+    def do_step(self, t, h) -> int:
+        a, b, c = self._flags
+        return self._f["fmi3DoStep"](self.c, t, h, True, byref(a), byref(b), byref(c), byref(self._last_successful))
+
+    def save_state(self, t=None):
+        if not self.can_save_state:
+            return super().save_state(t)
+        state = c_void_p()
+        self.check("fmi3GetFMUState", self._f["fmi3GetFMUState"](self.c, byref(state)), t)
+        return state
+
+    def restore_state(self, token, t=None):
+        if not self.can_save_state:
+            return super().restore_state(token, t)
+        self.check("fmi3SetFMUState", self._f["fmi3SetFMUState"](self.c, token), t)
+
+    def release_state(self, token):
+        if token is not None and self.instantiated:
+            self._f["fmi3FreeFMUState"](self.c, byref(token))
+
+    def terminate(self):
+        if self.initialized:
+            self.initialized = False
+            return self._f["fmi3Terminate"](self.c)
+        return OK
+
+    def free(self):
+        if self.instantiated:
+            self.instantiated = False
+            self._f["fmi3FreeInstance"](self.c)

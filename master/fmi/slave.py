@@ -1,0 +1,161 @@
+"""The one interface every FMU instance offers the master, whatever the FMI version, kind or binding.
+
+Value transfer works on contiguous numpy buffers owned by the master: a slave is handed a value reference
+array and a buffer slice once (``make_port``), and each step moves the whole port with one call. Statuses
+are returned, not raised, so that the master can attach the component and the simulation time to the
+message (``fail``). The life cycle is FMI's: instantiate, setup, enter/exit initialization, do_step ...,
+terminate, free.
+"""
+from __future__ import annotations
+
+import abc
+import functools
+
+import numpy as np
+
+from ..errors import FmuError
+from .cache import LoadedFmu
+from .logsink import STATUS_LEVEL, STATUS_NAME, LogSink
+
+OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
+
+# Base types the master moves around, and the numpy dtype of their buffers.
+BASE_TYPES = ("Real", "Integer", "Boolean", "String")
+DTYPES = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
+
+FMI3_TYPE_BASE = {
+    "Float64": "Real", "Float32": "Real",
+    "Int8": "Integer", "UInt8": "Integer", "Int16": "Integer", "UInt16": "Integer",
+    "Int32": "Integer", "UInt32": "Integer", "Int64": "Integer", "UInt64": "Integer",
+    "Enumeration": "Integer", "Boolean": "Boolean", "String": "String",
+}
+FMI2_TYPE_BASE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean",
+                  "String": "String"}
+
+
+def base_type(fmi_version: str, var_type: str) -> str | None:
+    table = FMI3_TYPE_BASE if fmi_version.startswith("3") else FMI2_TYPE_BASE
+    return table.get(var_type)
+
+
+class Port:
+    """A set of value references of one base type bound to a buffer slice of the master."""
+    __slots__ = ("vrs", "buf", "n", "vr_ptr", "buf_ptr", "extra")
+
+    def __init__(self, vrs, buf, ctype):
+        from ctypes import POINTER, c_uint
+        self.vrs = np.ascontiguousarray(vrs, dtype=np.uint32)
+        self.buf = buf
+        self.n = len(self.vrs)
+        self.vr_ptr = self.vrs.ctypes.data_as(POINTER(c_uint))
+        self.buf_ptr = buf.ctypes.data_as(POINTER(ctype)) if ctype is not None else None
+        self.extra = None
+
+
+class Slave(abc.ABC):
+    """An FMU instance as the master sees it.
+
+    Capabilities (class or instance attributes, checked before a run that needs them starts):
+    ``can_save_state`` -- ``save_state``/``restore_state``/``release_state`` work (rollback).
+    """
+    kind = "CoSimulation"
+    can_save_state = False
+
+    def __init__(self, name: str, fmu: LoadedFmu, log: LogSink, shown_as: str):
+        self.name = name
+        self.fmu = fmu
+        self.log = log
+        self.shown_as = shown_as
+        self.instantiated = False
+        self.initialized = False
+
+    # -- life cycle ---------------------------------------------------------------------------------------
+    @abc.abstractmethod
+    def instantiate(self) -> None: ...
+
+    @abc.abstractmethod
+    def setup(self, start: float, stop: float | None, tolerance: float | None = None) -> None: ...
+
+    @abc.abstractmethod
+    def enter_init(self, t: float) -> None: ...
+
+    @abc.abstractmethod
+    def exit_init(self, t: float) -> None: ...
+
+    @abc.abstractmethod
+    def do_step(self, t: float, h: float) -> int:
+        """One communication step from t to t+h; returns the FMI status."""
+
+    @abc.abstractmethod
+    def terminate(self) -> int:
+        """Only after a successful initialization; a no-op otherwise."""
+
+    @abc.abstractmethod
+    def free(self) -> None: ...
+
+    # -- values -------------------------------------------------------------------------------------------
+    @abc.abstractmethod
+    def set_value(self, typ: str, vr: int, value) -> int:
+        """One value (start values, parameters); returns the FMI status."""
+
+    @abc.abstractmethod
+    def make_port(self, typ: str, vrs, buf: np.ndarray) -> Port: ...
+
+    @abc.abstractmethod
+    def get_port(self, typ: str, port: Port) -> int:
+        """Read the port's variables into its buffer."""
+
+    @abc.abstractmethod
+    def set_port(self, typ: str, port: Port) -> int:
+        """Write the port's buffer to its variables."""
+
+    # -- state (rollback) ---------------------------------------------------------------------------------
+    def save_state(self, t: float | None = None):
+        """An opaque token for the instance's current state (FMI get FMU state)."""
+        raise FmuError("the FMU cannot save and restore its state (canGetAndSetFMUstate is not true)",
+                       file=self.shown_as, element=f"component {self.name}", time=t)
+
+    def restore_state(self, token, t: float | None = None) -> None:
+        raise FmuError("the FMU cannot save and restore its state", file=self.shown_as,
+                       element=f"component {self.name}", time=t)
+
+    def release_state(self, token) -> None:
+        """Free a token from ``save_state`` (FMI free FMU state)."""
+
+    # -- fast path: bound once after instantiation, then called every step without arguments (getters and
+    # setters) or with (t, h) (step); each returns the FMI status
+    def bound_get(self, typ, port):
+        return functools.partial(self.get_port, typ, port)
+
+    def bound_set(self, typ, port):
+        return functools.partial(self.set_port, typ, port)
+
+    def bound_step(self):
+        return self.do_step
+
+    # When a slave offers a raw step, the compiled step calls it as raw(c_double(t), c_double(h), 1), sharing
+    # one c_double for t among all slaves of a master step (no per-call argument conversion).
+    raw_step = None
+
+    # -- errors -------------------------------------------------------------------------------------------
+    def fail(self, call: str, status: int, time: float | None = None) -> FmuError:
+        detail = self.log.pop_error(self.name)
+        reason = f"{call} returned {STATUS_NAME.get(status, status)}"
+        if detail:
+            reason += f": {detail}"
+        return FmuError(reason, file=self.shown_as, element=f"component {self.name}", time=time)
+
+    def check(self, call: str, status: int, time: float | None = None) -> None:
+        if status > WARNING:
+            raise self.fail(call, status, time)
+
+    def _logger_fn(self):
+        sink, name = self.log, self.name
+
+        def log_message(env, instance_name, status, category, message):
+            text = message.decode("utf-8", "replace") if message else ""
+            cat = category.decode("utf-8", "replace") if category else ""
+            if cat.startswith("logStatus") or cat == "logAll":
+                cat = ""
+            sink.message(name, STATUS_LEVEL.get(status, "info"), text, cat)
+        return log_message

@@ -1,0 +1,22 @@
+"""Rows kept in memory (``run(output=None)``; ``Result.frame`` reads them)."""
+from __future__ import annotations
+
+import pyarrow as pa
+
+from . import SINKS
+from .base import Sink
+
+
+@SINKS.register("memory")
+class MemorySink(Sink):
+    needs_folder = False
+
+    def open(self, out_dir, schema):
+        super().open(out_dir, schema)
+        self.blocks: list[pa.Table] = []
+
+    def write(self, block):
+        self.blocks.append(block)
+
+    def table(self) -> pa.Table:
+        return pa.concat_tables(self.blocks) if self.blocks else self.schema.empty_table()
