@@ -284,8 +284,9 @@ class Execution:
         self.initialize()
         cannot = [s.name for s, on in zip(self.rt.slaves, self.rt.active) if on and not s.can_save_state]
         if cannot:
-            raise CosimError(f"components {', '.join(cannot)} cannot save and restore their state "
-                             "(canGetAndSetFMUstate is not true), which rollback needs", file=self.prepared.shown_as,
+            which = f"components {', '.join(cannot)} cannot" if len(cannot) > 1 else f"component {cannot[0]} cannot"
+            raise CosimError(f"{which} save and restore their state (canGetAndSetFMUstate is not true), which "
+                             "rollback needs", file=self.prepared.shown_as,
                              element="rollback")
 
     def save_state(self) -> ExecutionState:

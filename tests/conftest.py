@@ -94,3 +94,17 @@ class LazyFMUs(Mapping):
 @pytest.fixture(scope="session")
 def test_fmus(tmp_path_factory) -> LazyFMUs:
     return LazyFMUs(tmp_path_factory.mktemp("test_fmus"))
+
+
+def _shared_dir() -> Path:
+    """``shared/`` beside the clone (developers' machines and CI), where the reference FMUs and SITL live."""
+    return TESTS_DIR.parent.parent / "shared"
+
+
+@pytest.fixture(scope="session")
+def reference_fmus() -> Path:
+    """The Modelica Reference FMUs (``shared/reference-fmus``: fmi2/, fmi3/, ref/); skips when absent."""
+    root = _shared_dir() / "reference-fmus"
+    if not (root / "fmi2").is_dir():
+        pytest.skip(f"the Modelica Reference FMUs are not in {root}")
+    return root

@@ -131,7 +131,8 @@ def peer_bare_ctypes(a: dict) -> dict:
 
 def peer_cosim_master(a: dict) -> dict:
     """master.run(ssp, algorithm="jacobi", output=None, record=[last.y]). The stepping phase is timed by
-    wrapping master.runner._loop (the step loop: algorithm step + recorder sample per step). Cross-check by
+    wrapping the step loop (master.execution.Execution._steps; master.runner._loop in versions before the
+    Execution API): algorithm step + observers (recording) per step. Cross-check by
     the difference method: wall_time_s of an N-step run minus that of a 1-step run, over N-1 steps."""
     import inspect
 
@@ -143,12 +144,18 @@ def peer_cosim_master(a: dict) -> dict:
     kw = dict(algorithm=a.get("algorithm", "jacobi"), step=h, output=None, record=[f"{last}.y"])
     extra = {"cosim_master_version": getattr(master, "__version__", "?")}
     if "inprocess" in a:
-        if "inprocess" in inspect.signature(runner.run).parameters:
+        params = inspect.signature(runner.run).parameters
+        if "inprocess" in params or any(p.kind == p.VAR_KEYWORD for p in params.values()):
             kw["inprocess"] = a["inprocess"]
         else:
             raise RuntimeError("this cosim-master has no 'inprocess' option")
     marks = []
-    orig_loop = getattr(runner, "_loop", None)
+    try:
+        from master.execution import Execution
+        owner, attr = Execution, "_steps"
+    except ImportError:
+        owner, attr = runner, "_loop"
+    orig_loop = getattr(owner, attr, None)
     if orig_loop is not None:
         def timed_loop(*args, **kwargs):
             t0 = perf()
@@ -156,7 +163,7 @@ def peer_cosim_master(a: dict) -> dict:
                 return orig_loop(*args, **kwargs)
             finally:
                 marks.append(perf() - t0)
-        runner._loop = timed_loop
+        setattr(owner, attr, timed_loop)
 
     master.run(a["ssp"], stop_time=h, **kw)          # warm-up: lazy imports, page cache
     t_all = perf()
@@ -179,7 +186,7 @@ def peer_cosim_master(a: dict) -> dict:
     samples[steps] = float(ys[steps])
     extra["last_time"] = float(ts[-1])
     if marks:
-        stepping, how = marks[1], "wrapped master.runner._loop (step loop incl. recording), warm process"
+        stepping, how = marks[1], f"wrapped {owner.__name__}.{attr} (step loop incl. recording), warm process"
     else:
         stepping, how = diff * steps, "difference method: (wall_time_s(N steps) - wall_time_s(1 step)) / (N-1)"
     return {"stepping_s": stepping, "steps_timed": steps, "timing": how, "total_s": total, "samples": samples,

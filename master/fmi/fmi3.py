@@ -22,7 +22,8 @@ class Fmi3Slave(Slave):
         self.lib = load_library("fmi3cs", name, fmu, shown_as, fmu.md.coSimulation.modelIdentifier)
         self.logging_on = logging_on
         self._f = self.lib
-        self.can_save_state = bool(getattr(fmu.md.coSimulation, "canGetAndSetFMUState", False))
+        # fmpy spells the attribute the FMI 2 way for FMI 3 too
+        self.can_save_state = bool(getattr(fmu.md.coSimulation, "canGetAndSetFMUstate", False))
         self.c = None
         self._vtype = {v.valueReference: v.type for v in fmu.md.modelVariables}
 

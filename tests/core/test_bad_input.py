@@ -208,3 +208,14 @@ def test_stop_time_not_a_whole_number_of_steps(tmp_path, test_fmus):
     folder = _two(tmp_path, test_fmus)
     with pytest.raises(CosimError, match="not a whole number of master steps of 0.3"):
         master.run(folder, output=None, step=0.3)
+
+
+@pytest.mark.parametrize("k", [-1, 0])
+def test_step_multiple_must_be_positive(tmp_path, test_fmus, k):
+    # -1 used to run with wrong values and exit 0; 0 ended in a ZeroDivisionError traceback
+    folder = _two(tmp_path, test_fmus)
+    with pytest.raises(CosimError, match=f"step multiple of b must be a positive integer, got {k}"):
+        master.run(folder, output=None, step_multiples={"b": k})
+    r = _cli(["run", str(folder), "--step-multiple", f"b={k}", "-o", str(tmp_path / "o")], tmp_path)
+    assert r.returncode == 1 and "must be a positive integer" in r.stderr
+    _one_line(r.stderr)

@@ -171,3 +171,26 @@ def test_each_fmu_is_unpacked_once_for_all_its_instances(tmp_path, chain_fmus, m
     fmu_extractions = [f for f in opened if str(f).endswith(".fmu")]
     assert sorted(Path(f).name for f in fmu_extractions) == ["Gain.fmu", "Integrator.fmu"]
     assert len(list((tmp_path / "cache").iterdir())) == 2
+
+
+def _ball(tmp_path, reference_fmus, units_xml, name):
+    ball = component("ball", "resources/BouncingBall.fmu", connector("h", "output"),
+                     inline_params(real_param("g", -32.17404855643, unit="ft/s2")))
+    xml = ssd(name, ball, "", top_extra=units_xml, experiment_xml=experiment(0.4, settings(0.01)))
+    return write_folder(tmp_path / name, xml, {"BouncingBall.fmu": reference_fmus / "fmi2" / "BouncingBall.fmu"})
+
+
+def test_parameter_in_a_unit_without_definition_is_an_error(tmp_path, reference_fmus):
+    # the FMU declares g in m/s2; 'ft/s2' is defined nowhere, so the value cannot be converted (it used to be
+    # passed through unconverted, i.e. 3.3 times too strong)
+    with pytest.raises(master.ScenarioError, match="unit ft/s2 has no definition"):
+        _run(_ball(tmp_path, reference_fmus, "", "nodef"))
+
+
+def test_parameter_value_is_converted_to_the_fmu_unit(tmp_path, reference_fmus):
+    units = '<ssd:Units><ssc:Unit name="ft/s2"><ssc:BaseUnit m="1" s="-2" factor="0.3048"/></ssc:Unit></ssd:Units>\n'
+    df = _run(_ball(tmp_path, reference_fmus, units, "conv"), record=["ball.h"]).frame
+    g = -32.17404855643 * 0.3048            # = -9.80665 m/s2
+    t = df["time"].to_numpy()
+    before_bounce = t <= 0.4
+    np.testing.assert_allclose(df["ball.h"][before_bounce], 1 + 0.5 * g * t[before_bounce] ** 2, atol=2e-3)
