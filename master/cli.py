@@ -44,6 +44,11 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--timeout", type=float, metavar="SECONDS",
+                   help="wall-clock limit of the run; the simulation is stopped and its results kept")
+    r.add_argument("--no-supervise", action="store_true",
+                   help="simulate in this process (default: a child process, so that a crashing or hanging FMU "
+                        "cannot take the results with it)")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
@@ -102,11 +107,30 @@ def _dispatch(args) -> int:
                 multiples[k] = int(v)
             except ValueError:
                 raise CosimError(f"step multiple of {k} must be an integer, got {v!r}", element="--step-multiple") from None
-        result = run(args.scenario, stop_time=args.stop_time, start_time=args.start_time, step=args.step,
-                     algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
-                     record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
-                     seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
-                     inprocess=not args.no_inprocess)
+        options = dict(stop_time=args.stop_time, start_time=args.start_time, step=args.step,
+                       algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
+                       record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
+                       seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
+                       inprocess=not args.no_inprocess)
+        if args.timeout is not None and not (args.timeout > 0):
+            raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
+        try:
+            if args.no_supervise and args.timeout is None:
+                result = run(args.scenario, **options)
+            else:
+                from .supervise import run_supervised
+                if args.no_supervise:
+                    raise CosimError("--timeout needs the supervised run (drop --no-supervise)", element="--timeout")
+                result = run_supervised(args.scenario, timeout=args.timeout, **options)
+        except CosimError as exc:
+            res = getattr(exc, "result", None)
+            meta = res.metadata if res is not None else {}
+            if getattr(args, "debug", False):
+                raise
+            kept = (f" ({meta['rows_recorded']} rows recorded until then are in {output}, run.json says what "
+                    "happened)" if meta.get("rows_recorded") else "")
+            print(f"cosim-master: error: {exc}{kept}", file=sys.stderr)
+            return 130 if meta.get("outcome") == "interrupted" else 1
         m = result.metadata
         ended = m.get("ended_early")
         print(f"{m['outcome']}: {m.get('steps_done', m['steps'])} steps of {m['step_size']:g} s ({m['algorithm']}), "

@@ -129,6 +129,7 @@ class Execution:
         self.prepared: Prepared | None = None
         self.n = 0                       # steps done
         self.closed = False
+        self.write_run_json = True       # a supervised child leaves run.json to its parent
         self._set_up = self._initialized = False
 
     # -- setup --------------------------------------------------------------------------------------------
@@ -184,8 +185,12 @@ class Execution:
         self.setup()
         o, st, plan, meta = self.options, self.settings, self.prepared.plan, self.metadata
         if self.out_dir is not None:
-            self.out_dir.mkdir(parents=True, exist_ok=True)
-            log_file = open(self.out_dir / "fmu.log", "w", encoding="utf-8")
+            try:
+                self.out_dir.mkdir(parents=True, exist_ok=True)
+                log_file = open(self.out_dir / "fmu.log", "w", encoding="utf-8", buffering=1)
+            except OSError as exc:
+                raise CosimError(f"cannot create the output folder: {exc.strerror or exc}",
+                                 file=str(self.out_dir), element="--output") from None
         else:
             log_file = None
         self.log = LogSink(o.log_level, file=log_file)
@@ -337,7 +342,16 @@ class Execution:
                 meta["failed_at"] = error.time
         try:
             if self._initialized and self.recording is not None:
-                meta["rows_recorded"] = self.recording.finish(self.out_dir, meta["outcome"])["rows"]
+                try:
+                    info = self.recording.finish(self.out_dir, meta["outcome"])
+                    meta.update({"rows_recorded": info["rows"]}, **({"results_notes": info["notes"]}
+                                                                  if "notes" in info else {}))
+                except CosimError as exc:      # the last block could not be written (a full disk)
+                    meta["rows_recorded"] = self.recording.rows_written
+                    if meta["outcome"] == "completed" or "error" not in meta:
+                        meta["outcome"], meta["error"] = "error", str(exc)
+                    if self.recording.group.notes:
+                        meta["results_notes"] = self.recording.group.notes
             if self.rt is not None:
                 self.rt.terminate()
             if self._initialized:
@@ -359,12 +373,8 @@ class Execution:
             if self.prepared is not None:
                 self.prepared.source.close()
             meta["wall_time_s"] = _time.perf_counter() - self.wall0
-            if self.out_dir is not None and self.out_dir.exists():
-                if self.events:
-                    _write_events(self.out_dir, self.events)
-                tmp = self.out_dir / "run.json.tmp"
-                tmp.write_text(json.dumps(meta, indent=2, default=_json_default))
-                os.replace(tmp, self.out_dir / "run.json")
+            if self.write_run_json and self.out_dir is not None and self.out_dir.is_dir():
+                write_run_files(self.out_dir, meta, self.events)
         return meta
 
     def memory_table(self):
@@ -393,9 +403,16 @@ def _steps_to(start: float, h: float, t: float) -> int:
     return max(0, int(math.ceil(k - 1e-9)))
 
 
-def _write_events(out_dir: Path, events: list) -> None:
-    import pandas as pd
-    pd.DataFrame(events).to_csv(out_dir / "events.csv", index=False)
+def write_run_files(out_dir: Path, meta: dict, events: list) -> None:
+    """events.csv (when there are events) and run.json, each replaced atomically."""
+    if events:
+        import pandas as pd
+        tmp = out_dir / "events.csv.tmp"
+        pd.DataFrame(events).to_csv(tmp, index=False)
+        os.replace(tmp, out_dir / "events.csv")
+    tmp = out_dir / "run.json.tmp"
+    tmp.write_text(json.dumps(meta, indent=2, default=_json_default))
+    os.replace(tmp, out_dir / "run.json")
 
 
 def _json_default(o):

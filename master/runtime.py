@@ -24,6 +24,10 @@ def _dtype(t):
     return DTYPES.get(t, object)
 
 
+PHASE_INSTANTIATE, PHASE_INITIALIZE, PHASE_STEP, PHASE_TERMINATE = 1, 2, 3, 4
+PHASE_NAMES = {1: "instantiation", 2: "initialization", 3: "a step", 4: "termination"}
+
+
 class Runtime:
     def __init__(self, plan: Plan, observed: list[Var], log: LogSink, step_multiples: dict[str, int] | None = None,
                  logging_on: bool = False, inprocess: bool = False, sampled: list[Var] | None = None):
@@ -38,6 +42,7 @@ class Runtime:
         self.active = [True] * n
         self.changed = False          # set when a component is taken out; algorithms rebuild their step
         self.stop_reason = None       # set by a monitor that ends the run early
+        self.probe = None             # a supervisor's shared array: [phase code, component index] (supervise.py)
         self.slaves = [None] * n
         self._logging_on = logging_on
         self._inprocess = inprocess
@@ -103,9 +108,14 @@ class Runtime:
                     pos += len(group[i][t])
             self.in_slice[t] = slices   # first n: step inputs, next n: init-only inputs
 
+    def _at(self, phase: int, i: int) -> None:
+        if self.probe is not None:
+            self.probe[0], self.probe[1] = phase, i
+
     # -- life cycle -----------------------------------------------------------------------
     def instantiate(self, start: float, stop: float | None):
         for i, name in enumerate(self.names):
+            self._at(PHASE_INSTANTIATE, i)
             fmu = self.plan.fmus[name]
             shown = f"{self.plan.shown_as}/{self.plan.model.components[name].source}"
             slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess)
@@ -240,6 +250,7 @@ class Runtime:
                    tolerance: float = 1e-12, max_iterations: int = 100):
         """Enter initialization mode and propagate outputs to inputs until the connected values settle."""
         for i, slave in enumerate(self.slaves):
+            self._at(PHASE_INITIALIZE, i)
             slave.enter_init(start)
         for i in order:
             self.get_outputs(i, start)
@@ -268,6 +279,7 @@ class Runtime:
             raise CosimError(f"initialization did not settle after {limit} iterations: algebraic loop {loop_desc}",
                              file=self.plan.shown_as, element="initialization", time=start)
         for i, slave in enumerate(self.slaves):
+            self._at(PHASE_INITIALIZE, i)
             slave.exit_init(start)
         for i in order:
             self.get_outputs(i, start)
@@ -276,9 +288,10 @@ class Runtime:
 
     def terminate(self):
         """Terminate and free every instance; errors here are logged, not raised, to keep the results."""
-        for slave in self.slaves:
+        for i, slave in enumerate(self.slaves):
             if slave is None:
                 continue
+            self._at(PHASE_TERMINATE, i)
             try:
                 slave.terminate()
             except Exception as exc:  # a failing terminate must not hide the run's own outcome

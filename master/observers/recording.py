@@ -14,6 +14,7 @@ import numpy as np
 import pyarrow as pa
 
 from ..plan import Var
+from ..sinks.group import SinkGroup
 from .base import Observer
 
 ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Boolean": pa.bool_(), "String": pa.string()}
@@ -37,6 +38,33 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     return chosen
 
 
+NUMERIC_ORDER = ("Real", "Integer", "Boolean")
+_BASE_OF = {pa.float64(): "Real", pa.int32(): "Integer", pa.bool_(): "Boolean", pa.string(): "String"}
+
+
+def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list[str]]) -> pa.Table:
+    """A block of rows as a table: ``block`` holds time then the numeric columns grouped by type (Real,
+    Integer, Boolean, each in schema order), ``str_rows`` the string columns of each row, in schema order."""
+    kinds = [_BASE_OF[f.type] for f in schema][1:]
+    numeric = sorted((k for k, kind in enumerate(kinds) if kind != "String"), key=lambda k: NUMERIC_ORDER.index(kinds[k]))
+    column_of = {k: col for col, k in enumerate(numeric, start=1)}
+    arrays = [pa.array(block[:, 0])]
+    j = 0
+    for k, kind in enumerate(kinds):
+        if kind == "String":
+            arrays.append(pa.array([r[j] for r in str_rows], type=pa.string()))
+            j += 1
+            continue
+        col = block[:, column_of[k]]
+        if kind == "Integer":
+            arrays.append(pa.array(col.astype(np.int32)))
+        elif kind == "Boolean":
+            arrays.append(pa.array(col != 0))
+        else:
+            arrays.append(pa.array(col))
+    return pa.Table.from_arrays(arrays, schema=schema)
+
+
 class Recording(Observer):
     """Samples at the start, every ``every`` steps, at the last step and when the run ends early."""
     name = "recording"
@@ -52,10 +80,13 @@ class Recording(Observer):
         # into short row groups costs far more memory when read back (measured: 128-row groups of 8000
         # columns, 9 GB to read one hour) than the block itself (4096 x 8000 x 8 B = 260 MB).
         self.block_rows = block_rows or 4096
-        self.rows_written = 0
+        self.group = SinkGroup(sinks, self.out_dir)
         self.schema = pa.schema([pa.field("time", pa.float64())] +
                                 [pa.field(v.qualified, ARROW_TYPES[v.type]) for v in variables])
-        self._open = []
+
+    @property
+    def rows_written(self) -> int:
+        return self.group.rows
 
     def sampled_variables(self) -> list[str]:
         return [v.qualified for v in self.variables]
@@ -67,12 +98,11 @@ class Recording(Observer):
         # numeric values (Real, Integer, Boolean) share one float64 block, grouped by type so that each type
         # fills a contiguous run of columns with one np.take per row
         self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
-                          key=lambda kv: ("Real", "Integer", "Boolean").index(kv[1].type))
+                          key=lambda kv: NUMERIC_ORDER.index(kv[1].type))
         self.str_ = [(k, v) for k, v in enumerate(variables) if v.type == "String"]
-        self.block = np.empty((self.block_rows, 1 + len(self.num)), dtype=np.float64)
+        self.block = self._new_block(self.block_rows, 1 + len(self.num))
         self.str_rows: list[list[str]] = []
         self.fill = 0
-        self.column_of = {k: col for col, (k, _) in enumerate(self.num, start=1)}
         self.gather = []
         col = 1
         for typ in ("Real", "Integer", "Boolean"):
@@ -81,11 +111,11 @@ class Recording(Observer):
                 self.gather.append((rt.out[typ], np.array(pos, dtype=np.intp), col, col + len(pos)))
                 col += len(pos)
         self.str_pos = [rt.out_pos[v.qualified] for _, v in self.str_]
-        for sink in self.sinks:
-            if self.out_dir is not None or not sink.needs_folder:
-                sink.open(self.out_dir, self.schema)
-                self._open.append(sink)
+        self.group.open(self.schema)
         self.sample(start)
+
+    def _new_block(self, rows: int, cols: int) -> np.ndarray:
+        return np.empty((rows, cols), dtype=np.float64)
 
     def after_step(self, n: int, t0: float, t1: float) -> None:
         rt = self.rt
@@ -109,39 +139,26 @@ class Recording(Observer):
             self.flush()
 
     def _table(self) -> pa.Table:
-        blk = self.block[: self.fill]
-        arrays = [pa.array(blk[:, 0])]
-        str_cols = {k: j for j, (k, _) in enumerate(self.str_)}
-        for k, v in enumerate(self.variables):
-            if v.type == "String":
-                arrays.append(pa.array([r[str_cols[k]] for r in self.str_rows], type=pa.string()))
-                continue
-            col = blk[:, self.column_of[k]]
-            if v.type == "Integer":
-                arrays.append(pa.array(col.astype(np.int32)))
-            elif v.type == "Boolean":
-                arrays.append(pa.array(col != 0))
-            else:
-                arrays.append(pa.array(col))
-        return pa.Table.from_arrays(arrays, schema=self.schema)
+        return block_table(self.schema, self.block[: self.fill], self.str_rows)
 
     def flush(self) -> None:
         if getattr(self, "fill", 0) == 0:
             return
         table = self._table()
-        for sink in self._open:
-            sink.write(table)
-        self.rows_written += self.fill
+        # the rows are consumed before they are written: whatever happens below, no row is written twice
         self.fill = 0
         self.str_rows = []
+        self.group.write(table)
 
     def finish(self, out_dir, outcome) -> dict:
         try:
             self.flush()
         finally:
-            for sink in self._open:
-                sink.close()
-        return {"rows": self.rows_written}
+            self.group.close()
+        info = {"rows": self.rows_written}
+        if self.group.notes:
+            info["notes"] = self.group.notes
+        return info
 
     def files(self) -> list[Path]:
-        return [p for s in self._open for p in s.files()]
+        return self.group.files()

@@ -20,6 +20,22 @@ class Sink:
     def close(self) -> None:
         pass
 
+    # -- all-or-nothing blocks (SinkGroup) ----------------------------------------------------------------
+    broken = False
+
+    def mark(self):
+        """Where the sink stands before a block (``rollback`` returns there)."""
+        return None
+
+    def rollback(self, mark) -> None:
+        """Undo what was written since ``mark``; a sink that cannot undo is ``broken`` and gets ``repair``."""
+        self.broken = True
+
+    def repair(self, sinks: list, schema, rows: int) -> str:
+        """Make the output whole again at close (``rows`` blocks-worth were written everywhere); returns a note
+        for run.json."""
+        return f"{type(self).__name__} was left incomplete"
+
     def files(self) -> list[Path]:
         """The files this sink wrote (listed in run.json)."""
         return []

@@ -39,6 +39,14 @@ class CsvSink(Sink):
         self._fh.write("".join(",".join(r) + "\n" for r in zip(*cols)))
         self._fh.flush()
 
+    def mark(self):
+        return self._fh.tell()
+
+    def rollback(self, mark):
+        self._fh.seek(mark)
+        self._fh.truncate(mark)
+        self._fh.flush()
+
     def close(self):
         if self._fh is not None:
             self._fh.close()

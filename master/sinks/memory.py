@@ -18,5 +18,11 @@ class MemorySink(Sink):
     def write(self, block):
         self.blocks.append(block)
 
+    def mark(self):
+        return len(self.blocks)
+
+    def rollback(self, mark):
+        del self.blocks[mark:]
+
     def table(self) -> pa.Table:
         return pa.concat_tables(self.blocks) if self.blocks else self.schema.empty_table()

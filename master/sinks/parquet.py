@@ -23,8 +23,36 @@ class ParquetSink(Sink):
 
     def close(self):
         if self._writer is not None:
-            self._writer.close()
-            self._writer = None
+            writer, self._writer = self._writer, None
+            if self.broken:
+                try:
+                    writer.close()
+                except OSError:
+                    pass
+            else:
+                writer.close()
+
+    def repair(self, sinks, schema, rows):
+        """A Parquet file cannot be cut back to its last whole row group (its footer is written at the end),
+        so after a failed write it is rebuilt from the CSV, which can, and whose doubles read back exactly."""
+        import os
+
+        import pyarrow.csv as pc
+        from .csv import CsvSink
+        csv = next((s for s in sinks if isinstance(s, CsvSink) and not s.broken), None)
+        if csv is None:
+            kept = self.path.with_name(self.path.name + ".incomplete")
+            os.replace(self.path, kept)
+            return f"{self.path.name} could not be completed and there is no CSV to rebuild it from: kept as {kept.name}"
+        self.path.unlink(missing_ok=True)     # its space is what the rebuilt file needs
+        opts = pc.ConvertOptions(column_types={f.name: f.type for f in schema}, strings_can_be_null=False,
+                                 quoted_strings_can_be_null=False)
+        table = pc.read_csv(str(csv.path), convert_options=opts)
+        tmp = self.path.with_name(f".{self.path.name}.tmp")
+        pq.write_table(table, str(tmp))
+        os.replace(tmp, self.path)
+        self.broken = False
+        return f"{self.path.name} rebuilt from {csv.path.name} after a failed write ({table.num_rows} rows)"
 
     def files(self):
         return [self.path]

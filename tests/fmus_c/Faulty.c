@@ -6,6 +6,8 @@
  *   2 -> logs a message and returns Discard (time is not advanced;
  *        fmi2GetBooleanStatus(fmi2Terminated) then returns true)
  *   3 -> logs a fatal message and crashes the process with abort()
+ *   4 -> crashes the process with a segmentation fault (write through a null pointer)
+ *   5 -> hangs (never returns from doStep)
  */
 #include <stdlib.h>
 
@@ -13,8 +15,8 @@
 
 int model_initialize(ModelData *d)
 {
-    if (d->i[VR_mode] < 0 || d->i[VR_mode] > 3) {
-        fw_log(d, M_ERROR, "logStatusError", "Faulty: mode must be 0..3 (got %d)", d->i[VR_mode]);
+    if (d->i[VR_mode] < 0 || d->i[VR_mode] > 5) {
+        fw_log(d, M_ERROR, "logStatusError", "Faulty: mode must be 0..5 (got %d)", d->i[VR_mode]);
         return M_ERROR;
     }
     return M_OK;
@@ -38,6 +40,15 @@ int model_do_step(ModelData *d, double t, double h)
         case 3:
             fw_log(d, M_FATAL, "logStatusFatal", "Faulty: injected crash (abort) in doStep(t=%g, h=%g)", t, h);
             abort();
+        case 4: {
+            volatile int *nowhere = NULL;
+            *nowhere = 1;
+            break;
+        }
+        case 5:
+            for (;;) {
+                /* a model stuck in an endless iteration */
+            }
         default:
             break;
         }

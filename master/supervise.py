@@ -1,0 +1,430 @@
+"""A supervised run: the simulation in a child process, the results in this one.
+
+An FMU is foreign code in the master's address space: it can abort, segfault or never return. So the
+``cosim-master run`` command runs the simulation (``Execution``) in a forked child and keeps the outputs here:
+
+* the child sends every full block of recorded rows through a pipe (Arrow IPC) and this process writes it to
+  the sinks (Parquet, CSV); the rows of the block being filled live in shared memory, so the rows recorded
+  before a crash are all kept, whatever kills the child;
+* events are sent as they happen; the child's run.json facts come at its end;
+* a crash (signal), ``--timeout`` (wall clock) or Ctrl-C/SIGTERM that the child does not answer within
+  ``GRACE_S`` ends with the child killed, its rows written, run.json saying what happened, and the component
+  named: the child's faulthandler dumps its Python stack on a fatal signal and on SIGUSR1 (sent before a kill),
+  and the line of the compiled step it was in tells which component's FMI call it was; outside the step loop a
+  shared probe tells the phase and component.
+
+Shared memory layout (float64): [blocks sent, rows in the current block, time of the last row, time reached,
+phase, component index, unused, unused] then the block (rows x columns).
+"""
+from __future__ import annotations
+
+import faulthandler
+import mmap
+import multiprocessing as mp
+import os
+import re
+import signal
+import tempfile
+import time
+from multiprocessing.connection import wait as mp_wait
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+
+from .errors import CosimError
+from .execution import Execution, Options, write_run_files
+from .observers.recording import Recording, block_table
+from .runtime import PHASE_NAMES, PHASE_STEP
+from .sinks import SINKS
+from .sinks.base import Sink
+from .sinks.group import SinkGroup
+
+HEADER = 8
+H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT = range(6)
+GRACE_S = 3.0                    # how long a child may take to stop after Ctrl-C/SIGTERM before it is killed
+CRASH_FILE = ".cosim-master.stack"
+SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
+
+
+# ------------------------------------------------------------------------------------------------ child
+class _PipeSink(Sink):
+    needs_folder = False
+
+    def __init__(self, conn, header):
+        self.conn, self.header = conn, header
+        self.sent = 0
+
+    def write(self, block):
+        sink = pa.BufferOutputStream()
+        with pa.ipc.new_stream(sink, block.schema) as w:
+            w.write_table(block)
+        self.conn.send(("block", sink.getvalue().to_pybytes()))
+        self.sent += 1
+        # order matters for the parent's recovery: the rows left in shared memory count only once the block
+        # count says they are not the block just sent
+        self.header[H_FILL] = 0
+        self.header[H_BLOCKS] = self.sent
+
+
+class _ChildRecording(Recording):
+    def __init__(self, base: Recording, conn):
+        super().__init__(base.variables, [], None, every=base.every, steps=base.steps, block_rows=base.block_rows)
+        self.conn = conn
+
+    def _new_block(self, rows, cols):
+        self.conn.send(("schema", self.schema.serialize().to_pybytes(), rows, cols))
+        kind, path = self.conn.recv()
+        fd = os.open(path, os.O_RDWR)
+        try:
+            self._mm = mmap.mmap(fd, 0)
+        finally:
+            os.close(fd)
+        os.unlink(path)           # both processes have it mapped; nothing is left behind whatever happens
+        self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self._mm)
+        self.group = SinkGroup([_PipeSink(self.conn, self.header)], None)
+        return np.ndarray((rows, cols), dtype=np.float64, buffer=self._mm, offset=HEADER * 8)
+
+    def attach(self, ctx, start):
+        super().attach(ctx, start)
+        ctx.rt.probe = self.header[H_PHASE:H_COMPONENT + 1]
+        self.header[H_PHASE] = PHASE_STEP
+
+    def after_step(self, n, t0, t1):
+        self.header[H_TIME] = t1
+        if self.algorithm._step is not self._step_sent:      # rebuilt after a component was taken out
+            self.send_names()
+        super().after_step(n, t0, t1)
+
+    def send_names(self):
+        self._step_sent = getattr(self.algorithm, "_step", None)
+        self.conn.send(("names", list(self.rt.names), _step_lines(self._step_sent)))
+
+    def flush(self):
+        self.header[H_FILL] = self.fill       # the row that filled the block counts if the send is cut short
+        super().flush()
+
+    def finish(self, out_dir, outcome):
+        info = super().finish(out_dir, outcome)
+        # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete
+        self.conn.send(("close",))
+        reply = self.conn.recv()
+        info.update(reply[1])
+        return info
+
+    def sample(self, t):
+        super().sample(t)
+        if self.str_:
+            s = self.rt.out["String"]
+            self.conn.send(("str", [s[p] for p in self.str_pos]))
+        self.header[H_LAST_ROW] = t
+        self.header[H_FILL] = self.fill
+
+
+class _SentEvents(list):
+    def __init__(self, conn):
+        super().__init__()
+        self.conn = conn
+
+    def append(self, event):
+        super().append(event)
+        self.conn.send(("event", event))
+
+
+def _step_lines(fn) -> dict:
+    """Line of the compiled step -> component it calls (``d3(...)``, ``s3_0()``, ``g3_1()``, ``x3_0()``)."""
+    out = {}
+    for k, line in enumerate(getattr(fn, "source", "").splitlines(), start=1):
+        m = re.search(r"\b[dsgxp](\d+)(?:_\d+)?\(", line)
+        if m:
+            out[k] = int(m.group(1))
+    return out
+
+
+def _child(conn, scenario, options: dict):
+    out_dir = Path(options["output"])
+    stack = open(out_dir / CRASH_FILE, "w", buffering=1)
+    faulthandler.enable(file=stack, all_threads=False)
+    faulthandler.register(signal.SIGUSR1, file=stack, all_threads=False)
+    ex = Execution(scenario, **options)
+    ex.write_run_json = False
+    status = 1
+    try:
+        ex.setup()
+        rec = _ChildRecording(ex.recording, conn)
+        ex.observers[ex.observers.index(ex.recording)] = rec
+        ex.recording = rec
+        ex.events = _SentEvents(conn)
+        rec.algorithm = ex.algorithm
+        rec._step_sent = None
+        ex.initialize()
+        rec.send_names()
+        ex.simulate_until()
+        ex.close("completed")
+        status = 0
+    except CosimError as exc:
+        ex.close("error", exc)
+    except KeyboardInterrupt:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)     # one interrupt is enough: the close must finish
+        ex.close("interrupted", CosimError("interrupted by the user", time=ex.metadata.get("last_time")))
+        status = 130
+    except BaseException as exc:  # noqa: BLE001 - a bug must still leave run.json
+        ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
+    finally:
+        try:
+            conn.send(("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else []))
+            conn.close()
+        finally:
+            stack.close()
+            # no exit-time destructors: some FMU binaries (pythonfmu 0.7) crash in them after the run is done
+            os._exit(status)
+
+
+# ----------------------------------------------------------------------------------------------- parent
+class _Supervisor:
+    def __init__(self, scenario, options: Options, timeout: float | None):
+        self.scenario, self.options, self.timeout = scenario, options, timeout
+        self.out_dir = Path(options.output)
+        names = options.sinks or (["parquet"] + (["csv"] if options.write_csv else []))
+        self.group = SinkGroup([SINKS.get(n, element="sinks")() for n in names], self.out_dir)
+        self.schema = None
+        self.mm = None
+        self.header = None
+        self.block = None
+        self.pending_str: list = []
+        self.blocks_received = 0
+        self.events: list = []
+        self.meta: dict | None = None
+        self.names: list[str] = []
+        self.step_lines: dict = {}
+        self.stop_reason: str | None = None        # why this process ended the child
+        self.kill_at: float | None = None
+        self.forward_at: float | None = None        # when to pass an interrupt on to the child
+        self.write_error: CosimError | None = None
+
+    # messages ---------------------------------------------------------------------------------------------
+    def handle(self, msg, conn):
+        kind = msg[0]
+        if kind == "block":
+            table = pa.ipc.open_stream(msg[1]).read_all()
+            self.blocks_received += 1
+            self.pending_str = []
+            if self.write_error is None:
+                try:
+                    self.group.write(table)
+                except CosimError as exc:     # a full disk: stop the child, keep what is written
+                    self.write_error = exc
+                    self.stop("results could not be written", kill=True)
+        elif kind == "str":
+            self.pending_str.append(msg[1])
+        elif kind == "event":
+            self.events.append(msg[1])
+        elif kind == "schema":
+            self.schema = pa.ipc.read_schema(pa.py_buffer(msg[1]))
+            rows, cols = msg[2], msg[3]
+            folder = "/dev/shm" if os.path.isdir("/dev/shm") else str(self.out_dir)
+            fd, path = tempfile.mkstemp(prefix="cosim-master-", dir=folder)
+            try:
+                os.ftruncate(fd, (HEADER + rows * cols) * 8)
+                self.mm = mmap.mmap(fd, 0)
+            finally:
+                os.close(fd)
+            self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self.mm)
+            self.header[:] = 0.0
+            self.header[H_COMPONENT] = -1
+            self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
+            self.group.open(self.schema)
+            conn.send(("shm", path))
+        elif kind == "close":
+            self.group.close()
+            conn.send(("closed", {"rows": self.group.rows, **({"notes": self.group.notes} if self.group.notes
+                                                                  else {})}))
+        elif kind == "names":
+            self.names, self.step_lines = msg[1], msg[2]
+        elif kind == "meta":
+            self.meta, self.events = msg[1], list(msg[2])
+
+    def stop(self, reason: str, kill: bool = False):
+        if self.stop_reason is None:
+            self.stop_reason = reason
+        if kill:
+            self.kill_at = time.monotonic()
+        elif self.kill_at is None:
+            self.kill_at = time.monotonic() + GRACE_S
+
+    # the run --------------------------------------------------------------------------------------------
+    def run(self) -> dict:
+        ctx = mp.get_context("fork")
+        parent, child = ctx.Pipe()
+        options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
+        proc = ctx.Process(target=_child, args=(child, self.scenario, options), name="cosim-master-run")
+        previous = {}
+
+        def on_signal(signum, frame):
+            name = "interrupted by the user" if signum == signal.SIGINT else f"stopped by {SIGNAL_NAMES[signum]}"
+            self.stop(name)
+            # a Ctrl-C in a terminal reaches the child too: pass it on only if the child has not ended soon after
+            # (a second interrupt could cut the child's own orderly close short); SIGTERM at once
+            if self.forward_at is None:
+                self.forward_at = time.monotonic() + (0.5 if signum == signal.SIGINT else 0.0)
+        for s in (signal.SIGINT, signal.SIGTERM):
+            previous[s] = signal.signal(s, on_signal)
+        t0 = time.monotonic()
+        killed = False
+        try:
+            proc.start()
+            child.close()
+            open_conn = True
+            while True:
+                ready = mp_wait([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
+                if open_conn and parent in ready:
+                    try:
+                        self.handle(parent.recv(), parent)
+                    except EOFError:
+                        open_conn = False
+                    except Exception:   # noqa: BLE001 - a message cut short by the child's death
+                        open_conn = False
+                    continue
+                if proc.sentinel in ready:
+                    break
+                now = time.monotonic()
+                if self.forward_at is not None and now >= self.forward_at:
+                    self.forward_at = float("inf")
+                    try:
+                        os.kill(proc.pid, signal.SIGINT)
+                    except ProcessLookupError:
+                        pass
+                if self.timeout is not None and now - t0 > self.timeout and self.stop_reason is None:
+                    self.stop(f"timed out after {self.timeout:g} s", kill=True)
+                if self.kill_at is not None and now >= self.kill_at and not killed:
+                    killed = True
+                    self._dump_stack(proc)
+                    proc.kill()
+            proc.join()
+            while open_conn and parent.poll():
+                try:
+                    self.handle(parent.recv(), parent)
+                except Exception:   # noqa: BLE001 - a message cut short by the child's death
+                    break
+        finally:
+            for s, h in previous.items():
+                signal.signal(s, h)
+            parent.close()
+        return self._finish(proc.exitcode, killed)
+
+    def _dump_stack(self, proc):
+        """SIGUSR1 makes the child's faulthandler write where it is, even inside a C call that never returns."""
+        try:
+            os.kill(proc.pid, signal.SIGUSR1)
+            time.sleep(0.2)
+        except ProcessLookupError:
+            pass
+
+    def _culprit(self) -> str | None:
+        """The component whose FMI call the child was in, from its stack dump or the shared probe."""
+        stack = self.out_dir / CRASH_FILE
+        text = stack.read_text(errors="replace") if stack.is_file() else ""
+        for m in reversed(list(re.finditer(r'File "<cosim-master step[^"]*>", line (\d+)', text))):
+            i = self.step_lines.get(int(m.group(1)), self.step_lines.get(str(m.group(1))))
+            if i is not None and i < len(self.names):
+                return f"component {self.names[i]} (in {PHASE_NAMES[PHASE_STEP]})"
+        if self.header is not None and self.names:
+            phase, i = int(self.header[H_PHASE]), int(self.header[H_COMPONENT])
+            if phase != PHASE_STEP and 0 <= i < len(self.names):
+                return f"component {self.names[i]} (in {PHASE_NAMES.get(phase, 'setup')})"
+        return None
+
+    def _recover_rows(self) -> int:
+        """The rows of the block the child was filling (not sent): from shared memory."""
+        if self.header is None or self.write_error is not None:
+            return 0
+        if self.blocks_received > int(self.header[H_BLOCKS]):
+            return 0       # the child died between sending a block and saying so: those rows are written
+        n = int(self.header[H_FILL])
+        if n <= 0:
+            return 0
+        str_rows = self.pending_str[:n]
+        if len(str_rows) < n and any(f.type == pa.string() for f in self.schema):
+            n = len(str_rows)      # a row whose strings never arrived is incomplete
+        if n == 0:
+            return 0
+        try:
+            self.group.write(block_table(self.schema, self.block[:n].copy(), str_rows))
+        except CosimError as exc:
+            self.write_error = exc
+            return 0
+        return n
+
+    def _finish(self, exitcode: int | None, killed: bool) -> dict:
+        recovered = 0 if self.meta is not None else self._recover_rows()
+        try:
+            self.group.close()
+        finally:
+            if self.mm is not None:
+                self.header = self.block = None
+                self.mm.close()
+        meta = self.meta or {"scenario": str(self.scenario), "outcome": "error"}
+        meta["rows_recorded"] = self.group.rows
+        if self.group.notes:
+            meta["results_notes"] = self.group.notes
+        meta["supervised"] = {"child_exit": exitcode, **({"rows_recovered": recovered} if recovered else {})}
+        if self.meta is None:
+            last = float(self.header_time) if self.header_time is not None else None
+            culprit = self._culprit()
+            if exitcode is not None and exitcode < 0 and not killed:
+                sig = SIGNAL_NAMES.get(-exitcode, str(-exitcode))
+                reason = f"the simulation process was killed by signal {sig}"
+                meta["outcome"] = "crashed"
+            elif self.stop_reason is not None:
+                reason = self.stop_reason + (" (the simulation did not stop within "
+                                             f"{GRACE_S:g} s and was killed)" if killed and "timed out" not in
+                                             self.stop_reason and self.write_error is None else "")
+                meta["outcome"] = "interrupted" if "user" in self.stop_reason or "stopped by" in self.stop_reason \
+                    else "error"
+            else:
+                reason = f"the simulation process ended with exit status {exitcode} without reporting"
+            if culprit:
+                reason += f" in {culprit}"
+            if self.write_error is not None:
+                reason = str(self.write_error)
+            meta["error"] = str(CosimError(reason, element=None, time=last))
+            meta["last_time"] = last
+        elif self.write_error is not None:
+            meta["outcome"], meta["error"] = "error", str(self.write_error)
+        meta.setdefault("wall_time_s", None)
+        (self.out_dir / CRASH_FILE).unlink(missing_ok=True)
+        if self.out_dir.is_dir():
+            write_run_files(self.out_dir, meta, self.events)
+        return meta
+
+    @property
+    def header_time(self):
+        if self.header is None:
+            return None
+        return self.header[H_TIME] if self.header[H_TIME] else self.header[H_LAST_ROW]
+
+
+def run_supervised(scenario, *, timeout: float | None = None, **options):
+    """``run`` with the simulation in a child process (see the module docstring); needs an output folder."""
+    from .runner import Result
+    opts = Options(**options)
+    if opts.output is None:
+        raise CosimError("a supervised run needs an output folder", element="--output")
+    out_dir = Path(opts.output)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CosimError(f"cannot create the output folder: {exc.strerror or exc}", file=str(out_dir),
+                         element="--output") from None
+    t0 = time.perf_counter()
+    sup = _Supervisor(scenario, opts, timeout)
+    meta = sup.run()
+    if meta.get("wall_time_s") is None:
+        meta["wall_time_s"] = time.perf_counter() - t0
+        write_run_files(out_dir, meta, sup.events)
+    result = Result(out_dir, meta, sup.events)
+    if meta.get("outcome") != "completed":
+        err = CosimError(meta.get("error") or f"run ended with outcome {meta.get('outcome')}")
+        err.result = result
+        raise err
+    return result
