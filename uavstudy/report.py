@@ -1,8 +1,8 @@
-"""``build_report(dir)``: figures, Table II with tests, and report.md for a finished campaign.
+"""The report of a UAV campaign: the paper's Figures 5-10 and Table II, and our numbers next to the published ones.
 
-For a UAV campaign (a table with per-UAV rows) the report reproduces the paper's Figures 5-10 and
-Table II and sets our numbers next to the published ones; for a generic campaign it summarises the
-outcomes and the final values per parameter set.
+``cosim-master report`` calls :func:`uav_report` through the ``uav`` scenario kind (``uavstudy.campaign_kind``)
+for a campaign whose table has per-UAV rows; the markdown helpers are the generic report's
+(``master.campaign.report``).
 
 Statistics (``master.campaign.stats``; 95 % two-sided everywhere):
 
@@ -20,16 +20,18 @@ sums them).  Only runs that completed are analysed; failed runs are listed.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from . import stats as st
-from .table import build_table, load_manifest
+from master.campaign import stats as st
+from master.campaign.report import campaign_facts, failures_md, md_table
+from master.campaign.spec import canonical_json
 
-__all__ = ["build_report", "uav_frames", "figure_data", "table2", "paper_comparison", "PAPER"]
+from .names import TOTAL_ROW, UAV_COLLISION, UAV_COLUMN, ZONE_COLLISION
+
+__all__ = ["uav_report", "uav_frames", "figure_data", "table2", "paper_comparison", "pair_keys", "PAPER"]
 
 COLORS = {"A": "tab:blue", "B": "tab:red"}
 
@@ -99,11 +101,11 @@ def uav_frames(df):
     strategy, n_uavs, area, wind (probability, fraction)."""
     import pandas as pd
     df = df.copy()
-    if "uav" not in df.columns:
+    if UAV_COLUMN not in df.columns:
         return None, None
     done = df[df["run_outcome"] == "completed"]
-    tot = done[done["uav"] == "total"].copy()
-    uav = done[done["uav"].notna() & (done["uav"] != "total")].copy()
+    tot = done[done[UAV_COLUMN] == TOTAL_ROW].copy()
+    uav = done[done[UAV_COLUMN].notna() & (done[UAV_COLUMN] != TOTAL_ROW)].copy()
     if tot.empty or uav.empty:
         return None, None
     scol = _col(tot, "strategy", "summary.strategy")
@@ -121,8 +123,8 @@ def uav_frames(df):
             u = u.drop(columns=[c + "_param"])
     u["success"] = u["success"].astype(bool) if "success" in u.columns else False
     u["remaining_battery_pct"] = pd.to_numeric(u.get("remaining_battery_pct"), errors="coerce")
-    u["collision_uav"] = (u["outcome"] == "uav_collision").astype(int)
-    u["collision_zone"] = (u["outcome"] == "zone_collision").astype(int)
+    u["collision_uav"] = (u["outcome"] == UAV_COLLISION).astype(int)
+    u["collision_zone"] = (u["outcome"] == ZONE_COLLISION).astype(int)
     agg = u.groupby("run_id").agg(uav_collided=("collision_uav", "sum"), zone_collided=("collision_zone", "sum"),
                                   successes=("success", "sum"),
                                   first_removal_s=("removed_time", lambda s: pd.to_numeric(s, errors="coerce").min()))
@@ -192,11 +194,10 @@ def pair_keys(df, manifest) -> dict | None:
     """run_id -> the key that matches a strategy-A run with its strategy-B twin (every other parameter and the
     repetition: the runs that share their seed in a campaign with ``paired: [strategy]``); None when the
     campaign is not paired on the strategy."""
-    if "strategy" not in (manifest.get("paired") or []) or df is None or "uav" not in df.columns:
+    if "strategy" not in (manifest.get("paired") or []) or df is None or UAV_COLUMN not in df.columns:
         return None
-    from .spec import canonical_json
     keys = [k for k in manifest.get("param_keys", []) if k != "strategy" and k in df.columns] + ["rep"]
-    tot = df[df["uav"] == "total"]
+    tot = df[df[UAV_COLUMN] == TOTAL_ROW]
     return {rid: canonical_json([_plain(v) for v in row])
             for rid, row in zip(tot["run_id"], tot[keys].itertuples(index=False))}
 
@@ -210,7 +211,7 @@ def _paired(data, col, level, pairs, success: bool):
     d = data[data["run_id"].isin(list(pairs))].copy()
     d["_key"] = d["run_id"].map(pairs)
     if level == "uav":
-        d["_key"] = d["_key"] + "/" + d["uav"].astype(str)
+        d["_key"] = d["_key"] + "/" + d[UAV_COLUMN].astype(str)
     a = d[d["strategy"] == "A"].drop_duplicates("_key").set_index("_key")[col]
     b = d[d["strategy"] == "B"].drop_duplicates("_key").set_index("_key")[col]
     common = a.index.intersection(b.index)
@@ -293,7 +294,7 @@ def _mwu(x, y):
 def _facts(u, r, fd) -> dict:
     """Data-driven sentences that explain a comparison, keyed by claim."""
     f: dict = {}
-    removed = u["outcome"].isin(["uav_collision", "zone_collision"])
+    removed = u["outcome"].isin([UAV_COLLISION, ZONE_COLLISION])
     if len(u):
         kept = u[~removed]["remaining_battery_pct"]
         rt = u[removed]["removed_time"].astype(float)
@@ -308,7 +309,7 @@ def _facts(u, r, fd) -> dict:
         parts = []
         for s in sorted(set(u["strategy"])):
             sub = u[u["strategy"] == s]
-            rm = sub["outcome"].isin(["uav_collision", "zone_collision"])
+            rm = sub["outcome"].isin([UAV_COLLISION, ZONE_COLLISION])
             d = sub[~rm]["distance_m"].astype(float)
             parts.append(f"{s}: {rm.mean() * 100:.0f} % of missions removed by a collision, the others flew "
                          f"{d.mean() / 1000:.2f} km on average")
@@ -326,7 +327,7 @@ def _facts(u, r, fd) -> dict:
         f["success_2"] = "Outcomes with 2 UAVs: " + "; ".join(
             f"{s}: " + ", ".join(f"{k} {int(v)}" for k, v in oc.loc[s].items() if v) for s in oc.index) + "."
     for s in ("A", "B"):
-        sub = u[(u["strategy"] == s) & (u["outcome"] == "uav_collision")]
+        sub = u[(u["strategy"] == s) & (u["outcome"] == UAV_COLLISION)]
         if len(sub):
             t = sub["removed_time"].astype(float)
             f.setdefault("wall_ratio", "")
@@ -593,48 +594,18 @@ def draw_figures(fd: dict, out: Path) -> dict:
 
 
 # ============================================================================================ markdown
-def _md_table(header: list[str], rows: list[list]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    for r in rows:
-        out.append("| " + " | ".join(str(x).replace("|", "\\|") for x in r) + " |")
-    return "\n".join(out)
-
-
-def _campaign_facts(manifest: dict, df) -> list[str]:
-    runs = df.drop_duplicates("run_id")
-    n_total = len(manifest["runs"])
-    n_done = int((runs["run_outcome"] == "completed").sum())
-    n_fail = int((runs["run_outcome"] == "failed").sum())
-    opts = manifest.get("options") or {}
-    facts = [f"Campaign `{manifest['name']}` ({manifest.get('description') or 'no description'}): "
-             f"{n_total} runs defined, {n_done} completed, {n_fail} failed, {n_total - n_done - n_fail} not run.",
-             f"Campaign seed {manifest['seed']}, {manifest['repetitions']} repetition(s) per parameter set; "
-             f"run options: {json.dumps(opts, sort_keys=True)}.",
-             f"Parameters: {', '.join(manifest['param_keys']) or '(none)'}."]
-    if "wall_time_s" in runs.columns and len(runs):
-        w = runs["wall_time_s"].astype(float)
-        facts.append(f"Run wall time: mean {w.mean():.2f} s, max {w.max():.2f} s, sum {w.sum() / 60:.1f} min.")
-    return facts
-
-
-def _failures_md(df) -> str:
-    runs = df.drop_duplicates("run_id")
-    fails = runs[runs["run_outcome"] == "failed"]
-    if fails.empty:
-        return "No run failed.\n"
-    rows = [[r["run_id"], r.get("error")] for _, r in fails.head(50).iterrows()]
-    return _md_table(["run", "error"], rows) + ("\n\n(first 50 shown)\n" if len(fails) > 50 else "\n")
-
-
-def _uav_report(manifest, df, out: Path) -> str:
+def uav_report(manifest, df, out: Path) -> str | None:
+    """The markdown of the report (figures written into ``out``); None when no UAV mission completed."""
     u, r = uav_frames(df)
+    if u is None:
+        return None
     fd = figure_data(u, r)
     files = draw_figures(fd, out)
     pairs = pair_keys(df, manifest)
     t2 = table2(u, r, pairs=pairs)
     cmp_rows = paper_comparison(u, r, fd, t2)
     L = [f"# Campaign report: {manifest['name']}", ""]
-    L += [f"- {x}" for x in _campaign_facts(manifest, df)]
+    L += [f"- {x}" for x in campaign_facts(manifest, df)]
     L += ["", "Statistics: success counts with 95 % Wilson score intervals and Fisher's exact test (two-sided); "
               "means with 95 % Student t intervals; totals over runs with n x the t interval of the per-run mean; "
               "A vs B on per-run and per-UAV metrics with the two-sided Mann-Whitney U test (exact for small "
@@ -651,7 +622,7 @@ def _uav_report(manifest, df, out: Path) -> str:
     # comparison
     L += ["## Our numbers next to the paper's", ""]
     rows = [[c["key"], c["paper"], c["ours"], _verdict(c)] for c in cmp_rows]
-    L += [_md_table(["quantity", "paper", "ours", "agrees"], rows), ""]
+    L += [md_table(["quantity", "paper", "ours", "agrees"], rows), ""]
     L += ["\"agrees\" compares directions (and the exact values where the paper gives them); \"not significant\" "
           "means our own difference or trend is not significant at α = 0.05 (its p-value or interval is in the row).",
           "", "Quotes (paper, section V):", ""]
@@ -698,21 +669,21 @@ def _uav_report(manifest, df, out: Path) -> str:
             (ka, ma, _), (kb, mb, _) = fd["fig5"][("A", n)], fd["fig5"][("B", n)]
             row.append(_fmt_p(st.fisher_exact(ka, ma - ka, kb, mb - kb)) if ma and mb else "n/a")
         rows.append(row)
-    L += [_md_table(["UAVs", *[f"Strategy {s}" for s in fd["strategies"]], "Fisher p (A vs B)"], rows), ""]
+    L += [md_table(["UAVs", *[f"Strategy {s}" for s in fd["strategies"]], "Fisher p (A vs B)"], rows), ""]
     L += ["### Remaining battery (Figs. 6, 7, 10), mean % [95 % t interval]", ""]
     rows = [[s, a, fd["fig6"][(s, a)].fmt(1)] for s in fd["strategies"] for a in fd["areas"]]
-    L += [_md_table(["strategy", "area", "remaining battery"], rows), ""]
+    L += [md_table(["strategy", "area", "remaining battery"], rows), ""]
     rows = [[s, a] + [fd["fig7"][(s, a, w)].fmt(1) for w in fd["winds"]] for s in fd["strategies"]
             for a in fd["areas"]]
-    L += [_md_table(["strategy", "area", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
+    L += [md_table(["strategy", "area", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
     rows = [[s] + [fd["fig10"][(s, n)].fmt(1) for n in fd["fleets"]] for s in fd["strategies"]]
-    L += [_md_table(["strategy", *[f"{n} UAV" for n in fd["fleets"]]], rows), ""]
+    L += [md_table(["strategy", *[f"{n} UAV" for n in fd["fleets"]]], rows), ""]
     L += ["### Total distance (Fig. 8), km [95 % interval]", ""]
     rows = [[s] + [fd["fig8"][(s, w)].fmt(1) for w in fd["winds"]] for s in fd["strategies"]]
-    L += [_md_table(["strategy", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
+    L += [md_table(["strategy", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
     L += ["### Collisions per impact point (Fig. 9), UAVs removed [95 % interval]", ""]
     rows = [[s, fd["fig9"][(s, "uav")].fmt(0), fd["fig9"][(s, "zone")].fmt(0)] for s in fd["strategies"]]
-    L += [_md_table(["strategy", "UAV-UAV", "zone (wall)"], rows), ""]
+    L += [md_table(["strategy", "UAV-UAV", "zone (wall)"], rows), ""]
     # table II
     L += ["## Table II - which strategy is better (α = 0.05)", ""]
     verdict = [x["better"] if x["better"] != "none" else f"no significant difference ({x['lead']} ahead)"
@@ -721,17 +692,17 @@ def _uav_report(manifest, df, out: Path) -> str:
         rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]),
                  f"{x['paired_test']}, {x['n_pairs']} pairs", _fmt_p(x["paired_p"]), v, "B"]
                 for x, v in zip(t2, verdict)]
-        L += [_md_table(["metric", "Strategy A", "Strategy B", "unpaired test", "p", "paired test", "paired p",
+        L += [md_table(["metric", "Strategy A", "Strategy B", "unpaired test", "p", "paired test", "paired p",
                          "better (ours, paired)", "paper"], rows), ""]
         L += ["The campaign is paired on the strategy (`paired: [strategy]`): each strategy-A run has a strategy-B "
               "twin with the same parameters, repetition and seed, i.e. the same wind. The paired tests compare the "
               "twins (per run, or per UAV of the same index) and decide \"better\".", ""]
     else:
         rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]), v, "B"] for x, v in zip(t2, verdict)]
-        L += [_md_table(["metric", "Strategy A", "Strategy B", "test", "p", "better (ours)", "paper"], rows), ""]
+        L += [md_table(["metric", "Strategy A", "Strategy B", "test", "p", "better (ours)", "paper"], rows), ""]
     L += ["Direction: more successes, photos and remaining energy are better; less distance and fewer collisions "
           "are better (the paper's reading). \"with wind\" rows use the runs with a wind probability above 0.", ""]
-    L += ["## Failed runs", "", _failures_md(df)]
+    L += ["## Failed runs", "", failures_md(df)]
     return "\n".join(L)
 
 
@@ -742,7 +713,7 @@ def _diagnostics(u, r) -> str:
     tab = u.groupby(["strategy", "area", "outcome"]).size().unstack(fill_value=0)
     header = ["strategy", "area", *[str(c) for c in tab.columns]]
     rows = [[s, a, *[int(v) for v in tab.loc[(s, a)].to_numpy()]] for s, a in tab.index]
-    lines += [_md_table(header, rows), ""]
+    lines += [md_table(header, rows), ""]
     rem = pd.to_numeric(u["removed_time"], errors="coerce") if "removed_time" in u.columns else None
     if rem is not None and rem.notna().any():
         parts = []
@@ -758,41 +729,3 @@ def _diagnostics(u, r) -> str:
             lines += [f"**{t} UAV mission(s) were still flying at the stop time** (outcome timeout): the campaign's "
                       "stop time is too short for them.", ""]
     return "\n".join(lines)
-
-
-def _generic_report(manifest, df) -> str:
-    L = [f"# Campaign report: {manifest['name']}", ""]
-    L += [f"- {x}" for x in _campaign_facts(manifest, df)]
-    L += ["", "Values: mean [95 % Student t interval] over repetitions of each parameter set (completed runs).", ""]
-    keys = [k for k in manifest["param_keys"] if k in df.columns]
-    finals = [c for c in df.columns if c.startswith("final:") and c != "final:time"]
-    done = df[df["run_outcome"] == "completed"]
-    if finals and len(done):
-        grp = done.groupby(keys, dropna=False, sort=False) if keys else [((), done)]
-        rows = []
-        for key, sub in grp:
-            key = key if isinstance(key, tuple) else (key,)
-            rows.append([*key, len(sub), *[st.mean_ci(sub[c]).fmt(4) for c in finals]])
-        L += [_md_table([*keys, "runs", *finals], rows), ""]
-    L += ["## Failed runs", "", _failures_md(df)]
-    return "\n".join(L)
-
-
-def build_report(campaign_dir) -> Path:
-    """Write ``<dir>/report/report.md`` (and the figures next to it) from the campaign's records."""
-    campaign_dir = Path(campaign_dir)
-    if not (campaign_dir / "campaign.json").is_file():
-        from ..errors import CosimError
-        raise CosimError("not a campaign folder (no campaign.json); run 'cosim-master campaign' first",
-                         file=str(campaign_dir))
-    manifest = load_manifest(campaign_dir)
-    df = build_table(campaign_dir)
-    out = campaign_dir / "report"
-    out.mkdir(exist_ok=True)
-    u, _ = uav_frames(df) if len(df) else (None, None)
-    text = _uav_report(manifest, df, out) if u is not None else _generic_report(manifest, df)
-    path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text(text + "\n", encoding="utf-8")
-    tmp.replace(path)
-    return path
