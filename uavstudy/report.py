@@ -492,6 +492,16 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _strategy_bars(ax, cis: dict, strategies, groups, width: float) -> None:
+    """Side by side in each group, one bar per strategy with its interval (Figs. 6 and 10)."""
+    for i, s in enumerate(strategies):
+        for j, g in enumerate(groups):
+            ci = cis[(s, g)]
+            x = j + (i - (len(strategies) - 1) / 2) * width
+            ax.bar(x, ci.estimate, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
+            ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
+
+
 def draw_figures(fd: dict, out: Path) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     S, N, W, A = fd["strategies"], fd["fleets"], fd["winds"], fd["areas"]
@@ -516,12 +526,7 @@ def draw_figures(fd: dict, out: Path) -> dict:
     files["fig5"] = _save(fig, out / "fig5_success_per_fleet_size.png")
     # -- Fig. 6
     fig, ax = _fig()
-    for i, s in enumerate(S):
-        for j, a in enumerate(A):
-            ci = fd["fig6"][(s, a)]
-            x = j + (i - (len(S) - 1) / 2) * width
-            ax.bar(x, ci.estimate, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
-            ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
+    _strategy_bars(ax, fd["fig6"], S, A, width)
     ax.set_xticks(np.arange(len(A)), A)
     ax.set_ylabel("mean remaining battery per UAV [%]")
     ax.set_title("Fig. 6 - remaining battery per area (95 % t interval)")
@@ -578,12 +583,7 @@ def draw_figures(fd: dict, out: Path) -> dict:
     files["fig9"] = _save(fig, out / "fig9_collisions_per_impact.png")
     # -- Fig. 10
     fig, ax = _fig()
-    for i, s in enumerate(S):
-        for j, n in enumerate(N):
-            ci = fd["fig10"][(s, n)]
-            x = j + (i - (len(S) - 1) / 2) * width
-            ax.bar(x, ci.estimate, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
-            ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
+    _strategy_bars(ax, fd["fig10"], S, N, width)
     ax.set_xticks(np.arange(len(N)), [str(n) for n in N])
     ax.set_xlabel("UAVs in the fleet")
     ax.set_ylabel("mean remaining battery per UAV [%]")
