@@ -101,13 +101,14 @@ _code_sha: str | None = None
 def code_sha256() -> str:
     """Hash of the code a run executes besides its FMUs: the master package and the code roots of every
     scenario kind (a study's package and the models its FMUs are built from; in-process runs may use the
-    installed copy), without the report-only modules.  Part of every run's inputs, so a campaign resumed after a code change reruns its
-    runs."""
+    installed copy), without the report-only modules.  Part of every run's inputs, so a campaign resumed
+    after a code change reruns its runs."""
     global _code_sha
     if _code_sha is None:
         import master
         kinds = SCENARIO_KINDS.load_all().values()
-        roots = [Path(master.__file__).resolve().parent, *(Path(r).resolve() for k in kinds for r in k.code_roots())]
+        roots = [Path(master.__file__).resolve().parent,
+                 *(Path(root).resolve() for k in kinds for root in k.code_roots())]
         report_only = set(REPORT_ONLY).union(*(k.report_only for k in kinds))
         h = hashlib.sha256()
         for root in dict.fromkeys(roots):
