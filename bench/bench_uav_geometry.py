@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from master.monitors.uav_geometry import CollisionDetector, ZoneDetector  # noqa: E402
+from uavstudy.geometry import CollisionDetector, ZoneDetector  # noqa: E402
 
 
 def make_steps(n, steps, rng):

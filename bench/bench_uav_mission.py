@@ -23,8 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from master.runner import run  # noqa: E402
-from master.uav.build import build_ssp  # noqa: E402
-from master.uav_scenario import load_scenario_yaml  # noqa: E402
+from uavstudy.build import build_ssp  # noqa: E402
+from uavstudy.scenario import load_scenario_yaml  # noqa: E402
 
 AREAS = {"free": ROOT / "ssp" / "scenarios" / "paper_area.yaml",
          "zones": ROOT / "ssp" / "scenarios" / "paper_area_zones.yaml"}

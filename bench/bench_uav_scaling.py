@@ -7,7 +7,7 @@ Usage::
     python bench/bench_uav_scaling.py --stop-256 900     # shorter mission for N >= 256, extrapolated
     python bench/bench_uav_scaling.py --sizes 256 --stop 600 --profile 40 --no-write   # what dominates
 
-Scenario per fleet size N (``make_scenario``, built with ``master.uav.build.build_ssp``): a disc-shaped
+Scenario per fleet size N (``make_scenario``, built with ``uavstudy.build.build_ssp``): a disc-shaped
 area about the base whose radius is 700 m (about the paper's 1.2 km square) up to 4 UAVs and grows as
 (N/4)^(1/4) above (1.98 km for 256), so that every UAV can fly its sector and back on one charge; 2-6
 targets per UAV (drawn per UAV, seeded by N) uniform in the area outside the landing-pad ring, listed
@@ -64,7 +64,7 @@ def area_radius(n: int) -> float:
 
 def _zones_enu(n: int, radius: float) -> list[list[tuple[float, float]]]:
     """Four squares (ENU m) at 55 % of the radius on the diagonals, clear of the landing-pad ring."""
-    from master.uav.build import pad_positions
+    from uavstudy.build import pad_positions
     ring = max(math.hypot(*p) for p in pad_positions(n))
     r = max(0.55 * radius, ring + 150.0)
     out = []
@@ -85,8 +85,8 @@ def make_scenario(n: int, *, step: float = 1.0, stop_time: float = MISSION, zone
     each UAV the targets of the sector in front of its own pad (a fleet flying out radially, as a real
     operator would split the area, instead of criss-crossing the ring)."""
     import shapely
-    from master.uav.build import pad_positions
-    from master.uav_scenario import UavScenario, WindConfig
+    from uavstudy.build import pad_positions
+    from uavstudy.scenario import UavScenario, WindConfig
     from uavsim.geodesy import geodetic_from_enu
 
     rng = np.random.default_rng(1000 + n)
@@ -140,8 +140,8 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
             kw["block_rows"] = block_rows
             init(self, *a, **kw)
         rec_mod.Recorder.__init__ = small_blocks
-    from master.monitors import uav as uav_mod
-    from master.uav.build import build_ssp
+    from uavstudy import monitor as uav_mod
+    from uavstudy.build import build_ssp
 
     tmp = Path(tempfile.mkdtemp(prefix=f"uav_scaling_{n}_"))
     t = time.perf_counter()

@@ -70,11 +70,13 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--no-progress", action="store_true")
     c.add_argument("--debug", action="store_true")
 
-    rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign")
+    rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign "
+                                       "(as the scenario kind recorded in its campaign.json writes it)")
     rp.add_argument("campaign_dir")
     rp.add_argument("--debug", action="store_true")
 
-    b = sub.add_parser("build-scenario", help="write an SSP for a multi-UAV scenario described in YAML")
+    b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
+                                              "UAV study YAML (the scenario kind that claims the file builds it)")
     b.add_argument("scenario_yaml")
     b.add_argument("-o", "--output", required=True)
     b.add_argument("--debug", action="store_true")
@@ -153,12 +155,15 @@ def _dispatch(args) -> int:
         return 0 if summary.ok else 1
     if args.command == "report":
         from .campaign.report import build_report
-        path = build_report(args.campaign_dir)
+        path = build_report(args.campaign_dir)       # the kind recorded in campaign.json writes it
         print(f"wrote {path}")
         return 0
     if args.command == "build-scenario":
-        from .uav.build import build_scenario
-        path = build_scenario(args.scenario_yaml, args.output)
+        from pathlib import Path
+
+        from .scenario_kinds import kind_for_file
+        source = Path(args.scenario_yaml)
+        path = kind_for_file(source).build(source, Path(args.output))
         print(f"wrote {path}")
         return 0
     return 2

@@ -39,8 +39,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(HERE), help="output folder (default: ssp/)")
     args = ap.parse_args(argv)
 
-    from master.uav.build import build_ssp
-    from master.uav_scenario import load_scenario_yaml
+    from uavstudy.build import build_ssp
+    from uavstudy.scenario import load_scenario_yaml
 
     out = Path(args.out)
     total = 0

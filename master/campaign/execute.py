@@ -15,7 +15,6 @@ trace); with ``keep: summary`` only the small files are kept afterwards.
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import json
 import math
 import os
@@ -27,8 +26,8 @@ from pathlib import Path
 
 __all__ = ["execute_run", "failure_record", "SUMMARY_FILES"]
 
-#: what ``keep: summary`` keeps of a run folder
-SUMMARY_FILES = ("run.json", "summary.json", "summary.csv", "events.csv", "photos.csv", "scenario.yaml", "fmu.log")
+#: what ``keep: summary`` keeps of a run folder (and the scenario kind's ``summary_files``)
+SUMMARY_FILES = ("run.json", "summary.json", "summary.csv", "events.csv", "fmu.log")
 
 
 def _one_line(text: str) -> str:
@@ -54,52 +53,6 @@ def failure_record(task: dict, reason: str, wall_time_s: float | None = None, wo
     rec["worker"] = worker
     rec["finished_at"] = _now()
     return rec
-
-
-def _set_path(data: dict, key: str, value, shown: str):
-    from ..errors import ScenarioError
-    parts = key.split(".")
-    d = data
-    for i, p in enumerate(parts[:-1]):
-        nxt = d.get(p)
-        if nxt is None:
-            nxt = d[p] = {}
-        if not isinstance(nxt, dict):
-            raise ScenarioError(f"cannot set {key!r}: {'.'.join(parts[:i + 1])} is not a mapping", file=shown,
-                                element=key)
-        d = nxt
-    d[parts[-1]] = value
-
-
-def _build_uav(task: dict, out: Path, used: dict) -> Path:
-    """The run's UAV scenario: base YAML + overrides + seed -> runs/<id>/scenario.yaml -> scenario.ssp."""
-    import yaml
-
-    from ..errors import ScenarioError
-    from ..uav.build import build_ssp
-    from .. import yamlio
-    from ..uav_scenario import scenario_from_dict
-    src = Path(task["scenario"])
-    try:
-        raw = src.read_bytes()
-        used["scenario_sha256"] = hashlib.sha256(raw).hexdigest()
-        data = yamlio.load(raw.decode("utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise ScenarioError(f"cannot read the scenario: {exc}", file=str(src)) from None
-    if not isinstance(data, dict):
-        raise ScenarioError("expected a mapping of scenario fields", file=str(src))
-    for k, v in task["overrides"].items():
-        _set_path(data, k, v, str(src))
-    data["seed"] = int(task["seed"])
-    # a campaign run ends when its fleet has landed (the summary is the same; the idle rest is skipped)
-    data.setdefault("end_when_all_landed", True)
-    head = (f"# campaign {task['campaign']}, run {task['run_id']} (rep {task['rep']}, seed {task['seed']})\n"
-            f"# base scenario: {task['inputs']['scenario']}; "
-            f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")
-    yml = out / "scenario.yaml"
-    yml.write_text(head + yamlio.dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
-    scn = scenario_from_dict(data, yml)       # what was just written, without parsing it again
-    return build_ssp(scn, out / "scenario.ssp")
 
 
 def _final_values(out: Path) -> dict:
@@ -128,11 +81,11 @@ def _final_values(out: Path) -> dict:
     return out_d
 
 
-def _prune(out: Path, keep: str):
+def _prune(out: Path, keep: str, kept: tuple):
     if keep == "all" or not out.is_dir():
         return
     for p in out.iterdir():
-        if p.name in SUMMARY_FILES:
+        if p.name in SUMMARY_FILES or p.name in kept:
             continue
         if p.is_dir():
             shutil.rmtree(p, ignore_errors=True)
@@ -147,10 +100,12 @@ def execute_run(task: dict) -> dict:
     """Run one campaign run; returns its record (never raises for a failure of the run)."""
     import master
     from ..errors import CosimError
+    from ..scenario_kinds import SCENARIO_KINDS
     t0 = time.perf_counter()
     rec = base_record(task)
     rec["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     used: dict = {}
+    kind = None
     out = Path(task["out_dir"])
     cdir = str(task["campaign_dir"]).rstrip(os.sep) + os.sep
     try:
@@ -164,20 +119,11 @@ def execute_run(task: dict) -> dict:
         kw["write_csv"] = bool(opts.get("csv", True))
         if task.get("keep", "all") == "summary":
             kw["products"] = "summary"       # no map or trajectory that pruning would delete anyway
-        if task["kind"] == "uav":
-            scenario = _build_uav(task, out, used)
-            params = {}
-            seed = None            # the scenario's seed field (wind) is the run seed already
-        else:
-            scenario = Path(task["scenario"])
-            from .spec import _tree_sha, file_sha256
-            used["scenario_sha256"] = file_sha256(scenario) if scenario.is_file() else _tree_sha(scenario)
-            params = dict(task["overrides"])
-            seed = int(task["seed"])
-            for k in ("stop_time", "step", "algorithm"):
-                if k in opts:
-                    kw[k] = opts[k]
-        res = master.run(scenario, output=str(out), params=params, seed=seed, raise_on_error=False, **kw)
+        kind = SCENARIO_KINDS.get(task["kind"])
+        run = kind.prepare_run(task, out, used)
+        kw.update(run.options)
+        res = master.run(run.scenario, output=str(out), params=run.params, seed=run.seed, raise_on_error=False,
+                         **kw)
         meta = res.metadata
         oc = meta.get("outcome")
         rec["outcome"] = "completed" if oc == "completed" else ("interrupted" if oc == "interrupted" else "failed")
@@ -207,9 +153,9 @@ def execute_run(task: dict) -> dict:
             rec["summary"] = json.loads(summary.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
             rec.setdefault("monitor_errors", []).append(f"summary.json unreadable: {exc}")
-    if task["kind"] != "uav":
+    if kind is None or kind.records_final_values:
         rec["final"] = _final_values(out)
-    _prune(out, task.get("keep", "all"))
+    _prune(out, task.get("keep", "all"), kind.summary_files if kind is not None else ())
     rec["wall_time_s"] = time.perf_counter() - t0
     rec["finished_at"] = _now()
     return rec

@@ -136,7 +136,7 @@ def _stale_reasons(old: dict, new: dict) -> list[str]:
             out.append(f"FMU {k} changed")
     if old.get("options") != new.get("options"):
         out.append("run options changed")
-    def params(d):   # UAV scenarios carry step/stop_time/algorithm in their overrides too
+    def params(d):   # a scenario kind may carry step/stop_time/algorithm in its overrides too
         return {k: v for k, v in (d.get("overrides") or {}).items() if k not in RESULT_OPTIONS}
     if params(old) != params(new):
         out.append("parameters changed")

@@ -19,7 +19,6 @@ import hashlib
 import itertools
 import json
 import math
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,10 +26,11 @@ from typing import Any
 import yaml
 
 from .. import yamlio
-from ..errors import ScenarioError
+from ..errors import CosimError, ScenarioError
+from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
 
 __all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
-           "RUN_OPTIONS", "RESULT_OPTIONS"]
+           "RUN_OPTIONS", "RESULT_OPTIONS", "SCENARIO_OPTIONS"]
 
 TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep", "paired")
 #: fixed run options (``run:``), also allowed as grid/runs keys
@@ -39,10 +39,9 @@ RUN_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval"
 #: the run options that change a run's results (part of its input fingerprint)
 RESULT_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record",
                   "step_multiples")
-#: for UAV YAML scenarios these options are scenario fields (the SSP carries them)
-UAV_SCENARIO_OPTIONS = ("stop_time", "step", "algorithm")
+#: the run options a scenario carries itself (an SSP's default experiment): a run option overrides them
+SCENARIO_OPTIONS = ("stop_time", "step", "algorithm")
 KEEP = ("summary", "all")
-UAV_SUFFIXES = (".yaml", ".yml")
 SEED_MASK = 0x7FFFFFFF          # FMI Integer parameters are 32-bit signed
 
 
@@ -88,29 +87,34 @@ def file_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def scenario_sha256(path: Path) -> str:
+    """Hash of a scenario file, or of an SSP folder without its FMUs (hashed one by one as inputs)."""
+    return file_sha256(path) if path.is_file() else _tree_sha(path)
+
+
 #: modules that only read finished records (the report, the table): editing them changes no run's result
-REPORT_ONLY = ("campaign/report.py", "campaign/stats.py", "campaign/table.py", "cli.py", "inspect_scenario.py")
+REPORT_ONLY = ("master/campaign/report.py", "master/campaign/stats.py", "master/campaign/table.py",
+               "master/cli.py", "master/inspect_scenario.py")
 _code_sha: str | None = None
 
 
 def code_sha256() -> str:
-    """Hash of the code a run executes besides its FMUs: the master package (without the report-only
-    modules) and the ``uavsim`` package (UAV campaigns import it; in-process runs may use the installed
-    copy).  Part of every run's inputs, so a campaign resumed after a code change reruns its runs."""
+    """Hash of the code a run executes besides its FMUs: the master package and the code roots of every
+    scenario kind (a study's package and the models its FMUs are built from; in-process runs may use the
+    installed copy), without the report-only modules.  Part of every run's inputs, so a campaign resumed
+    after a code change reruns its runs."""
     global _code_sha
     if _code_sha is None:
         import master
+        kinds = SCENARIO_KINDS.load_all().values()
+        roots = [Path(master.__file__).resolve().parent,
+                 *(Path(root).resolve() for k in kinds for root in k.code_roots())]
+        report_only = set(REPORT_ONLY).union(*(k.report_only for k in kinds))
         h = hashlib.sha256()
-        roots = [Path(master.__file__).resolve().parent]
-        try:
-            import uavsim
-            roots.append(Path(uavsim.__file__).resolve().parent)
-        except ImportError:     # pragma: no cover - installed with the project
-            pass
-        for root in roots:
+        for root in dict.fromkeys(roots):
             for f in sorted(list(root.rglob("*.py")) + list(root.rglob("*.c"))):
                 rel = f"{root.name}/{f.relative_to(root).as_posix()}"
-                if rel.split("/", 1)[1] not in REPORT_ONLY and "__pycache__" not in rel:
+                if rel not in report_only and "__pycache__" not in rel:
                     h.update(rel.encode() + b"\0" + file_sha256(f).encode() + b"\0")
         _code_sha = h.hexdigest()
     return _code_sha
@@ -127,7 +131,7 @@ class RunSpec:
     scenario: Path              # absolute path of the scenario this run starts from
     scenario_label: str         # the scenario as written in the campaign file
     options: dict               # effective run options (fixed run: options, overridden by params)
-    overrides: dict             # UAV: YAML field path -> value; SSP: "component.variable" -> value
+    overrides: dict             # the kind's scenario overrides (SSP: "component.variable" -> value)
     inputs: dict = field(default_factory=dict)
 
     @property
@@ -142,7 +146,7 @@ class Campaign:
     description: str
     seed: int
     repetitions: int
-    kind: str                   # "uav" (YAML scenarios) | "ssp"
+    kind: str                   # name of the scenario kind (master.scenario_kinds), e.g. "ssp"
     param_keys: list            # parameter column names, in file order
     keep: str
     options: dict               # fixed run options
@@ -172,31 +176,16 @@ class _Err:
         raise ScenarioError(reason, file=self.path, element=element)
 
 
-def _kind_of(path: Path) -> str:
-    return "uav" if path.suffix.lower() in UAV_SUFFIXES else "ssp"
-
-
-def _check_param_key(err, where: str, key: Any, kind: str) -> str:
+def _check_param_key(err, where: str, key: Any, kind: ScenarioKind) -> str:
     if not isinstance(key, str) or not key.strip():
         err(where, f"parameter names must be non-empty strings, got {key!r}")
     key = key.strip()
     if key in ("seed", "rep", "run_id"):
         err(f"{where}.{key}", "is derived by the campaign (seed from the campaign seed, rep from repetitions)"
                               " and cannot be set")
-    if kind == "ssp":
-        if key.startswith("param:"):
-            q = key[len("param:"):]
-            if "." not in q or q.startswith(".") or q.endswith("."):
-                err(f"{where}.{key}", "expected param:COMPONENT.VARIABLE")
-        elif key not in RUN_OPTIONS and key != "variant":
-            err(f"{where}.{key}", "for an SSP scenario a parameter is param:COMPONENT.VARIABLE or a run option "
-                                  f"({', '.join(RUN_OPTIONS)})")
-    else:
-        if key.startswith("param:"):
-            err(f"{where}.{key}", "param:COMPONENT.VARIABLE keys are for SSP scenarios; a UAV YAML scenario "
-                                  "takes its own field names (strategy, n_uavs, wind.probability, ...)")
-        if key in ("name", "base", "targets", "zones"):
-            pass  # allowed: any scenario field may vary
+    why = kind.param_key_error(key)
+    if why:
+        err(f"{where}.{key}", why)
     return key
 
 
@@ -279,7 +268,7 @@ def load_campaign(path) -> Campaign:
             err("grid.variant", "no variants")
     base_scenario = data.get("scenario")
     if base_scenario is None and not variants:
-        err("scenario", "missing: give the base scenario (UAV YAML or SSP), or grid.variant")
+        err("scenario", "missing: give the base scenario (an SSP or a scenario of another kind), or grid.variant")
     scen_files: dict[str | None, Path] = {}
     labels: dict[str | None, str] = {}
     if base_scenario is not None:
@@ -291,10 +280,16 @@ def load_campaign(path) -> Campaign:
     for key, p in scen_files.items():
         if not p.exists():
             err("scenario" if key is None else f"grid.variant.{key}", f"scenario not found: {p}")
-    kinds = {_kind_of(p) for p in scen_files.values()}
+    kinds = {}
+    for key, p in scen_files.items():
+        try:
+            kind = kind_for_file(p)
+        except CosimError as exc:
+            err("scenario" if key is None else f"grid.variant.{key}", f"{p}: {exc.reason}")
+        kinds[kind.name] = kind
     if len(kinds) != 1:
-        err("grid.variant", "all scenarios of a campaign must be of one kind (UAV YAML or SSP)")
-    kind = kinds.pop()
+        err("grid.variant", f"all scenarios of a campaign must be of one kind (here: {', '.join(sorted(kinds))})")
+    kind = kinds.popitem()[1]
 
     # ---- run options
     options = data.get("run") or {}
@@ -356,9 +351,8 @@ def load_campaign(path) -> Campaign:
             err("paired", f"{k!r} is not a parameter of this campaign (parameters: {', '.join(param_keys) or 'none'})")
 
     # ---- input fingerprints (hashes once per scenario file)
-    scen_hash = {k: file_sha256(p) if p.is_file() else _tree_sha(p) for k, p in scen_files.items()}
-    fmu_hash = _uav_fmu_hashes() if kind == "uav" else None
-    ssp_fmus = {} if kind == "uav" else {k: _ssp_fmu_hashes(p) for k, p in scen_files.items()}
+    scen_hash = {k: scenario_sha256(p) for k, p in scen_files.items()}
+    fmu_hash = {k: kind.input_fmus(p) for k, p in scen_files.items()}
 
     runs: list[RunSpec] = []
     seen: dict[str, int] = {}
@@ -370,27 +364,18 @@ def load_campaign(path) -> Campaign:
         seen[cj] = pi
         vkey = params.get("variant")
         opts = dict(options)
-        overrides = {}
         for k, v in params.items():
-            if k == "variant":
-                continue
             if k in RUN_OPTIONS:
                 opts[k] = v
-            elif kind == "ssp":
-                overrides[k[len("param:"):]] = v
-            else:
-                overrides[k] = v
         _check_options(err, "grid/runs", opts)
-        if kind == "uav":
-            for k in UAV_SCENARIO_OPTIONS:
-                if k in opts:
-                    overrides[k] = opts[k]
+        overrides = kind.overrides({k: v for k, v in params.items() if k != "variant" and k not in RUN_OPTIONS},
+                                   opts)
         code = code_sha256()
         for rep in range(reps):
             rid = run_id_for(params, rep)
             s = seed_for(seed, {k: v for k, v in params.items() if k not in paired}, rep)
             inputs = {"scenario": labels[vkey], "scenario_sha256": scen_hash[vkey],
-                      "fmus": fmu_hash if kind == "uav" else ssp_fmus[vkey],
+                      "fmus": fmu_hash[vkey],
                       "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts},
                       "overrides": overrides, "seed": s, "code_sha256": code}
             runs.append(RunSpec(len(runs), rid, params, rep, s, scen_files[vkey], labels[vkey], opts, overrides,
@@ -398,7 +383,7 @@ def load_campaign(path) -> Campaign:
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):  # pragma: no cover - a 48-bit collision
         err("grid", "two runs got the same run id; change the campaign seed or a parameter spelling")
-    return Campaign(path.resolve(), name, str(description), seed, reps, kind, param_keys, keep, options, runs, text,
+    return Campaign(path.resolve(), name, str(description), seed, reps, kind.name, param_keys, keep, options, runs, text,
                     list(paired))
 
 
@@ -430,32 +415,3 @@ def _tree_sha(folder: Path) -> str:
         if p.is_file() and p.suffix.lower() != ".fmu":
             h.update(str(p.relative_to(folder)).encode() + b"\0" + file_sha256(p).encode())
     return h.hexdigest()
-
-
-def _ssp_fmu_hashes(path: Path) -> dict:
-    """SHA-256 of every FMU an SSP scenario holds (archive members, or files under a folder)."""
-    out = {}
-    if path.is_file() and zipfile.is_zipfile(path):
-        with zipfile.ZipFile(path) as zf:
-            for name in sorted(zf.namelist()):
-                if name.lower().endswith(".fmu"):
-                    h = hashlib.sha256()
-                    with zf.open(name) as fh:
-                        for chunk in iter(lambda: fh.read(1 << 20), b""):
-                            h.update(chunk)
-                    out[name] = h.hexdigest()
-        return out
-    folder = path if path.is_dir() else path.parent
-    for p in sorted(folder.rglob("*.fmu")):
-        out[str(p.relative_to(folder))] = file_sha256(p)
-    return out
-
-
-def _uav_fmu_hashes() -> dict:
-    from ..uav.build import FMU_FILES, default_fmu_dir
-    d = default_fmu_dir()
-    out = {}
-    for f in sorted(FMU_FILES.values()):
-        p = d / f
-        out[f] = file_sha256(p) if p.is_file() else None
-    return out

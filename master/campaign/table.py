@@ -1,17 +1,18 @@
 """The tidy results table of a campaign, rebuilt from its run records.
 
-One row per run and UAV (``uav`` = uav1, uav2, ...) plus one row per run with ``uav == "total"``
-holding the run's totals; a run without a UAV summary (a generic SSP campaign, or a run that crashed
-before the monitor could write one) has a single row with ``uav`` empty.  Columns, in order:
+One row per run, or, when the campaign's scenario kind splits run summaries into members
+(``ScenarioKind.summary_rows``; the UAV study: one row per UAV), one row per run and member plus the run's
+total, the member named in the kind's ``member_column``; a run without such a summary (a run that crashed
+before its monitor could write one) has a single row with the member empty.  Columns, in order:
 
 ``run_id``, the campaign's parameters (one column per grid/runs key, named as in the campaign file),
 ``rep``, ``seed``, ``run_outcome`` (completed / failed), ``error``, ``wall_time_s``,
-``scenario_sha256``, ``uav``, then every metric of the run summary flattened (per-UAV fields for UAV
-rows, total fields for total rows; lists become space-separated strings, mappings ``key.sub``), and for
-generic SSP campaigns ``final:<component.variable>`` (last recorded value).  A metric whose name clashes
-with one of the columns above is prefixed ``summary.``.
+``scenario_sha256``, the member column, then every metric of the member rows flattened (lists become
+space-separated strings, mappings ``key.sub``), and, for kinds that record them,
+``final:<component.variable>`` (last recorded value).  A metric whose name clashes with one of the
+columns above is prefixed ``summary.``.
 
-Rows follow the campaign's run order (the order of campaign.json) and, within a run, the UAV order then
+Rows follow the campaign's run order (the order of campaign.json) and, within a run, the member order then
 the total: the table depends only on the set of records, never on the order in which they finished.
 Only records that belong to the current campaign definition and whose input fingerprint matches it are
 included (stale records are left on disk but never mixed in).
@@ -22,9 +23,11 @@ import json
 import os
 from pathlib import Path
 
+from ..scenario_kinds import SCENARIO_KINDS
+
 __all__ = ["load_manifest", "load_records", "records_table", "build_table", "write_table", "FIXED_COLUMNS"]
 
-FIXED_COLUMNS = ["run_id", "rep", "seed", "run_outcome", "error", "wall_time_s", "scenario_sha256", "uav"]
+FIXED_COLUMNS = ["run_id", "rep", "seed", "run_outcome", "error", "wall_time_s", "scenario_sha256"]
 
 
 def load_manifest(campaign_dir) -> dict:
@@ -65,9 +68,14 @@ def _flat(prefix: str, v, out: dict):
         out[prefix] = v
 
 
-def record_rows(rec: dict, param_keys: list) -> list[dict]:
-    """The table rows of one record (see the module docstring)."""
-    reserved = set(FIXED_COLUMNS) | set(param_keys)
+def _member_columns(kind) -> list[str]:
+    return [kind.member_column] if kind.member_column else []
+
+
+def record_rows(rec: dict, param_keys: list, kind) -> list[dict]:
+    """The table rows of one record (see the module docstring); ``kind``: the campaign's scenario kind."""
+    members = _member_columns(kind)
+    reserved = set(FIXED_COLUMNS) | set(members) | set(param_keys)
     base = {"run_id": rec["run_id"]}
     for k in param_keys:
         base[k] = rec.get("params", {}).get(k)
@@ -80,38 +88,28 @@ def record_rows(rec: dict, param_keys: list) -> list[dict]:
         _flat("", d, flat)
         return {(f"summary.{k}" if k in reserved else k): v for k, v in flat.items()}
 
-    rows = []
-    summary = rec.get("summary")
     final = rec.get("final") or {}
     extra = {f"final:{k}": v for k, v in final.items()}
-    if isinstance(summary, dict) and summary.get("uavs"):
-        for u in summary["uavs"]:
-            row = dict(base)
-            m = metrics({k: v for k, v in u.items() if k != "uav"})
-            row["uav"] = u.get("uav")
-            row.update(m)
-            rows.append(row)
-        tot = dict(summary.get("total") or {})
-        tot.pop("run_outcome", None)
+    split = kind.summary_rows(rec.get("summary")) if members else []
+    rows = []
+    for member, values in split:
         row = dict(base)
-        row["uav"] = "total"
-        row.update(metrics(tot))
-        row.update(extra)
+        row[members[0]] = member
+        row.update(metrics(values))
         rows.append(row)
-    else:
+    if not rows:
         row = dict(base)
-        row["uav"] = None
-        row.update(extra)
+        row.update({c: None for c in members})
         rows.append(row)
+    rows[-1].update(extra)          # the run's own values go with its total
     return rows
 
 
-def records_table(records: list[dict], param_keys: list):
+def records_table(records: list[dict], param_keys: list, kind):
     """A pandas DataFrame of records (in the given order)."""
     import pandas as pd
-    rows = [row for rec in records for row in record_rows(rec, param_keys)]
-    cols: list[str] = ["run_id", *param_keys, "rep", "seed", "run_outcome", "error", "wall_time_s",
-                       "scenario_sha256", "uav"]
+    rows = [row for rec in records for row in record_rows(rec, param_keys, kind)]
+    cols: list[str] = ["run_id", *param_keys, *FIXED_COLUMNS[1:], *_member_columns(kind)]
     seen = set(cols)
     for row in rows:
         for k in row:
@@ -136,7 +134,8 @@ def records_table(records: list[dict], param_keys: list):
 
 def build_table(campaign_dir):
     manifest = load_manifest(campaign_dir)
-    return records_table(load_records(campaign_dir, manifest), manifest["param_keys"])
+    kind = SCENARIO_KINDS.get(manifest["kind"], element=str(Path(campaign_dir) / "campaign.json"))
+    return records_table(load_records(campaign_dir, manifest), manifest["param_keys"], kind)
 
 
 def write_table(campaign_dir) -> Path:

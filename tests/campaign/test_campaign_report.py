@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from master.campaign import stats as st
-from master.campaign.report import build_report, figure_data, table2, uav_frames
+from master.campaign.report import build_report
+from uavstudy.report import figure_data, table2, uav_frames
 from master.campaign.table import build_table
 
 scipy_stats = pytest.importorskip("scipy.stats")
@@ -200,7 +201,7 @@ def test_paired_tests_agree_with_scipy_and_hand_computation():
 def test_paired_campaign_compares_twins(hand):
     # with paired: [strategy] each A run has a B twin (same n, area, wind, rep); the paired tests run on the
     # twins' differences, derived here from _mission by hand
-    from master.campaign.report import pair_keys
+    from uavstudy.report import pair_keys
     folder, _, df, u, r = hand
     manifest = json.loads((folder / "campaign.json").read_text())
     assert pair_keys(df, manifest) is None                       # not paired: no twins

@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from master.campaign.runner import run_campaign
-from master.uav.build import FMU_FILES, default_fmu_dir
+from uavstudy.build import FMU_FILES, default_fmu_dir
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -12,7 +12,7 @@ into tmp, and checks:
 * FMU level: the C FMU and ``uavsim.battery.Battery`` give the same outputs for varied inputs,
   parameters and step sizes (every branch: ground/motors, climb/descent, overload, depletion,
   sub-steps that do not divide the step);
-* mission level: a 4-UAV mission SSP built by ``master.uav.build``, run once as built and once with
+* mission level: a 4-UAV mission SSP built by ``uavstudy.build``, run once as built and once with
   every ``uavN_bat`` component pointing at the C FMU, gives the same summary.json (outcomes, targets,
   photos, distances, flight times, energy, remaining battery) and the same battery time series.
 
@@ -49,7 +49,7 @@ from lxml import etree
 
 import master
 from fmu_factory import fmi_headers_dir
-from master.uav.build import build_scenario, default_fmu_dir
+from uavstudy.build import build_scenario, default_fmu_dir
 from uavsim import params as P
 from uavsim.battery import Battery, BatteryParams, PowerParams
 from uavsim.geodesy import geodetic_from_enu

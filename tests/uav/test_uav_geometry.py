@@ -1,10 +1,10 @@
-"""Tests of master.monitors.uav_geometry with hand-derived expectations."""
+"""Tests of uavstudy.geometry with hand-derived expectations."""
 import math
 
 import numpy as np
 import pytest
 
-from master.monitors.uav_geometry import CollisionDetector, ZoneDetector
+from uavstudy.geometry import CollisionDetector, ZoneDetector
 
 
 def P(*rows):

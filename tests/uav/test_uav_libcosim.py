@@ -1,6 +1,6 @@
 """A one-UAV mission runs in libcosim (libcosimpy) with the same trajectory as ours under Jacobi.
 
-The SSP is the one ``master.uav.build.build_scenario`` writes, given to libcosim unchanged: no variant
+The SSP is the one ``uavstudy.build.build_scenario`` writes, given to libcosim unchanged: no variant
 was needed.  It contains String parameters (the strategy's ``targets``, ``strategy``, ``assignment``,
 ``zones``), Integer connectors (``cmd``, ``phase``, ``mission_state``), Boolean parameters (the wind's
 ``turbulence``/``gusts``), our settings and UAV-monitor annotations next to the OSP step annotation,
@@ -47,7 +47,7 @@ import pytest
 import yaml
 
 import master
-from master.uav.build import build_scenario, default_fmu_dir
+from uavstudy.build import build_scenario, default_fmu_dir
 from uavsim.geodesy import geodetic_from_enu
 
 TESTS = Path(__file__).resolve().parents[1]

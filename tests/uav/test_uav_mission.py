@@ -12,7 +12,7 @@ from lxml import etree
 from master.cli import main
 from master.runner import run
 from master.ssp import xsd
-from master.uav.build import build_from_paper_config, build_scenario, default_fmu_dir, pad_positions
+from uavstudy.build import build_from_paper_config, build_scenario, default_fmu_dir, pad_positions
 from uavsim.geodesy import geodetic_from_enu
 
 ROOT = Path(__file__).resolve().parents[2]

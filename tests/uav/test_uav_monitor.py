@@ -1,4 +1,4 @@
-"""Unit tests of the UAV monitor plugin (master.monitors.uav) with a fake master context."""
+"""Unit tests of the UAV monitor plugin (uavstudy.monitor) with a fake master context."""
 import json
 import math
 
@@ -8,7 +8,7 @@ from lxml import etree
 
 from master.errors import ScenarioError
 from master.monitors import MONITORS
-from master.monitors.uav import MONITOR_TYPE, UavMonitor, parse_config
+from uavstudy.monitor import MONITOR_TYPE, UavMonitor, parse_config
 
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 UAV = "https://cosim-master.org/ssp/uav"
@@ -94,7 +94,7 @@ def fly(mon, ctx, positions, phases=None, t_start=0.0, h=1.0, steps=10):
 
 
 def test_registered():
-    assert MONITORS[MONITOR_TYPE] is UavMonitor
+    assert MONITORS.find(MONITOR_TYPE) is UavMonitor
 
 
 def test_crossing_uavs_removed_at_hand_computed_contact_time():
@@ -311,7 +311,7 @@ def _scripted_fleet(zones):
 @pytest.mark.parametrize("zones", [True, False])
 def test_small_vector_and_idle_paths_agree_exactly(monkeypatch, zones):
     import dataclasses
-    from master.monitors import uav as uav_mod
+    from uavstudy import monitor as uav_mod
     zone = [("z", [(150, 20), (200, 20), (200, 80), (150, 80)])] if zones else ()
     runs = {}
     for small in (True, False):

@@ -1,4 +1,4 @@
-"""Tests of master.uav_scenario: YAML loading, validation messages, ENU, paper import."""
+"""Tests of uavstudy.scenario: YAML loading, validation messages, ENU, paper import."""
 import shutil
 from pathlib import Path
 
@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from master.errors import ScenarioError
-from master.uav_scenario import (WindConfig, dump_scenario_yaml, load_paper_config,
+from uavstudy.scenario import (WindConfig, dump_scenario_yaml, load_paper_config,
                                  load_scenario_yaml, scenario_to_dict)
 from uavsim.geodesy import enu_from_geodetic, geodetic_from_enu
 
@@ -69,7 +69,7 @@ def test_zone_planning_reaches_every_strategy(tmp_path):
     # zone_planning (default true) becomes the strategy FMUs' zone_planning parameter, so a campaign can
     # switch to the paper's late detection with one key
     from master.inspect_scenario import inspect
-    from master.uav.build import build_scenario
+    from uavstudy.build import build_scenario
     for value, expect in ((None, True), (False, False)):
         data = minimal(n_uavs=2) if value is None else minimal(n_uavs=2, zone_planning=value)
         s = load_scenario_yaml(write(tmp_path, data, name=f"zp_{value}.yaml"))

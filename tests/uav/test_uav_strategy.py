@@ -40,7 +40,7 @@ def test_assignment_rules():
 
 
 def pads(n, spacing=8.0):
-    """The landing pads of the scenario builder (master.uav.build.pad_positions)."""
+    """The landing pads of the scenario builder (uavstudy.build.pad_positions)."""
     if n <= 1:
         return [(0.0, 0.0)]
     r = spacing / (2.0 * math.sin(math.pi / n))

@@ -1,7 +1,7 @@
 """The UAV monitor: UAV-UAV collisions, restricted-zone incursions and mission events.
 
 Switched on by the SSD annotation of type ``org.cosim-master.uav-monitor`` (format: docs/uav_monitor.md,
-written by ``master.uav.build``).  After every master step [t0, t1] it
+written by ``uavstudy.build``).  After every master step [t0, t1] it
 
 1. reads the UAV positions at t1 from the master's buffers (the positions at t0 are kept from the
    previous step) and the vehicle phases;
@@ -21,7 +21,7 @@ written by ``master.uav.build``).  After every master step [t0, t1] it
 5. records photos (increments of the strategy's ``photo_count`` with its ``last_photo_*`` outputs),
    integrates the distance flown and the airborne time, and keeps a track of the positions.
 
-``finish`` hands everything to :mod:`master.uav.outputs`, which writes trajectory.csv, photos.csv,
+``finish`` hands everything to :mod:`uavstudy.outputs`, which writes trajectory.csv, photos.csv,
 summary.csv, summary.json and map.png into the run folder and returns the summary stored in run.json.
 
 Cost (docs/uav_monitor.md, "Cost per step"): one ``take`` per buffer type into preallocated arrays; a step
@@ -39,34 +39,20 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from ..errors import ScenarioError
-from . import register
-from .base import Monitor
-from .uav_geometry import CollisionDetector, ZoneDetector
+from master.errors import ScenarioError
+from master.monitors import Monitor, register
 
-UAV_NS = "https://cosim-master.org/ssp/uav"
-MONITOR_TYPE = "org.cosim-master.uav-monitor"
-
-AIRBORNE_PHASES = (1, 2, 3)     # takeoff, fly, land (UavDynamics.phase)
-PHASE_LANDED = 4
-#: strategy mission_state codes (docs/uav_models.md / uavsim.strategy) and their event names
-MISSION_EVENTS = {0: "preflight", 1: "takeoff", 2: "transit", 3: "return_done", 4: "return_low",
-                  5: "landing", 6: "forced_landing", 7: "landed_base", 8: "landed_away"}
-MISSION_DETAIL = {3: "all assigned targets visited, returning to base",
-                  4: "battery 80 % consumed: mission abandoned, returning to base",
-                  5: "over the base, landing",
-                  6: "battery 95 % consumed away from the base: landing where it is",
-                  7: "landed at the base", 8: "landed away from the base"}
+from .geodetic import to_geodetic
+from .geometry import CollisionDetector, ZoneDetector
+from .names import (AIRBORNE_PHASES, FINAL_STATES, FORCED_LANDING_STATES, MISSION_DETAIL, MISSION_EVENTS,
+                    MONITOR_TYPE, OPTIONAL_ROLES, PHASE_LANDED, PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_LOW,
+                    UAV_COLLISION, ZONE_COLLISION)
+from .outputs import write_outputs
 
 TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map track
 #: up to this many UAVs the per-step bookkeeping runs on Python floats (for a few UAVs the fixed cost of
 #: ~30 numpy calls on tiny arrays is far more than the arithmetic); above, on numpy vectors
 SMALL_FLEET = 16
-
-#: Uav attributes naming a 'component.variable' the monitor reads (required ones first)
-REQUIRED_ROLES = ("x", "y", "z", "phase")
-OPTIONAL_ROLES = ("speed", "soc", "consumed", "energy", "missionState", "targetsAssigned", "targetsVisited",
-                  "photoCount", "lastPhotoTarget", "lastPhotoTime", "lastPhotoX", "lastPhotoY")
 
 
 @dataclass
@@ -203,13 +189,6 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
         end_when_done=mon.get("endWhenAllLanded", "false").strip().lower() in ("true", "1"),
         scenario=mon.get("scenario", ""), strategy=mon.get("strategy", ""), assignment=mon.get("assignment", ""),
         seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
-
-
-def to_geodetic(origin, x, y, z):
-    """ENU metres about the origin -> (lat, lon, alt) in degrees / metres above the ellipsoid."""
-    from uavsim.geodesy import geodetic_from_enu
-    lat, lon, alt = geodetic_from_enu(x, y, z, *origin)
-    return lat, lon, alt
 
 
 @register(MONITOR_TYPE)
@@ -470,7 +449,7 @@ class UavMonitor(Monitor):
             done = self._removed | ((ph1 == PHASE_LANDED) & np.asarray(self._took_off, dtype=bool))
             if self.ms0 is not None:   # and the strategy has registered the landing (landed_base / landed_away)
                 ms = np.asarray(self.ms0, dtype=float)
-                done &= self._removed | (ms == 7) | (ms == 8)
+                done &= self._removed | np.isin(ms, FINAL_STATES)
             if done.all():
                 self.ctx.request_stop("every UAV has landed or been removed")
 
@@ -612,7 +591,7 @@ class UavMonitor(Monitor):
                             f"t={hit.time_min:.3f} s")
                 for k, other, pos in ((a, ub, pi), (b, ua, pj)):
                     cut[k] = (time - t0) / dt if dt > 0 else 0.0
-                    self._remove(k, time, "uav_collision", other, pos)
+                    self._remove(k, time, UAV_COLLISION, other, pos)
             else:
                 if a in cut:
                     continue
@@ -621,22 +600,22 @@ class UavMonitor(Monitor):
                             f"{ua} entered restricted zone {hit.zone_name}"
                             + ("" if hit.inside_at_end else " (cut a corner within the step)"))
                 cut[a] = hit.fraction
-                self._remove(a, time, "zone_collision", hit.zone_name, hit.position)
+                self._remove(a, time, ZONE_COLLISION, hit.zone_name, hit.position)
         return cut
 
     def _mission_event(self, k, t, state, pos, consumed):
         rec = self.records[k]
         rec.mission_states.append((float(t), state))
-        if state in (6, 8):
+        if state in FORCED_LANDING_STATES:
             rec.forced_landing = True
-        if state == 4:
+        if state == STATE_RETURN_LOW:
             rec.return_low = True
         name = MISSION_EVENTS.get(state, f"state_{state}")
         self._event(t, "mission", name, self.cfg.uavs[k].name, None, pos, None,
                     MISSION_DETAIL.get(state, ""), consumed)
 
     def _photo(self, k, count, t, pos):
-        vals = {r: self._read(r) for r in ("lastPhotoTarget", "lastPhotoTime", "lastPhotoX", "lastPhotoY")}
+        vals = {r: self._read(r) for r in PHOTO_ROLES}
         tgt = vals["lastPhotoTarget"]
         tt = vals["lastPhotoTime"]
         x = vals["lastPhotoX"]
@@ -668,5 +647,4 @@ class UavMonitor(Monitor):
                 self._snapshot()
             except Exception:   # noqa: BLE001 - buffers may be gone after a failed start
                 pass
-        from ..uav.outputs import write_outputs
         return write_outputs(out_dir, self, outcome, self.products)

@@ -31,42 +31,43 @@ from pathlib import Path
 
 from lxml import etree
 
-import master
 from master.errors import ScenarioError
-from master.uav_scenario import UavScenario, load_paper_config, load_scenario_yaml
+from master.ssp.writer import NS as SSP_NS
+from master.ssp.writer import SspBuilder
 
-from ..ssp.writer import NS as SSP_NS
-from ..ssp.writer import SspBuilder
+from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEGY, UAV_NS, UAV_PARTS, WIND,
+                    component, uav_name)
+from .scenario import UavScenario, load_paper_config, load_scenario_yaml
 
 __all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
            "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS"]
 
-UAV_NS = "https://cosim-master.org/ssp/uav"
-MONITOR_TYPE = "org.cosim-master.uav-monitor"
 PAD_SPACING = 8.0          # m between neighbouring landing pads (> 3 x the 2.6 m impact diameter)
 RECORD_INTERVAL = 1.0      # s, trajectory resolution of the shipped scenarios
 ALTITUDE_THRESHOLD = 0.5   # m, below this height a UAV is on its pad (not checked by the monitor)
 HOME_TOLERANCE = 5.0       # m, "back at base" = landed within this distance of its pad
 SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper)
 
-FMU_FILES = {"dyn": "UavDynamics.fmu", "bat": "UavBattery.fmu", "strat": "UavStrategy.fmu",
-             "wind": "UavWind.fmu"}
+FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "UavStrategy.fmu",
+             WIND: "UavWind.fmu"}
 
 #: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
 RECORD_PATTERNS = (
-    [f"uav*_dyn.{v}" for v in ("x", "y", "z", "vx", "vy", "vz", "lat", "lon", "alt", "groundspeed",
-                               "airspeed", "phase")]
-    + [f"uav*_bat.{v}" for v in ("soc", "consumed", "energy_used", "power", "voltage", "current")]
-    + [f"uav*_strat.{v}" for v in ("cmd", "sp_x", "sp_y", "mission_state", "targets_assigned",
-                                   "targets_visited", "photo_count", "last_photo_target", "last_photo_time",
-                                   "last_photo_x", "last_photo_y", "current_target", "avoiding")]
-    + ["wind.wind_x", "wind.wind_y", "wind.wind_z", "wind.wind_speed", "wind.wind_level"]
+    [f"{component('uav*', DYNAMICS)}.{v}" for v in ("x", "y", "z", "vx", "vy", "vz", "lat", "lon", "alt",
+                                                    "groundspeed", "airspeed", "phase")]
+    + [f"{component('uav*', BATTERY)}.{v}" for v in ("soc", "consumed", "energy_used", "power", "voltage",
+                                                     "current")]
+    + [f"{component('uav*', STRATEGY)}.{v}" for v in ("cmd", "sp_x", "sp_y", "mission_state", "targets_assigned",
+                                                      "targets_visited", "photo_count", "last_photo_target",
+                                                      "last_photo_time", "last_photo_x", "last_photo_y",
+                                                      "current_target", "avoiding")]
+    + [f"{WIND}.{v}" for v in ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")]
 )
 
 
 def default_fmu_dir() -> Path:
-    """The repository's ``fmus/`` folder (next to the ``master`` package)."""
-    return Path(master.__file__).resolve().parents[1] / "fmus"
+    """The repository's ``fmus/`` folder (next to the ``uavstudy`` package)."""
+    return Path(__file__).resolve().parents[1] / "fmus"
 
 
 def pad_positions(n: int, spacing: float = PAD_SPACING) -> list[tuple[float, float]]:
@@ -135,19 +136,10 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
                  ("endWhenAllLanded", "true" if scn.end_when_all_landed else "false")):
         mon.set(k, v)
     for u in uavs:
-        d, b, s = u["dyn"], u["bat"], u["strat"]
         el = etree.SubElement(mon, f"{{{UAV_NS}}}Uav")
-        attrs = {
-            "name": u["name"], "index": str(u["index"]), "components": f"{d} {b} {s}",
-            "homeX": repr(u["home"][0]), "homeY": repr(u["home"][1]),
-            "x": f"{d}.x", "y": f"{d}.y", "z": f"{d}.z", "phase": f"{d}.phase",
-            "speed": f"{d}.groundspeed",
-            "soc": f"{b}.soc", "consumed": f"{b}.consumed", "energy": f"{b}.energy_used",
-            "missionState": f"{s}.mission_state", "targetsAssigned": f"{s}.targets_assigned",
-            "targetsVisited": f"{s}.targets_visited", "photoCount": f"{s}.photo_count",
-            "lastPhotoTarget": f"{s}.last_photo_target", "lastPhotoTime": f"{s}.last_photo_time",
-            "lastPhotoX": f"{s}.last_photo_x", "lastPhotoY": f"{s}.last_photo_y",
-        }
+        attrs = {"name": u["name"], "index": str(u["index"]), "components": " ".join(u[p] for p in UAV_PARTS),
+                 "homeX": repr(u["home"][0]), "homeY": repr(u["home"][1]),
+                 **{role: f"{u[part]}.{var}" for role, (part, var) in MONITOR_CONNECTORS.items()}}
         if u["assigned"] is not None:
             attrs["assigned"] = " ".join(str(k) for k in u["assigned"])
         for k, v in attrs.items():
@@ -185,7 +177,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     b.record = list(RECORD_PATTERNS)
     w = scn.wind
     di = float(w.decision_interval)
-    b.add_component("wind", fmus["wind"], params={
+    b.add_component(WIND, fmus[WIND], params={
         "probability": float(w.probability), "seed": int(scn.seed), "direction_deg": float(w.direction_deg),
         "decision_interval": di, "duration": di, "ramp": min(1.0, 0.25 * di),
         "speed_weak": float(w.intensities["weak"]), "speed_moderate": float(w.intensities["moderate"]),
@@ -193,13 +185,13 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     })
     uavs = []
     for i, (hx, hy) in enumerate(pad_positions(scn.n_uavs)):
-        name = f"uav{i + 1}"
-        d, bt, s = f"{name}_dyn", f"{name}_bat", f"{name}_strat"
-        b.add_component(d, fmus["dyn"], params={
+        name = uav_name(i)
+        d, bt, s = (component(name, part) for part in UAV_PARTS)
+        b.add_component(d, fmus[DYNAMICS], params={
             "origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
             "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)})
-        b.add_component(bt, fmus["bat"])
-        b.add_component(s, fmus["strat"], params={
+        b.add_component(bt, fmus[BATTERY])
+        b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
             "targets": targets_s, "zones": zones_s, "lookahead": float(scn.lookahead),
             "zone_planning": bool(scn.zone_planning),
@@ -212,8 +204,8 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
             b.connect(d, v, bt, v)
         b.connect(bt, "consumed", s, "consumed")
         for v in ("wind_x", "wind_y", "wind_z"):
-            b.connect("wind", v, d, v)
-        uavs.append({"name": name, "index": i, "dyn": d, "bat": bt, "strat": s, "home": (float(hx), float(hy)),
+            b.connect(WIND, v, d, v)
+        uavs.append({"name": name, "index": i, DYNAMICS: d, BATTERY: bt, STRATEGY: s, "home": (float(hx), float(hy)),
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
     _check_partition(uavs, len(targets_r), scn.assignment)
     b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r))

@@ -42,8 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-STATE_NAMES = ["preflight", "takeoff", "transit", "return_done", "return_low", "landing", "forced_landing",
-               "landed_base", "landed_away"]
+from .geodetic import to_geodetic
+from .names import MISSION_EVENTS, PHASE_LANDED, TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION
 
 
 def _f(v, default=math.nan):
@@ -103,7 +103,7 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
             photos = max(photos, int(pc))
         energy = _f(last.get("energy"))
         d_home = math.hypot(x - spec.home[0], y - spec.home[1]) if not math.isnan(x) else math.nan
-        landed = phase == 4
+        landed = phase == PHASE_LANDED
         at_home = landed and d_home <= cfg.home_tolerance
         all_visited = not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned
         battery_ok = not math.isnan(soc) and soc > cfg.success_battery
@@ -124,7 +124,7 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
             reason = "timeout"
         else:
             reason = "run_interrupted" if run_outcome == "interrupted" else "run_error"
-        states = [STATE_NAMES[s] if 0 <= s < len(STATE_NAMES) else str(s) for _, s in rec.mission_states]
+        states = [MISSION_EVENTS.get(s, str(s)) for _, s in rec.mission_states]
         out.append({
             "uav": spec.name, "index": spec.index, "outcome": reason, "success": reason == "success",
             "targets_assigned": None if math.isnan(assigned) else int(assigned),
@@ -139,8 +139,7 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
             "final_x": x, "final_y": y, "final_z": z,
             "home_x": spec.home[0], "home_y": spec.home[1], "distance_to_home_m": d_home,
             "final_phase": None if math.isnan(phase) else int(phase),
-            "final_mission_state": (STATE_NAMES[int(state)] if not math.isnan(state) and 0 <= state < len(STATE_NAMES)
-                                    else None),
+            "final_mission_state": None if math.isnan(state) else MISSION_EVENTS.get(int(state)),
             "returned_low_battery": rec.return_low, "forced_landing": rec.forced_landing,
             "removed_time": rec.removed_time, "removed_by": rec.removed_by,
             "mission_states": states,
@@ -159,7 +158,7 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
 
     socs = [u["remaining_battery_pct"] for u in uavs if math.isfinite(u["remaining_battery_pct"])]
     visited = sorted({t for u in uavs for t in u["visited_targets"]})
-    n_uav_removed = sum(1 for r in mon.records if r.removed_reason == "uav_collision")
+    n_uav_removed = sum(1 for r in mon.records if r.removed_reason == UAV_COLLISION)
     return {
         "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
         "scenario_seed": _int_or(mon.cfg.seed), "wind_probability": _f(mon.cfg.wind_probability, None),
@@ -169,7 +168,7 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
         "mission_success": bool(uavs) and all(u["success"] for u in uavs),
         "outcomes": reasons,
         "uav_collisions": n_uav_removed // 2,
-        "zone_collisions": sum(1 for r in mon.records if r.removed_reason == "zone_collision"),
+        "zone_collisions": sum(1 for r in mon.records if r.removed_reason == ZONE_COLLISION),
         "forced_landings": sum(1 for u in uavs if u["forced_landing"]),
         "targets_total": int(len(mon.cfg.targets)),
         "targets_visited": len(visited),
@@ -203,12 +202,9 @@ def _read_results(out_dir: Path, mon=None):
 def trajectory_frame(mon, df):
     """The trajectory table (see module docstring) as a pandas DataFrame."""
     import pandas as pd
-    from ..monitors.uav import to_geodetic
     cfg = mon.cfg
     cols = ["time", "uav", "lat", "lon", "alt", "x", "y", "z", "speed", "soc", "consumed", "phase",
             "mission_state", "photo_count", "status"]
-    role_col = {"speed": "speed", "soc": "soc", "consumed": "consumed", "phase": "phase",
-                "mission_state": "missionState", "photo_count": "photoCount"}
     parts = []
     for k, (spec, rec) in enumerate(zip(cfg.uavs, mon.records)):
         v = spec.vars
@@ -216,7 +212,7 @@ def trajectory_frame(mon, df):
             t = df["time"].to_numpy(float)
             data = {"x": df[v["x"]].to_numpy(float), "y": df[v["y"]].to_numpy(float),
                     "z": df[v["z"]].to_numpy(float)}
-            for c, role in role_col.items():
+            for c, role in TRAJECTORY_ROLES.items():
                 q = v.get(role)
                 data[c] = df[q].to_numpy(float) if q in df.columns else np.full(t.size, np.nan)
         elif mon.track_t:
@@ -278,7 +274,6 @@ def _thin(t: np.ndarray, interval: float) -> np.ndarray:
 
 def photos_frame(mon, df):
     import pandas as pd
-    from ..monitors.uav import to_geodetic
     cfg = mon.cfg
     rows = []
     for spec, rec in zip(cfg.uavs, mon.records):
@@ -409,13 +404,13 @@ def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
     for k, (rec, u) in enumerate(zip(mon.records, uavs)):
         if rec.removed_pos is not None:
             x, y = rec.removed_pos[:2]
-            if rec.removed_reason == "uav_collision":
+            if rec.removed_reason == UAV_COLLISION:
                 ax.scatter([x], [y], s=260, marker="*", c="red", edgecolors="black", zorder=7)
                 kinds.add("uav")
             else:
                 ax.scatter([x], [y], s=160, marker="X", c="darkred", edgecolors="white", zorder=7)
                 kinds.add("zone")
-        elif u["final_phase"] == 4 and rec.took_off:
+        elif u["final_phase"] == PHASE_LANDED and rec.took_off:
             x, y = u["final_x"], u["final_y"]
             if u["outcome"] == "forced_landing":
                 ax.scatter([x], [y], s=120, marker="v", c="orange", edgecolors="black", zorder=6)

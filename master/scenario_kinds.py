@@ -1,0 +1,112 @@
+"""Scenario kinds: the ways of describing a scenario that campaigns and ``cosim-master build-scenario`` accept.
+
+The engine runs SSPs.  A scenario kind is a file format a study puts on top of them (the UAV study's YAML
+scenarios) together with everything a campaign has to know about it: which parameter names a grid may
+vary, which inputs fingerprint a run, how one run's scenario is prepared, which code its results depend
+on, how a run summary splits into table rows and how the campaign report reads.  Campaigns go through the
+kind object only, so the engine never knows a study's names.
+
+The built-in kind is ``ssp`` (:mod:`master.campaign.ssp_kind`); installed packages publish theirs under
+the entry point group ``cosim_master.scenario_kinds`` (name = the kind, value = a :class:`ScenarioKind`
+instance).  The kind of a campaign is recorded in its campaign.json, so the report finds it again.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+from .errors import CosimError
+from .registry import Registry
+
+
+class PreparedRun(NamedTuple):
+    """What ``master.run`` gets for one campaign run."""
+    scenario: Path          # the SSP (archive, folder or .ssd) to run
+    params: dict            # "component.variable" -> value
+    seed: int | None        # given to every parameter named 'seed'; None when the scenario carries the seed
+    options: dict           # further ``master.run`` keyword arguments (stop_time, step, algorithm, ...)
+
+
+class ScenarioKind:
+    name = ""
+    label = ""                          # how messages call its scenarios ("SSP", "UAV YAML")
+    #: the table column naming the member a summary row belongs to (one row per member and a total per
+    #: run, see :meth:`summary_rows`); None: one row per run
+    member_column: str | None = None
+    #: whether a run's record keeps the last value of every recorded variable (its only result when no
+    #: monitor summarises the run)
+    records_final_values = True
+    #: files under :meth:`code_roots` ("package/module.py") that only read finished records: editing them
+    #: leaves the runs' results current
+    report_only: tuple[str, ...] = ()
+    #: files of a run folder that ``keep: summary`` keeps besides the engine's (run.json, summary.json, ...)
+    summary_files: tuple[str, ...] = ()
+
+    def claims(self, path: Path) -> bool:
+        """Is ``path`` a scenario of this kind?"""
+        raise NotImplementedError
+
+    def build(self, source: Path, output: Path) -> Path:
+        """Write the SSP of the scenario ``source`` to ``output`` (``cosim-master build-scenario``)."""
+        raise CosimError(f"{self.label} scenarios are run as they are: there is nothing to build",
+                         file=str(source))
+
+    # -- campaign definition -----------------------------------------------------------------------------
+    def param_key_error(self, key: str) -> str | None:
+        """Why ``key`` cannot be a campaign parameter of this kind (None: it can)."""
+        raise NotImplementedError
+
+    def overrides(self, params: dict, options: dict) -> dict:
+        """A run's scenario overrides from its parameters (run options and the variant already taken out)
+        and its effective run options."""
+        raise NotImplementedError
+
+    def input_fmus(self, scenario: Path) -> dict:
+        """SHA-256 of every FMU a run of ``scenario`` loads, by name: part of the run's input fingerprint."""
+        raise NotImplementedError
+
+    def code_roots(self) -> list[Path]:
+        """Package folders besides ``master`` whose code a run executes (hashed into ``code_sha256``)."""
+        return []
+
+    # -- one run ------------------------------------------------------------------------------------------
+    def prepare_run(self, task: dict, out: Path, used: dict) -> PreparedRun:
+        """The run of a campaign task (see ``master.campaign.runner.make_task``) in its folder ``out``;
+        records in ``used["scenario_sha256"]`` the hash of the scenario file as read."""
+        raise NotImplementedError
+
+    # -- results ------------------------------------------------------------------------------------------
+    def summary_rows(self, summary) -> list[tuple[str, dict]]:
+        """(member, metrics) table rows of a run's summary.json, the run's total last; [] when the summary
+        holds none (the run has one row)."""
+        return []
+
+    def report(self, manifest: dict, df, out: Path) -> str | None:
+        """The markdown of the campaign report (figures written into ``out``), or None for the generic one."""
+        return None
+
+
+def _load_builtin_kinds():
+    import importlib
+    importlib.import_module("master.campaign.ssp_kind")      # registers the ssp kind
+
+
+SCENARIO_KINDS: Registry[ScenarioKind] = Registry("scenario kind", "cosim_master.scenario_kinds",
+                                                  builtins=_load_builtin_kinds)
+
+
+def kind_claiming(path: Path) -> ScenarioKind | None:
+    """The scenario kind that claims ``path`` (None when none does)."""
+    for kind in SCENARIO_KINDS.load_all().values():
+        if kind.claims(path):
+            return kind
+    return None
+
+
+def kind_for_file(path: Path, element: str | None = None) -> ScenarioKind:
+    """:func:`kind_claiming`, or a one-line error naming the file and the known kinds."""
+    kind = kind_claiming(path)
+    if kind is None:
+        raise CosimError(f"no scenario kind claims this file (kinds: {', '.join(SCENARIO_KINDS.names())})",
+                         file=str(path), element=element)
+    return kind

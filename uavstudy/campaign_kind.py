@@ -1,0 +1,117 @@
+"""The ``uav`` scenario kind: campaigns (and ``cosim-master build-scenario``) over UAV study YAML scenarios.
+
+Published to the engine through the ``cosim_master.scenario_kinds`` entry point.  A campaign parameter is
+a scenario field path (``strategy``, ``n_uavs``, ``wind.probability``, ...); each run writes its own
+``scenario.yaml`` (base scenario + parameters + run seed) and builds its SSP from it, so the seed reaches
+the wind FMU through the scenario and the step, stop time and algorithm through the SSD.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import yaml
+
+from master import yamlio
+from master.campaign.spec import SCENARIO_OPTIONS, file_sha256
+from master.errors import ScenarioError
+from master.scenario_kinds import PreparedRun, ScenarioKind
+
+from .names import TOTAL_ROW, UAV_COLUMN
+
+SUFFIXES = (".yaml", ".yml")
+
+
+def _set_path(data: dict, key: str, value, shown: str):
+    """Set the scenario field ``a.b.c`` (creating the mappings on the way)."""
+    parts = key.split(".")
+    d = data
+    for i, p in enumerate(parts[:-1]):
+        nxt = d.get(p)
+        if nxt is None:
+            nxt = d[p] = {}
+        if not isinstance(nxt, dict):
+            raise ScenarioError(f"cannot set {key!r}: {'.'.join(parts[:i + 1])} is not a mapping", file=shown,
+                                element=key)
+        d = nxt
+    d[parts[-1]] = value
+
+
+class UavKind(ScenarioKind):
+    name = "uav"
+    label = "UAV YAML"
+    member_column = UAV_COLUMN
+    records_final_values = False     # the monitor's summary is the result (final values would be per UAV)
+    report_only = ("uavstudy/report.py",)
+    summary_files = ("photos.csv", "scenario.yaml")
+
+    def claims(self, path: Path) -> bool:
+        return path.suffix.lower() in SUFFIXES
+
+    def build(self, source: Path, output: Path) -> Path:
+        from .build import build_scenario
+        return build_scenario(source, output)
+
+    def param_key_error(self, key: str) -> str | None:
+        if key.startswith("param:"):
+            return ("param:COMPONENT.VARIABLE keys are for SSP scenarios; a UAV YAML scenario takes its own "
+                    "field names (strategy, n_uavs, wind.probability, ...)")
+        return None     # any scenario field may vary; the scenario loader checks the values
+
+    def overrides(self, params: dict, options: dict) -> dict:
+        # the step, stop time and algorithm are scenario fields: the SSP built from the scenario carries them
+        return {**params, **{k: options[k] for k in SCENARIO_OPTIONS if k in options}}
+
+    def input_fmus(self, scenario: Path) -> dict:
+        """The study's FMUs (every UAV scenario runs the same four)."""
+        from .build import FMU_FILES, default_fmu_dir
+        d = default_fmu_dir()
+        return {f: file_sha256(d / f) if (d / f).is_file() else None for f in sorted(FMU_FILES.values())}
+
+    def code_roots(self) -> list[Path]:
+        import uavsim
+        return [Path(__file__).resolve().parent, Path(uavsim.__file__).resolve().parent]
+
+    def prepare_run(self, task: dict, out: Path, used: dict) -> PreparedRun:
+        """Base YAML + overrides + seed -> runs/<id>/scenario.yaml -> scenario.ssp."""
+        from .build import build_ssp
+        from .scenario import scenario_from_dict
+        src = Path(task["scenario"])
+        try:
+            raw = src.read_bytes()
+            used["scenario_sha256"] = hashlib.sha256(raw).hexdigest()
+            data = yamlio.load(raw.decode("utf-8"))
+        except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+            raise ScenarioError(f"cannot read the scenario: {exc}", file=str(src)) from None
+        if not isinstance(data, dict):
+            raise ScenarioError("expected a mapping of scenario fields", file=str(src))
+        for k, v in task["overrides"].items():
+            _set_path(data, k, v, str(src))
+        data["seed"] = int(task["seed"])
+        # a campaign run ends when its fleet has landed (the summary is the same; the idle rest is skipped)
+        data.setdefault("end_when_all_landed", True)
+        head = (f"# campaign {task['campaign']}, run {task['run_id']} (rep {task['rep']}, seed {task['seed']})\n"
+                f"# base scenario: {task['inputs']['scenario']}; "
+                f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")
+        yml = out / "scenario.yaml"
+        yml.write_text(head + yamlio.dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
+        scn = scenario_from_dict(data, yml)       # what was just written, without parsing it again
+        # the scenario's seed field (wind) is the run seed already
+        return PreparedRun(build_ssp(scn, out / "scenario.ssp"), {}, None, {})
+
+    def summary_rows(self, summary) -> list[tuple[str, dict]]:
+        """One row per UAV of the monitor's summary, then the run's totals."""
+        if not isinstance(summary, dict) or not summary.get("uavs"):
+            return []
+        rows = [(u.get(UAV_COLUMN), {k: v for k, v in u.items() if k != UAV_COLUMN}) for u in summary["uavs"]]
+        total = dict(summary.get("total") or {})
+        total.pop("run_outcome", None)      # the table's run_outcome column says it
+        return rows + [(TOTAL_ROW, total)]
+
+    def report(self, manifest: dict, df, out: Path) -> str | None:
+        from .report import uav_report
+        return uav_report(manifest, df, out)
+
+
+UAV_KIND = UavKind()
