@@ -18,7 +18,7 @@ a 1.0 s step; for N <= 16 the 0.1 s step (the paper's) is measured too.
 
 Each (N, step) runs in its own subprocess (``--child``), which builds the SSP, runs it with
 ``master.runner.run`` (results.parquet written, no CSV, UAV monitor and its outputs included) and reports
-one JSON line: FMU count, steps, wall time of the run, time of the step loop (``master.runner._loop``
+one JSON line: FMU count, steps, wall time of the run, time of the step loop (``Execution._steps``
 wrapped), time in the monitor's ``after_step`` (perf_counter around each call), peak RSS (VmHWM of
 /proc/self/status, whole run), VmRSS before and after the loop, the size of the monitor's map track and
 the mission outcome.  The parent prints one table and writes it with the machine description and the raw
@@ -132,14 +132,15 @@ def _status_kb(field: str) -> int | None:
 def child(n: int, step: float, stop: float, zones: bool, profile: int, block_rows: int = 0) -> dict:
     """One (N, step) run in this process; returns the measurements (printed as SCALING-RESULT json)."""
     import master.runner as runner
-    if block_rows:      # experiment: the recorder's block length (rows held in memory before a flush)
-        import master.recorder as rec_mod
-        init = rec_mod.Recorder.__init__
+    from master.execution import Execution
+    if block_rows:      # experiment: the recording's block length (rows held in memory before a flush)
+        from master.observers.recording import Recording
+        init = Recording.__init__
 
         def small_blocks(self, *a, **kw):
             kw["block_rows"] = block_rows
             init(self, *a, **kw)
-        rec_mod.Recorder.__init__ = small_blocks
+        Recording.__init__ = small_blocks
     from uavstudy import monitor as uav_mod
     from uavstudy.build import build_ssp
 
@@ -166,7 +167,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
     uav_mod.UavMonitor.attach = keep_attach
 
     loop = {}
-    orig_loop = getattr(runner, "_loop", None)
+    orig_loop = Execution._steps
     if orig_loop is not None:       # the step loop alone (recording included), and the memory around it
         def timed_loop(*a, **kw):
             loop["rss_start_kb"] = _status_kb("VmRSS")
@@ -177,7 +178,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
                 loop["s"] = time.perf_counter() - c
                 loop["rss_end_kb"] = _status_kb("VmRSS")
                 loop["hwm_loop_kb"] = _status_kb("VmHWM")
-        runner._loop = timed_loop
+        Execution._steps = timed_loop
 
     prof = None
     if profile:
@@ -338,7 +339,7 @@ def _write(table: str, results: list, total: float, zones: bool, mission: float)
             "",
             "- wall s: `master.runner.run` from opening the SSP to run.json (FMU loading, the loop, the UAV "
             "outputs: trajectory.csv, summary, map.png); results.parquet written, no CSV.",
-            "- loop s: the step loop alone (`master.runner._loop`, recording included); RTF loop = sim s / loop s.",
+            "- loop s: the step loop alone (`Execution._steps`, recording included); RTF loop = sim s / loop s.",
             "- peak RSS: VmHWM of the child process (whole run, outputs included); RSS growth in loop: VmRSS "
             "after the loop minus before it.",
             "- monitor us/step: mean time in the UAV monitor's `after_step` per master step (perf_counter around "

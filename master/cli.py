@@ -118,6 +118,13 @@ def _dispatch(args) -> int:
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:
             if args.no_supervise and args.timeout is None:
+                import signal
+
+                from .errors import Terminated
+
+                def terminated(signum, frame):
+                    raise Terminated()
+                signal.signal(signal.SIGTERM, terminated)
                 result = run(args.scenario, **options)
             else:
                 from .supervise import run_supervised
@@ -132,7 +139,9 @@ def _dispatch(args) -> int:
             kept = (f" ({meta['rows_recorded']} rows recorded until then are in {output}, run.json says what "
                     "happened)" if meta.get("rows_recorded") else "")
             print(f"cosim-master: error: {exc}{kept}", file=sys.stderr)
-            return 130 if meta.get("outcome") == "interrupted" else 1
+            if meta.get("outcome") == "interrupted":
+                return 143 if "SIGTERM" in str(exc) else 130
+            return 1
         m = result.metadata
         ended = m.get("ended_early")
         print(f"{m['outcome']}: {m.get('steps_done', m['steps'])} steps of {m['step_size']:g} s ({m['algorithm']}), "

@@ -36,3 +36,7 @@ class ScenarioError(CosimError):
 
 class FmuError(CosimError):
     """An FMU could not be loaded, or returned error, fatal or discard."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an interrupt so that a run in this process closes its results as for Ctrl-C."""

@@ -7,6 +7,15 @@ from pathlib import Path
 PARQUET = "results.parquet"
 
 
+def results_path(out_dir) -> Path:
+    return Path(out_dir) / PARQUET
+
+
+def result_columns(out_dir) -> list[str]:
+    import pyarrow.parquet as pq
+    return pq.read_schema(results_path(out_dir)).names
+
+
 def read_results(out_dir, columns: list[str] | None = None):
     """The recorded series of a run folder as a pandas DataFrame (all columns, or those named)."""
     import pandas as pd

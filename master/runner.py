@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import CosimError
+from .errors import CosimError, Terminated
 from .execution import Execution
 
 
@@ -45,8 +45,9 @@ def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(),
     except CosimError as exc:
         error = exc
         ex.close("error", exc)
-    except KeyboardInterrupt:
-        error = CosimError("interrupted by the user", time=ex.metadata.get("last_time"))
+    except KeyboardInterrupt as exc:
+        why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
+        error = CosimError(why, time=ex.metadata.get("last_time"))
         ex.close("interrupted", error)
     finally:
         ex.close()       # any other exception: the run's files are still closed and run.json written

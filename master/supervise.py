@@ -320,19 +320,30 @@ class _Supervisor:
         except ProcessLookupError:
             pass
 
-    def _culprit(self) -> str | None:
-        """The component whose FMI call the child was in, from its stack dump or the shared probe."""
+    def _culprit(self) -> tuple[str | None, str]:
+        """(component, phase) whose FMI call the child was in, from its stack dump or the shared probe."""
         stack = self.out_dir / CRASH_FILE
         text = stack.read_text(errors="replace") if stack.is_file() else ""
         for m in reversed(list(re.finditer(r'File "<cosim-master step[^"]*>", line (\d+)', text))):
-            i = self.step_lines.get(int(m.group(1)), self.step_lines.get(str(m.group(1))))
+            i = self.step_lines.get(int(m.group(1)))
             if i is not None and i < len(self.names):
-                return f"component {self.names[i]} (in {PHASE_NAMES[PHASE_STEP]})"
+                return self.names[i], PHASE_NAMES[PHASE_STEP]
         if self.header is not None and self.names:
             phase, i = int(self.header[H_PHASE]), int(self.header[H_COMPONENT])
             if phase != PHASE_STEP and 0 <= i < len(self.names):
-                return f"component {self.names[i]} (in {PHASE_NAMES.get(phase, 'setup')})"
-        return None
+                return self.names[i], PHASE_NAMES.get(phase, "setup")
+        return None, ""
+
+    def _last_fmu_error(self, component: str) -> str | None:
+        """The component's last error message in fmu.log (it often says why it crashed)."""
+        log = self.out_dir / "fmu.log"
+        if not log.is_file():
+            return None
+        found = None
+        for line in log.read_text(errors="replace").splitlines():
+            if line.startswith(f"[error] {component}:") or line.startswith(f"[error] {component}/"):
+                found = line.split(": ", 1)[1] if ": " in line else line
+        return found
 
     def _recover_rows(self) -> int:
         """The rows of the block the child was filling (not sent): from shared memory."""
@@ -357,6 +368,8 @@ class _Supervisor:
 
     def _finish(self, exitcode: int | None, killed: bool) -> dict:
         recovered = 0 if self.meta is not None else self._recover_rows()
+        last = self.header_time
+        culprit, phase = self._culprit() if self.meta is None else (None, "")
         try:
             self.group.close()
         finally:
@@ -369,26 +382,32 @@ class _Supervisor:
             meta["results_notes"] = self.group.notes
         meta["supervised"] = {"child_exit": exitcode, **({"rows_recovered": recovered} if recovered else {})}
         if self.meta is None:
-            last = float(self.header_time) if self.header_time is not None else None
-            culprit = self._culprit()
-            if exitcode is not None and exitcode < 0 and not killed:
-                sig = SIGNAL_NAMES.get(-exitcode, str(-exitcode))
-                reason = f"the simulation process was killed by signal {sig}"
-                meta["outcome"] = "crashed"
-            elif self.stop_reason is not None:
-                reason = self.stop_reason + (" (the simulation did not stop within "
-                                             f"{GRACE_S:g} s and was killed)" if killed and "timed out" not in
-                                             self.stop_reason and self.write_error is None else "")
-                meta["outcome"] = "interrupted" if "user" in self.stop_reason or "stopped by" in self.stop_reason \
-                    else "error"
-            else:
-                reason = f"the simulation process ended with exit status {exitcode} without reporting"
-            if culprit:
-                reason += f" in {culprit}"
+            during = f" during {phase}" if phase else ""
             if self.write_error is not None:
                 reason = str(self.write_error)
-            meta["error"] = str(CosimError(reason, element=None, time=last))
-            meta["last_time"] = last
+                meta["outcome"] = "error"
+            elif exitcode is not None and exitcode < 0 and not killed:
+                reason = f"the simulation process was killed by signal {SIGNAL_NAMES.get(-exitcode, -exitcode)}{during}"
+                meta["outcome"] = "crashed"
+            elif self.stop_reason is not None:
+                reason = self.stop_reason
+                if killed and "timed out" not in reason:
+                    reason += f" (the simulation did not stop within {GRACE_S:g} s and was killed{during})"
+                elif killed:
+                    reason += f"{during} (the simulation was killed)"
+                interrupted = "user" in reason or "stopped by" in reason
+                meta["outcome"] = "interrupted" if interrupted else "error"
+            else:
+                reason = f"the simulation process ended with exit status {exitcode} without reporting"
+            detail = self._last_fmu_error(culprit) if culprit and meta["outcome"] == "crashed" else None
+            if detail:
+                reason += f": {detail}"
+            err = CosimError(reason, element=f"component {culprit}" if culprit else None,
+                             time=float(last) if last is not None else None)
+            meta["error"] = str(err)
+            meta["last_time"] = err.time
+            if culprit:
+                meta["failed_component"] = culprit
         elif self.write_error is not None:
             meta["outcome"], meta["error"] = "error", str(self.write_error)
         meta.setdefault("wall_time_s", None)

@@ -183,18 +183,15 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
 # ------------------------------------------------------------------------------- tables
 def _read_results(out_dir: Path, mon=None):
     """The recorded series the outputs use (only their columns: a large fleet records thousands)."""
-    path = out_dir / "results.parquet"
-    if not path.is_file():
+    from master.results import read_results, result_columns, results_path
+    if not results_path(out_dir).is_file():
         return None
-    import pandas as pd
-    import pyarrow.parquet as pq
     try:
         columns = None
         if mon is not None:
-            present = set(pq.read_schema(path).names)
             wanted = {"time"} | {q for spec in mon.cfg.uavs for q in spec.vars.values()}
-            columns = [c for c in pq.read_schema(path).names if c in wanted and c in present]
-        return pd.read_parquet(path, columns=columns)
+            columns = [c for c in result_columns(out_dir) if c in wanted]
+        return read_results(out_dir, columns)
     except Exception:   # noqa: BLE001 - a truncated file after a crash
         return None
 

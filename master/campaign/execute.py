@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import math
 import os
 import shutil
 import socket
 import time
 import traceback
 from pathlib import Path
+
+from ..results import final_values
 
 __all__ = ["execute_run", "failure_record", "SUMMARY_FILES"]
 
@@ -53,32 +54,6 @@ def failure_record(task: dict, reason: str, wall_time_s: float | None = None, wo
     rec["worker"] = worker
     rec["finished_at"] = _now()
     return rec
-
-
-def _final_values(out: Path) -> dict:
-    """Last recorded value of every numeric column of results.parquet (generic SSP campaigns)."""
-    p = out / "results.parquet"
-    if not p.is_file():
-        return {}
-    import pyarrow.parquet as pq
-    try:
-        pf = pq.ParquetFile(str(p))
-        if pf.metadata.num_rows == 0:
-            return {}
-        t = pf.read_row_group(pf.num_row_groups - 1)
-    except Exception:   # noqa: BLE001 - a truncated file after a failure
-        return {}
-    out_d = {}
-    for name in t.column_names:
-        col = t.column(name)
-        if len(col) == 0:
-            continue
-        v = col[len(col) - 1].as_py()
-        if isinstance(v, bool):
-            out_d[name] = v
-        elif isinstance(v, (int, float)):
-            out_d[name] = v if not (isinstance(v, float) and not math.isfinite(v)) else None
-    return out_d
 
 
 def _prune(out: Path, keep: str, kept: tuple):
@@ -154,7 +129,7 @@ def execute_run(task: dict) -> dict:
         except (OSError, ValueError) as exc:
             rec.setdefault("monitor_errors", []).append(f"summary.json unreadable: {exc}")
     if kind is None or kind.records_final_values:
-        rec["final"] = _final_values(out)
+        rec["final"] = final_values(out)
     _prune(out, task.get("keep", "all"), kind.summary_files if kind is not None else ())
     rec["wall_time_s"] = time.perf_counter() - t0
     rec["finished_at"] = _now()

@@ -27,6 +27,7 @@ import yaml
 
 from .. import yamlio
 from ..errors import CosimError, ScenarioError
+from ..ssp.archive import file_sha256
 from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
 
 __all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
@@ -77,14 +78,6 @@ def run_id_for(params: dict, rep: int) -> str:
 
 def seed_for(campaign_seed: int, params: dict, rep: int) -> int:
     return int(_sha({"campaign_seed": int(campaign_seed), "params": params, "rep": int(rep)})[:8], 16) & SEED_MASK
-
-
-def file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def scenario_sha256(path: Path) -> str:

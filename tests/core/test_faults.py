@@ -1,0 +1,190 @@
+"""Fault injection: a run never loses, corrupts or hides what it recorded. Crashing and hanging native FMUs,
+Ctrl-C and SIGTERM at random points (in the terminal's way: the whole process group; and to the master
+alone), a full disk, an output path that is a file. After each: exit status, one line on stderr naming what
+happened, and results.parquet, results.csv and run.json readable and telling the same story."""
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+import master
+from master.errors import CosimError
+from master.ssp.writer import SspBuilder
+
+CLI = [sys.executable, "-m", "master.cli"]
+
+
+def _env():
+    return dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+
+
+def _faulty(tmp_path, test_fmus, mode, fail_time=0.5, step=0.1, stop=1.0, name="faulty"):
+    b = SspBuilder(name, stop=stop, step=step)
+    b.add_component("f", test_fmus["c2:Faulty"], params={"mode": mode, "fail_time": fail_time})
+    b.add_component("g", test_fmus["c2:Gain"], params={"k": 2.0})
+    b.connect("f", "y", "g", "u")
+    return b.write(tmp_path / f"{name}_{mode}.ssp")
+
+
+def _long_chain(tmp_path, test_fmus, stop=40.0, step=1e-4):
+    """Two integrators in a loop, 400,000 steps recorded at every step: seconds of writing to interrupt."""
+    b = SspBuilder("long", stop=stop, step=step)
+    b.add_component("I1", test_fmus["c2:Integrator"], params={"a": 0.0, "x0": 1.0})
+    b.add_component("I2", test_fmus["c2:Integrator"], params={"a": -0.01, "x0": 0.0})
+    b.connect("I1", "y", "I2", "u")
+    b.connect("I2", "y", "I1", "u")
+    return b.write(tmp_path / "long.ssp")
+
+
+def _consistent(out: Path, step: float) -> pd.DataFrame:
+    """Parquet, CSV and run.json agree, time runs forward on the step grid; returns the table."""
+    meta = json.loads((out / "run.json").read_text())
+    df = pq.read_table(out / "results.parquet").to_pandas()
+    csv = pd.read_csv(out / "results.csv")
+    assert len(df) == len(csv) == meta["rows_recorded"], (len(df), len(csv), meta["rows_recorded"])
+    assert np.array_equal(df.to_numpy(), csv.to_numpy())
+    t = df["time"].to_numpy()
+    assert np.all(np.diff(t) > 0)
+    np.testing.assert_allclose(t, step * np.arange(len(t)), rtol=0, atol=1e-9 * max(1.0, t[-1] if len(t) else 1))
+    assert not list(out.glob("*.tmp")) and not (out / ".cosim-master.reserve").exists()
+    return df
+
+
+def _one_line(stderr: str) -> str:
+    lines = [ln for ln in stderr.strip().splitlines() if ln.startswith("cosim-master:")]
+    assert len(lines) == 1 and "Traceback" not in stderr, stderr
+    return lines[0]
+
+
+# -- crashing and hanging FMUs ----------------------------------------------------------------------------
+@pytest.mark.parametrize("mode,sig", [(3, "SIGABRT"), (4, "SIGSEGV")])
+def test_a_crashing_fmu_leaves_every_row_and_names_the_component(tmp_path, test_fmus, mode, sig):
+    out = tmp_path / "out"
+    r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, mode)), "-o", str(out), "--record", "*.y"],
+                       capture_output=True, text=True, env=_env(), timeout=120)
+    assert r.returncode == 1
+    line = _one_line(r.stderr)
+    assert f"killed by signal {sig}" in line and "component f" in line and "t=0.5" in line, line
+    df = _consistent(out, 0.1)
+    # the step from 0.5 crashed: rows at 0, 0.1, ..., 0.5; f.y = t, and g.y = 2 f.y one (Jacobi) step later
+    assert len(df) == 6
+    np.testing.assert_allclose(df["f.y"], df["time"], atol=1e-12)
+    np.testing.assert_allclose(df["g.y"], np.maximum(0.0, 2 * (df["time"] - 0.1)), atol=1e-12)
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["outcome"] == "crashed" and meta["supervised"]["rows_recovered"] == 6
+
+
+def test_rows_of_sent_blocks_and_of_the_unfinished_block_are_all_kept(tmp_path, test_fmus):
+    # 5001 rows before the crash: one full block of 4096 went through the pipe, 905 were in shared memory
+    out = tmp_path / "out"
+    ssp = _faulty(tmp_path, test_fmus, 3, fail_time=5.0, step=0.001, stop=10.0)
+    r = subprocess.run(CLI + ["run", str(ssp), "-o", str(out)], capture_output=True, text=True, env=_env(),
+                       timeout=120)
+    assert r.returncode == 1 and "SIGABRT" in r.stderr
+    df = _consistent(out, 0.001)
+    assert len(df) == 5001 and json.loads((out / "run.json").read_text())["supervised"]["rows_recovered"] == 905
+
+
+def test_a_hanging_fmu_is_stopped_by_the_timeout(tmp_path, test_fmus):
+    out = tmp_path / "out"
+    t0 = time.monotonic()
+    r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out), "--timeout", "2"],
+                       capture_output=True, text=True, env=_env(), timeout=120)
+    assert time.monotonic() - t0 < 30
+    assert r.returncode == 1
+    line = _one_line(r.stderr)
+    assert "timed out after 2 s" in line and "component f" in line and "t=0.5" in line, line
+    assert len(_consistent(out, 0.1)) == 6
+
+
+def test_ctrl_c_ends_a_hanging_fmu_with_exit_130(tmp_path, test_fmus):
+    out = tmp_path / "out"
+    p = subprocess.Popen(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out)], env=_env(),
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(2.0)                      # well into the hang (it starts at t = 0.5 of a few-ms run)
+    os.killpg(p.pid, signal.SIGINT)      # what a terminal's Ctrl-C does
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130
+    line = _one_line(err)
+    assert "interrupted by the user" in line and "component f" in line and str(out) in line, line
+    assert len(_consistent(out, 0.1)) == 6
+
+
+# -- interrupts at random points while results are written -------------------------------------------------
+@pytest.mark.parametrize("how", ["group-sigint", "sigterm", "in-process-sigint"])
+def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmus, how):
+    ssp = _long_chain(tmp_path, test_fmus)
+    rnd = random.Random(7)
+    for k in range(3):
+        out = tmp_path / f"out{k}"
+        args = CLI + ["run", str(ssp), "-o", str(out)] + (["--no-supervise"] if how.startswith("in-process") else [])
+        p = subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True, start_new_session=True)
+        time.sleep(rnd.uniform(1.5, 3.5))
+        if how == "sigterm":
+            p.send_signal(signal.SIGTERM)
+        else:
+            os.killpg(p.pid, signal.SIGINT)
+        _, err = p.communicate(timeout=120)
+        if p.returncode == 0:       # the run finished first on a fast machine: still must be consistent
+            _consistent(out, 1e-4)
+            continue
+        assert p.returncode == (143 if how == "sigterm" else 130), err
+        _one_line(err)
+        meta = json.loads((out / "run.json").read_text())
+        assert meta["outcome"] == "interrupted"
+        df = _consistent(out, 1e-4)
+        assert 0 < len(df) < 400001
+
+
+# -- a full disk ----------------------------------------------------------------------------------------------
+@pytest.fixture
+def small_disk(tmp_path):
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=6m", "tmpfs", str(mnt)], capture_output=True)
+    if r.returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here (needs root): " + r.stderr.decode().strip())
+    yield mnt
+    subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+@pytest.mark.parametrize("supervised", [True, False])
+def test_a_full_disk_keeps_readable_and_equal_results(tmp_path, test_fmus, small_disk, supervised):
+    ssp = _long_chain(tmp_path, test_fmus, stop=20.0)        # ~10 MB of CSV: does not fit in 6 MB
+    out = small_disk / "out"
+    args = CLI + ["run", str(ssp), "-o", str(out)] + ([] if supervised else ["--no-supervise"])
+    r = subprocess.run(args, capture_output=True, text=True, env=_env(), timeout=300)
+    assert r.returncode == 1
+    line = _one_line(r.stderr)
+    assert "No space left on device" in line, line
+    df = _consistent(out, 1e-4)
+    assert len(df) > 0 and len(df) % 4096 == 0          # whole blocks only
+    meta = json.loads((out / "run.json").read_text())
+    assert any("rebuilt" in n for n in meta.get("results_notes", [])) or len(df) > 0
+
+
+def test_an_output_path_that_is_a_file_is_one_line(tmp_path, test_fmus):
+    target = tmp_path / "taken"
+    target.write_text("mine")
+    for extra in ([], ["--no-supervise"]):
+        r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(target)] + extra,
+                           capture_output=True, text=True, env=_env(), timeout=120)
+        assert r.returncode == 1
+        assert "cannot create the output folder" in _one_line(r.stderr)
+        assert target.read_text() == "mine"
+
+
+def test_the_api_raises_with_the_result_attached(tmp_path, test_fmus):
+    from master.supervise import run_supervised
+    with pytest.raises(CosimError, match="SIGABRT") as e:
+        run_supervised(_faulty(tmp_path, test_fmus, 3), output=tmp_path / "api")
+    assert e.value.result.metadata["rows_recorded"] == 6
