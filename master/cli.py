@@ -25,27 +25,40 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder or .ssd)")
-    r.add_argument("scenario")
-    r.add_argument("--stop-time", type=float)
-    r.add_argument("--start-time", type=float)
-    r.add_argument("--step", type=float, help="master step size in seconds")
-    r.add_argument("--algorithm", choices=ALGORITHMS.names())
-    r.add_argument("--output", "-o", default=None, help="result folder (default: results/<scenario name>)")
-    r.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[])
+    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder or .ssd)",
+                       description="Run a scenario from its start to its stop time and write its results (Parquet, "
+                                   "CSV, run.json, events and monitor files) into one folder. Settings not given "
+                                   "here come from the SSD's settings annotation, then from the FMUs' default "
+                                   "experiments.")
+    r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, or a SystemStructure.ssd file")
+    r.add_argument("--stop-time", type=float, metavar="SECONDS", help="simulated time to stop at, in seconds")
+    r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
+    r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
+    r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
+    r.add_argument("--output", "-o", default=None, metavar="DIR",
+                   help="result folder (default: results/<scenario name>); an earlier run's folder is replaced, "
+                        "a non-empty folder of other files is refused")
+    r.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[],
+                   help="set a parameter or start value (in the variable's own unit); repeatable")
     r.add_argument("--record", action="append", metavar="PATTERN", default=[],
-                   help="record variables matching this shell pattern on 'component.variable'")
-    r.add_argument("--record-interval", type=float)
+                   help="record the variables whose 'component.variable' matches this shell pattern "
+                        "(default: every connected output); repeatable")
+    r.add_argument("--record-interval", type=float, metavar="SECONDS",
+                   help="time between recorded rows, in seconds: a whole multiple of the step (default: every step)")
     r.add_argument("--step-multiple", action="append", metavar="COMPONENT=K", default=[],
-                   help="the component steps every K master steps")
+                   help="the component steps every K master steps (K a positive integer); repeatable")
     r.add_argument("--seed", type=int, help="given to every component parameter named 'seed'")
-    r.add_argument("--log-level", choices=["debug", "info", "warning", "error", "none"], default="warning")
-    r.add_argument("--no-csv", action="store_true", help="write Parquet only")
+    r.add_argument("--log-level", choices=["debug", "info", "warning", "error", "none"], default="warning",
+                   help="FMU messages shown from this level up (all go to fmu.log; default: warning)")
+    r.add_argument("--no-csv", action="store_true", help="write results.parquet only, no results.csv")
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
-                   help="wall-clock limit of the run; the simulation is stopped and its results kept")
+                   help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
+    r.add_argument("--allow-nonfinite", action="store_true",
+                   help="let NaN and infinite values through (default: a parameter or output that is not finite "
+                        "ends the run with an error at the step it appears)")
     r.add_argument("--no-supervise", action="store_true",
                    help="simulate in this process (default: a child process, so that a crashing or hanging FMU "
                         "cannot take the results with it)")
@@ -83,8 +96,21 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _show_warnings() -> None:
+    """The engine's warnings (logger 'cosim_master') as 'cosim-master: warning: ...' lines on stderr."""
+    import logging
+    log = logging.getLogger("cosim_master")
+    if not log.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("cosim-master: %(levelname)s: %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.WARNING)
+        log.propagate = False
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
+    _show_warnings()
     try:
         return _dispatch(args)
     except CosimError as exc:
@@ -113,7 +139,7 @@ def _dispatch(args) -> int:
                        algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
-                       inprocess=not args.no_inprocess)
+                       inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite)
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

@@ -18,12 +18,15 @@ was recorded. ``with Execution(...) as ex:`` closes on leaving. Time is counted 
 from __future__ import annotations
 
 import json
+import logging
 import os
 import platform
 import sys
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from . import __version__
 from .algorithms import get_algorithm
@@ -33,12 +36,16 @@ from .fmi.logsink import LogSink
 from .monitors import monitors_for
 from .observers.base import ObserverContext
 from .observers.recording import Recording, select_variables
-from .plan import add_overrides, build_plan
+from .plan import add_overrides, build_plan, value_error
+from .results import claim_output_folder, products
 from .runtime import Runtime
 from .settings import resolve_settings
 from .sinks import SINKS
 from .ssp.archive import file_sha256, open_scenario
 from .ssp.parser import read_ssd
+
+
+LONG_RUN_STEPS = 10**8        # beyond this a run is likely a typo (--step 1e-12, --stop-time 1e12): say so
 
 
 @dataclass
@@ -59,6 +66,9 @@ class Options:
     progress: bool = False                            # a progress bar on stderr
     write_csv: bool = True
     products: str = "all"                             # "summary": monitors write their summary files only
+    allow_nonfinite: bool = False                     # let NaN and infinite values through (parameters, outputs)
+    output_prepared: bool = False                     # the caller made the folder for this run (a campaign puts the
+                                                      # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
 
 
@@ -73,16 +83,17 @@ class Prepared:
     user_params: dict
 
 
-def prepare(scenario, *, params: dict | None = None, seed: int | None = None) -> Prepared:
+def prepare(scenario, *, params: dict | None = None, seed: int | None = None,
+            allow_nonfinite: bool = False) -> Prepared:
     scenario = Path(scenario)
     shown_as = str(scenario)
     src = open_scenario(scenario)
     try:
         model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
-        plan = build_plan(model, shown_as)
+        plan = build_plan(model, shown_as, allow_nonfinite=allow_nonfinite)
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
         user_params.update(params or {})
-        add_overrides(plan, user_params)
+        add_overrides(plan, user_params, allow_nonfinite)
     except BaseException:
         src.close()
         raise
@@ -95,6 +106,9 @@ def _seed_params(plan_vars, seed) -> dict:
     for comp, vars_ in plan_vars.items():
         v = vars_.get("seed")
         if v is not None and v.causality == "parameter":
+            why = value_error(v, int(seed))
+            if why:
+                raise ScenarioError(why, element="--seed")
             out[f"{comp}.seed"] = int(seed)
     return out
 
@@ -130,16 +144,22 @@ class Execution:
         self.n = 0                       # steps done
         self.closed = False
         self.write_run_json = True       # a supervised child leaves run.json to its parent
-        self._set_up = self._initialized = False
+        self._set_up = self._initialized = self._claimed = False
 
     # -- setup --------------------------------------------------------------------------------------------
     def setup(self) -> None:
         if self._set_up:
             return
         o, meta = self.options, self.metadata
+        if self.out_dir is not None and self.write_run_json:    # a supervised child's parent claimed it
+            if o.output_prepared:
+                self.out_dir.mkdir(parents=True, exist_ok=True)
+            else:
+                claim_output_folder(self.out_dir)
+            self._claimed = True
         if self.scenario.is_file():
             meta["scenario_sha256"] = file_sha256(self.scenario)
-        self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed)
+        self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed, allow_nonfinite=o.allow_nonfinite)
         model, plan, shown_as = p.model, p.plan, p.shown_as
         st = self.settings = resolve_settings(
             model, shown_as, start_time=o.start_time, stop_time=o.stop_time, step=o.step, algorithm=o.algorithm,
@@ -149,6 +169,10 @@ class Execution:
                 raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
                                     element="Settings")
         self.algorithm = get_algorithm(st.algorithm)
+        if st.steps > LONG_RUN_STEPS:
+            logging.getLogger("cosim_master").warning(
+                "%s steps of %g s from %g to %g s: this run may take very long (Ctrl-C keeps what it recorded)",
+                f"{st.steps:,}", st.step, st.start, st.stop)
         meta.update({"algorithm": st.algorithm, "step_size": st.step, "step_size_source": st.step_source,
                      "start_time": st.start, "stop_time": st.stop, "steps": st.steps,
                      "record_interval": st.step * st.record_every, "step_multiples": st.step_multiples,
@@ -186,7 +210,6 @@ class Execution:
         o, st, plan, meta = self.options, self.settings, self.prepared.plan, self.metadata
         if self.out_dir is not None:
             try:
-                self.out_dir.mkdir(parents=True, exist_ok=True)
                 log_file = open(self.out_dir / "fmu.log", "w", encoding="utf-8", buffering=1)
             except OSError as exc:
                 raise CosimError(f"cannot create the output folder: {exc.strerror or exc}",
@@ -255,11 +278,15 @@ class Execution:
         step = self.algorithm.step
         observers = self.observers
         manipulators = self.manipulators
+        check = None if self.options.allow_nonfinite else rt.nonfinite_error
+        out_real, zeros = rt.out["Real"], rt._zeros
         bar = None
         if self.options.progress:
             from tqdm import tqdm
             bar = tqdm(total=target - self.n, unit="step", mininterval=0.5, leave=False)
         n = self.n
+        quiet = np.errstate(invalid="ignore", over="ignore")     # the finiteness check meets NaN on purpose
+        quiet.__enter__()
         try:
             while n < target:
                 t = start + n * h          # integer step counting: no drift from accumulated additions
@@ -272,12 +299,15 @@ class Execution:
                     ob.after_step(n, t, t1)
                 n += 1
                 self.n = n
+                if check is not None and out_real.dot(zeros) != 0.0:
+                    raise check(t1)
                 if rt.stop_reason is not None:
                     meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
                     break
                 if bar is not None and (n & 255) == 0:
                     bar.update(256)
         finally:
+            quiet.__exit__(None, None, None)
             self.n = n
             meta["steps_done"] = n
             if bar is not None:
@@ -373,7 +403,7 @@ class Execution:
             if self.prepared is not None:
                 self.prepared.source.close()
             meta["wall_time_s"] = _time.perf_counter() - self.wall0
-            if self.write_run_json and self.out_dir is not None and self.out_dir.is_dir():
+            if self.write_run_json and self._claimed and self.out_dir.is_dir():
                 write_run_files(self.out_dir, meta, self.events)
         return meta
 
@@ -410,6 +440,7 @@ def write_run_files(out_dir: Path, meta: dict, events: list) -> None:
         tmp = out_dir / "events.csv.tmp"
         pd.DataFrame(events).to_csv(tmp, index=False)
         os.replace(tmp, out_dir / "events.csv")
+    meta["products"] = products(out_dir)
     tmp = out_dir / "run.json.tmp"
     tmp.write_text(json.dumps(meta, indent=2, default=_json_default))
     os.replace(tmp, out_dir / "run.json")

@@ -5,6 +5,7 @@ unit dimension) is reported here, so that no FMU is instantiated for a scenario 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from .errors import ScenarioError
@@ -106,7 +107,8 @@ def _fmu_kind(fmu: LoadedFmu) -> str:
     return "none"
 
 
-def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | None = None) -> Plan:
+def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | None = None,
+               allow_nonfinite: bool = False) -> Plan:
     fmus: dict[str, LoadedFmu] = {}
     variables: dict[str, dict[str, Var]] = {}
     feed: dict[str, dict[str, set | None]] = {}
@@ -165,6 +167,9 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
             raise ScenarioError(f"no variable {pv.variable!r} in component {pv.component!r}",
                                 file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
         value = _check_value(v, pv.value, pv.type, pv.origin, where)
+        why = value_error(v, value, allow_nonfinite)
+        if why:
+            raise ScenarioError(why, file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
         src_unit = getattr(pv, "unit", None)
         if v.type == "Real" and src_unit and v.unit and src_unit != v.unit:
             for u in (src_unit, v.unit):
@@ -178,17 +183,17 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
                                     file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
             value = conv[0] * value + conv[1]
         plan.params.append((v, value, pv.origin))
-    add_overrides(plan, params)
+    add_overrides(plan, params, allow_nonfinite)
     return plan
 
 
-def add_overrides(plan: Plan, params: dict[str, object] | None) -> None:
+def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite: bool = False) -> None:
     """Values given on the command line (or the API), after those of the SSD so that they win; checks every
     value the plan sets."""
     for qualified, raw in (params or {}).items():
         comp, _, name = plan.split(qualified)
         v = plan.variables[comp][name]
-        plan.params.append((v, parse_value(v, raw, qualified), "command line"))
+        plan.params.append((v, parse_value(v, raw, qualified, allow_nonfinite), "command line"))
     for v, _, origin in plan.params:
         if v.causality in ("output", "calculatedParameter", "local", "independent") and v.variability != "tunable":
             if v.causality != "local" or v.variability == "constant":
@@ -275,20 +280,46 @@ def _check_value(v: Var, value, ssp_type, origin, where):
     return value
 
 
-def parse_value(v: Var, raw, where: str):
-    """A command-line value in the variable's type."""
-    if not isinstance(raw, str):
-        return raw
-    try:
-        if v.type == "Real":
-            return float(raw)
-        if v.type == "Integer":
-            return int(raw)
-        if v.type == "Boolean":
-            low = raw.strip().lower()
-            if low not in ("true", "false", "1", "0"):
-                raise ValueError
-            return low in ("true", "1")
-        return raw
-    except ValueError:
-        raise ScenarioError(f"{raw!r} is not a valid {v.fmi_type} for {v.qualified}", element=f"--param {where}") from None
+#: the values an FMI integer type holds (FMI 2.0 Integer and enumerations are 32-bit)
+INT_RANGES = {"Integer": (-2**31, 2**31 - 1), "Enumeration": (-2**31, 2**31 - 1),
+              "Int8": (-2**7, 2**7 - 1), "UInt8": (0, 2**8 - 1), "Int16": (-2**15, 2**15 - 1),
+              "UInt16": (0, 2**16 - 1), "Int32": (-2**31, 2**31 - 1), "UInt32": (0, 2**32 - 1),
+              "Int64": (-2**63, 2**63 - 1), "UInt64": (0, 2**64 - 1)}
+
+
+def value_error(v: Var, value, allow_nonfinite: bool = False) -> str | None:
+    """Why ``value`` cannot be given to ``v`` (out of its integer type's range, not finite), or None.
+    An out-of-range integer would be cut to its low bits by a binary FMU but kept whole by a Python one."""
+    if v.type == "Integer" and not isinstance(value, bool) and isinstance(value, int):
+        lo, hi = INT_RANGES.get(v.fmi_type, INT_RANGES["Integer"])
+        if not lo <= value <= hi:
+            return f"{value} is out of range for {v.qualified} ({v.fmi_type}: {lo}..{hi})"
+    if v.type == "Real" and not allow_nonfinite and isinstance(value, float) and not math.isfinite(value):
+        return (f"{value} is not a finite value for {v.qualified} (non-finite values are refused unless "
+                "--allow-nonfinite is given)")
+    return None
+
+
+def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
+    """A command-line (or API) value in the variable's type, checked for range and finiteness."""
+    value = raw
+    if isinstance(raw, str):
+        try:
+            if v.type == "Real":
+                value = float(raw)
+            elif v.type == "Integer":
+                value = int(raw)
+            elif v.type == "Boolean":
+                low = raw.strip().lower()
+                if low not in ("true", "false", "1", "0"):
+                    raise ValueError
+                value = low in ("true", "1")
+        except ValueError:
+            raise ScenarioError(f"{raw!r} is not a valid {v.fmi_type} for {v.qualified}",
+                                element=f"--param {where}") from None
+    elif v.type == "Real" and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
+    why = value_error(v, value, allow_nonfinite)
+    if why:
+        raise ScenarioError(why, element=f"--param {where}")
+    return value

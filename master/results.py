@@ -5,6 +5,53 @@ import math
 from pathlib import Path
 
 PARQUET = "results.parquet"
+RUN_JSON = "run.json"
+
+
+def claim_output_folder(out_dir) -> None:
+    """A run owns its folder: create it, or take over an earlier run's folder by removing that run's products
+    as a whole (run.json lists them), so that no file of another run is left beside the new results. A
+    non-empty folder that holds no run.json is someone else's and is refused."""
+    import json
+    import shutil
+
+    from .errors import CosimError
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        entries = list(out_dir.iterdir())
+    except OSError as exc:
+        raise CosimError(f"cannot create the output folder: {exc.strerror or exc}", file=str(out_dir),
+                         element="--output") from None
+    if not entries:
+        return
+    run_json = out_dir / RUN_JSON
+    if not run_json.is_file():
+        raise CosimError("the output folder is not empty and holds no earlier run (no run.json): choose another "
+                         "folder or empty it", file=str(out_dir), element="--output")
+    try:
+        products = json.loads(run_json.read_text(encoding="utf-8")).get("products")
+    except (OSError, ValueError):
+        products = None
+    if not isinstance(products, list):      # a run of an older version: its folder held its files only
+        products = [p.name for p in entries if p.is_file()]
+    for name in {*products, RUN_JSON}:
+        p = out_dir / str(name)
+        if p.parent != out_dir:             # only names inside the folder, whatever run.json says
+            continue
+        try:
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink(missing_ok=True)
+        except OSError as exc:
+            raise CosimError(f"cannot replace the earlier run's {p.name}: {exc.strerror or exc}", file=str(out_dir),
+                             element="--output") from None
+
+
+def products(out_dir) -> list[str]:
+    """What a run wrote into its folder (run.json lists it for the next run into the same folder)."""
+    return sorted({p.name for p in Path(out_dir).iterdir() if not p.name.endswith(".tmp")} | {RUN_JSON})
 
 
 def results_path(out_dir) -> Path:

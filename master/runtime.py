@@ -80,6 +80,7 @@ class Runtime:
                 slices.append((pos - len(reads[i][t]), pos))
             self.out[t] = np.zeros(pos, dtype=_dtype(t)) if t != "String" else np.full(pos, "", dtype=object)
             self.out_slice[t] = slices
+        self._zeros = np.zeros(len(self.out["Real"]))
         self._reads = reads
 
         # what is written to each slave; links into parameters are applied during initialization only
@@ -107,6 +108,23 @@ class Runtime:
                     slices.append((pos, pos + len(group[i][t])))
                     pos += len(group[i][t])
             self.in_slice[t] = slices   # first n: step inputs, next n: init-only inputs
+
+    def nonfinite_error(self, t: float) -> CosimError | None:
+        """An error naming the Real values read so far that are NaN or infinite, or None when all are finite.
+        One dot product with zeros finds them (0 * finite = 0; 0 * NaN or 0 * inf = NaN): cheap per step."""
+        out = self.out["Real"]
+        if not len(out) or out.dot(self._zeros) == 0.0:
+            return None
+        bad = np.flatnonzero(~np.isfinite(out))
+        if not len(bad):
+            return None
+        names = {pos: q for q, pos in self.out_pos.items() if self.plan.var(q).type == "Real"}
+        shown = [f"{names[p]} = {out[p]}" for p in bad[:5]]
+        comps = sorted({self.plan.var(names[p]).component for p in bad})
+        more = f" and {len(bad) - 5} more" if len(bad) > 5 else ""
+        return CosimError(f"non-finite output {', '.join(shown)}{more} (a run stops at the first NaN or infinite value; "
+                          "--allow-nonfinite lets them through)", file=self.plan.shown_as,
+                          element=f"component{'s' if len(comps) > 1 else ''} {', '.join(comps)}", time=t)
 
     def _at(self, phase: int, i: int) -> None:
         if self.probe is not None:
@@ -309,5 +327,9 @@ def _same(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
     if a.dtype == object:
         return bool(np.all(a == b)) if len(a) else True
     if a.dtype.kind == "f":
-        return bool(np.all(np.abs(a - b) <= tol * np.maximum(1.0, np.abs(b)))) if len(a) else True
+        if not len(a):
+            return True
+        with np.errstate(invalid="ignore"):      # inf - inf: equal infinities (and NaN beside NaN) have settled
+            close = (a == b) | (np.abs(a - b) <= tol * np.maximum(1.0, np.abs(b))) | (np.isnan(a) & np.isnan(b))
+        return bool(np.all(close))
     return bool(np.array_equal(a, b))

@@ -32,6 +32,9 @@ class Settings:
 def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=None, algorithm=None,
                      record_interval=None, step_multiples=None, fmus=None) -> Settings:
     s = model.settings
+    for value, what in ((start_time, "--start-time"), (stop_time, "--stop-time")):
+        if value is not None and not math.isfinite(value):
+            raise CosimError(f"must be a finite time in seconds, got {value}", element=what)
     start = start_time if start_time is not None else (model.start_time if model.start_time is not None else 0.0)
     stop = stop_time if stop_time is not None else model.stop_time
     if stop is None:
@@ -57,6 +60,8 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
     interval = record_interval if record_interval is not None else s.record_interval
     record_every = 1
     if interval is not None:
+        if not (math.isfinite(interval) and interval > 0):
+            raise CosimError(f"record interval must be positive, got {interval}", element="--record-interval")
         k = interval / step
         record_every = int(round(k))
         if record_every < 1 or abs(record_every - k) > 1e-9 * max(1.0, k):

@@ -35,6 +35,7 @@ import pyarrow as pa
 from .errors import CosimError
 from .execution import Execution, Options, write_run_files
 from .observers.recording import Recording, block_table
+from .results import claim_output_folder
 from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import SINKS
 from .sinks.base import Sink
@@ -147,7 +148,7 @@ def _child(conn, scenario, options: dict):
     faulthandler.enable(file=stack, all_threads=False)
     faulthandler.register(signal.SIGUSR1, file=stack, all_threads=False)
     ex = Execution(scenario, **options)
-    ex.write_run_json = False
+    ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
     status = 1
     try:
         ex.setup()
@@ -430,11 +431,7 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
     if opts.output is None:
         raise CosimError("a supervised run needs an output folder", element="--output")
     out_dir = Path(opts.output)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CosimError(f"cannot create the output folder: {exc.strerror or exc}", file=str(out_dir),
-                         element="--output") from None
+    claim_output_folder(out_dir)
     t0 = time.perf_counter()
     sup = _Supervisor(scenario, opts, timeout)
     meta = sup.run()

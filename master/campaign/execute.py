@@ -97,8 +97,9 @@ def execute_run(task: dict) -> dict:
         kind = SCENARIO_KINDS.get(task["kind"])
         run = kind.prepare_run(task, out, used)
         kw.update(run.options)
+        # the folder is the run's own (cleared above); the kind may have put the run's scenario in it
         res = master.run(run.scenario, output=str(out), params=run.params, seed=run.seed, raise_on_error=False,
-                         **kw)
+                         output_prepared=True, **kw)
         meta = res.metadata
         oc = meta.get("outcome")
         rec["outcome"] = "completed" if oc == "completed" else ("interrupted" if oc == "interrupted" else "failed")

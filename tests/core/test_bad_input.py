@@ -7,6 +7,7 @@ import sys
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -219,3 +220,48 @@ def test_step_multiple_must_be_positive(tmp_path, test_fmus, k):
     r = _cli(["run", str(folder), "--step-multiple", f"b={k}", "-o", str(tmp_path / "o")], tmp_path)
     assert r.returncode == 1 and "must be a positive integer" in r.stderr
     _one_line(r.stderr)
+
+
+@pytest.mark.parametrize("args,expected", [
+    (["--stop-time", "nan"], "--stop-time: must be a finite time in seconds, got nan"),
+    (["--stop-time", "inf"], "--stop-time: must be a finite time in seconds, got inf"),
+    (["--start-time=-inf"], "--start-time: must be a finite time in seconds, got -inf"),
+    (["--record-interval", "nan"], "--record-interval: record interval must be positive, got nan"),
+    (["--record-interval", "0"], "--record-interval: record interval must be positive, got 0.0"),
+    (["--record-interval", "-1"], "--record-interval: record interval must be positive, got -1.0"),
+    (["--timeout", "0"], "--timeout: must be a positive number of seconds"),
+])
+def test_bad_numbers_on_the_command_line_are_one_line(tmp_path, test_fmus, args, expected):
+    r = _cli(["run", str(_two(tmp_path, test_fmus)), "-o", str(tmp_path / "o")] + args, tmp_path)
+    assert r.returncode == 1 and expected in r.stderr, r.stderr
+    _one_line(r.stderr)
+
+
+def _faulty_only(tmp_path, test_fmus):
+    xml = ssd("f", component("f", "resources/Faulty.fmu", connector("y", "output")), "",
+              experiment_xml=experiment(1.0, settings(0.1)))
+    return write_folder(tmp_path / "f", xml, {"Faulty.fmu": test_fmus["c2:Faulty"]})
+
+
+def test_integer_values_are_range_checked(tmp_path, test_fmus):
+    # a binary FMU would cut 2**32 + 7 to 7 while an in-process Python one keeps it: refuse it everywhere
+    with pytest.raises(ScenarioError, match=r"4294967303 is out of range for f.mode \(Integer: -2147483648..2147483647\)"):
+        master.run(_faulty_only(tmp_path, test_fmus), output=None, params={"f.mode": 4294967303})
+    with pytest.raises(ScenarioError, match=r"--param f.mode: -2147483649 is out of range"):
+        master.run(_faulty_only(tmp_path, test_fmus), output=None, params={"f.mode": "-2147483649"})
+
+
+def test_nonfinite_parameters_and_outputs_stop_the_run(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    with pytest.raises(ScenarioError, match="nan is not a finite value for a.x0"):
+        master.run(folder, output=None, params={"a.x0": "nan"})
+    # y += h (a y + u) from 1e308 with a = 10 overflows to inf in the first step: the run stops there, the row
+    # that shows it is recorded, and the message names the variable
+    with pytest.raises(CosimError, match=r"component a: t=0.1: non-finite output a.y = inf.*--allow-nonfinite"):
+        master.run(folder, output=tmp_path / "out", params={"a.x0": 1e308, "a.a": 10.0}, record=["a.y"])
+    df = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    assert len(df) == 2 and df["a.y"].iloc[0] == 1e308 and np.isinf(df["a.y"].iloc[1])
+    ok = master.run(folder, output=None, params={"a.x0": "inf"}, allow_nonfinite=True, record=["a.y"])
+    # x0 = inf, a = 0: y = inf, then 0 * inf = NaN from the first step on, and the run goes to its end
+    y = ok.frame["a.y"]
+    assert len(y) == 11 and np.isinf(y.iloc[0]) and np.isnan(y.iloc[1:]).all()
