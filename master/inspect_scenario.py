@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .algorithms.ordering import algebraic_loops, gauss_seidel_order
+from .algorithms.ordering import algebraic_loops, gauss_seidel_order, loop_cycles
 from .execution import prepare
 from .settings import resolve_settings
 
@@ -43,6 +43,8 @@ def inspect(scenario, **overrides) -> dict:
         info["gauss_seidel_order"] = [names[i] for i in so.order]
         info["gauss_seidel_loops_broken_at"] = [f"{a} -> {b}" for a, b in so.broken]
         info["algebraic_loops"] = algebraic_loops(plan)
+        info["algebraic_loop_cycles"] = [[{"from": a, "to": b, "via": how} for a, b, how in cyc]
+                                         for cyc in loop_cycles(plan)]
         info["annotations"] = sorted(k for k in model.annotations if k)
         return info
     finally:
@@ -74,8 +76,27 @@ def format_inspect(info: dict) -> str:
     lines.append(f"  gauss-seidel order: {' -> '.join(info['gauss_seidel_order'])}")
     if info["gauss_seidel_loops_broken_at"]:
         lines.append(f"  gauss-seidel loops broken at: {', '.join(info['gauss_seidel_loops_broken_at'])}")
-    for lp in info["algebraic_loops"]:
-        lines.append(f"  algebraic loop: {' -> '.join(lp)}")
+    alg = info["settings"].get("algorithm", "jacobi")
+    for lp, cyc in zip(info["algebraic_loops"], info["algebraic_loop_cycles"]):
+        lines.append(_describe_loop(lp, cyc, alg))
     if info["annotations"]:
         lines.append(f"  annotations: {', '.join(info['annotations'])}")
     return "\n".join(lines)
+
+
+def _describe_loop(members: list[str], cycle: list[dict], algorithm: str) -> str:
+    """An algebraic loop as its components, one cycle through it, and what it means for the run."""
+    comps = sorted({q.rsplit(".", 1)[0] for q in members})
+    arrows = {"connection": " -> ", "declared": " => ", "assumed": " ~> "}
+    path = cycle[0]["from"] + "".join(arrows[e["via"]] + e["to"] for e in cycle)
+    assumed = sorted({e["from"].rsplit(".", 1)[0] for e in cycle if e["via"] == "assumed"})
+    text = [f"  algebraic loop between {', '.join(comps)} ({len(members)} ports), e.g. {path}",
+            "    (-> connection, => declared output dependency, ~> assumed: the FMU declares no dependencies)"]
+    if assumed:
+        text.append(f"    {', '.join(assumed)} declare{'s' if len(assumed) == 1 else ''} no output dependencies, so "
+                    "every output counts as depending on every input; if they do not, there is no loop")
+    text.append("    initialization iterates it until the values settle; "
+                + ("jacobi reads every input from the previous step, so the loop only delays values by a step"
+                   if algorithm == "jacobi" else
+                   f"{algorithm} steps it in order and the connections listed as broken read the previous step"))
+    return "\n".join(text)

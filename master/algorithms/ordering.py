@@ -117,16 +117,54 @@ def gauss_seidel_order(plan: Plan, names: list[str]) -> StepOrder:
 
 
 def algebraic_loops(plan: Plan) -> list[list[str]]:
-    """Cycles of instantaneous dependencies: connection edges plus each FMU's declared output dependencies
-    (an output without a declaration depends on every input of its FMU)."""
+    """Strongly connected sets of instantaneous dependencies: connection edges plus each FMU's declared output
+    dependencies (an output without a declaration depends on every input of its FMU)."""
+    names, succ, _ = _dependency_graph(plan)
+    return [[names[v] for v in comp] for comp in _sccs(len(names), succ) if len(comp) > 1]
+
+
+def loop_cycles(plan: Plan) -> list[list[tuple[str, str, str]]]:
+    """One shortest cycle through each algebraic loop, as its edges (from, to, how): how is "connection",
+    "declared" (the FMU declares that output to depend on that input) or "assumed" (the FMU declares no
+    dependencies for the output, so every input counts)."""
+    names, succ, how = _dependency_graph(plan)
+    cycles = []
+    for comp in _sccs(len(names), succ):
+        if len(comp) < 2:
+            continue
+        inside, start = set(comp), comp[0]
+        prev, frontier, found = {start: None}, [start], None
+        while frontier and found is None:       # breadth first: the shortest way back to the start
+            nxt = []
+            for v in frontier:
+                for w in sorted(succ[v]):
+                    if w == start:
+                        found = v
+                        break
+                    if w in inside and w not in prev:
+                        prev[w] = v
+                        nxt.append(w)
+                if found is not None:
+                    break
+            frontier = nxt
+        path, v = [start], found
+        while v is not None and v != start:
+            path.insert(1, v)
+            v = prev[v]
+        path.append(start)
+        cycles.append([(names[a], names[b], how[(a, b)]) for a, b in zip(path, path[1:])])
+    return cycles
+
+
+def _dependency_graph(plan: Plan):
     nodes: dict[str, int] = {}
 
     def node(q):
         return nodes.setdefault(q, len(nodes))
-    edges: list[tuple[int, int]] = []
+    how: dict[tuple[int, int], str] = {}
     inputs_of: dict[str, list[str]] = {}
     for ln in plan.links:
-        edges.append((node(ln.src.qualified), node(ln.dst.qualified)))
+        how[(node(ln.src.qualified), node(ln.dst.qualified))] = "connection"
         inputs_of.setdefault(ln.dst.component, []).append(ln.dst.name)
     for ln in plan.links:
         comp = ln.src.component
@@ -134,14 +172,10 @@ def algebraic_loops(plan: Plan) -> list[list[str]]:
         ins = inputs_of.get(comp, [])
         for name in ins:
             if deps is None or name in deps:
-                edges.append((node(f"{comp}.{name}"), node(ln.src.qualified)))
+                how.setdefault((node(f"{comp}.{name}"), node(ln.src.qualified)), "assumed" if deps is None
+                               else "declared")
     n = len(nodes)
     succ = [set() for _ in range(n)]
-    for a, b in edges:
+    for a, b in how:
         succ[a].add(b)
-    names = sorted(nodes, key=nodes.get)
-    loops = []
-    for comp in _sccs(n, succ):
-        if len(comp) > 1:
-            loops.append([names[v] for v in comp])
-    return loops
+    return sorted(nodes, key=nodes.get), succ, how
