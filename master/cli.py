@@ -35,6 +35,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
     r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
     r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
+    r.add_argument("--tolerance", type=float, metavar="REL",
+                   help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
                    help="result folder (default: results/<scenario name>); an earlier run's folder is replaced, "
                         "a non-empty folder of other files is refused")
@@ -139,7 +141,8 @@ def _dispatch(args) -> int:
                        algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
-                       inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite)
+                       inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
+                       tolerance=args.tolerance)
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

@@ -67,6 +67,7 @@ class Options:
     write_csv: bool = True
     products: str = "all"                             # "summary": monitors write their summary files only
     allow_nonfinite: bool = False                     # let NaN and infinite values through (parameters, outputs)
+    tolerance: float | None = None                    # given to every FMU (default: each FMU's own)
     output_prepared: bool = False                     # the caller made the folder for this run (a campaign puts the
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
@@ -163,7 +164,7 @@ class Execution:
         model, plan, shown_as = p.model, p.plan, p.shown_as
         st = self.settings = resolve_settings(
             model, shown_as, start_time=o.start_time, stop_time=o.stop_time, step=o.step, algorithm=o.algorithm,
-            record_interval=o.record_interval, step_multiples=o.step_multiples, fmus=plan.fmus)
+            record_interval=o.record_interval, step_multiples=o.step_multiples, fmus=plan.fmus, tolerance=o.tolerance)
         for name in st.step_multiples:
             if name not in plan.fmus:
                 raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
@@ -176,6 +177,8 @@ class Execution:
         meta.update({"algorithm": st.algorithm, "step_size": st.step, "step_size_source": st.step_source,
                      "start_time": st.start, "stop_time": st.stop, "steps": st.steps,
                      "record_interval": st.step * st.record_every, "step_multiples": st.step_multiples,
+                     **({"last_step": st.last_step} if st.last_step is not None else {}),
+                     "tolerance": st.tolerance, "settings_sources": st.sources,
                      "parameters_overridden": dict(p.user_params),
                      "fmus": {name: {"source": model.components[name].source, "sha256": f.sha256,
                                      "fmi_version": f.fmi_version,
@@ -224,7 +227,7 @@ class Execution:
         # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
         self.rt = rt = Runtime(plan, observed, self.log, st.step_multiples, logging_on=(o.log_level != "none"),
                                inprocess=o.inprocess, sampled=sampled)
-        rt.instantiate(st.start, st.stop)
+        rt.instantiate(st.start, st.stop, st.tolerance)
         rt.apply_start_values(st.start)
         init_order = gauss_seidel_order(plan, rt.names).order
         loop_desc = "; ".join(" -> ".join(lp) for lp in loops) or "(none declared)"
@@ -242,6 +245,8 @@ class Execution:
     @property
     def time(self) -> float:
         st = self.settings
+        if st.last_step is not None and self.n == st.steps:
+            return st.stop            # after the shorter final step
         return st.start + self.n * st.step
 
     @property
@@ -279,6 +284,7 @@ class Execution:
         observers = self.observers
         manipulators = self.manipulators
         check = None if self.options.allow_nonfinite else rt.nonfinite_error
+        last_n = st.steps - 1 if st.last_step is not None else -1       # a shorter final step
         out_real, zeros = rt.out["Real"], rt._zeros
         bar = None
         if self.options.progress:
@@ -292,8 +298,12 @@ class Execution:
                 t = start + n * h          # integer step counting: no drift from accumulated additions
                 for mp in manipulators:
                     mp.before_step(n, t)
-                step(n, t)
-                t1 = start + (n + 1) * h
+                if n == last_n:
+                    self.algorithm.step_sized(n, t, st.last_step)
+                    t1 = st.stop
+                else:
+                    step(n, t)
+                    t1 = start + (n + 1) * h
                 meta["last_time"] = t1
                 for ob in observers:
                     ob.after_step(n, t, t1)

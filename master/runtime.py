@@ -131,7 +131,8 @@ class Runtime:
             self.probe[0], self.probe[1] = phase, i
 
     # -- life cycle -----------------------------------------------------------------------
-    def instantiate(self, start: float, stop: float | None):
+    def instantiate(self, start: float, stop: float | None, tolerance: float | None = None):
+        """``tolerance``: for every FMU; None gives each FMU its own default experiment tolerance."""
         for i, name in enumerate(self.names):
             self._at(PHASE_INSTANTIATE, i)
             fmu = self.plan.fmus[name]
@@ -139,7 +140,10 @@ class Runtime:
             slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess)
             self.slaves[i] = slave
             slave.instantiate()
-            slave.setup(start, stop)
+            tol = tolerance
+            if tol is None and fmu.md.defaultExperiment is not None and fmu.md.defaultExperiment.tolerance:
+                tol = float(fmu.md.defaultExperiment.tolerance)
+            slave.setup(start, stop, tol)
         self._bind_ports()
         self.bind_samples()
 

@@ -33,3 +33,11 @@ class Algorithm:
         if self.rt.changed:      # a monitor took a component out: step the others only
             self._build()
         self._step(n, t)
+
+    def step_sized(self, n: int, t: float, h: float) -> None:
+        """One step of another length than the master step (the shorter last step of an interval that is not
+        a whole number of steps)."""
+        from .compiled import compile_step
+        if self.rt.changed:
+            self._build()
+        compile_step(self.rt, self.order, h, self.gauss_seidel)(n, t)

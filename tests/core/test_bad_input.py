@@ -205,10 +205,17 @@ def test_cli_unknown_parameter(tmp_path, test_fmus):
     assert "component 'b' has no variable 'nothing'" in res.stderr and "Traceback" not in res.stderr
 
 
-def test_stop_time_not_a_whole_number_of_steps(tmp_path, test_fmus):
+def test_stop_time_not_a_whole_number_of_steps_ends_with_a_shorter_step(tmp_path, test_fmus):
+    # 1.0 s in steps of 0.3: three steps and a last one of 0.1 (as fmpy does); explicit Euler on y' = -y
     folder = _two(tmp_path, test_fmus)
-    with pytest.raises(CosimError, match="not a whole number of master steps of 0.3"):
-        master.run(folder, output=None, step=0.3)
+    r = master.run(folder, output=tmp_path / "o", step=0.3, params={"a.x0": 1.0, "a.a": -1.0}, record=["a.y"])
+    df = r.frame
+    np.testing.assert_allclose(df["time"], [0.0, 0.3, 0.6, 0.9, 1.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(df["a.y"], [1.0, 0.7, 0.49, 0.343, 0.343 * 0.9], rtol=1e-14)
+    assert r.metadata["steps"] == 4 and r.metadata["last_step"] == pytest.approx(0.1)
+    # a component on a step multiple needs whole steps: refused as before
+    with pytest.raises(CosimError, match="not a whole number of master steps of 0.3.*step multiple"):
+        master.run(folder, output=None, step=0.3, step_multiples={"b": 2})
 
 
 @pytest.mark.parametrize("k", [-1, 0])
