@@ -36,6 +36,15 @@ def _fmu_default(fmus, attr: str):
     return values[0], ("FMU DefaultExperiment" if len(values) == 1 else "smallest FMU DefaultExperiment")
 
 
+def _time_setting(given, ssd_value, fmus, attr: str):
+    """(value, source): the command line's, else the SSD's, else the FMUs' default experiment's."""
+    if given is not None:
+        return given, "command line"
+    if ssd_value is not None:
+        return ssd_value, "SSD DefaultExperiment"
+    return _fmu_default(fmus, attr)
+
+
 def _finite(value, what):
     if value is not None and not math.isfinite(value):
         raise CosimError(f"must be a finite time in seconds, got {value}", element=what)
@@ -61,20 +70,10 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
     sources = {}
     _finite(start_time, "--start-time")
     _finite(stop_time, "--stop-time")
-    if start_time is not None:
-        start, sources["start"] = start_time, "command line"
-    elif model.start_time is not None:
-        start, sources["start"] = model.start_time, "SSD DefaultExperiment"
-    else:
-        start, sources["start"] = _fmu_default(fmus, "startTime")
-        if start is None:
-            start, sources["start"] = 0.0, "default"
-    if stop_time is not None:
-        stop, sources["stop"] = stop_time, "command line"
-    elif model.stop_time is not None:
-        stop, sources["stop"] = model.stop_time, "SSD DefaultExperiment"
-    else:
-        stop, sources["stop"] = _fmu_default(fmus, "stopTime")
+    start, sources["start"] = _time_setting(start_time, model.start_time, fmus, "startTime")
+    if start is None:
+        start, sources["start"] = 0.0, "default"
+    stop, sources["stop"] = _time_setting(stop_time, model.stop_time, fmus, "stopTime")
     if stop is None:
         raise ScenarioError("no stop time: neither --stop-time, the SSD's DefaultExperiment nor an FMU's default "
                             "experiment gives one", file=shown_as, element="DefaultExperiment")

@@ -19,18 +19,12 @@ from master.observers import Observer
 from master.sinks import SINKS
 from master.sinks.base import Sink
 from master.ssp.writer import SspBuilder
+from test_algorithms import _chain as chain_ssp
 
 
-def _chain(tmp_path, test_fmus, h=0.05, k=-2.0, a1=-0.3, a2=0.2, stop=2.0, name="chain"):
-    integ = test_fmus["c2:Integrator"]
-    b = SspBuilder(name, stop=stop, step=h)
-    b.add_component("I1", integ, params={"a": a1, "x0": 1.0})
-    b.add_component("G", test_fmus["c2:Gain"], params={"k": k})
-    b.add_component("I2", integ, params={"a": a2, "x0": 0.5})
-    b.connect("I1", "y", "G", "u")
-    b.connect("G", "y", "I2", "u")
-    b.connect("I2", "y", "I1", "u")
-    return b.write(tmp_path / f"{name}.ssp")
+def _chain(tmp_path, test_fmus, h=0.05, k=-2.0, a1=-0.3, a2=0.2):
+    """I1 -> G -> I2 -> I1 over 2 s (test_algorithms' chain, whose closed forms are derived there)."""
+    return chain_ssp(tmp_path, test_fmus, h, k, a1, a2)
 
 
 REC = ["I1.y", "G.y", "I2.y"]
