@@ -9,6 +9,8 @@ from __future__ import annotations
 import yaml
 from yaml.constructor import ConstructorError
 
+from .errors import ScenarioError
+
 MERGE_TAG = "tag:yaml.org,2002:merge"
 
 
@@ -53,6 +55,16 @@ _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
 def load(text):
     """``yaml.safe_load``, refusing duplicate keys."""
     return yaml.load(text, Loader=_LOADER)
+
+
+def load_text(text, file):
+    """:func:`load`; invalid YAML is a one-line :class:`ScenarioError` naming ``file`` and the line."""
+    try:
+        return load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise ScenarioError(f"invalid YAML: {getattr(exc, 'problem', None) or exc}", file=str(file),
+                            element=f"line {mark.line + 1}" if mark is not None else "yaml") from None
 
 
 def dump(data, **options) -> str:

@@ -78,9 +78,10 @@ def _within(path: str, prefix: str) -> bool:
 
 def _read_scenario_data(path: Path) -> dict:
     try:
-        data = yamlio.load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"cannot read the scenario: {exc}", file=str(path)) from None
+    data = yamlio.load_text(text, path)
     if not isinstance(data, dict):
         raise ScenarioError("expected a mapping of scenario fields", file=str(path))
     return data
@@ -90,8 +91,8 @@ def _refuse_campaign_document(source: Path):
     """A campaign file given to build-scenario: say what it is, rather than list the scenario fields it lacks
     (an unreadable file is left to the scenario loader's own message)."""
     try:
-        data = yamlio.load(source.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        data = yamlio.load_text(source.read_text(encoding="utf-8"), source)
+    except (OSError, UnicodeDecodeError, ScenarioError):
         return
     if is_campaign_document(data):
         raise ScenarioError(f"this is a campaign file, not a UAV scenario: run it with `cosim-master campaign "

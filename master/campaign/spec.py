@@ -23,8 +23,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from .. import yamlio
 from ..errors import CosimError, ScenarioError
 from ..ssp.archive import file_sha256
@@ -213,12 +211,7 @@ def load_campaign(path) -> Campaign:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         err("file", f"cannot read: {exc.strerror or exc}")
-    try:
-        data = yamlio.load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        err(f"line {mark.line + 1}" if mark is not None else "yaml",
-            f"invalid YAML: {getattr(exc, 'problem', None) or exc}")
+    data = yamlio.load_text(text, path)
     if not isinstance(data, dict):
         err("(top level)", "expected a mapping (name, seed, repetitions, scenario, grid/runs, run, keep)")
     if any(k not in TOP_KEYS for k in data):

@@ -102,7 +102,7 @@ def _value_error(plan, qualified: str, value) -> str | None:
         comp, _, name = plan.split(qualified)
         var = plan.variables[comp][name]
         if not isinstance(value, str) and not _fits(var.type, value):
-            return f"expected a {var.fmi_type} for {qualified}, got {value!r}"
+            return f"expected a value of type {var.fmi_type} for {qualified}, got {value!r}"
         add_overrides(plan, {qualified: value})   # the engine's own checks: the string parses, the variable is settable
     except ScenarioError as exc:
         return exc.reason
