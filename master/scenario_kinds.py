@@ -27,6 +27,13 @@ class PreparedRun(NamedTuple):
     options: dict           # further ``master.run`` keyword arguments (stop_time, step, algorithm, ...)
 
 
+class ParamProblem(NamedTuple):
+    """Why one parameter set of a campaign cannot run (:meth:`ScenarioKind.check_params`)."""
+    index: int              # the parameter set, by its position in the list checked
+    key: str | None         # the parameter or run option at fault; None: the combination as a whole
+    reason: str
+
+
 class ScenarioKind:
     name = ""
     label = ""                          # how messages call its scenarios ("SSP", "UAV YAML")
@@ -55,6 +62,18 @@ class ScenarioKind:
     def param_key_error(self, key: str) -> str | None:
         """Why ``key`` cannot be a campaign parameter of this kind (None: it can)."""
         raise NotImplementedError
+
+    def check_params(self, scenario: Path, param_sets: list[tuple[dict, dict]]) -> ParamProblem | None:
+        """The first parameter set that cannot run on ``scenario``, and why (None: all can).  Each set is
+        (parameters, effective run options) as given to :meth:`overrides`.  Called when the campaign is
+        loaded, so a misspelt name or a bad value is refused before anything runs instead of failing every
+        run it is in; raises a :class:`CosimError` naming ``scenario`` when the scenario cannot be read."""
+        return None
+
+    def is_scenario_document(self, data) -> bool:
+        """Is ``data`` (a YAML document as read) a scenario of this kind?  Lets ``cosim-master campaign``
+        given a scenario file say so instead of listing the campaign fields the file lacks."""
+        return False
 
     def overrides(self, params: dict, options: dict) -> dict:
         """A run's scenario overrides from its parameters (run options and the variant already taken out)

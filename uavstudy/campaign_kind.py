@@ -7,6 +7,9 @@ the wind FMU through the scenario and the step, stop time and algorithm through 
 """
 from __future__ import annotations
 
+import copy
+import difflib
+import functools
 import hashlib
 import json
 from pathlib import Path
@@ -14,9 +17,9 @@ from pathlib import Path
 import yaml
 
 from master import yamlio
-from master.campaign.spec import SCENARIO_OPTIONS, file_sha256
+from master.campaign.spec import SCENARIO_OPTIONS, file_sha256, is_campaign_document
 from master.errors import ScenarioError
-from master.scenario_kinds import PreparedRun, ScenarioKind
+from master.scenario_kinds import ParamProblem, PreparedRun, ScenarioKind
 
 from .names import TOTAL_ROW, UAV_COLUMN
 
@@ -38,6 +41,64 @@ def _set_path(data: dict, key: str, value, shown: str):
     d[parts[-1]] = value
 
 
+@functools.cache
+def _field_paths() -> dict[str, None]:
+    """Every scenario field as a dotted path (``n_uavs``, ``wind``, ``wind.intensities.strong``), in file
+    order: the keys of the model's own YAML form of a scenario."""
+    from .scenario import STRATEGIES, UavScenario, scenario_to_dict
+    blank = UavScenario(name="", base=(0.0, 0.0, 0.0), n_uavs=1, strategy=STRATEGIES[0], targets=[])
+    paths: dict[str, None] = {}
+
+    def walk(d: dict, prefix: str):
+        for k, v in d.items():
+            paths[prefix + k] = None
+            if isinstance(v, dict):
+                walk(v, f"{prefix}{k}.")
+    walk(scenario_to_dict(blank), "")
+    return paths
+
+
+def _unknown_field(key: str) -> str:
+    close = difflib.get_close_matches(key, list(_field_paths()), n=1)
+    hint = f"did you mean {close[0]!r}?" if close else f"fields: {', '.join(_field_paths())}"
+    return f"unknown scenario field {key!r} ({hint})"
+
+
+def _problem(index: int, exc: ScenarioError, overrides: dict) -> ParamProblem:
+    """The scenario model's error as a problem of the parameter (or run option) it comes from."""
+    key = next((k for k in sorted(overrides, key=len, reverse=True)
+                if _within(exc.element or "", k) or _within(k, exc.element or "")), None)
+    return ParamProblem(index, key, exc.reason if exc.element in (key, None) else f"{exc.element}: {exc.reason}")
+
+
+def _within(path: str, prefix: str) -> bool:
+    """Is the field ``path`` the field ``prefix`` or inside it (``wind.probability`` in ``wind``)?"""
+    return path == prefix or path.startswith((prefix + ".", prefix + "["))
+
+
+def _read_scenario_data(path: Path) -> dict:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"cannot read the scenario: {exc}", file=str(path)) from None
+    data = yamlio.load_text(text, path)
+    if not isinstance(data, dict):
+        raise ScenarioError("expected a mapping of scenario fields", file=str(path))
+    return data
+
+
+def _refuse_campaign_document(source: Path):
+    """A campaign file given to build-scenario: say what it is, rather than list the scenario fields it lacks
+    (an unreadable file is left to the scenario loader's own message)."""
+    try:
+        data = yamlio.load_text(source.read_text(encoding="utf-8"), source)
+    except (OSError, UnicodeDecodeError, ScenarioError):
+        return
+    if is_campaign_document(data):
+        raise ScenarioError(f"this is a campaign file, not a UAV scenario: run it with `cosim-master campaign "
+                            f"{source}`, or build one of the scenario files it names", file=str(source))
+
+
 class UavKind(ScenarioKind):
     name = "uav"
     label = "UAV YAML"
@@ -51,13 +112,41 @@ class UavKind(ScenarioKind):
 
     def build(self, source: Path, output: Path) -> Path:
         from .build import build_scenario
+        _refuse_campaign_document(source)
         return build_scenario(source, output)
+
+    def is_scenario_document(self, data) -> bool:
+        """Most of its top-level keys are scenario fields (a campaign shares only ``name`` and ``seed``)."""
+        fields = _field_paths()
+        return isinstance(data, dict) and sum(k in fields for k in data) > len(data) / 2
 
     def param_key_error(self, key: str) -> str | None:
         if key.startswith("param:"):
             return ("param:COMPONENT.VARIABLE keys are for SSP scenarios; a UAV YAML scenario takes its own "
                     "field names (strategy, n_uavs, wind.probability, ...)")
-        return None     # any scenario field may vary; the scenario loader checks the values
+        return None     # any scenario field may vary; check_params checks the names and the values
+
+    def check_params(self, scenario: Path, param_sets: list[tuple[dict, dict]]) -> ParamProblem | None:
+        """Every parameter set applied to the base YAML as its runs will be and validated by the scenario model
+        itself (``scenario_from_dict``: types, ranges and the cross-field rules), after the names: a misspelt
+        field is named with the closest real one.  About 0.25 ms per set (paper.yaml's 112: 0.03 s)."""
+        from .scenario import scenario_from_dict
+        for index, (params, _) in enumerate(param_sets):
+            for key in params:
+                if key not in _field_paths():
+                    return ParamProblem(index, key, _unknown_field(key))
+        base = _read_scenario_data(scenario)
+        for index, (params, options) in enumerate(param_sets):
+            overrides = self.overrides(params, options)
+            data = copy.deepcopy(base)
+            try:
+                for k, v in overrides.items():
+                    _set_path(data, k, v, str(scenario))
+                data["seed"] = 0        # a run's seed replaces the base's, and any seed is valid
+                scenario_from_dict(data, scenario)
+            except ScenarioError as exc:
+                return _problem(index, exc, overrides)
+        return None
 
     def overrides(self, params: dict, options: dict) -> dict:
         # the step, stop time and algorithm are scenario fields: the SSP built from the scenario carries them

@@ -23,15 +23,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from .. import yamlio
 from ..errors import CosimError, ScenarioError
 from ..ssp.archive import file_sha256
 from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
 
-__all__ = ["Campaign", "RunSpec", "load_campaign", "canonical", "canonical_json", "run_id_for", "seed_for",
-           "RUN_OPTIONS", "RESULT_OPTIONS", "SCENARIO_OPTIONS"]
+__all__ = ["Campaign", "RunSpec", "load_campaign", "is_campaign_document", "canonical", "canonical_json",
+           "run_id_for", "seed_for", "RUN_OPTIONS", "RESULT_OPTIONS", "SCENARIO_OPTIONS"]
 
 TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep", "paired")
 #: fixed run options (``run:``), also allowed as grid/runs keys
@@ -213,14 +211,11 @@ def load_campaign(path) -> Campaign:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         err("file", f"cannot read: {exc.strerror or exc}")
-    try:
-        data = yamlio.load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        err(f"line {mark.line + 1}" if mark is not None else "yaml",
-            f"invalid YAML: {getattr(exc, 'problem', None) or exc}")
+    data = yamlio.load_text(text, path)
     if not isinstance(data, dict):
         err("(top level)", "expected a mapping (name, seed, repetitions, scenario, grid/runs, run, keep)")
+    if any(k not in TOP_KEYS for k in data):
+        _refuse_scenario_document(err, path, data)
     for k in data:
         if k not in TOP_KEYS:
             err(str(k), f"unknown field (expected one of {', '.join(TOP_KEYS)})")
@@ -272,13 +267,13 @@ def load_campaign(path) -> Campaign:
         labels[vname] = vfile
     for key, p in scen_files.items():
         if not p.exists():
-            err("scenario" if key is None else f"grid.variant.{key}", f"scenario not found: {p}")
+            err(_scenario_element(key), f"scenario not found: {p}")
     kinds = {}
     for key, p in scen_files.items():
         try:
             kind = kind_for_file(p)
         except CosimError as exc:
-            err("scenario" if key is None else f"grid.variant.{key}", f"{p}: {exc.reason}")
+            err(_scenario_element(key), f"{p}: {exc.reason}")
         kinds[kind.name] = kind
     if len(kinds) != 1:
         err("grid.variant", f"all scenarios of a campaign must be of one kind (here: {', '.join(sorted(kinds))})")
@@ -304,9 +299,11 @@ def load_campaign(path) -> Campaign:
         axes.append((key, _values(err, f"grid.{key}", v)))
     param_keys = [k for k, _ in axes]
     psets: list[dict] = []
+    origins: list[str] = []         # where each parameter set comes from, for errors: grid or runs[i]
     if axes:
         for combo in itertools.product(*[vals for _, vals in axes]):
             psets.append(dict(zip(param_keys, combo)))
+            origins.append("grid")
     for i, entry in enumerate(runs_list):
         if not isinstance(entry, dict):
             err(f"runs[{i}]", "expected a mapping of parameter -> value")
@@ -328,8 +325,9 @@ def load_campaign(path) -> Campaign:
             if k not in param_keys:
                 param_keys.append(k if k == "variant" else k.strip())
         psets.append(p)
+        origins.append(f"runs[{i}]")
     if not psets:
-        psets = [{}]
+        psets, origins = [{}], ["scenario"]
     if variants and None not in scen_files and any("variant" not in p for p in psets):
         err("runs", "a run without variant needs a base scenario (scenario:)")
     # ---- paired: parameters left out of the seed, so runs that differ only in them share their random
@@ -343,27 +341,30 @@ def load_campaign(path) -> Campaign:
         if k not in param_keys:
             err("paired", f"{k!r} is not a parameter of this campaign (parameters: {', '.join(param_keys) or 'none'})")
 
-    # ---- input fingerprints (hashes once per scenario file)
-    scen_hash = {k: scenario_sha256(p) for k, p in scen_files.items()}
-    fmu_hash = {k: kind.input_fmus(p) for k, p in scen_files.items()}
-
-    runs: list[RunSpec] = []
+    # ---- every parameter set once, before anything runs: unique, run options valid, and runnable on its
+    # scenario as far as its kind can tell (a misspelt name or a bad value would otherwise fail every run)
+    set_options: list[dict] = []
     seen: dict[str, int] = {}
-    for pi, params in enumerate(psets):
+    for pi, (params, origin) in enumerate(zip(psets, origins)):
         cj = canonical_json(params)
         if cj in seen:
             err("runs", f"the parameter set {cj} appears twice (a duplicate runs: entry, or one the grid "
                         "already has)")
         seen[cj] = pi
+        opts = {**options, **{k: v for k, v in params.items() if k in RUN_OPTIONS}}
+        _check_options(err, origin, opts)
+        set_options.append(opts)
+    _check_with_kind(err, kind, scen_files, labels, psets, origins, set_options, options)
+
+    # ---- input fingerprints (hashes once per scenario file)
+    scen_hash = {k: scenario_sha256(p) for k, p in scen_files.items()}
+    fmu_hash = {k: kind.input_fmus(p) for k, p in scen_files.items()}
+
+    runs: list[RunSpec] = []
+    code = code_sha256()
+    for params, opts in zip(psets, set_options):
         vkey = params.get("variant")
-        opts = dict(options)
-        for k, v in params.items():
-            if k in RUN_OPTIONS:
-                opts[k] = v
-        _check_options(err, "grid/runs", opts)
-        overrides = kind.overrides({k: v for k, v in params.items() if k != "variant" and k not in RUN_OPTIONS},
-                                   opts)
-        code = code_sha256()
+        overrides = kind.overrides(_scenario_params(params), opts)
         for rep in range(reps):
             rid = run_id_for(params, rep)
             s = seed_for(seed, {k: v for k, v in params.items() if k not in paired}, rep)
@@ -378,6 +379,58 @@ def load_campaign(path) -> Campaign:
         err("grid", "two runs got the same run id; change the campaign seed or a parameter spelling")
     return Campaign(path.resolve(), name, str(description), seed, reps, kind.name, param_keys, keep, options, runs, text,
                     list(paired))
+
+
+def is_campaign_document(data) -> bool:
+    """Does ``data`` (a YAML document as read) look like a campaign (a scenario never has these fields)?"""
+    return isinstance(data, dict) and any(k in data for k in ("scenario", "grid", "runs", "repetitions"))
+
+
+def _refuse_scenario_document(err, path: Path, data: dict):
+    """A scenario file given as the campaign: say what it is and where it goes, rather than listing the
+    campaign fields it lacks."""
+    for kind in SCENARIO_KINDS.load_all().values():
+        if kind.is_scenario_document(data):
+            build = (f", or build its SSP with `cosim-master build-scenario {path} -o x.ssp`"
+                     if type(kind).build is not ScenarioKind.build else "")
+            err("(top level)", f"this is a {kind.label} scenario file, not a campaign: name it in a campaign's "
+                               f"scenario:{build}")
+
+
+def _scenario_params(params: dict) -> dict:
+    """The parameters a scenario kind applies to the scenario: without the variant and the run options."""
+    return {k: v for k, v in params.items() if k != "variant" and k not in RUN_OPTIONS}
+
+
+def _check_with_kind(err, kind: ScenarioKind, scen_files: dict, labels: dict, psets: list, origins: list,
+                     set_options: list, fixed_options: dict):
+    """Let the kind check the parameter sets of each scenario file (one call per file: an SSP is read once)."""
+    for vkey, scenario in scen_files.items():
+        indices = [i for i, p in enumerate(psets) if p.get("variant") == vkey]
+        if not indices:
+            continue
+        try:
+            problem = kind.check_params(scenario, [(_scenario_params(psets[i]), set_options[i]) for i in indices])
+        except CosimError as exc:
+            err(_scenario_element(vkey), str(exc))
+        if problem is not None:
+            i = indices[problem.index]
+            err(*_locate(problem, psets[i], origins[i], fixed_options, labels[vkey]))
+
+
+def _scenario_element(vkey) -> str:
+    return "scenario" if vkey is None else f"grid.variant.{vkey}"
+
+
+def _locate(problem, params: dict, origin: str, fixed_options: dict, label: str) -> tuple[str, str]:
+    """(element, reason) of a kind's problem with a parameter set: the grid or runs key at fault when there is
+    one; otherwise the combination, spelled out, since only some grid points may fail."""
+    if problem.key in params:
+        return f"{origin}.{problem.key}", problem.reason
+    element = f"run.{problem.key}" if problem.key in fixed_options else origin
+    if params:
+        return element, f"{problem.reason} (the run {canonical_json(params)} of {label})"
+    return element, f"{problem.reason} (scenario {label})"
 
 
 def _check_options(err, where, opts: dict):

@@ -26,7 +26,7 @@ grid:
   n_uavs: 2
   wind.probability: 0.1
 runs:
-  - {{n_uavs: 0}}
+  - {{record: [no_such_variable]}}     # fails when the run starts (a bad scenario value fails the campaign file)
 run:
   step: 0.5
   stop_time: 30
@@ -48,8 +48,7 @@ keep: summary
     assert per_uav["remaining_battery_pct"].between(0, 100).all() and per_uav["distance_m"].notna().all()
     bad = df[df["run_outcome"] == "failed"]
     assert len(bad) == 1 and bad["uav"].isna().all()
-    rid = bad["run_id"].iloc[0]
-    assert bad["error"].iloc[0] == f"runs/{rid}/scenario.yaml: n_uavs: must be >= 1, got 0"
+    assert bad["error"].iloc[0] == "--record: no variable matches the record patterns ['no_such_variable']"
     for rid in tot["run_id"]:
         files = {p.name for p in (out / "runs" / rid).iterdir()}
         assert {"scenario.yaml", "summary.json", "run.json"} <= files
