@@ -145,10 +145,6 @@ class Campaign:
     text: str                   # the campaign file as read
     paired: list = field(default_factory=list)   # parameters left out of the seeds (common random numbers)
 
-    @property
-    def by_id(self) -> dict:
-        return {r.run_id: r for r in self.runs}
-
     def manifest(self) -> dict:
         """What ``campaign.json`` holds: the resolved campaign, enough to rebuild the table and report."""
         return {"format": 1, "name": self.name, "description": self.description, "campaign_file": str(self.path),
@@ -440,8 +436,10 @@ def _check_options(err, where, opts: dict):
     if "start_time" in opts and (isinstance(opts["start_time"], bool) or
                                  not isinstance(opts["start_time"], (int, float))):
         err(f"{where}.start_time", f"expected a number, got {opts['start_time']!r}")
-    if "algorithm" in opts and opts["algorithm"] not in ("jacobi", "gauss-seidel"):
-        err(f"{where}.algorithm", f"must be jacobi or gauss-seidel, got {opts['algorithm']!r}")
+    if "algorithm" in opts:
+        from ..algorithms import ALGORITHMS
+        if opts["algorithm"] not in ALGORITHMS:
+            err(f"{where}.algorithm", f"must be one of {', '.join(ALGORITHMS.names())}, got {opts['algorithm']!r}")
     if "csv" in opts and not isinstance(opts["csv"], bool):
         err(f"{where}.csv", f"expected true or false, got {opts['csv']!r}")
     if "log_level" in opts and opts["log_level"] not in ("debug", "info", "warning", "error", "none"):
