@@ -39,7 +39,7 @@ def refused(path: Path) -> str:
     ("runs:\n  - {strategy: A}\n  - {wind.probability: 1.5}\n", "runs[1].wind.probability: must be <= 1, got 1.5"),
     ("runs:\n  - {wind.intensities.strong: 1}\n",
      "runs[0].wind.intensities.strong: wind.intensities: speeds must satisfy weak <= moderate <= strong"),
-    ("grid:\n  algorithm: [jacobi, newton]\n", "grid.algorithm: must be jacobi or gauss-seidel, got 'newton'"),
+    ("grid:\n  algorithm: [jacobi, newton]\n", "grid.algorithm: must be one of gauss-seidel, jacobi, got 'newton'"),
 ])
 def test_uav_grid_values_are_refused_when_the_campaign_is_loaded(tmp_path, body, message):
     c = write(tmp_path, f"name: t\nscenario: {SCENARIOS / 'paper_area.yaml'}\n{body}")
@@ -98,7 +98,7 @@ def chain(tmp_path, chain_fmus):
     ("runs:\n  - {param:gain.k: 2}\n  - {param:gain.y: 1}\n",
      "runs[1].param:gain.y: gain.y has causality output and cannot be given a value"),
     ("grid:\n  param:gain.k: [1, 2]\n  step: [0.1, 0]\n", "grid.step: expected a positive number, got 0"),
-    ("runs:\n  - {algorithm: newton}\n", "runs[0].algorithm: must be jacobi or gauss-seidel, got 'newton'"),
+    ("runs:\n  - {algorithm: newton}\n", "runs[0].algorithm: must be one of gauss-seidel, jacobi, got 'newton'"),
 ])
 def test_ssp_parameters_are_checked_against_the_ssp(tmp_path, chain, body, message):
     c = write(tmp_path, f"name: t\nscenario: chain.ssp\n{body}")
