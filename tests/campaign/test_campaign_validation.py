@@ -39,11 +39,11 @@ def refused(path: Path) -> str:
     ("runs:\n  - {strategy: A}\n  - {wind.probability: 1.5}\n", "runs[1].wind.probability: must be <= 1, got 1.5"),
     ("runs:\n  - {wind.intensities.strong: 1}\n",
      "runs[0].wind.intensities.strong: wind.intensities: speeds must satisfy weak <= moderate <= strong"),
-    ("grid:\n  algorithm: [jacobi, newton]\n", "grid.algorithm: must be one of gauss-seidel, jacobi, got 'newton'"),
+    ("grid:\n  algorithm: [jacobi, newton]\n", "grid.algorithm: must be one of {algorithms}, got 'newton'"),
 ])
 def test_uav_grid_values_are_refused_when_the_campaign_is_loaded(tmp_path, body, message):
     c = write(tmp_path, f"name: t\nscenario: {SCENARIOS / 'paper_area.yaml'}\n{body}")
-    assert refused(c) .startswith(f"{c}: {message}")
+    assert refused(c) .startswith(f"{c}: {_known(message)}")
 
 
 def test_a_combination_that_cannot_run_is_named_with_its_values(tmp_path):
@@ -87,6 +87,12 @@ def chain(tmp_path, chain_fmus):
     return write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
 
 
+def _known(message: str) -> str:
+    """The message with the registered algorithms (other tests register more) in place of {algorithms}."""
+    from master.algorithms import ALGORITHMS
+    return message.replace("{algorithms}", ", ".join(ALGORITHMS.names()))
+
+
 @pytest.mark.parametrize("body, message", [
     ("grid:\n  param:gian.k: [1, 2]\n", "grid.param:gian.k: 'gian.k' does not start with a component name "
                                          "(components: src, gain, integ)"),
@@ -98,11 +104,11 @@ def chain(tmp_path, chain_fmus):
     ("runs:\n  - {param:gain.k: 2}\n  - {param:gain.y: 1}\n",
      "runs[1].param:gain.y: gain.y has causality output and cannot be given a value"),
     ("grid:\n  param:gain.k: [1, 2]\n  step: [0.1, 0]\n", "grid.step: expected a positive number, got 0"),
-    ("runs:\n  - {algorithm: newton}\n", "runs[0].algorithm: must be one of gauss-seidel, jacobi, got 'newton'"),
+    ("runs:\n  - {algorithm: newton}\n", "runs[0].algorithm: must be one of {algorithms}, got 'newton'"),
 ])
 def test_ssp_parameters_are_checked_against_the_ssp(tmp_path, chain, body, message):
     c = write(tmp_path, f"name: t\nscenario: chain.ssp\n{body}")
-    assert refused(c) == f"{c}: {message}"
+    assert refused(c) == f"{c}: {_known(message)}"
 
 
 def test_ssp_values_given_as_strings_in_their_type_are_accepted(tmp_path, chain):
