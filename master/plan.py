@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
-from .fmi.slave import base_type
+from .fmi.slave import INTEGER_BASES, base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
 
@@ -142,7 +142,7 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
             if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
                 raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
                                     element=here, line=conn.line)
-            if v.type not in ("Real", "Integer", "Boolean", "String"):
+            if v.type not in ("Real", *INTEGER_BASES, "Boolean", "String"):
                 raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
                                     element=here, line=conn.line)
         outs = {}
@@ -234,9 +234,9 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
     if dst.causality not in ("input", "parameter"):
         raise ScenarioError(f"end {dst.qualified} has causality {dst.causality}; a connection must end at an input",
                             file=shown_as, element=where, line=c.line)
-    if src.type != dst.type:
-        raise ScenarioError(f"type mismatch: {src.qualified} is {src.fmi_type}, {dst.qualified} is {dst.fmi_type}",
-                            file=shown_as, element=where, line=c.line)
+    why = _connection_type_error(src, dst)
+    if why:
+        raise ScenarioError(why, file=shown_as, element=where, line=c.line)
     link = Link(src, dst, line=c.line)
     ssd_src = model.components[c.src_component].connectors.get(c.src_connector)
     ssd_dst = model.components[c.dst_component].connectors.get(c.dst_connector)
@@ -259,7 +259,7 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
         link.offset = t.factor * link.offset + t.offset
         link.factor = t.factor * link.factor
     elif t is not None and t.kind == "map":
-        conv = {"Integer": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
+        conv = {"Integer": int, "Int64": int, "UInt64": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
         try:
             link.mapping = {conv(k): conv(v) for k, v in t.mapping.items()}
         except ValueError:
@@ -268,10 +268,27 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
     return link
 
 
+def _connection_type_error(src: Var, dst: Var) -> str | None:
+    """Why a connection from ``src`` to ``dst`` cannot carry every value, or None. Integers connect when every
+    value of the start's type fits the end's (a narrowing would cut values to their low bits) and both travel
+    in the same buffer (Int8..Int32 and FMI 2.0 Integer in int32, UInt32 and Int64 in int64, UInt64 alone)."""
+    mismatch = f"type mismatch: {src.qualified} is {src.fmi_type}, {dst.qualified} is {dst.fmi_type}"
+    if src.type in INTEGER_BASES and dst.type in INTEGER_BASES:
+        (lo, hi), (dlo, dhi) = _int_range(src), _int_range(dst)
+        if not dlo <= lo <= hi <= dhi:
+            return f"{mismatch}, and not every {src.fmi_type} value ({lo}..{hi}) fits {dst.fmi_type} ({dlo}..{dhi})"
+        if src.type != dst.type:
+            return (f"{mismatch}: the values would have to change width ({src.type} to {dst.type} buffers), "
+                    "which connections do not do; connect variables of the same width")
+        return None
+    return mismatch if src.type != dst.type else None
+
+
 def _check_value(v: Var, value, ssp_type, origin, where):
     file = origin.rsplit(":", 1)[0]
-    compatible = {"Real": ("Real",), "Integer": ("Integer", "Enumeration"), "Boolean": ("Boolean",),
-                  "String": ("String",)}
+    integer = ("Integer", "Enumeration")
+    compatible = {"Real": ("Real",), "Integer": integer, "Int64": integer, "UInt64": integer,
+                  "Boolean": ("Boolean",), "String": ("String",)}
     if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
         return value
     if ssp_type not in compatible.get(v.type, ()):
@@ -287,11 +304,15 @@ INT_RANGES = {"Integer": (-2**31, 2**31 - 1), "Enumeration": (-2**31, 2**31 - 1)
               "Int64": (-2**63, 2**63 - 1), "UInt64": (0, 2**64 - 1)}
 
 
+def _int_range(v: Var) -> tuple[int, int]:
+    return INT_RANGES.get(v.fmi_type, INT_RANGES["Integer"])
+
+
 def value_error(v: Var, value, allow_nonfinite: bool = False) -> str | None:
     """Why ``value`` cannot be given to ``v`` (out of its integer type's range, not finite), or None.
     An out-of-range integer would be cut to its low bits by a binary FMU but kept whole by a Python one."""
-    if v.type == "Integer" and not isinstance(value, bool) and isinstance(value, int):
-        lo, hi = INT_RANGES.get(v.fmi_type, INT_RANGES["Integer"])
+    if v.type in INTEGER_BASES and not isinstance(value, bool) and isinstance(value, int):
+        lo, hi = _int_range(v)
         if not lo <= value <= hi:
             return f"{value} is out of range for {v.qualified} ({v.fmi_type}: {lo}..{hi})"
     if v.type == "Real" and not allow_nonfinite and isinstance(value, float) and not math.isfinite(value):
@@ -307,7 +328,7 @@ def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
         try:
             if v.type == "Real":
                 value = float(raw)
-            elif v.type == "Integer":
+            elif v.type in INTEGER_BASES:
                 value = int(raw)
             elif v.type == "Boolean":
                 low = raw.strip().lower()
