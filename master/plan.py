@@ -5,12 +5,13 @@ unit dimension) is reported here, so that no FMU is instantiated for a scenario 
 """
 from __future__ import annotations
 
+import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
-from .fmi.slave import INTEGER_BASES, base_type
+from .fmi.slave import INTEGER_BASES, array_shape, base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
 
@@ -42,10 +43,25 @@ class Var:
     causality: str
     variability: str
     unit: str | None
+    # FMI 3.0 arrays: the whole array has a shape and no index; each element is a Var of its own, named
+    # ``y[1]``, ``A[2,1]`` (1-based, row-major as FMI 3 stores them), with its flat 0-based index and its array
+    shape: tuple = ()
+    index: int | None = None
+    array: str | None = None
+    start: object = None            # elements and arrays only: the modelDescription's start value(s)
 
     @property
     def qualified(self) -> str:
         return f"{self.component}.{self.name}"
+
+    @property
+    def is_array(self) -> bool:
+        """The whole array (its elements are what the master moves and records)."""
+        return bool(self.shape) and self.index is None
+
+
+def element_names(name: str, shape: tuple) -> list[str]:
+    return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
 
 
 @dataclass
@@ -67,6 +83,11 @@ class Plan:
     params: list[tuple[Var, object, str]]
     feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
     variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+
+    def elements(self, v: Var) -> list[Var]:
+        """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""
+        whole = self.variables[v.component][v.array or v.name]
+        return [self.variables[v.component][n] for n in element_names(whole.name, whole.shape)]
 
     def var(self, qualified: str) -> Var:
         comp, _, name = self.split(qualified)
@@ -98,6 +119,56 @@ def _var(comp: str, fmu: LoadedFmu, v) -> Var:
     return Var(comp, v.name, int(v.valueReference), bt or v.type, v.type, v.causality, v.variability, unit)
 
 
+def _component_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
+    """Every variable by name; an FMI 3.0 array also as its elements."""
+    by_vr = {v.valueReference: v for v in fmu.md.modelVariables}
+    out = {}
+    for mv in fmu.md.modelVariables:
+        v = out[mv.name] = _var(comp, fmu, mv)
+        shape = array_shape(mv, by_vr)
+        if not shape:
+            continue
+        names = element_names(v.name, shape)
+        start = _array_start(v, mv.start, len(names))
+        out[v.name] = replace(v, shape=shape, start=start)
+        for k, name in enumerate(names):
+            out[name] = replace(v, name=name, shape=shape, index=k, array=v.name, start=start[k])
+    return out
+
+
+def _array_start(v: Var, text, size: int) -> tuple:
+    """The start values of an array (a space-separated list in FMI 3), zeros (or false, "") when it has none."""
+    if text is None:
+        return (({"Real": 0.0, "Boolean": False, "String": ""}).get(v.type, 0),) * size
+    return tuple(parse_value(v, raw, v.qualified, allow_nonfinite=True) for raw in str(text).split())
+
+
+def _structural_sizes(variables: dict[str, Var], fmu: LoadedFmu) -> dict[str, list[str]]:
+    """Structural parameter name -> the arrays whose dimensions it gives."""
+    by_vr = {v.valueReference: v.name for v in fmu.md.modelVariables}
+    sizes: dict[str, list[str]] = {}
+    for mv in fmu.md.modelVariables:
+        for d in getattr(mv, "dimensions", None) or ():
+            if d.start is None:
+                sizes.setdefault(by_vr[d.valueReference], []).append(mv.name)
+    return sizes
+
+
+def _element_feedthrough(plan_vars: dict[str, Var], outs: dict) -> dict:
+    """Output dependencies for array elements: an element depends on what its array does, and a dependency on
+    an input array is one on each of its elements."""
+    def expand(deps):
+        if deps is None:
+            return None
+        return {e for d in deps for e in ([d] if not plan_vars[d].is_array else
+                                          element_names(d, plan_vars[d].shape))}
+    result = {name: expand(deps) for name, deps in outs.items()}
+    for name, deps in list(result.items()):
+        if plan_vars[name].is_array:
+            result.update(dict.fromkeys(element_names(name, plan_vars[name].shape), deps))
+    return result
+
+
 def _fmu_kind(fmu: LoadedFmu) -> str:
     md = fmu.md
     if md.coSimulation is not None:
@@ -125,7 +196,7 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         if fmu.fmi_version.startswith("1"):
             raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
         fmus[name] = fmu
-        variables[name] = {v.name: _var(name, fmu, v) for v in fmu.md.modelVariables}
+        variables[name] = _component_variables(name, fmu)
         for conn in comp.connectors.values():
             v = variables[name].get(conn.name)
             here = f"Connector {name}.{conn.name}"
@@ -149,9 +220,10 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         for u in fmu.md.outputs:
             deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
             outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
-        feed[name] = outs
+        feed[name] = _element_feedthrough(variables[name], outs)
     units = _unit_table(model, fmus)
-    links = [_link(c, model, variables, units, shown_as) for c in model.connections]
+    links = [ln for c in model.connections for ln in _array_links(_link(c, model, variables, units, shown_as),
+                                                                   variables, shown_as)]
     seen: dict[str, Link] = {}
     for ln in links:
         key = ln.dst.qualified
@@ -166,6 +238,10 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         if v is None:
             raise ScenarioError(f"no variable {pv.variable!r} in component {pv.component!r}",
                                 file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
+        if v.is_array:
+            raise ScenarioError(f"{v.qualified} is an array: give its elements ({element_names(v.name, v.shape)[0]}, "
+                                "...) one by one", file=pv.origin.rsplit(":", 1)[0], element=where,
+                                line=_line(pv.origin))
         value = _check_value(v, pv.value, pv.type, pv.origin, where)
         why = value_error(v, value, allow_nonfinite)
         if why:
@@ -187,6 +263,21 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     return plan
 
 
+def _array_links(link: Link, variables, shown_as) -> list[Link]:
+    """A connection between two whole arrays of one shape is one link per element; an element is a scalar."""
+    src, dst = link.src, link.dst
+    if not src.is_array and not dst.is_array:
+        return [link]
+    if src.shape != dst.shape or not (src.is_array and dst.is_array):
+        shapes = " and ".join(f"{v.qualified} {list(v.shape) if v.is_array else 'a scalar'}" for v in (src, dst))
+        raise ScenarioError(f"a connection joins two arrays of the same shape or two scalars (elements such as "
+                            f"{dst.name}[1]); {shapes}", file=shown_as, element=f"Connection {src.qualified} -> "
+                            f"{dst.qualified}", line=link.line)
+    comp_src, comp_dst = variables[src.component], variables[dst.component]
+    return [replace(link, src=comp_src[a], dst=comp_dst[b])
+            for a, b in zip(element_names(src.name, src.shape), element_names(dst.name, dst.shape))]
+
+
 def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite: bool = False) -> None:
     """Values given on the command line (or the API), after those of the SSD so that they win; checks every
     value the plan sets."""
@@ -194,13 +285,40 @@ def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite:
         comp, _, name = plan.split(qualified)
         v = plan.variables[comp][name]
         plan.params.append((v, parse_value(v, raw, qualified, allow_nonfinite), "command line"))
+    plan.params[:] = _whole_arrays(plan.params, plan)
     for v, _, origin in plan.params:
+        sized = (v.causality == "structuralParameter"
+                 and _structural_sizes(plan.variables[v.component], plan.fmus[v.component]).get(v.name))
+        if sized:
+            raise ScenarioError(f"{v.qualified} is a structural parameter giving the size of {', '.join(sized)}; "
+                                "changing it is not supported (arrays keep the sizes of the modelDescription)",
+                                file=origin)
         if v.causality in ("output", "calculatedParameter", "local", "independent") and v.variability != "tunable":
             if v.causality != "local" or v.variability == "constant":
                 raise ScenarioError(f"{v.qualified} has causality {v.causality} and cannot be given a value",
                                     file=origin)
         if v.variability == "constant":
             raise ScenarioError(f"{v.qualified} is a constant and cannot be given a value", file=origin)
+
+
+def _whole_arrays(params: list, plan: Plan) -> list:
+    """Values given to array elements, folded into one value of the whole array (FMI 3 sets an array as a
+    whole): the modelDescription's start values with the elements given replaced, in the order given."""
+    folded: dict[str, list] = {}
+    out = []
+    for v, value, origin in params:
+        if v.index is None and not v.is_array:
+            out.append((v, value, origin))
+            continue
+        whole = plan.variables[v.component][v.array or v.name]
+        if whole.qualified not in folded:
+            folded[whole.qualified] = list(whole.start)
+            out.append((whole, folded[whole.qualified], origin))
+        if v.is_array:
+            folded[whole.qualified][:] = value
+        else:
+            folded[whole.qualified][v.index] = value
+    return out
 
 
 def _line(origin: str):
@@ -322,7 +440,10 @@ def value_error(v: Var, value, allow_nonfinite: bool = False) -> str | None:
 
 
 def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
-    """A command-line (or API) value in the variable's type, checked for range and finiteness."""
+    """A command-line (or API) value in the variable's type, checked for range and finiteness; an array's value
+    is a sequence or a string of its elements separated by spaces or commas, row-major."""
+    if v.is_array:
+        return _parse_array(v, raw, where, allow_nonfinite)
     value = raw
     if isinstance(raw, str):
         try:
@@ -344,3 +465,13 @@ def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
     if why:
         raise ScenarioError(why, element=f"--param {where}")
     return value
+
+
+def _parse_array(v: Var, raw, where: str, allow_nonfinite: bool) -> list:
+    items = raw.replace(",", " ").split() if isinstance(raw, str) else list(raw)
+    size = int(math.prod(v.shape))
+    if len(items) != size:
+        raise ScenarioError(f"{v.qualified} has {size} elements (shape {list(v.shape)}), {len(items)} were given",
+                            element=f"--param {where}")
+    element = replace(v, shape=(), index=None)
+    return [parse_value(element, x, where, allow_nonfinite) for x in items]

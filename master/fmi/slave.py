@@ -38,6 +38,13 @@ FMI2_TYPE_BASE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer"
                   "String": "String"}
 
 
+def array_shape(v, by_vr: dict) -> tuple[int, ...]:
+    """An FMI 3.0 array variable's dimensions (``()`` for a scalar): a fixed ``start`` or the start value of the
+    structural parameter ``valueReference`` names (``by_vr``: value reference -> model variable)."""
+    return tuple(int(d.start) if d.start is not None else int(by_vr[d.valueReference].start)
+                 for d in getattr(v, "dimensions", None) or ())
+
+
 def base_type(fmi_version: str, var_type: str) -> str | None:
     table = FMI3_TYPE_BASE if fmi_version.startswith("3") else FMI2_TYPE_BASE
     return table.get(var_type)

@@ -32,13 +32,15 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     """Default: every connected output. Patterns (shell-style, on 'component.variable') select more or others."""
     if not patterns:
         return list(connected_outputs)
-    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables
-    match = re.compile("|".join(f"(?:{fnmatch.translate(p)})" for p in patterns)).match
+    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables; a
+    # pattern is also taken literally, so that an array element (``m.y[2]``) names itself, not a [set]
+    match = re.compile("|".join(f"(?:{fnmatch.translate(p)})|(?:{re.escape(p)}\\Z)" for p in patterns)).match
     chosen, seen = [], set()
     for comp, vars_ in plan.variables.items():
         for v in vars_.values():
             q = v.qualified
-            if q in seen or v.type not in ARROW_TYPES:
+            # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
+            if q in seen or v.type not in ARROW_TYPES or v.is_array:
                 continue
             if match(q):
                 chosen.append(v)

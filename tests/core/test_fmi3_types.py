@@ -92,3 +92,66 @@ def test_widening_inside_one_buffer_is_allowed(tmp_path, reference_fmus):
     assert list(r.frame["b.Int32_output"]) == [65535] * 3
     assert list(r.frame["b.Int64_output"]) == [2**32 - 1] * 3
     assert np.all(r.frame["time"] >= 0)
+
+
+# ------------------------------------------------------------------------------------------------ arrays
+def _reference(reference_fmus, name):
+    """The reference CSV: time, then each array output as one column of space-separated elements."""
+    with open(reference_fmus / "ref" / f"{name}_out.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    return np.array([float(r[0]) for r in rows[1:]]), np.array([[float(x) for x in r[1].split()] for r in rows[1:]])
+
+
+def _state_space(tmp_path, reference_fmus, elements, conns="", name="ss"):
+    # StateSpace's default experiment (0..10 s) with its fixed internal step, the reference's output interval
+    xml = ssd(name, elements, conns, experiment_xml=experiment(10.0, settings(1.0)))
+    return write_folder(tmp_path / name, xml, {"StateSpace.fmu": reference_fmus / "fmi3" / "StateSpace.fmu"})
+
+
+def test_state_space_arrays_match_the_reference_results(tmp_path, reference_fmus):
+    t_ref, y_ref = _reference(reference_fmus, "StateSpace")
+    folder = _state_space(tmp_path, reference_fmus, component("m", "resources/StateSpace.fmu",
+                                                               connector("u", "input") + connector("y", "output")))
+    r = master.run(folder, output=tmp_path / "out", record=["m.y*"])
+    df = r.frame
+    assert list(df.columns) == ["time", "m.y[1]", "m.y[2]", "m.y[3]"]
+    np.testing.assert_array_equal(df["time"], t_ref)
+    # exact, which is stricter than the cross-check rule (10 % of the signal's range)
+    np.testing.assert_array_equal(df[["m.y[1]", "m.y[2]", "m.y[3]"]].to_numpy(), y_ref)
+    assert _csv_columns(tmp_path / "out" / "results.csv")["m.y[3]"][1] == repr(float(y_ref[1, 2]))
+
+
+def test_array_elements_and_whole_arrays_connect_and_take_parameters(tmp_path, reference_fmus):
+    # a.y = a.u e^t-ish (A = B = C = D = I); b.u[1] <- a.y[2], b.u[2] and b.u[3] keep their values (5, and 3 from
+    # the modelDescription); c.u <- b.y as a whole. With D = I each y is its u at t = 0, so the first row reads
+    # through every connection (Jacobi at t = 0 after initialization's propagation).
+    cons = connector("u", "input") + connector("y", "output")
+    elements = "".join(component(c, "resources/StateSpace.fmu", cons) for c in "abc")
+    conns = (connection("a", "y[2]", "b", "u[1]") + connection("b", "y", "c", "u"))
+    folder = _state_space(tmp_path, reference_fmus, elements, conns)
+    r = master.run(folder, output=None, record=["*.y*", "b.u[2]"],
+                   params={"a.u": "10 20 30", "b.u[2]": "5"}, stop_time=1.0)
+    first = r.frame.iloc[0]
+    assert [first[f"a.y[{k}]"] for k in (1, 2, 3)] == [10.0, 20.0, 30.0]
+    assert [first[f"b.y[{k}]"] for k in (1, 2, 3)] == [20.0, 5.0, 3.0]
+    assert [first[f"c.y[{k}]"] for k in (1, 2, 3)] == [20.0, 5.0, 3.0]
+    assert first["b.u[2]"] == 5.0
+
+
+@pytest.mark.parametrize("params, why", [
+    ({"m.n": "2"}, "structural parameter giving the size of"),
+    ({"m.u": "1 2"}, "has 3 elements"),
+])
+def test_array_values_that_cannot_apply_are_refused(tmp_path, reference_fmus, params, why):
+    folder = _state_space(tmp_path, reference_fmus, component("m", "resources/StateSpace.fmu",
+                                                               connector("u", "input") + connector("y", "output")))
+    with pytest.raises(ScenarioError, match=why):
+        master.run(folder, output=None, params=params)
+
+
+def test_an_array_connected_to_a_scalar_is_refused(tmp_path, reference_fmus):
+    cons = connector("u", "input") + connector("y", "output")
+    elements = "".join(component(c, "resources/StateSpace.fmu", cons) for c in "ab")
+    folder = _state_space(tmp_path, reference_fmus, elements, connection("a", "y", "b", "u[1]"))
+    with pytest.raises(ScenarioError, match="two arrays of the same shape"):
+        master.run(folder, output=None)
