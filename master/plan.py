@@ -5,12 +5,13 @@ unit dimension) is reported here, so that no FMU is instantiated for a scenario 
 """
 from __future__ import annotations
 
+import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
-from .fmi.slave import base_type
+from .fmi.slave import INTEGER_BASES, array_shape, base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
 
@@ -42,10 +43,25 @@ class Var:
     causality: str
     variability: str
     unit: str | None
+    # FMI 3.0 arrays: the whole array has a shape and no index; each element is a Var of its own, named
+    # ``y[1]``, ``A[2,1]`` (1-based, row-major as FMI 3 stores them), with its flat 0-based index and its array
+    shape: tuple = ()
+    index: int | None = None
+    array: str | None = None
+    start: object = None            # elements and arrays only: the modelDescription's start value(s)
 
     @property
     def qualified(self) -> str:
         return f"{self.component}.{self.name}"
+
+    @property
+    def is_array(self) -> bool:
+        """The whole array (its elements are what the master moves and records)."""
+        return bool(self.shape) and self.index is None
+
+
+def element_names(name: str, shape: tuple) -> list[str]:
+    return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
 
 
 @dataclass
@@ -67,6 +83,11 @@ class Plan:
     params: list[tuple[Var, object, str]]
     feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
     variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+
+    def elements(self, v: Var) -> list[Var]:
+        """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""
+        whole = self.variables[v.component][v.array or v.name]
+        return [self.variables[v.component][n] for n in element_names(whole.name, whole.shape)]
 
     def var(self, qualified: str) -> Var:
         comp, _, name = self.split(qualified)
@@ -98,6 +119,56 @@ def _var(comp: str, fmu: LoadedFmu, v) -> Var:
     return Var(comp, v.name, int(v.valueReference), bt or v.type, v.type, v.causality, v.variability, unit)
 
 
+def _component_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
+    """Every variable by name; an FMI 3.0 array also as its elements."""
+    by_vr = {v.valueReference: v for v in fmu.md.modelVariables}
+    out = {}
+    for mv in fmu.md.modelVariables:
+        v = out[mv.name] = _var(comp, fmu, mv)
+        shape = array_shape(mv, by_vr)
+        if not shape:
+            continue
+        names = element_names(v.name, shape)
+        start = _array_start(v, mv.start, len(names))
+        out[v.name] = replace(v, shape=shape, start=start)
+        for k, name in enumerate(names):
+            out[name] = replace(v, name=name, shape=shape, index=k, array=v.name, start=start[k])
+    return out
+
+
+def _array_start(v: Var, text, size: int) -> tuple:
+    """The start values of an array (a space-separated list in FMI 3), zeros (or false, "") when it has none."""
+    if text is None:
+        return (({"Real": 0.0, "Boolean": False, "String": ""}).get(v.type, 0),) * size
+    return tuple(parse_value(v, raw, v.qualified, allow_nonfinite=True) for raw in str(text).split())
+
+
+def _structural_sizes(variables: dict[str, Var], fmu: LoadedFmu) -> dict[str, list[str]]:
+    """Structural parameter name -> the arrays whose dimensions it gives."""
+    by_vr = {v.valueReference: v.name for v in fmu.md.modelVariables}
+    sizes: dict[str, list[str]] = {}
+    for mv in fmu.md.modelVariables:
+        for d in getattr(mv, "dimensions", None) or ():
+            if d.start is None:
+                sizes.setdefault(by_vr[d.valueReference], []).append(mv.name)
+    return sizes
+
+
+def _element_feedthrough(plan_vars: dict[str, Var], outs: dict) -> dict:
+    """Output dependencies for array elements: an element depends on what its array does, and a dependency on
+    an input array is one on each of its elements."""
+    def expand(deps):
+        if deps is None:
+            return None
+        return {e for d in deps for e in ([d] if not plan_vars[d].is_array else
+                                          element_names(d, plan_vars[d].shape))}
+    result = {name: expand(deps) for name, deps in outs.items()}
+    for name, deps in list(result.items()):
+        if plan_vars[name].is_array:
+            result.update(dict.fromkeys(element_names(name, plan_vars[name].shape), deps))
+    return result
+
+
 def _fmu_kind(fmu: LoadedFmu) -> str:
     md = fmu.md
     if md.coSimulation is not None:
@@ -125,7 +196,7 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         if fmu.fmi_version.startswith("1"):
             raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
         fmus[name] = fmu
-        variables[name] = {v.name: _var(name, fmu, v) for v in fmu.md.modelVariables}
+        variables[name] = _component_variables(name, fmu)
         for conn in comp.connectors.values():
             v = variables[name].get(conn.name)
             here = f"Connector {name}.{conn.name}"
@@ -142,16 +213,17 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
             if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
                 raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
                                     element=here, line=conn.line)
-            if v.type not in ("Real", "Integer", "Boolean", "String"):
+            if v.type not in ("Real", *INTEGER_BASES, "Boolean", "String"):
                 raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
                                     element=here, line=conn.line)
         outs = {}
         for u in fmu.md.outputs:
             deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
             outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
-        feed[name] = outs
+        feed[name] = _element_feedthrough(variables[name], outs)
     units = _unit_table(model, fmus)
-    links = [_link(c, model, variables, units, shown_as) for c in model.connections]
+    links = [ln for c in model.connections for ln in _array_links(_link(c, model, variables, units, shown_as),
+                                                                   variables, shown_as)]
     seen: dict[str, Link] = {}
     for ln in links:
         key = ln.dst.qualified
@@ -166,6 +238,10 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         if v is None:
             raise ScenarioError(f"no variable {pv.variable!r} in component {pv.component!r}",
                                 file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
+        if v.is_array:
+            raise ScenarioError(f"{v.qualified} is an array: give its elements ({element_names(v.name, v.shape)[0]}, "
+                                "...) one by one", file=pv.origin.rsplit(":", 1)[0], element=where,
+                                line=_line(pv.origin))
         value = _check_value(v, pv.value, pv.type, pv.origin, where)
         why = value_error(v, value, allow_nonfinite)
         if why:
@@ -187,6 +263,21 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     return plan
 
 
+def _array_links(link: Link, variables, shown_as) -> list[Link]:
+    """A connection between two whole arrays of one shape is one link per element; an element is a scalar."""
+    src, dst = link.src, link.dst
+    if not src.is_array and not dst.is_array:
+        return [link]
+    if src.shape != dst.shape or not (src.is_array and dst.is_array):
+        shapes = " and ".join(f"{v.qualified} {list(v.shape) if v.is_array else 'a scalar'}" for v in (src, dst))
+        raise ScenarioError(f"a connection joins two arrays of the same shape or two scalars (elements such as "
+                            f"{dst.name}[1]); {shapes}", file=shown_as, element=f"Connection {src.qualified} -> "
+                            f"{dst.qualified}", line=link.line)
+    comp_src, comp_dst = variables[src.component], variables[dst.component]
+    return [replace(link, src=comp_src[a], dst=comp_dst[b])
+            for a, b in zip(element_names(src.name, src.shape), element_names(dst.name, dst.shape))]
+
+
 def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite: bool = False) -> None:
     """Values given on the command line (or the API), after those of the SSD so that they win; checks every
     value the plan sets."""
@@ -194,13 +285,40 @@ def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite:
         comp, _, name = plan.split(qualified)
         v = plan.variables[comp][name]
         plan.params.append((v, parse_value(v, raw, qualified, allow_nonfinite), "command line"))
+    plan.params[:] = _whole_arrays(plan.params, plan)
     for v, _, origin in plan.params:
+        sized = (v.causality == "structuralParameter"
+                 and _structural_sizes(plan.variables[v.component], plan.fmus[v.component]).get(v.name))
+        if sized:
+            raise ScenarioError(f"{v.qualified} is a structural parameter giving the size of {', '.join(sized)}; "
+                                "changing it is not supported (arrays keep the sizes of the modelDescription)",
+                                file=origin)
         if v.causality in ("output", "calculatedParameter", "local", "independent") and v.variability != "tunable":
             if v.causality != "local" or v.variability == "constant":
                 raise ScenarioError(f"{v.qualified} has causality {v.causality} and cannot be given a value",
                                     file=origin)
         if v.variability == "constant":
             raise ScenarioError(f"{v.qualified} is a constant and cannot be given a value", file=origin)
+
+
+def _whole_arrays(params: list, plan: Plan) -> list:
+    """Values given to array elements, folded into one value of the whole array (FMI 3 sets an array as a
+    whole): the modelDescription's start values with the elements given replaced, in the order given."""
+    folded: dict[str, list] = {}
+    out = []
+    for v, value, origin in params:
+        if v.index is None and not v.is_array:
+            out.append((v, value, origin))
+            continue
+        whole = plan.variables[v.component][v.array or v.name]
+        if whole.qualified not in folded:
+            folded[whole.qualified] = list(whole.start)
+            out.append((whole, folded[whole.qualified], origin))
+        if v.is_array:
+            folded[whole.qualified][:] = value
+        else:
+            folded[whole.qualified][v.index] = value
+    return out
 
 
 def _line(origin: str):
@@ -234,9 +352,9 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
     if dst.causality not in ("input", "parameter"):
         raise ScenarioError(f"end {dst.qualified} has causality {dst.causality}; a connection must end at an input",
                             file=shown_as, element=where, line=c.line)
-    if src.type != dst.type:
-        raise ScenarioError(f"type mismatch: {src.qualified} is {src.fmi_type}, {dst.qualified} is {dst.fmi_type}",
-                            file=shown_as, element=where, line=c.line)
+    why = _connection_type_error(src, dst)
+    if why:
+        raise ScenarioError(why, file=shown_as, element=where, line=c.line)
     link = Link(src, dst, line=c.line)
     ssd_src = model.components[c.src_component].connectors.get(c.src_connector)
     ssd_dst = model.components[c.dst_component].connectors.get(c.dst_connector)
@@ -259,7 +377,7 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
         link.offset = t.factor * link.offset + t.offset
         link.factor = t.factor * link.factor
     elif t is not None and t.kind == "map":
-        conv = {"Integer": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
+        conv = {"Integer": int, "Int64": int, "UInt64": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
         try:
             link.mapping = {conv(k): conv(v) for k, v in t.mapping.items()}
         except ValueError:
@@ -268,10 +386,27 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
     return link
 
 
+def _connection_type_error(src: Var, dst: Var) -> str | None:
+    """Why a connection from ``src`` to ``dst`` cannot carry every value, or None. Integers connect when every
+    value of the start's type fits the end's (a narrowing would cut values to their low bits) and both travel
+    in the same buffer (Int8..Int32 and FMI 2.0 Integer in int32, UInt32 and Int64 in int64, UInt64 alone)."""
+    mismatch = f"type mismatch: {src.qualified} is {src.fmi_type}, {dst.qualified} is {dst.fmi_type}"
+    if src.type in INTEGER_BASES and dst.type in INTEGER_BASES:
+        (lo, hi), (dlo, dhi) = _int_range(src), _int_range(dst)
+        if not dlo <= lo <= hi <= dhi:
+            return f"{mismatch}, and not every {src.fmi_type} value ({lo}..{hi}) fits {dst.fmi_type} ({dlo}..{dhi})"
+        if src.type != dst.type:
+            return (f"{mismatch}: the values would have to change width ({src.type} to {dst.type} buffers), "
+                    "which connections do not do; connect variables of the same width")
+        return None
+    return mismatch if src.type != dst.type else None
+
+
 def _check_value(v: Var, value, ssp_type, origin, where):
     file = origin.rsplit(":", 1)[0]
-    compatible = {"Real": ("Real",), "Integer": ("Integer", "Enumeration"), "Boolean": ("Boolean",),
-                  "String": ("String",)}
+    integer = ("Integer", "Enumeration")
+    compatible = {"Real": ("Real",), "Integer": integer, "Int64": integer, "UInt64": integer,
+                  "Boolean": ("Boolean",), "String": ("String",)}
     if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
         return value
     if ssp_type not in compatible.get(v.type, ()):
@@ -287,11 +422,15 @@ INT_RANGES = {"Integer": (-2**31, 2**31 - 1), "Enumeration": (-2**31, 2**31 - 1)
               "Int64": (-2**63, 2**63 - 1), "UInt64": (0, 2**64 - 1)}
 
 
+def _int_range(v: Var) -> tuple[int, int]:
+    return INT_RANGES.get(v.fmi_type, INT_RANGES["Integer"])
+
+
 def value_error(v: Var, value, allow_nonfinite: bool = False) -> str | None:
     """Why ``value`` cannot be given to ``v`` (out of its integer type's range, not finite), or None.
     An out-of-range integer would be cut to its low bits by a binary FMU but kept whole by a Python one."""
-    if v.type == "Integer" and not isinstance(value, bool) and isinstance(value, int):
-        lo, hi = INT_RANGES.get(v.fmi_type, INT_RANGES["Integer"])
+    if v.type in INTEGER_BASES and not isinstance(value, bool) and isinstance(value, int):
+        lo, hi = _int_range(v)
         if not lo <= value <= hi:
             return f"{value} is out of range for {v.qualified} ({v.fmi_type}: {lo}..{hi})"
     if v.type == "Real" and not allow_nonfinite and isinstance(value, float) and not math.isfinite(value):
@@ -301,13 +440,16 @@ def value_error(v: Var, value, allow_nonfinite: bool = False) -> str | None:
 
 
 def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
-    """A command-line (or API) value in the variable's type, checked for range and finiteness."""
+    """A command-line (or API) value in the variable's type, checked for range and finiteness; an array's value
+    is a sequence or a string of its elements separated by spaces or commas, row-major."""
+    if v.is_array:
+        return _parse_array(v, raw, where, allow_nonfinite)
     value = raw
     if isinstance(raw, str):
         try:
             if v.type == "Real":
                 value = float(raw)
-            elif v.type == "Integer":
+            elif v.type in INTEGER_BASES:
                 value = int(raw)
             elif v.type == "Boolean":
                 low = raw.strip().lower()
@@ -323,3 +465,13 @@ def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
     if why:
         raise ScenarioError(why, element=f"--param {where}")
     return value
+
+
+def _parse_array(v: Var, raw, where: str, allow_nonfinite: bool) -> list:
+    items = raw.replace(",", " ").split() if isinstance(raw, str) else list(raw)
+    size = int(math.prod(v.shape))
+    if len(items) != size:
+        raise ScenarioError(f"{v.qualified} has {size} elements (shape {list(v.shape)}), {len(items)} were given",
+                            element=f"--param {where}")
+    element = replace(v, shape=(), index=None)
+    return [parse_value(element, x, where, allow_nonfinite) for x in items]

@@ -17,7 +17,7 @@ from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
 from .fmi.slave import BASE_TYPES, DTYPES, WARNING
-from .plan import Plan, Var
+from .plan import Link, Plan, Var
 
 
 def _dtype(t):
@@ -50,13 +50,17 @@ class Runtime:
         # what is read from each slave: connection sources first, then monitored variables (both after every
         # step), then the variables only recorded (read when a sample is taken; a component on a multiple of
         # the step reads them with its step, because its outputs are staged)
+        self._input_links = self._complete_arrays(plan.links)
+        self._held_pos: dict[int, int] = {}
         reads: list[dict[str, list[Var]]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
         seen = set()
 
         def want(v: Var):
-            if v.qualified not in seen:
-                seen.add(v.qualified)
-                reads[self.index[v.component]][v.type].append(v)
+            if v.qualified in seen:
+                return
+            for e in plan.elements(v) if v.index is not None else (v,):   # an array is read whole, in order
+                seen.add(e.qualified)
+                reads[self.index[e.component]][e.type].append(e)
         for ln in plan.links:
             want(ln.src)
         for v in observed:
@@ -78,7 +82,11 @@ class Runtime:
                     self.out_pos[v.qualified] = pos
                     pos += 1
                 slices.append((pos - len(reads[i][t]), pos))
+            held = self._held_slots(t, pos)
+            pos += len(held)
             self.out[t] = np.zeros(pos, dtype=_dtype(t)) if t != "String" else np.full(pos, "", dtype=object)
+            for p, value in held:
+                self.out[t][p] = value
             self.out_slice[t] = slices
         self._zeros = np.zeros(len(self.out["Real"]))
         self._reads = reads
@@ -86,7 +94,7 @@ class Runtime:
         # what is written to each slave; links into parameters are applied during initialization only
         writes: list[dict[str, list]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
         init_writes: list[dict[str, list]] = [{t: [] for t in BASE_TYPES} for _ in range(n)]
-        for ln in plan.links:
+        for ln in self._input_links:
             target = writes if ln.dst.causality == "input" else init_writes
             target[self.index[ln.dst.component]][ln.dst.type].append(ln)
         self._writes, self._init_writes = writes, init_writes
@@ -99,7 +107,8 @@ class Runtime:
             links = [ln for i in range(n) for ln in writes[i][t]] + [ln for i in range(n) for ln in init_writes[i][t]]
             self.inb[t] = (np.zeros(len(links), dtype=_dtype(t)) if t != "String"
                            else np.full(len(links), "", dtype=object))
-            self.src[t] = np.array([self.out_pos[ln.src.qualified] for ln in links], dtype=np.intp)
+            self.src[t] = np.array([self._held_pos.get(id(ln)) if ln.src is None else self.out_pos[ln.src.qualified]
+                                    for ln in links], dtype=np.intp)
             self.factor[t] = np.array([ln.factor for ln in links], dtype=np.float64)
             self.offset[t] = np.array([ln.offset for ln in links], dtype=np.float64)
             slices, pos = [], 0
@@ -108,6 +117,38 @@ class Runtime:
                     slices.append((pos, pos + len(group[i][t])))
                     pos += len(group[i][t])
             self.in_slice[t] = slices   # first n: step inputs, next n: init-only inputs
+
+    def _complete_arrays(self, links: list[Link]) -> list[Link]:
+        """The links in the order inputs are set, with every array input whole: its elements side by side in
+        FMI 3 order (one value reference, all values), an element nobody connects held at its start value (a
+        link without source; ``_held_slots``)."""
+        first: dict[tuple, int] = {}
+        by_dst = {ln.dst.qualified: ln for ln in links}
+        ordered = []
+        for k, ln in enumerate(links):
+            d = ln.dst
+            key = (d.component, d.array) if d.index is not None else (k,)
+            if key in first:
+                continue
+            first[key] = k
+            if d.index is None:
+                ordered.append(ln)
+                continue
+            ordered += [by_dst.get(e.qualified) or Link(None, e) for e in self.plan.elements(d)]
+        return ordered
+
+    def _held_slots(self, t: str, pos: int) -> list[tuple[int, object]]:
+        """Slots after the read values of type ``t`` for the unconnected elements of connected array inputs,
+        holding the value given to the element (a parameter) or its start value; returns (slot, value)."""
+        given = {v.qualified: value for v, value, _ in self.plan.params}
+        held = []
+        for ln in self._input_links:
+            if ln.src is None and ln.dst.type == t:
+                whole = self.plan.variables[ln.dst.component][ln.dst.array]
+                value = given[whole.qualified][ln.dst.index] if whole.qualified in given else ln.dst.start
+                self._held_pos[id(ln)] = pos + len(held)
+                held.append((pos + len(held), value))
+        return held
 
     def nonfinite_error(self, t: float) -> CosimError | None:
         """An error naming the Real values read so far that are NaN or infinite, or None when all are finite.

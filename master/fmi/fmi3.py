@@ -7,7 +7,7 @@ from ctypes import POINTER, byref, c_char_p, c_double, c_uint, c_void_p
 import numpy as np
 
 from .fmpy_adapter import fmi3_callbacks, load_library
-from .slave import ERROR, OK, Port, Slave
+from .slave import ERROR, OK, Port, Slave, array_shape
 
 
 def _ptr(arr: np.ndarray, ctype):
@@ -25,7 +25,10 @@ class Fmi3Slave(Slave):
         # fmpy spells the attribute the FMI 2 way for FMI 3 too
         self.can_save_state = bool(getattr(fmu.md.coSimulation, "canGetAndSetFMUstate", False))
         self.c = None
-        self._vtype = {v.valueReference: v.type for v in fmu.md.modelVariables}
+        by_vr = {v.valueReference: v for v in fmu.md.modelVariables}
+        self._vtype = {vr: v.type for vr, v in by_vr.items()}
+        # values per variable: an array moves all its elements (row-major) under its one value reference
+        self._nvalues = {vr: int(np.prod(array_shape(v, by_vr))) for vr, v in by_vr.items()}
 
     def instantiate(self):
         self._log_cb, self._iu_cb = fmi3_callbacks(self._logger_fn())
@@ -62,58 +65,70 @@ class Fmi3Slave(Slave):
         return self._f[f"fmi3{op}{'Int64' if t3 == 'Enumeration' else t3}"]
 
     def set_value(self, typ, vr, value):
+        """One variable: a scalar, or every element of an array (a sequence, row-major)."""
         t3 = self._vtype[vr]
         vrs = (c_uint * 1)(vr)
+        values = list(value) if isinstance(value, (list, tuple)) else [value]
+        n = len(values)
         if t3 == "String":
-            return self._f["fmi3SetString"](self.c, vrs, 1, (c_char_p * 1)(str(value).encode()), 1)
-        ct = self._CT[t3]
-        return self._fn("Set", t3)(self.c, vrs, 1, (ct * 1)(value), 1)
+            return self._f["fmi3SetString"](self.c, vrs, 1, (c_char_p * n)(*(str(x).encode() for x in values)), n)
+        return self._fn("Set", t3)(self.c, vrs, 1, (self._CT[t3] * n)(*values), n)
+
+    def _collapse(self, vrs) -> np.ndarray:
+        """The master lists an array's value reference once per element; FMI 3 wants it once per variable."""
+        out, k = [], 0
+        while k < len(vrs):
+            vr = int(vrs[k])
+            out.append(vr)
+            k += self._nvalues[vr]
+        return np.array(out, dtype=np.uint32)
 
     def make_port(self, typ, vrs, buf):
         """Split the references by concrete FMI 3 type; each group gets its own typed scratch array."""
-        port = Port(vrs, buf, c_double if typ == "Real" else None)
+        per_value = np.asarray(vrs, dtype=np.uint32)
+        port = Port(self._collapse(per_value), buf, c_double if typ == "Real" else None)
         groups = []
         for t3 in sorted({self._vtype[int(v)] for v in port.vrs}):
-            idx = np.array([i for i, v in enumerate(port.vrs) if self._vtype[int(v)] == t3], dtype=np.intp)
-            g_vrs = np.ascontiguousarray(port.vrs[idx])
+            idx = np.array([i for i, v in enumerate(per_value) if self._vtype[int(v)] == t3], dtype=np.intp)
+            g_vrs = self._collapse(per_value[idx])
             if t3 == "String":
                 scratch = (c_char_p * len(idx))()
             else:
                 scratch = (self._CT[t3] * len(idx))()
-            groups.append((t3, idx, g_vrs, _ptr(g_vrs, c_uint), scratch))
+            groups.append((t3, idx, len(g_vrs), _ptr(g_vrs, c_uint), scratch, g_vrs))
         # the common all-Float64 case moves the master's buffer directly
         port.extra = None if (typ == "Real" and len(groups) == 1 and groups[0][0] == "Float64") else groups
         return port
 
     def get_port(self, typ, port) -> int:
         if port.extra is None:
-            return self._f["fmi3GetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, port.n)
+            return self._f["fmi3GetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, len(port.buf))
         worst = OK
-        for t3, idx, g_vrs, vr_ptr, scratch in port.extra:
+        for t3, idx, nvr, vr_ptr, scratch, _ in port.extra:
             n = len(idx)
             if t3 == "String":
-                st = self._f["fmi3GetString"](self.c, vr_ptr, n, scratch, n)
+                st = self._f["fmi3GetString"](self.c, vr_ptr, nvr, scratch, n)
                 for k, i in enumerate(idx):
                     port.buf[i] = scratch[k].decode("utf-8", "replace") if scratch[k] else ""
             else:
-                st = self._fn("Get", t3)(self.c, vr_ptr, n, scratch, n)
+                st = self._fn("Get", t3)(self.c, vr_ptr, nvr, scratch, n)
                 port.buf[idx] = np.ctypeslib.as_array(scratch) if t3 != "Boolean" else [bool(x) for x in scratch]
             worst = max(worst, st)
         return worst
 
     def set_port(self, typ, port) -> int:
         if port.extra is None:
-            return self._f["fmi3SetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, port.n)
+            return self._f["fmi3SetFloat64"](self.c, port.vr_ptr, port.n, port.buf_ptr, len(port.buf))
         worst = OK
-        for t3, idx, g_vrs, vr_ptr, scratch in port.extra:
+        for t3, idx, nvr, vr_ptr, scratch, _ in port.extra:
             n = len(idx)
             if t3 == "String":
                 scratch[:] = [str(port.buf[i]).encode() for i in idx]
-                st = self._f["fmi3SetString"](self.c, vr_ptr, n, scratch, n)
+                st = self._f["fmi3SetString"](self.c, vr_ptr, nvr, scratch, n)
             else:
                 vals = port.buf[idx]
                 scratch[:] = [bool(x) for x in vals] if t3 == "Boolean" else vals.tolist()
-                st = self._fn("Set", t3)(self.c, vr_ptr, n, scratch, n)
+                st = self._fn("Set", t3)(self.c, vr_ptr, nvr, scratch, n)
             worst = max(worst, st)
         return worst
 

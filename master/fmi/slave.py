@@ -19,18 +19,30 @@ from .logsink import STATUS_LEVEL, STATUS_NAME, LogSink
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 
-# Base types the master moves around, and the numpy dtype of their buffers.
-BASE_TYPES = ("Real", "Integer", "Boolean", "String")
-DTYPES = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
+# Base types the master moves around, and the numpy dtype of their buffers. A base type is a buffer: every
+# FMI type whose values it holds exactly goes there. "Integer" (int32) keeps FMI 2.0 Integer and FMI 3.0 types
+# up to Int32 where they always were (the hot path and its results unchanged); FMI 3.0 UInt32 and Int64 need
+# "Int64" (int64 holds every UInt32), UInt64 its own "UInt64". Two more buffers rather than one per FMI type:
+# a slave moves each buffer with one port, so fewer buffers mean fewer calls per step.
+BASE_TYPES = ("Real", "Integer", "Int64", "UInt64", "Boolean", "String")
+DTYPES = {"Real": np.float64, "Integer": np.int32, "Int64": np.int64, "UInt64": np.uint64, "Boolean": np.int32}
+INTEGER_BASES = ("Integer", "Int64", "UInt64")
 
 FMI3_TYPE_BASE = {
     "Float64": "Real", "Float32": "Real",
     "Int8": "Integer", "UInt8": "Integer", "Int16": "Integer", "UInt16": "Integer",
-    "Int32": "Integer", "UInt32": "Integer", "Int64": "Integer", "UInt64": "Integer",
+    "Int32": "Integer", "UInt32": "Int64", "Int64": "Int64", "UInt64": "UInt64",
     "Enumeration": "Integer", "Boolean": "Boolean", "String": "String",
 }
 FMI2_TYPE_BASE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean",
                   "String": "String"}
+
+
+def array_shape(v, by_vr: dict) -> tuple[int, ...]:
+    """An FMI 3.0 array variable's dimensions (``()`` for a scalar): a fixed ``start`` or the start value of the
+    structural parameter ``valueReference`` names (``by_vr``: value reference -> model variable)."""
+    return tuple(int(d.start) if d.start is not None else int(by_vr[d.valueReference].start)
+                 for d in getattr(v, "dimensions", None) or ())
 
 
 def base_type(fmi_version: str, var_type: str) -> str | None:

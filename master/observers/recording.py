@@ -17,20 +17,30 @@ from ..plan import Var
 from ..sinks.group import SinkGroup
 from .base import Observer
 
-ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Boolean": pa.bool_(), "String": pa.string()}
+ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Int64": pa.int64(), "UInt64": pa.uint64(),
+               "Boolean": pa.bool_(), "String": pa.string()}
+# FMI 3.0 integers get a column of their own width (FMI 2.0 Integer and enumerations stay int32)
+FMI3_INT_ARROW = {"Int8": pa.int8(), "UInt8": pa.uint8(), "Int16": pa.int16(), "UInt16": pa.uint16(),
+                  "Int32": pa.int32(), "UInt32": pa.uint32(), "Int64": pa.int64(), "UInt64": pa.uint64()}
+
+
+def arrow_type(v: Var) -> pa.DataType:
+    return FMI3_INT_ARROW.get(v.fmi_type) or ARROW_TYPES[v.type]
 
 
 def select_variables(plan, patterns: list[str] | None, connected_outputs: list[Var]) -> list[Var]:
     """Default: every connected output. Patterns (shell-style, on 'component.variable') select more or others."""
     if not patterns:
         return list(connected_outputs)
-    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables
-    match = re.compile("|".join(f"(?:{fnmatch.translate(p)})" for p in patterns)).match
+    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables; a
+    # pattern is also taken literally, so that an array element (``m.y[2]``) names itself, not a [set]
+    match = re.compile("|".join(f"(?:{fnmatch.translate(p)})|(?:{re.escape(p)}\\Z)" for p in patterns)).match
     chosen, seen = [], set()
     for comp, vars_ in plan.variables.items():
         for v in vars_.values():
             q = v.qualified
-            if q in seen or v.type not in ARROW_TYPES:
+            # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
+            if q in seen or v.type not in ARROW_TYPES or v.is_array:
                 continue
             if match(q):
                 chosen.append(v)
@@ -38,14 +48,21 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     return chosen
 
 
-NUMERIC_ORDER = ("Real", "Integer", "Boolean")
-_BASE_OF = {pa.float64(): "Real", pa.int32(): "Integer", pa.bool_(): "Boolean", pa.string(): "String"}
+# The numeric block is float64, 8 bytes a cell (a supervised run keeps it in shared memory). Real, int32 and
+# Boolean values are stored as doubles (exact for them); 64-bit integers are stored as their bits (a view of the
+# cell as int64/uint64, never a conversion to double, which would lose every value above 2**53).
+NUMERIC_ORDER = ("Real", "Integer", "Int64", "UInt64", "Boolean")
+BIT_STORED = ("Int64", "UInt64")
+_BASE_OF = {pa.float64(): "Real", pa.int8(): "Integer", pa.uint8(): "Integer", pa.int16(): "Integer",
+            pa.uint16(): "Integer", pa.int32(): "Integer", pa.uint32(): "Int64", pa.int64(): "Int64",
+            pa.uint64(): "UInt64", pa.bool_(): "Boolean", pa.string(): "String"}
 
 
 def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list[str]]) -> pa.Table:
-    """A block of rows as a table: ``block`` holds time then the numeric columns grouped by type (Real,
-    Integer, Boolean, each in schema order), ``str_rows`` the string columns of each row, in schema order."""
-    kinds = [_BASE_OF[f.type] for f in schema][1:]
+    """A block of rows as a table: ``block`` holds time then the numeric columns grouped by buffer type
+    (``NUMERIC_ORDER``, each in schema order), ``str_rows`` the string columns of each row, in schema order."""
+    fields = list(schema)[1:]
+    kinds = [_BASE_OF[f.type] for f in fields]
     numeric = sorted((k for k, kind in enumerate(kinds) if kind != "String"), key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
     arrays = [pa.array(block[:, 0])]
@@ -56,8 +73,11 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list[str]])
             j += 1
             continue
         col = block[:, column_of[k]]
-        if kind == "Integer":
-            arrays.append(pa.array(col.astype(np.int32)))
+        if kind in BIT_STORED:
+            bits = np.ascontiguousarray(col).view(np.dtype(kind.lower()))
+            arrays.append(pa.array(bits, type=fields[k].type))
+        elif kind == "Integer":
+            arrays.append(pa.array(col.astype(fields[k].type.to_pandas_dtype())))
         elif kind == "Boolean":
             arrays.append(pa.array(col != 0))
         else:
@@ -82,7 +102,7 @@ class Recording(Observer):
         self.block_rows = block_rows or 4096
         self.group = SinkGroup(sinks, self.out_dir)
         self.schema = pa.schema([pa.field("time", pa.float64())] +
-                                [pa.field(v.qualified, ARROW_TYPES[v.type]) for v in variables])
+                                [pa.field(v.qualified, arrow_type(v)) for v in variables])
 
     @property
     def rows_written(self) -> int:
@@ -95,8 +115,8 @@ class Recording(Observer):
         super().attach(ctx, start)
         rt = self.rt = ctx.rt
         variables = self.variables
-        # numeric values (Real, Integer, Boolean) share one float64 block, grouped by type so that each type
-        # fills a contiguous run of columns with one np.take per row
+        # numeric values share one 8-byte-a-cell block, grouped by buffer type so that each type fills a
+        # contiguous run of columns with one np.take per row
         self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
                           key=lambda kv: NUMERIC_ORDER.index(kv[1].type))
         self.str_ = [(k, v) for k, v in enumerate(variables) if v.type == "String"]
@@ -105,7 +125,7 @@ class Recording(Observer):
         self.fill = 0
         self.gather = []
         col = 1
-        for typ in ("Real", "Integer", "Boolean"):
+        for typ in NUMERIC_ORDER:
             pos = [rt.out_pos[v.qualified] for _, v in self.num if v.type == typ]
             if pos:
                 self.gather.append((rt.out[typ], np.array(pos, dtype=np.intp), col, col + len(pos)))
@@ -129,6 +149,8 @@ class Recording(Observer):
         for out, pos, a, b in self.gather:
             if out.dtype == np.float64:
                 np.take(out, pos, out=row[a:b])
+            elif out.dtype.itemsize == 8:          # 64-bit integers: their bits (see NUMERIC_ORDER)
+                np.take(out, pos, out=row[a:b].view(out.dtype))
             else:
                 row[a:b] = out[pos]
         if self.str_:

@@ -50,6 +50,11 @@ def _bool(raw: str | None) -> bool:
     return raw is not None and raw.strip().lower() in ("true", "1")
 
 
+def _declared(name: str, connectors: dict) -> bool:
+    """A connector of the SSD, or an element of one: ``y[2]`` of the array connector ``y`` (FMI 3.0 arrays)."""
+    return name in connectors or (name.endswith("]") and name.split("[", 1)[0] in connectors)
+
+
 class _Reader:
     def __init__(self, ssd_path: Path, root: Path, shown_root: str):
         self.ssd_path = ssd_path
@@ -312,7 +317,7 @@ class _Reader:
                 owner, name = node
                 owner = owner.rstrip(".")
                 if owner in self.components:
-                    if name not in self.components[owner].connectors and self.components[owner].connectors:
+                    if not _declared(name, self.components[owner].connectors) and self.components[owner].connectors:
                         raise ScenarioError(f"component {owner!r} has no connector {name!r} in the SSD",
                                             file=shown_as, element=f"Connection {conn.src} -> {conn.dst}",
                                             line=conn.line)
