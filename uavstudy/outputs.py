@@ -43,7 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from .geodetic import to_geodetic
-from .names import MISSION_EVENTS, PHASE_LANDED, TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION
+from .names import (FINAL_STATES, MISSION_EVENTS, NO_TARGETS, PHASE_LANDED, PHASE_NAMES, TOTAL_ROW,
+                    TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION)
 
 
 def _f(v, default=math.nan):
@@ -75,6 +76,37 @@ def _clean(o):
 
 
 # ------------------------------------------------------------------------------- summary
+def uav_outcome(*, attached: bool, run_outcome: str, rec, landed: bool, at_home: bool, assigned: float,
+                all_visited: bool, battery_ok: bool) -> str:
+    """The outcome of one UAV: the first that applies in the order of the module docstring."""
+    if not attached:
+        return "run_error" if run_outcome != "interrupted" else "run_interrupted"
+    if rec.removed:
+        return rec.removed_reason
+    if rec.forced_landing or (landed and rec.took_off and not at_home):
+        return "forced_landing"
+    if at_home and rec.took_off:
+        if assigned == 0:       # it only took off and came back: neither a success nor a failed mission
+            return NO_TARGETS
+        if all_visited and battery_ok:
+            return "success"
+        if not all_visited:
+            return "battery_return" if rec.return_low else "incomplete"
+        return "low_battery"
+    if run_outcome == "completed":
+        return "timeout"
+    return "run_interrupted" if run_outcome == "interrupted" else "run_error"
+
+
+def finished_time(rec) -> float | None:
+    """When the UAV was done for good: its removal, or the strategy registering its landing; None while it
+    was still on its mission (or the strategy's state is not known)."""
+    if rec.removed_time is not None:
+        return rec.removed_time
+    landings = [t for t, state in rec.mission_states if state in FINAL_STATES]
+    return landings[-1] if landings else None
+
+
 def uav_summaries(mon, run_outcome: str) -> list[dict]:
     cfg = mon.cfg
     out = []
@@ -104,26 +136,10 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
         energy = _f(last.get("energy"))
         d_home = math.hypot(x - spec.home[0], y - spec.home[1]) if not math.isnan(x) else math.nan
         landed = phase == PHASE_LANDED
-        at_home = landed and d_home <= cfg.home_tolerance
-        all_visited = not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned
-        battery_ok = not math.isnan(soc) and soc > cfg.success_battery
-        if not attached:
-            reason = "run_error" if run_outcome != "interrupted" else "run_interrupted"
-        elif rec.removed:
-            reason = rec.removed_reason
-        elif rec.forced_landing or (landed and rec.took_off and not at_home):
-            reason = "forced_landing"
-        elif at_home and rec.took_off:
-            if all_visited and battery_ok:
-                reason = "success"
-            elif not all_visited:
-                reason = "battery_return" if rec.return_low else "incomplete"
-            else:
-                reason = "low_battery"
-        elif run_outcome == "completed":
-            reason = "timeout"
-        else:
-            reason = "run_interrupted" if run_outcome == "interrupted" else "run_error"
+        reason = uav_outcome(attached=attached, run_outcome=run_outcome, rec=rec, landed=landed,
+                             at_home=landed and d_home <= cfg.home_tolerance, assigned=assigned,
+                             all_visited=not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned,
+                             battery_ok=not math.isnan(soc) and soc > cfg.success_battery)
         states = [MISSION_EVENTS.get(s, str(s)) for _, s in rec.mission_states]
         out.append({
             "uav": spec.name, "index": spec.index, "outcome": reason, "success": reason == "success",
@@ -141,42 +157,59 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
             "final_phase": None if math.isnan(phase) else int(phase),
             "final_mission_state": None if math.isnan(state) else MISSION_EVENTS.get(int(state)),
             "returned_low_battery": rec.return_low, "forced_landing": rec.forced_landing,
+            "finished_time": finished_time(rec),
             "removed_time": rec.removed_time, "removed_by": rec.removed_by,
             "mission_states": states,
         })
     return out
 
 
+def _sum(uavs: list[dict], key: str) -> float:
+    """The sum of a per-UAV quantity over the UAVs that have it (NaN if none has)."""
+    vals = [u[key] for u in uavs if u[key] is not None and math.isfinite(u[key])]
+    return float(sum(vals)) if vals else math.nan
+
+
+def _mission_end_time(uavs: list[dict]) -> float | None:
+    """When the last UAV landed or was removed; None if one was still on its mission when the run ended."""
+    times = [u["finished_time"] for u in uavs]
+    return max(times) if times and None not in times else None
+
+
+def _targets_assigned(uavs: list[dict]) -> int | None:
+    """Distinct targets given to some UAV (a target given to two counts once, as in targets_visited)."""
+    lists = [u["assigned_targets"] for u in uavs]
+    return len({k for lst in lists for k in lst}) if lists and None not in lists else None
+
+
 def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
+    """The run's totals.  A key that also names a per-UAV value (success, targets_assigned, targets_visited)
+    means the same for the whole fleet; sums, means and counts of UAVs carry their own names, so that the
+    total row of summary.csv and of the campaign table never mixes two meanings in one column."""
     reasons: dict[str, int] = {}
     for u in uavs:
         reasons[u["outcome"]] = reasons.get(u["outcome"], 0) + 1
-
-    def tot(key):
-        vals = [u[key] for u in uavs if u[key] is not None and math.isfinite(u[key])]
-        return float(sum(vals)) if vals else math.nan
-
     socs = [u["remaining_battery_pct"] for u in uavs if math.isfinite(u["remaining_battery_pct"])]
-    visited = sorted({t for u in uavs for t in u["visited_targets"]})
     n_uav_removed = sum(1 for r in mon.records if r.removed_reason == UAV_COLLISION)
+    n_success = reasons.get("success", 0)
     return {
         "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
         "scenario_seed": _int_or(mon.cfg.seed), "wind_probability": _f(mon.cfg.wind_probability, None),
-        "run_outcome": run_outcome, "end_time": mon.last_time,
-        "uavs": len(uavs), "successes": reasons.get("success", 0),
-        "success_rate": reasons.get("success", 0) / len(uavs) if uavs else math.nan,
-        "mission_success": bool(uavs) and all(u["success"] for u in uavs),
+        "run_outcome": run_outcome, "end_time": mon.last_time, "mission_end_time": _mission_end_time(uavs),
+        "uavs": len(uavs), "uavs_successful": n_success,
+        "success": bool(uavs) and n_success == len(uavs),
+        "success_rate": n_success / len(uavs) if uavs else math.nan,
         "outcomes": reasons,
         "uav_collisions": n_uav_removed // 2,
         "zone_collisions": sum(1 for r in mon.records if r.removed_reason == ZONE_COLLISION),
         "forced_landings": sum(1 for u in uavs if u["forced_landing"]),
         "targets_total": int(len(mon.cfg.targets)),
-        "targets_visited": len(visited),
-        "photos": int(sum(u["photos"] for u in uavs)),
-        "distance_m": tot("distance_m"), "distance_xy_m": tot("distance_xy_m"),
-        "flight_time_s": tot("flight_time_s"), "energy_used_Wh": tot("energy_used_Wh"),
+        "targets_assigned": _targets_assigned(uavs),
+        "targets_visited": len({t for u in uavs for t in u["visited_targets"]}),
+        "photos_sum": int(sum(u["photos"] for u in uavs)),
+        "distance_m_sum": _sum(uavs, "distance_m"), "distance_xy_m_sum": _sum(uavs, "distance_xy_m"),
+        "flight_time_s_sum": _sum(uavs, "flight_time_s"), "energy_used_Wh_sum": _sum(uavs, "energy_used_Wh"),
         "remaining_battery_pct_mean": float(np.mean(socs)) if socs else math.nan,
-        "remaining_battery_pct_total": float(np.sum(socs)) if socs else math.nan,
     }
 
 
@@ -252,9 +285,21 @@ def trajectory_frame(mon, df):
     if not parts:
         return pd.DataFrame(columns=cols)
     out = pd.concat(parts, ignore_index=True)
-    for c in ("phase", "mission_state", "photo_count"):
-        out[c] = out[c].astype("Int64") if not out[c].isna().all() else out[c]
+    if not out["photo_count"].isna().all():
+        out["photo_count"] = out["photo_count"].astype("Int64")
+    # names, as events.csv and summary.json give them, rather than the FMUs' integer codes
+    out["phase"] = _code_names(out["phase"], PHASE_NAMES)
+    out["mission_state"] = _code_names(out["mission_state"], MISSION_EVENTS)
     return out.sort_values(["time", "uav"], kind="stable", ignore_index=True)[cols]
+
+
+def _code_names(codes, names: dict):
+    """The name of each code (an unknown code as its number, a missing one as empty)."""
+    def name(v):
+        if v is None or not math.isfinite(v):
+            return None
+        return names.get(int(v), str(int(v)))
+    return codes.astype(float).map(name).astype(object)
 
 
 def _thin(t: np.ndarray, interval: float) -> np.ndarray:
@@ -315,22 +360,27 @@ def _photos_from_results(spec, df) -> list[dict]:
     return out
 
 
+#: summary.csv: the per-UAV columns (on the total row: the same meaning for the whole fleet, or empty) ...
 SUMMARY_COLUMNS = ["uav", "outcome", "success", "targets_assigned", "targets_visited", "photos", "distance_m",
                    "distance_xy_m", "flight_time_s", "energy_used_Wh", "remaining_battery_pct", "consumed_pct",
                    "final_x", "final_y", "final_z", "distance_to_home_m", "removed_time", "removed_by"]
+#: ... then the columns only the total row fills (counts of UAVs, sums and means over them)
+TOTAL_COLUMNS = ["uavs", "uavs_successful", "targets_total", "photos_sum", "distance_m_sum", "distance_xy_m_sum",
+                 "flight_time_s_sum", "energy_used_Wh_sum", "remaining_battery_pct_mean"]
+
+COUNT_COLUMNS = ["targets_assigned", "targets_visited", "photos", "uavs", "uavs_successful", "targets_total",
+                 "photos_sum"]
 
 
 def summary_frame(uavs: list[dict], total: dict):
     import pandas as pd
+    columns = SUMMARY_COLUMNS + TOTAL_COLUMNS
     rows = [{c: u.get(c) for c in SUMMARY_COLUMNS} for u in uavs]
-    rows.append({"uav": "total", "outcome": "success" if total["mission_success"] else "failure",
-                 "success": total["successes"],
-                 "targets_assigned": sum(u["targets_assigned"] or 0 for u in uavs),
-                 "targets_visited": total["targets_visited"], "photos": total["photos"],
-                 "distance_m": total["distance_m"], "distance_xy_m": total["distance_xy_m"],
-                 "flight_time_s": total["flight_time_s"], "energy_used_Wh": total["energy_used_Wh"],
-                 "remaining_battery_pct": total["remaining_battery_pct_mean"]})
-    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+    rows.append({**{c: total.get(c) for c in columns}, "uav": TOTAL_ROW})
+    frame = pd.DataFrame(rows, columns=columns)
+    for c in COUNT_COLUMNS:     # counts stay integers next to the empty cells of the other rows
+        frame[c] = frame[c].astype("Int64")
+    return frame
 
 
 # ------------------------------------------------------------------------------- map
