@@ -394,109 +394,205 @@ def _nice(length: float) -> float:
     return e
 
 
-def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Polygon
+TIME_MARK_INTERVAL = 60.0   # s between two time marks on a track (an arrow half-way shows the direction)
+MAX_TRACK_POINTS = 6000     # a track drawn with more points is thinned (a long mission of a large fleet)
 
-    cfg = mon.cfg
-    fig = Figure(figsize=(9.5, 9.0), dpi=110)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    handles = []
-    for z in cfg.zones:
+
+def uav_styles(n: int) -> list[tuple]:
+    """(colour, line style) of each UAV's track: tab10 up to 10 UAVs, tab20 up to 20 (C0..C9 would repeat
+    after 10), beyond that the 20 colours again with dashed, then dotted lines."""
+    from matplotlib import colormaps
+    cmap = colormaps["tab10" if n <= 10 else "tab20"]
+    dashes = ("-", "--", ":", "-.")
+    return [(cmap(k % cmap.N), dashes[(k // cmap.N) % len(dashes)]) for k in range(n)]
+
+
+def _track(mon, k: int, rec, name: str, traj):
+    """(times, (T, 2) east-north positions) of one UAV up to its removal; None without any track."""
+    if mon.track_p:
+        t, xy = np.asarray(mon.track_t), np.stack(mon.track_p)[:, k, :2]
+    elif traj is not None and len(traj):
+        sub = traj[traj["uav"] == name]
+        t, xy = sub["time"].to_numpy(float), sub[["x", "y"]].to_numpy(float)
+    else:
+        return None
+    if rec.removed_time is not None:
+        keep = t <= rec.removed_time + 1e-9
+        t, xy = t[keep], xy[keep]
+    return (t, xy) if len(t) else None
+
+
+def _flight_window(t, xy):
+    """(first, last) time the UAV moved, None if it never did (time marks on a parked UAV would pile up)."""
+    moved = np.flatnonzero(np.hypot(*np.diff(xy, axis=0).T) > 1e-6)
+    return (t[moved[0]], t[moved[-1] + 1]) if moved.size else None
+
+
+def _flight_marks(ax, t, xy, color) -> None:
+    """Dots at every multiple of TIME_MARK_INTERVAL s while the UAV flies, and an arrow half-way between
+    two of them pointing the way it flew (the same times for every UAV, so tracks can be compared)."""
+    window = _flight_window(t, xy)
+    if window is None:
+        return
+    first, last = window
+    step = TIME_MARK_INTERVAL
+    marks = np.arange(math.ceil(first / step) * step, last + 1e-9, step)
+    if marks.size:
+        ax.scatter(np.interp(marks, t, xy[:, 0]), np.interp(marks, t, xy[:, 1]), s=16, color=color,
+                   edgecolors="black", linewidths=0.6, zorder=4)
+    for tm in np.arange(math.floor(first / step) * step + step / 2, last, step):
+        if tm - 1.0 < first:
+            continue
+        x0, x1 = np.interp([tm - 1.0, tm + 1.0], t, xy[:, 0])
+        y0, y1 = np.interp([tm - 1.0, tm + 1.0], t, xy[:, 1])
+        if math.hypot(x1 - x0, y1 - y0) > 1e-6:
+            ax.annotate("", xy=(x1, y1), xytext=(x0, y0), zorder=4,
+                        arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.2, "mutation_scale": 13})
+
+
+def _draw_zones(ax, zones, handles) -> None:
+    from matplotlib.patches import Polygon
+    for z in zones:
         ax.add_patch(Polygon(z["polygon"], closed=True, facecolor="tab:blue", alpha=0.35, edgecolor="navy", lw=1.2))
-        c = np.asarray(z["polygon"]).mean(axis=0)
-        ax.annotate(z["name"], c, fontsize=7, color="navy", ha="center", va="center")
-    if cfg.zones:
+        # named at its centre (zones do not overlap, so neither do their names), on a pale box that keeps
+        # the name readable over tracks and target labels
+        ax.annotate(z["name"], np.asarray(z["polygon"]).mean(axis=0), fontsize=6.5, color="navy", ha="center",
+                    va="center", zorder=3.5, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                                                 "alpha": 0.7})
+    if zones:
         handles.append(Polygon([[0, 0]], facecolor="tab:blue", alpha=0.35, edgecolor="navy", label="restricted zone"))
-    visited = {t for u in uavs for t in u["visited_targets"]}
-    tg = np.asarray(cfg.targets).reshape(-1, 2)
-    if len(tg):
-        vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
-        if vis.any():
-            ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
-        if (~vis).any():
-            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
-                       marker="o", zorder=4)
-            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
-        for k, (x, y) in enumerate(tg):
-            ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray")
-        handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
-                              label=f"target visited ({int(vis.sum())})"))
-        handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
-                              label=f"target not visited ({int((~vis).sum())})"))
-    ax.scatter([0.0], [0.0], s=160, marker="s", c="black", zorder=5)
-    handles.append(Line2D([], [], ls="", marker="s", ms=9, color="black", label="base"))
-    colors = [f"C{k % 10}" for k in range(len(cfg.uavs))]
-    tt = np.asarray(mon.track_t)
-    P = np.stack(mon.track_p) if mon.track_p else None
-    for k, (spec, rec, u) in enumerate(zip(cfg.uavs, mon.records, uavs)):
-        col = colors[k]
-        if P is not None:
-            xy = P[:, k, :2]
-            if rec.removed_time is not None:
-                xy = xy[tt <= rec.removed_time + 1e-9]
-            if len(xy) > 6000:
-                xy = xy[:: int(math.ceil(len(xy) / 6000))]
-            ax.plot(xy[:, 0], xy[:, 1], color=col, lw=1.3, alpha=0.9, zorder=3)
-        elif traj is not None and len(traj):
-            sub = traj[traj["uav"] == spec.name]
-            ax.plot(sub["x"], sub["y"], color=col, lw=1.3, alpha=0.9, zorder=3)
-        ax.scatter([spec.home[0]], [spec.home[1]], s=25, marker="o", color=col, edgecolors="black", zorder=5)
-        handles.append(Line2D([], [], color=col, lw=2, label=f"{spec.name}: {u['outcome']}"))
-    # markers: collisions and landings
+
+
+def _draw_targets(ax, targets, visited: set, handles) -> None:
+    from matplotlib.lines import Line2D
+    tg = np.asarray(targets).reshape(-1, 2)
+    if not len(tg):
+        return
+    vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
+    if vis.any():
+        ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
+    if (~vis).any():
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
+                   marker="o", zorder=4)
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
+    for k, (x, y) in enumerate(tg):
+        ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray")
+    handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
+                          label=f"target visited ({int(vis.sum())})"))
+    handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
+                          label=f"target not visited ({int((~vis).sum())})"))
+
+
+def _draw_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
+    from matplotlib.lines import Line2D
+    for k, ((color, dash), spec, rec, u) in enumerate(zip(uav_styles(len(uavs)), mon.cfg.uavs, mon.records, uavs)):
+        track = _track(mon, k, rec, spec.name, traj)
+        if track is not None:
+            t, xy = track
+            step = max(1, math.ceil(len(xy) / MAX_TRACK_POINTS))
+            ax.plot(xy[::step, 0], xy[::step, 1], color=color, ls=dash, lw=1.3, alpha=0.9, zorder=3)
+            _flight_marks(ax, t, xy, color)
+        ax.scatter([spec.home[0]], [spec.home[1]], s=25, marker="o", color=color, edgecolors="black", zorder=5.5)
+        handles.append(Line2D([], [], color=color, ls=dash, lw=2, label=f"{spec.name}: {u['outcome']}"))
+    handles.append(Line2D([], [], ls="", marker="o", ms=4, mfc="white", mec="black",
+                          label=f"every {TIME_MARK_INTERVAL:g} s of flight (arrow: direction)"))
+
+
+#: end-of-mission marker kind -> scatter style and legend entry; landings are hollow so that the base and the
+#: pads beneath them stay visible
+END_MARKERS = {
+    "uav": ({"s": 260, "marker": "*", "c": "red", "edgecolors": "black", "zorder": 7}, "UAV-UAV collision"),
+    "zone": ({"s": 160, "marker": "X", "c": "darkred", "edgecolors": "white", "zorder": 7}, "zone collision"),
+    "landed": ({"s": 110, "marker": "^", "facecolors": "none", "edgecolors": "green", "linewidths": 1.8,
+                "zorder": 6}, "landed at base"),
+    "forced": ({"s": 130, "marker": "v", "facecolors": "none", "edgecolors": "darkorange", "linewidths": 2.0,
+                "zorder": 6}, "forced landing"),
+}
+
+
+def _end_marker(rec, u):
+    """(kind, x, y) of where a UAV's mission ended, None while it was still on it."""
+    if rec.removed_pos is not None:
+        return ("uav" if rec.removed_reason == UAV_COLLISION else "zone"), *rec.removed_pos[:2]
+    if u["final_phase"] == PHASE_LANDED and rec.took_off:
+        return ("forced" if u["outcome"] == "forced_landing" else "landed"), u["final_x"], u["final_y"]
+    return None
+
+
+def _draw_end_markers(ax, mon, uavs: list[dict], handles) -> None:
+    from matplotlib.lines import Line2D
     kinds = set()
-    for k, (rec, u) in enumerate(zip(mon.records, uavs)):
-        if rec.removed_pos is not None:
-            x, y = rec.removed_pos[:2]
-            if rec.removed_reason == UAV_COLLISION:
-                ax.scatter([x], [y], s=260, marker="*", c="red", edgecolors="black", zorder=7)
-                kinds.add("uav")
-            else:
-                ax.scatter([x], [y], s=160, marker="X", c="darkred", edgecolors="white", zorder=7)
-                kinds.add("zone")
-        elif u["final_phase"] == PHASE_LANDED and rec.took_off:
-            x, y = u["final_x"], u["final_y"]
-            if u["outcome"] == "forced_landing":
-                ax.scatter([x], [y], s=120, marker="v", c="orange", edgecolors="black", zorder=6)
-                kinds.add("forced")
-            else:
-                ax.scatter([x], [y], s=90, marker="^", c="limegreen", edgecolors="black", zorder=6)
-                kinds.add("landed")
-    if "uav" in kinds:
-        handles.append(Line2D([], [], ls="", marker="*", ms=14, mfc="red", mec="black", label="UAV-UAV collision"))
-    if "zone" in kinds:
-        handles.append(Line2D([], [], ls="", marker="X", ms=11, mfc="darkred", mec="white", label="zone collision"))
-    if "landed" in kinds:
-        handles.append(Line2D([], [], ls="", marker="^", ms=9, mfc="limegreen", mec="black", label="landed at base"))
-    if "forced" in kinds:
-        handles.append(Line2D([], [], ls="", marker="v", ms=10, mfc="orange", mec="black", label="forced landing"))
+    for rec, u in zip(mon.records, uavs):
+        end = _end_marker(rec, u)
+        if end is not None:
+            kind, x, y = end
+            ax.scatter([x], [y], **END_MARKERS[kind][0])
+            kinds.add(kind)
+    for kind, (style, label) in END_MARKERS.items():
+        if kind in kinds:
+            face = style.get("c", "none")
+            handles.append(Line2D([], [], ls="", marker=style["marker"], ms=math.sqrt(style["s"]) * 0.8, mfc=face,
+                                  mec=style["edgecolors"], mew=style.get("linewidths", 1.0), label=label))
+
+
+def _draw_frame(ax, origin) -> None:
+    """Axes, grid, scale bar (lower right, framed, so it never hides the base) and the frame's origin."""
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
     ax.set_aspect("equal", adjustable="datalim")
     ax.margins(0.06)
     ax.autoscale_view()
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.grid(True, alpha=0.25)
-    # scale bar (lower right, framed, so it never hides the base)
-    from matplotlib.font_manager import FontProperties
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     L = _nice(max(x1 - x0, y1 - y0) / 6.0)
     ax.add_artist(AnchoredSizeBar(ax.transData, L, f"{L:g} m" if L < 1000 else f"{L / 1000:g} km",
                                   "lower right", pad=0.5, borderpad=0.6, sep=4, frameon=True, size_vertical=0,
                                   fontproperties=FontProperties(size=9)))
-    lat0, lon0, _ = cfg.origin
+    lat0, lon0, _ = origin
     ax.text(0.0, -0.08, f"local east-north-up metres about the base {lat0:.6f}, {lon0:.6f} (WGS84)",
             transform=ax.transAxes, ha="left", va="top", fontsize=7, color="dimgray")
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    title = (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {len(cfg.uavs)} UAV"
-             f"{'s' if len(cfg.uavs) != 1 else ''}\nrun {total['run_outcome']} at t={_f(total['end_time']):.1f} s: "
-             f"{total['successes']}/{total['uavs']} successful, {total['targets_visited']}/{total['targets_total']} "
-             f"targets, {total['uav_collisions']} UAV + {total['zone_collisions']} zone collisions")
-    ax.set_title(title, fontsize=10)
+
+
+def map_title(cfg, total: dict) -> str:
+    """Scenario and fleet; when the mission ended (the last landing or removal, which is not the end of a run
+    that idled on to its stop time); the results."""
+    n = total["uavs"]
+    end = total["mission_end_time"]
+    when = (f"mission ended at t={end:.1f} s (every UAV landed or removed)" if end is not None else
+            f"mission unfinished when the run stopped at t={_f(total['end_time']):.1f} s")
+    return (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {n} UAV{'s' if n != 1 else ''}, "
+            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} successful, "
+            f"{total['targets_visited']}/{total['targets_total']} targets, {total['uav_collisions']} UAV + "
+            f"{total['zone_collisions']} zone collisions")
+
+
+def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    cfg = mon.cfg
+    fig = Figure(figsize=(9.5, 9.0), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    handles = []
+    _draw_zones(ax, cfg.zones, handles)
+    _draw_targets(ax, cfg.targets, {t for u in uavs for t in u["visited_targets"]}, handles)
+    # the base is a hollow square on top of everything: the pads, landings and collisions around it show
+    # through it, and it stays visible under them
+    ax.scatter([0.0], [0.0], s=220, marker="s", facecolors="none", edgecolors="black", linewidths=2.2, zorder=8)
+    handles.append(Line2D([], [], ls="", marker="s", ms=10, mfc="none", mec="black", mew=2.2, label="base"))
+    _draw_tracks(ax, mon, uavs, traj, handles)
+    _draw_end_markers(ax, mon, uavs, handles)
+    _draw_frame(ax, cfg.origin)
+    # the legend names every UAV (no labels on the map, where the pads' ring is too small for them); a long
+    # one is split into columns rather than running off the figure
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
+              ncol=math.ceil(len(handles) / 40))
+    ax.set_title(map_title(cfg, total), fontsize=10)
     fig.tight_layout()
     fig.savefig(path)
     return path
