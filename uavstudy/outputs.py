@@ -454,8 +454,8 @@ def _draw_zones(ax, zones, handles) -> None:
     from matplotlib.patches import Polygon
     for z in zones:
         ax.add_patch(Polygon(z["polygon"], closed=True, facecolor="tab:blue", alpha=0.35, edgecolor="navy", lw=1.2))
-        # named at its centre (zones do not overlap, so neither do their names), on a pale box that keeps
-        # the name readable over tracks and target labels
+        # named at its centre (zones do not overlap, so neither do their names), on a pale box above the
+        # tracks and below the targets
         ax.annotate(z["name"], np.asarray(z["polygon"]).mean(axis=0), fontsize=6.5, color="navy", ha="center",
                     va="center", zorder=3.5, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
                                                  "alpha": 0.7})

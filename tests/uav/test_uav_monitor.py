@@ -225,7 +225,7 @@ def test_mission_events_and_photos():
     ctx.set("a", targets_assigned=2, targets_visited=1)
     s = mon.finish(None, "completed")
     assert s["uavs"]["a"] == "forced_landing"
-    assert s["total"]["photos"] == 1 and s["total"]["targets_visited"] == 1
+    assert s["total"]["photos_sum"] == 1 and s["total"]["targets_visited"] == 1
 
 
 def test_finish_writes_outputs_without_results(tmp_path):
