@@ -1,17 +1,20 @@
 """Mission outputs of the UAV study, written by the UAV monitor's ``finish`` into the run folder.
 
 * ``trajectory.csv`` -- one row per UAV per recorded time (results.parquet): time, uav, lat, lon, alt,
-  x, y, z (ENU m about the base), speed (ground speed, m/s), soc, consumed, phase, mission_state,
-  photo_count, status (``active``; a removed UAV ends with one ``removed`` row at the time and place
+  x, y, z (ENU m about the base), speed (ground speed, m/s), soc, consumed, phase and mission_state (by
+  name, as events.csv), photo_count, status (``active``; a removed UAV ends with one ``removed`` row at the time and place
   it was taken out).  Without the recorded columns the monitor's own track (every master step,
   thinned to ~1 s) is used.
 * ``photos.csv`` -- uav, target (global index in map order), time, x, y, lat, lon: one row per photo
   (increments of the strategy's photo_count with its last_photo_* outputs, seen every master step).
 * ``summary.csv`` / ``summary.json`` -- per UAV and in total: targets assigned and visited, photos,
   distance flown (3D and horizontal, integrated every master step), flight time, energy used,
-  remaining battery, outcome.
-* ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths,
-  collision and landing markers, scale bar, legend; title with scenario, strategy and outcome.
+  remaining battery, outcome.  One meaning per column: the total row shares a column with the UAV rows
+  only where it means the same for the fleet; its counts, sums and means have their own columns
+  (docs/uav_monitor.md lists every column).
+* ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
+  time marks and direction arrows, collision and landing markers, scale bar, legend; title with
+  scenario, strategy, the time the mission ended and the results.
 
 Outcome of a UAV (first that applies):
 
@@ -19,6 +22,8 @@ Outcome of a UAV (first that applies):
     removed by the monitor (contact with another UAV / entry into a restricted zone);
 ``forced_landing``
     the strategy landed it away from the base (95 % consumed) or it is on the ground away from its pad;
+``no_targets``
+    back on its pad with no target assigned (more UAVs than targets): neither a success nor a failure;
 ``success``
     every assigned target photographed, landed within ``homeTolerance`` (5 m) of its pad, and more than
     ``successBattery`` (5 %) of the battery left -- the paper's definition;
