@@ -481,7 +481,8 @@ def _draw_targets(ax, targets, visited: set, handles) -> None:
                    marker="o", zorder=4)
         ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
     for k, (x, y) in enumerate(tg):
-        ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray")
+        ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray",
+                    zorder=4.5)     # above the zone names' boxes
     handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
                           label=f"target visited ({int(vis.sum())})"))
     handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
