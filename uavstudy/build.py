@@ -26,6 +26,7 @@ patterns for the trajectory) and the UAV monitor annotation (docs/uav_monitor.md
 """
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
@@ -41,6 +42,8 @@ from .scenario import UavScenario, load_paper_config, load_scenario_yaml
 
 __all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
            "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS"]
+
+log = logging.getLogger(__name__)
 
 PAD_SPACING = 8.0          # m between neighbouring landing pads (> 3 x the 2.6 m impact diameter)
 RECORD_INTERVAL = 1.0      # s, trajectory resolution of the shipped scenarios
@@ -105,7 +108,13 @@ def _assigned(scn: UavScenario, targets, i: int, home) -> list[int] | None:
     return assign_targets([tuple(map(float, p)) for p in targets], i, scn.n_uavs, scn.assignment, home)
 
 
-def _check_partition(uavs, n_targets: int, assignment: str) -> None:
+def _warn(scn: UavScenario, message: str) -> None:
+    """One line on stderr (the logging module's last-resort handler prints the bare message): the SSP is
+    still written, the scenario is legal but probably not what its author meant."""
+    log.warning("warning: scenario %s: %s", scn.name, message)
+
+
+def _check_partition(scn: UavScenario, uavs, n_targets: int) -> None:
     """Warn when the strategies' target split is not a partition (each target to exactly one UAV).
 
     The strategy FMU computes the ``spatial`` sectors around its own home, i.e. around each UAV's pad,
@@ -114,12 +123,29 @@ def _check_partition(uavs, n_targets: int, assignment: str) -> None:
         return
     got = sorted(k for u in uavs for k in u["assigned"])
     if got != list(range(n_targets)):
-        import warnings
         twice = sorted({k for k in got if got.count(k) > 1})
         none = sorted(set(range(n_targets)) - set(got))
-        warnings.warn(f"assignment {assignment!r}: the UAVs' target lists are not a partition (targets {twice} "
-                      f"assigned twice, {none} to no UAV), because each strategy splits around its own pad",
-                      stacklevel=3)
+        _warn(scn, f"assignment {scn.assignment!r}: the UAVs' target lists are not a partition (targets {twice} "
+                   f"assigned twice, {none} to no UAV), because each strategy splits around its own pad")
+
+
+def _check_idle_uavs(scn: UavScenario, uavs, n_targets: int) -> None:
+    """Warn about UAVs given no target: they take off, come back and end as ``no_targets``."""
+    idle = [u["name"] for u in uavs if u["assigned"] == []]
+    if not idle:
+        return
+    why = (f"{scn.n_uavs} UAVs for {n_targets} targets" if scn.n_uavs > n_targets
+           else f"assignment {scn.assignment!r}")
+    _warn(scn, f"{why}: {', '.join(idle)} get no target")
+
+
+def _check_targets_on_base(scn: UavScenario, targets, pads) -> None:
+    """Warn about targets within HOME_TOLERANCE of the base or a landing pad: a UAV "photographs" them while
+    it stands on the ground or lands, which says nothing about the surveillance."""
+    near = [k for k, (x, y) in enumerate(targets)
+            if min(math.hypot(x - px, y - py) for px, py in [(0.0, 0.0), *pads]) <= HOME_TOLERANCE]
+    if near:
+        _warn(scn, f"target(s) {near} lie on the base (within {HOME_TOLERANCE:g} m of the base or a landing pad)")
 
 
 def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
@@ -207,7 +233,9 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
             b.connect(WIND, v, d, v)
         uavs.append({"name": name, "index": i, DYNAMICS: d, BATTERY: bt, STRATEGY: s, "home": (float(hx), float(hy)),
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
-    _check_partition(uavs, len(targets_r), scn.assignment)
+    _check_partition(scn, uavs, len(targets_r))
+    _check_idle_uavs(scn, uavs, len(targets_r))
+    _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])
     b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r))
     return b.write(out_path)
 

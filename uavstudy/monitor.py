@@ -16,7 +16,7 @@ written by ``uavstudy.build``).  After every master step [t0, t1] it
    incursion of a UAV already removed earlier in the same step is ignored;
 4. emits an event (``ctx.emit``, written to events.csv) for every contact (type ``uav``), incursion
    (type ``zone``) and mission-state change of the strategy (type ``mission``: takeoff, transit,
-   return_done = all targets visited, return_low = 80 % consumed, landing, forced_landing = 95 %
+   return_started = all targets visited, return_low = 80 % consumed, landing, forced_landing = 95 %
    consumed away from the base, landed_base, landed_away);
 5. records photos (increments of the strategy's ``photo_count`` with its ``last_photo_*`` outputs),
    integrates the distance flown and the airborne time, and keeps a track of the positions.
@@ -46,7 +46,7 @@ from .geodetic import to_geodetic
 from .geometry import CollisionDetector, ZoneDetector
 from .names import (AIRBORNE_PHASES, FINAL_STATES, FORCED_LANDING_STATES, MISSION_DETAIL, MISSION_EVENTS,
                     MONITOR_TYPE, OPTIONAL_ROLES, PHASE_LANDED, PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_LOW,
-                    UAV_COLLISION, ZONE_COLLISION)
+                    UAV_COLLISION, WIND, ZONE_COLLISION)
 from .outputs import write_outputs
 
 TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map track
@@ -191,12 +191,24 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
         seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
 
 
+def run_seed(plan, default: str) -> str:
+    """The wind's seed as the run set it.  The annotation's ``seed`` is the one the SSP was built with, but
+    ``cosim-master run --seed`` (and campaign runs) override the parameter: ``plan.params`` lists the SSD's
+    values and then the overrides, and the last entry of a variable is the value the FMU gets."""
+    seed = default
+    for var, value, _origin in plan.params:
+        if var.component == WIND and var.name == "seed":
+            seed = str(value)
+    return seed
+
+
 @register(MONITOR_TYPE)
 class UavMonitor(Monitor):
     def __init__(self, element, plan, shown_as: str):
         super().__init__(element, plan, shown_as)
         self.cfg = parse_config(element, shown_as)
         if plan is not None:
+            self.cfg.seed = run_seed(plan, self.cfg.seed)
             fmus = getattr(plan, "fmus", None)
             for u in self.cfg.uavs:
                 for c in u.components:
@@ -443,15 +455,17 @@ class UavMonitor(Monitor):
             self._step_small(t0, t1, p0, p1, ph1)
         else:
             self._step_vector(t0, t1, p0, p1, ph1)
-        if self.cfg.end_when_done and PHASE_LANDED in ph1:
-            # nothing happens to a fleet that has landed (or crashed) for good: stop instead of idling to the
-            # stop time; a UAV that never took off keeps the run going (it may still be waiting for its turn)
-            done = self._removed | ((ph1 == PHASE_LANDED) & np.asarray(self._took_off, dtype=bool))
-            if self.ms0 is not None:   # and the strategy has registered the landing (landed_base / landed_away)
-                ms = np.asarray(self.ms0, dtype=float)
-                done &= self._removed | np.isin(ms, FINAL_STATES)
-            if done.all():
-                self.ctx.request_stop("every UAV has landed or been removed")
+        if self.cfg.end_when_done and (PHASE_LANDED in ph1 or self._rm_idx.size):
+            self._stop_if_fleet_done(ph1)
+
+    def _stop_if_fleet_done(self, ph1) -> None:
+        """Nothing happens to a fleet that has landed or been removed for good: stop instead of idling to the
+        stop time.  A UAV that never took off keeps the run going (it may still be waiting for its turn)."""
+        landed = (ph1 == PHASE_LANDED) & np.asarray(self._took_off, dtype=bool)
+        if self.ms0 is not None:   # and the strategy has registered the landing (landed_base / landed_away)
+            landed &= np.isin(np.asarray(self.ms0, dtype=float), FINAL_STATES)
+        if (self._removed | landed).all():
+            self.ctx.request_stop("every UAV has landed or been removed")
 
     def _step_small(self, t0, t1, p0, p1, ph1) -> None:
         """The rest of a step on Python floats (few UAVs): the same operations as ``_step_vector``."""

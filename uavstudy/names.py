@@ -57,13 +57,17 @@ TRAJECTORY_ROLES = {"speed": "speed", "soc": "soc", "consumed": "consumed", "pha
 AIRBORNE_PHASES = (TAKEOFF, FLY, LAND)
 PHASE_LANDED = LANDED
 PHASE_PREFLIGHT = PREFLIGHT
+#: dynamics phase code -> the name trajectory.csv shows
+PHASE_NAMES = {PREFLIGHT: "preflight", TAKEOFF: "takeoff", FLY: "fly", LAND: "land", LANDED: "landed"}
 
 # ------------------------------------------------------------------------------------- mission states
-#: strategy mission_state code -> the event name the monitor emits and the summary shows
+#: strategy mission_state code -> the event name the monitor emits when the state is entered, which is also
+#: the state's name in the summary and trajectory.csv.  An event says what has just happened: entering
+#: RETURN_DONE ("targets done, return") starts the flight home, hence ``return_started``.
 MISSION_EVENTS = {STATE_PREFLIGHT: "preflight", STATE_TAKEOFF: "takeoff", TRANSIT: "transit",
-                  RETURN_DONE: "return_done", RETURN_LOW: "return_low", LAND_BASE: "landing",
+                  RETURN_DONE: "return_started", RETURN_LOW: "return_low", LAND_BASE: "landing",
                   LAND_NOW: "forced_landing", LANDED_BASE: "landed_base", LANDED_AWAY: "landed_away"}
-MISSION_DETAIL = {RETURN_DONE: "all assigned targets visited, returning to base",
+MISSION_DETAIL = {RETURN_DONE: "all targets visited, returning to base",
                   RETURN_LOW: "battery 80 % consumed: mission abandoned, returning to base",
                   LAND_BASE: "over the base, landing",
                   LAND_NOW: "battery 95 % consumed away from the base: landing where it is",
@@ -76,6 +80,9 @@ STATE_RETURN_LOW = RETURN_LOW
 
 # ------------------------------------------------------------------------------------- mission outcomes
 UAV_COLLISION, ZONE_COLLISION = "uav_collision", "zone_collision"
+#: a UAV given no target (more UAVs than targets, or an assignment that left it out): it flies nothing worth
+#: calling a success or a failure
+NO_TARGETS = "no_targets"
 
 # ------------------------------------------------------------------------------------- campaign table
 #: the column naming the UAV of a row of the campaign table, and its value on the row of a run's totals

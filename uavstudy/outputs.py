@@ -1,17 +1,20 @@
 """Mission outputs of the UAV study, written by the UAV monitor's ``finish`` into the run folder.
 
 * ``trajectory.csv`` -- one row per UAV per recorded time (results.parquet): time, uav, lat, lon, alt,
-  x, y, z (ENU m about the base), speed (ground speed, m/s), soc, consumed, phase, mission_state,
-  photo_count, status (``active``; a removed UAV ends with one ``removed`` row at the time and place
+  x, y, z (ENU m about the base), speed (ground speed, m/s), soc, consumed, phase and mission_state (by
+  name, as events.csv), photo_count, status (``active``; a removed UAV ends with one ``removed`` row at the time and place
   it was taken out).  Without the recorded columns the monitor's own track (every master step,
   thinned to ~1 s) is used.
 * ``photos.csv`` -- uav, target (global index in map order), time, x, y, lat, lon: one row per photo
   (increments of the strategy's photo_count with its last_photo_* outputs, seen every master step).
 * ``summary.csv`` / ``summary.json`` -- per UAV and in total: targets assigned and visited, photos,
   distance flown (3D and horizontal, integrated every master step), flight time, energy used,
-  remaining battery, outcome.
-* ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths,
-  collision and landing markers, scale bar, legend; title with scenario, strategy and outcome.
+  remaining battery, outcome.  One meaning per column: the total row shares a column with the UAV rows
+  only where it means the same for the fleet; its counts, sums and means have their own columns
+  (docs/uav_monitor.md lists every column).
+* ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
+  time marks and direction arrows, collision and landing markers, scale bar, legend; title with
+  scenario, strategy, the time the mission ended and the results.
 
 Outcome of a UAV (first that applies):
 
@@ -19,6 +22,8 @@ Outcome of a UAV (first that applies):
     removed by the monitor (contact with another UAV / entry into a restricted zone);
 ``forced_landing``
     the strategy landed it away from the base (95 % consumed) or it is on the ground away from its pad;
+``no_targets``
+    back on its pad with no target assigned (more UAVs than targets): neither a success nor a failure;
 ``success``
     every assigned target photographed, landed within ``homeTolerance`` (5 m) of its pad, and more than
     ``successBattery`` (5 %) of the battery left -- the paper's definition;
@@ -43,7 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from .geodetic import to_geodetic
-from .names import MISSION_EVENTS, PHASE_LANDED, TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION
+from .names import (FINAL_STATES, MISSION_EVENTS, NO_TARGETS, PHASE_LANDED, PHASE_NAMES, TOTAL_ROW,
+                    TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION)
 
 
 def _f(v, default=math.nan):
@@ -75,6 +81,37 @@ def _clean(o):
 
 
 # ------------------------------------------------------------------------------- summary
+def uav_outcome(*, attached: bool, run_outcome: str, rec, landed: bool, at_home: bool, assigned: float,
+                all_visited: bool, battery_ok: bool) -> str:
+    """The outcome of one UAV: the first that applies in the order of the module docstring."""
+    if not attached:
+        return "run_error" if run_outcome != "interrupted" else "run_interrupted"
+    if rec.removed:
+        return rec.removed_reason
+    if rec.forced_landing or (landed and rec.took_off and not at_home):
+        return "forced_landing"
+    if at_home and rec.took_off:
+        if assigned == 0:       # it only took off and came back: neither a success nor a failed mission
+            return NO_TARGETS
+        if all_visited and battery_ok:
+            return "success"
+        if not all_visited:
+            return "battery_return" if rec.return_low else "incomplete"
+        return "low_battery"
+    if run_outcome == "completed":
+        return "timeout"
+    return "run_interrupted" if run_outcome == "interrupted" else "run_error"
+
+
+def finished_time(rec) -> float | None:
+    """When the UAV was done for good: its removal, or the strategy registering its landing; None while it
+    was still on its mission (or the strategy's state is not known)."""
+    if rec.removed_time is not None:
+        return rec.removed_time
+    landings = [t for t, state in rec.mission_states if state in FINAL_STATES]
+    return landings[-1] if landings else None
+
+
 def uav_summaries(mon, run_outcome: str) -> list[dict]:
     cfg = mon.cfg
     out = []
@@ -104,26 +141,10 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
         energy = _f(last.get("energy"))
         d_home = math.hypot(x - spec.home[0], y - spec.home[1]) if not math.isnan(x) else math.nan
         landed = phase == PHASE_LANDED
-        at_home = landed and d_home <= cfg.home_tolerance
-        all_visited = not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned
-        battery_ok = not math.isnan(soc) and soc > cfg.success_battery
-        if not attached:
-            reason = "run_error" if run_outcome != "interrupted" else "run_interrupted"
-        elif rec.removed:
-            reason = rec.removed_reason
-        elif rec.forced_landing or (landed and rec.took_off and not at_home):
-            reason = "forced_landing"
-        elif at_home and rec.took_off:
-            if all_visited and battery_ok:
-                reason = "success"
-            elif not all_visited:
-                reason = "battery_return" if rec.return_low else "incomplete"
-            else:
-                reason = "low_battery"
-        elif run_outcome == "completed":
-            reason = "timeout"
-        else:
-            reason = "run_interrupted" if run_outcome == "interrupted" else "run_error"
+        reason = uav_outcome(attached=attached, run_outcome=run_outcome, rec=rec, landed=landed,
+                             at_home=landed and d_home <= cfg.home_tolerance, assigned=assigned,
+                             all_visited=not math.isnan(assigned) and not math.isnan(visited) and visited >= assigned,
+                             battery_ok=not math.isnan(soc) and soc > cfg.success_battery)
         states = [MISSION_EVENTS.get(s, str(s)) for _, s in rec.mission_states]
         out.append({
             "uav": spec.name, "index": spec.index, "outcome": reason, "success": reason == "success",
@@ -141,42 +162,59 @@ def uav_summaries(mon, run_outcome: str) -> list[dict]:
             "final_phase": None if math.isnan(phase) else int(phase),
             "final_mission_state": None if math.isnan(state) else MISSION_EVENTS.get(int(state)),
             "returned_low_battery": rec.return_low, "forced_landing": rec.forced_landing,
+            "finished_time": finished_time(rec),
             "removed_time": rec.removed_time, "removed_by": rec.removed_by,
             "mission_states": states,
         })
     return out
 
 
+def _sum(uavs: list[dict], key: str) -> float:
+    """The sum of a per-UAV quantity over the UAVs that have it (NaN if none has)."""
+    vals = [u[key] for u in uavs if u[key] is not None and math.isfinite(u[key])]
+    return float(sum(vals)) if vals else math.nan
+
+
+def _mission_end_time(uavs: list[dict]) -> float | None:
+    """When the last UAV landed or was removed; None if one was still on its mission when the run ended."""
+    times = [u["finished_time"] for u in uavs]
+    return max(times) if times and None not in times else None
+
+
+def _targets_assigned(uavs: list[dict]) -> int | None:
+    """Distinct targets given to some UAV (a target given to two counts once, as in targets_visited)."""
+    lists = [u["assigned_targets"] for u in uavs]
+    return len({k for lst in lists for k in lst}) if lists and None not in lists else None
+
+
 def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
+    """The run's totals.  A key that also names a per-UAV value (success, targets_assigned, targets_visited)
+    means the same for the whole fleet; sums, means and counts of UAVs carry their own names, so that the
+    total row of summary.csv and of the campaign table never mixes two meanings in one column."""
     reasons: dict[str, int] = {}
     for u in uavs:
         reasons[u["outcome"]] = reasons.get(u["outcome"], 0) + 1
-
-    def tot(key):
-        vals = [u[key] for u in uavs if u[key] is not None and math.isfinite(u[key])]
-        return float(sum(vals)) if vals else math.nan
-
     socs = [u["remaining_battery_pct"] for u in uavs if math.isfinite(u["remaining_battery_pct"])]
-    visited = sorted({t for u in uavs for t in u["visited_targets"]})
     n_uav_removed = sum(1 for r in mon.records if r.removed_reason == UAV_COLLISION)
+    n_success = reasons.get("success", 0)
     return {
         "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
         "scenario_seed": _int_or(mon.cfg.seed), "wind_probability": _f(mon.cfg.wind_probability, None),
-        "run_outcome": run_outcome, "end_time": mon.last_time,
-        "uavs": len(uavs), "successes": reasons.get("success", 0),
-        "success_rate": reasons.get("success", 0) / len(uavs) if uavs else math.nan,
-        "mission_success": bool(uavs) and all(u["success"] for u in uavs),
+        "run_outcome": run_outcome, "end_time": mon.last_time, "mission_end_time": _mission_end_time(uavs),
+        "uavs": len(uavs), "uavs_successful": n_success,
+        "success": bool(uavs) and n_success == len(uavs),
+        "success_rate": n_success / len(uavs) if uavs else math.nan,
         "outcomes": reasons,
         "uav_collisions": n_uav_removed // 2,
         "zone_collisions": sum(1 for r in mon.records if r.removed_reason == ZONE_COLLISION),
         "forced_landings": sum(1 for u in uavs if u["forced_landing"]),
         "targets_total": int(len(mon.cfg.targets)),
-        "targets_visited": len(visited),
-        "photos": int(sum(u["photos"] for u in uavs)),
-        "distance_m": tot("distance_m"), "distance_xy_m": tot("distance_xy_m"),
-        "flight_time_s": tot("flight_time_s"), "energy_used_Wh": tot("energy_used_Wh"),
+        "targets_assigned": _targets_assigned(uavs),
+        "targets_visited": len({t for u in uavs for t in u["visited_targets"]}),
+        "photos_sum": int(sum(u["photos"] for u in uavs)),
+        "distance_m_sum": _sum(uavs, "distance_m"), "distance_xy_m_sum": _sum(uavs, "distance_xy_m"),
+        "flight_time_s_sum": _sum(uavs, "flight_time_s"), "energy_used_Wh_sum": _sum(uavs, "energy_used_Wh"),
         "remaining_battery_pct_mean": float(np.mean(socs)) if socs else math.nan,
-        "remaining_battery_pct_total": float(np.sum(socs)) if socs else math.nan,
     }
 
 
@@ -252,9 +290,21 @@ def trajectory_frame(mon, df):
     if not parts:
         return pd.DataFrame(columns=cols)
     out = pd.concat(parts, ignore_index=True)
-    for c in ("phase", "mission_state", "photo_count"):
-        out[c] = out[c].astype("Int64") if not out[c].isna().all() else out[c]
+    if not out["photo_count"].isna().all():
+        out["photo_count"] = out["photo_count"].astype("Int64")
+    # names, as events.csv and summary.json give them, rather than the FMUs' integer codes
+    out["phase"] = _code_names(out["phase"], PHASE_NAMES)
+    out["mission_state"] = _code_names(out["mission_state"], MISSION_EVENTS)
     return out.sort_values(["time", "uav"], kind="stable", ignore_index=True)[cols]
+
+
+def _code_names(codes, names: dict):
+    """The name of each code (an unknown code as its number, a missing one as empty)."""
+    def name(v):
+        if v is None or not math.isfinite(v):
+            return None
+        return names.get(int(v), str(int(v)))
+    return codes.astype(float).map(name).astype(object)
 
 
 def _thin(t: np.ndarray, interval: float) -> np.ndarray:
@@ -315,22 +365,27 @@ def _photos_from_results(spec, df) -> list[dict]:
     return out
 
 
+#: summary.csv: the per-UAV columns (on the total row: the same meaning for the whole fleet, or empty) ...
 SUMMARY_COLUMNS = ["uav", "outcome", "success", "targets_assigned", "targets_visited", "photos", "distance_m",
                    "distance_xy_m", "flight_time_s", "energy_used_Wh", "remaining_battery_pct", "consumed_pct",
                    "final_x", "final_y", "final_z", "distance_to_home_m", "removed_time", "removed_by"]
+#: ... then the columns only the total row fills (counts of UAVs, sums and means over them)
+TOTAL_COLUMNS = ["uavs", "uavs_successful", "targets_total", "photos_sum", "distance_m_sum", "distance_xy_m_sum",
+                 "flight_time_s_sum", "energy_used_Wh_sum", "remaining_battery_pct_mean"]
+
+COUNT_COLUMNS = ["targets_assigned", "targets_visited", "photos", "uavs", "uavs_successful", "targets_total",
+                 "photos_sum"]
 
 
 def summary_frame(uavs: list[dict], total: dict):
     import pandas as pd
+    columns = SUMMARY_COLUMNS + TOTAL_COLUMNS
     rows = [{c: u.get(c) for c in SUMMARY_COLUMNS} for u in uavs]
-    rows.append({"uav": "total", "outcome": "success" if total["mission_success"] else "failure",
-                 "success": total["successes"],
-                 "targets_assigned": sum(u["targets_assigned"] or 0 for u in uavs),
-                 "targets_visited": total["targets_visited"], "photos": total["photos"],
-                 "distance_m": total["distance_m"], "distance_xy_m": total["distance_xy_m"],
-                 "flight_time_s": total["flight_time_s"], "energy_used_Wh": total["energy_used_Wh"],
-                 "remaining_battery_pct": total["remaining_battery_pct_mean"]})
-    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+    rows.append({**{c: total.get(c) for c in columns}, "uav": TOTAL_ROW})
+    frame = pd.DataFrame(rows, columns=columns)
+    for c in COUNT_COLUMNS:     # counts stay integers next to the empty cells of the other rows
+        frame[c] = frame[c].astype("Int64")
+    return frame
 
 
 # ------------------------------------------------------------------------------- map
@@ -344,109 +399,206 @@ def _nice(length: float) -> float:
     return e
 
 
-def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Polygon
+TIME_MARK_INTERVAL = 60.0   # s between two time marks on a track (an arrow half-way shows the direction)
+MAX_TRACK_POINTS = 6000     # a track drawn with more points is thinned (a long mission of a large fleet)
 
-    cfg = mon.cfg
-    fig = Figure(figsize=(9.5, 9.0), dpi=110)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    handles = []
-    for z in cfg.zones:
+
+def uav_styles(n: int) -> list[tuple]:
+    """(colour, line style) of each UAV's track: tab10 up to 10 UAVs, tab20 up to 20 (C0..C9 would repeat
+    after 10), beyond that the 20 colours again with dashed, then dotted lines."""
+    from matplotlib import colormaps
+    cmap = colormaps["tab10" if n <= 10 else "tab20"]
+    dashes = ("-", "--", ":", "-.")
+    return [(cmap(k % cmap.N), dashes[(k // cmap.N) % len(dashes)]) for k in range(n)]
+
+
+def _track(mon, k: int, rec, name: str, traj):
+    """(times, (T, 2) east-north positions) of one UAV up to its removal; None without any track."""
+    if mon.track_p:
+        t, xy = np.asarray(mon.track_t), np.stack(mon.track_p)[:, k, :2]
+    elif traj is not None and len(traj):
+        sub = traj[traj["uav"] == name]
+        t, xy = sub["time"].to_numpy(float), sub[["x", "y"]].to_numpy(float)
+    else:
+        return None
+    if rec.removed_time is not None:
+        keep = t <= rec.removed_time + 1e-9
+        t, xy = t[keep], xy[keep]
+    return (t, xy) if len(t) else None
+
+
+def _flight_window(t, xy):
+    """(first, last) time the UAV moved, None if it never did (time marks on a parked UAV would pile up)."""
+    moved = np.flatnonzero(np.hypot(*np.diff(xy, axis=0).T) > 1e-6)
+    return (t[moved[0]], t[moved[-1] + 1]) if moved.size else None
+
+
+def _flight_marks(ax, t, xy, color) -> None:
+    """Dots at every multiple of TIME_MARK_INTERVAL s while the UAV flies, and an arrow half-way between
+    two of them pointing the way it flew (the same times for every UAV, so tracks can be compared)."""
+    window = _flight_window(t, xy)
+    if window is None:
+        return
+    first, last = window
+    step = TIME_MARK_INTERVAL
+    marks = np.arange(math.ceil(first / step) * step, last + 1e-9, step)
+    if marks.size:
+        ax.scatter(np.interp(marks, t, xy[:, 0]), np.interp(marks, t, xy[:, 1]), s=16, color=color,
+                   edgecolors="black", linewidths=0.6, zorder=4)
+    for tm in np.arange(math.floor(first / step) * step + step / 2, last, step):
+        if tm - 1.0 < first:
+            continue
+        x0, x1 = np.interp([tm - 1.0, tm + 1.0], t, xy[:, 0])
+        y0, y1 = np.interp([tm - 1.0, tm + 1.0], t, xy[:, 1])
+        if math.hypot(x1 - x0, y1 - y0) > 1e-6:
+            ax.annotate("", xy=(x1, y1), xytext=(x0, y0), zorder=4,
+                        arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.2, "mutation_scale": 13})
+
+
+def _draw_zones(ax, zones, handles) -> None:
+    from matplotlib.patches import Polygon
+    for z in zones:
         ax.add_patch(Polygon(z["polygon"], closed=True, facecolor="tab:blue", alpha=0.35, edgecolor="navy", lw=1.2))
-        c = np.asarray(z["polygon"]).mean(axis=0)
-        ax.annotate(z["name"], c, fontsize=7, color="navy", ha="center", va="center")
-    if cfg.zones:
+        # named at its centre (zones do not overlap, so neither do their names), on a pale box above the
+        # tracks and below the targets
+        ax.annotate(z["name"], np.asarray(z["polygon"]).mean(axis=0), fontsize=6.5, color="navy", ha="center",
+                    va="center", zorder=3.5, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                                                 "alpha": 0.7})
+    if zones:
         handles.append(Polygon([[0, 0]], facecolor="tab:blue", alpha=0.35, edgecolor="navy", label="restricted zone"))
-    visited = {t for u in uavs for t in u["visited_targets"]}
-    tg = np.asarray(cfg.targets).reshape(-1, 2)
-    if len(tg):
-        vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
-        if vis.any():
-            ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
-        if (~vis).any():
-            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
-                       marker="o", zorder=4)
-            ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
-        for k, (x, y) in enumerate(tg):
-            ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray")
-        handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
-                              label=f"target visited ({int(vis.sum())})"))
-        handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
-                              label=f"target not visited ({int((~vis).sum())})"))
-    ax.scatter([0.0], [0.0], s=160, marker="s", c="black", zorder=5)
-    handles.append(Line2D([], [], ls="", marker="s", ms=9, color="black", label="base"))
-    colors = [f"C{k % 10}" for k in range(len(cfg.uavs))]
-    tt = np.asarray(mon.track_t)
-    P = np.stack(mon.track_p) if mon.track_p else None
-    for k, (spec, rec, u) in enumerate(zip(cfg.uavs, mon.records, uavs)):
-        col = colors[k]
-        if P is not None:
-            xy = P[:, k, :2]
-            if rec.removed_time is not None:
-                xy = xy[tt <= rec.removed_time + 1e-9]
-            if len(xy) > 6000:
-                xy = xy[:: int(math.ceil(len(xy) / 6000))]
-            ax.plot(xy[:, 0], xy[:, 1], color=col, lw=1.3, alpha=0.9, zorder=3)
-        elif traj is not None and len(traj):
-            sub = traj[traj["uav"] == spec.name]
-            ax.plot(sub["x"], sub["y"], color=col, lw=1.3, alpha=0.9, zorder=3)
-        ax.scatter([spec.home[0]], [spec.home[1]], s=25, marker="o", color=col, edgecolors="black", zorder=5)
-        handles.append(Line2D([], [], color=col, lw=2, label=f"{spec.name}: {u['outcome']}"))
-    # markers: collisions and landings
+
+
+def _draw_targets(ax, targets, visited: set, handles) -> None:
+    from matplotlib.lines import Line2D
+    tg = np.asarray(targets).reshape(-1, 2)
+    if not len(tg):
+        return
+    vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
+    if vis.any():
+        ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
+    if (~vis).any():
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
+                   marker="o", zorder=4)
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
+    for k, (x, y) in enumerate(tg):
+        ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray",
+                    zorder=4.5)     # above the zone names' boxes
+    handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
+                          label=f"target visited ({int(vis.sum())})"))
+    handles.append(Line2D([], [], ls="", marker="x", ms=7, color="gray",
+                          label=f"target not visited ({int((~vis).sum())})"))
+
+
+def _draw_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
+    from matplotlib.lines import Line2D
+    for k, ((color, dash), spec, rec, u) in enumerate(zip(uav_styles(len(uavs)), mon.cfg.uavs, mon.records, uavs)):
+        track = _track(mon, k, rec, spec.name, traj)
+        if track is not None:
+            t, xy = track
+            step = max(1, math.ceil(len(xy) / MAX_TRACK_POINTS))
+            ax.plot(xy[::step, 0], xy[::step, 1], color=color, ls=dash, lw=1.3, alpha=0.9, zorder=3)
+            _flight_marks(ax, t, xy, color)
+        ax.scatter([spec.home[0]], [spec.home[1]], s=25, marker="o", color=color, edgecolors="black", zorder=5.5)
+        handles.append(Line2D([], [], color=color, ls=dash, lw=2, label=f"{spec.name}: {u['outcome']}"))
+    handles.append(Line2D([], [], ls="", marker="o", ms=4, mfc="white", mec="black",
+                          label=f"every {TIME_MARK_INTERVAL:g} s of flight (arrow: direction)"))
+
+
+#: end-of-mission marker kind -> scatter style and legend entry; landings are hollow so that the base and the
+#: pads beneath them stay visible
+END_MARKERS = {
+    "uav": ({"s": 260, "marker": "*", "c": "red", "edgecolors": "black", "zorder": 7}, "UAV-UAV collision"),
+    "zone": ({"s": 160, "marker": "X", "c": "darkred", "edgecolors": "white", "zorder": 7}, "zone collision"),
+    "landed": ({"s": 110, "marker": "^", "facecolors": "none", "edgecolors": "green", "linewidths": 1.8,
+                "zorder": 6}, "landed at base"),
+    "forced": ({"s": 130, "marker": "v", "facecolors": "none", "edgecolors": "darkorange", "linewidths": 2.0,
+                "zorder": 6}, "forced landing"),
+}
+
+
+def _end_marker(rec, u):
+    """(kind, x, y) of where a UAV's mission ended, None while it was still on it."""
+    if rec.removed_pos is not None:
+        return ("uav" if rec.removed_reason == UAV_COLLISION else "zone"), *rec.removed_pos[:2]
+    if u["final_phase"] == PHASE_LANDED and rec.took_off:
+        return ("forced" if u["outcome"] == "forced_landing" else "landed"), u["final_x"], u["final_y"]
+    return None
+
+
+def _draw_end_markers(ax, mon, uavs: list[dict], handles) -> None:
+    from matplotlib.lines import Line2D
     kinds = set()
-    for k, (rec, u) in enumerate(zip(mon.records, uavs)):
-        if rec.removed_pos is not None:
-            x, y = rec.removed_pos[:2]
-            if rec.removed_reason == UAV_COLLISION:
-                ax.scatter([x], [y], s=260, marker="*", c="red", edgecolors="black", zorder=7)
-                kinds.add("uav")
-            else:
-                ax.scatter([x], [y], s=160, marker="X", c="darkred", edgecolors="white", zorder=7)
-                kinds.add("zone")
-        elif u["final_phase"] == PHASE_LANDED and rec.took_off:
-            x, y = u["final_x"], u["final_y"]
-            if u["outcome"] == "forced_landing":
-                ax.scatter([x], [y], s=120, marker="v", c="orange", edgecolors="black", zorder=6)
-                kinds.add("forced")
-            else:
-                ax.scatter([x], [y], s=90, marker="^", c="limegreen", edgecolors="black", zorder=6)
-                kinds.add("landed")
-    if "uav" in kinds:
-        handles.append(Line2D([], [], ls="", marker="*", ms=14, mfc="red", mec="black", label="UAV-UAV collision"))
-    if "zone" in kinds:
-        handles.append(Line2D([], [], ls="", marker="X", ms=11, mfc="darkred", mec="white", label="zone collision"))
-    if "landed" in kinds:
-        handles.append(Line2D([], [], ls="", marker="^", ms=9, mfc="limegreen", mec="black", label="landed at base"))
-    if "forced" in kinds:
-        handles.append(Line2D([], [], ls="", marker="v", ms=10, mfc="orange", mec="black", label="forced landing"))
+    for rec, u in zip(mon.records, uavs):
+        end = _end_marker(rec, u)
+        if end is not None:
+            kind, x, y = end
+            ax.scatter([x], [y], **END_MARKERS[kind][0])
+            kinds.add(kind)
+    for kind, (style, label) in END_MARKERS.items():
+        if kind in kinds:
+            face = style.get("c", "none")
+            handles.append(Line2D([], [], ls="", marker=style["marker"], ms=math.sqrt(style["s"]) * 0.8, mfc=face,
+                                  mec=style["edgecolors"], mew=style.get("linewidths", 1.0), label=label))
+
+
+def _draw_frame(ax, origin) -> None:
+    """Axes, grid, scale bar (lower right, framed, so it never hides the base) and the frame's origin."""
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
     ax.set_aspect("equal", adjustable="datalim")
     ax.margins(0.06)
     ax.autoscale_view()
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.grid(True, alpha=0.25)
-    # scale bar (lower right, framed, so it never hides the base)
-    from matplotlib.font_manager import FontProperties
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     L = _nice(max(x1 - x0, y1 - y0) / 6.0)
     ax.add_artist(AnchoredSizeBar(ax.transData, L, f"{L:g} m" if L < 1000 else f"{L / 1000:g} km",
                                   "lower right", pad=0.5, borderpad=0.6, sep=4, frameon=True, size_vertical=0,
                                   fontproperties=FontProperties(size=9)))
-    lat0, lon0, _ = cfg.origin
+    lat0, lon0, _ = origin
     ax.text(0.0, -0.08, f"local east-north-up metres about the base {lat0:.6f}, {lon0:.6f} (WGS84)",
             transform=ax.transAxes, ha="left", va="top", fontsize=7, color="dimgray")
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    title = (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {len(cfg.uavs)} UAV"
-             f"{'s' if len(cfg.uavs) != 1 else ''}\nrun {total['run_outcome']} at t={_f(total['end_time']):.1f} s: "
-             f"{total['successes']}/{total['uavs']} successful, {total['targets_visited']}/{total['targets_total']} "
-             f"targets, {total['uav_collisions']} UAV + {total['zone_collisions']} zone collisions")
-    ax.set_title(title, fontsize=10)
+
+
+def map_title(cfg, total: dict) -> str:
+    """Scenario and fleet; when the mission ended (the last landing or removal, which is not the end of a run
+    that idled on to its stop time); the results."""
+    n = total["uavs"]
+    end = total["mission_end_time"]
+    when = (f"mission ended at t={end:.1f} s (every UAV landed or removed)" if end is not None else
+            f"mission unfinished when the run stopped at t={_f(total['end_time']):.1f} s")
+    return (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {n} UAV{'s' if n != 1 else ''}, "
+            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} successful, "
+            f"{total['targets_visited']}/{total['targets_total']} targets, {total['uav_collisions']} UAV + "
+            f"{total['zone_collisions']} zone collisions")
+
+
+def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    cfg = mon.cfg
+    fig = Figure(figsize=(9.5, 9.0), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    handles = []
+    _draw_zones(ax, cfg.zones, handles)
+    _draw_targets(ax, cfg.targets, {t for u in uavs for t in u["visited_targets"]}, handles)
+    # the base is a hollow square on top of everything: the pads, landings and collisions around it show
+    # through it, and it stays visible under them
+    ax.scatter([0.0], [0.0], s=220, marker="s", facecolors="none", edgecolors="black", linewidths=2.2, zorder=8)
+    handles.append(Line2D([], [], ls="", marker="s", ms=10, mfc="none", mec="black", mew=2.2, label="base"))
+    _draw_tracks(ax, mon, uavs, traj, handles)
+    _draw_end_markers(ax, mon, uavs, handles)
+    _draw_frame(ax, cfg.origin)
+    # the legend names every UAV (no labels on the map, where the pads' ring is too small for them); a long
+    # one is split into columns rather than running off the figure
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
+              ncol=math.ceil(len(handles) / 40))
+    ax.set_title(map_title(cfg, total), fontsize=10)
     fig.tight_layout()
     fig.savefig(path)
     return path

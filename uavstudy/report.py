@@ -9,7 +9,8 @@ Statistics (``master.campaign.stats``; 95 % two-sided everywhere):
 * success counts: Wilson score interval of the proportion, scaled to counts; A vs B: Fisher's exact test;
 * means (remaining battery per UAV): Student t interval;
 * totals over runs (distance, collisions, photos): n x the t interval of the per-run mean;
-* intervals of quantities that cannot be negative are truncated at 0;
+* intervals of quantities that cannot be negative are truncated at 0, of percentages also at 100, and of
+  UAVs removed by collisions at the number of UAVs that flew;
 * A vs B on per-run / per-UAV metrics: two-sided Mann-Whitney U;
 * trends (battery or distance vs wind probability, battery vs fleet size): least-squares slope with
   its t interval.
@@ -130,8 +131,10 @@ def uav_frames(df):
                                   first_removal_s=("removed_time", lambda s: pd.to_numeric(s, errors="coerce").min()))
     r = runs.merge(agg, on="run_id", how="left")
     tot_idx = tot.set_index("run_id")
-    r["distance_m"] = pd.to_numeric(tot_idx.loc[r["run_id"], "distance_m"]).to_numpy()
-    r["photos"] = pd.to_numeric(tot_idx.loc[r["run_id"], "photos"]).to_numpy() if "photos" in tot.columns else np.nan
+    # the run's totals are sums over its UAVs (summary.json names them *_sum)
+    r["distance_m"] = pd.to_numeric(tot_idx.loc[r["run_id"], "distance_m_sum"]).to_numpy()
+    r["photos"] = (pd.to_numeric(tot_idx.loc[r["run_id"], "photos_sum"]).to_numpy() if "photos_sum" in tot.columns
+                   else np.nan)
     r["uav_collision_events"] = (pd.to_numeric(tot_idx.loc[r["run_id"], "uav_collisions"]).to_numpy()
                                  if "uav_collisions" in tot.columns else np.nan)
     r["collisions"] = r["uav_collided"] + r["zone_collided"]
@@ -141,6 +144,18 @@ def uav_frames(df):
 def _areas(u):
     names = list(dict.fromkeys(u["area"]))
     return sorted(names, key=lambda a: ("zone" in a.lower() or "restrict" in a.lower(), a))
+
+
+def battery_ci(values) -> st.CI:
+    """Mean remaining battery with its t interval, cut to the percentages a battery can have."""
+    return st.mean_ci(values, floor=0.0, ceiling=100.0)
+
+
+def ratio_text(num: int, den: int) -> str:
+    """num / den as "2.50×"; a zero denominator has no ratio ("both 0", or "n/a" beside a non-zero numerator)."""
+    if den:
+        return f"{num / den:.2f}×"
+    return "both 0" if num == 0 else "n/a: none in the denominator"
 
 
 def _is_zone(area: str) -> bool:
@@ -161,17 +176,18 @@ def figure_data(u, r) -> dict:
             k, m = int(sub["success"].sum()), len(sub)
             f5[(s, n)] = (k, m, st.wilson_ci(k, m))
     d["fig5"] = f5
-    d["fig6"] = {(s, a): st.mean_ci(u[(u["strategy"] == s) & (u["area"] == a)]["remaining_battery_pct"], floor=0.0)
+    d["fig6"] = {(s, a): battery_ci(u[(u["strategy"] == s) & (u["area"] == a)]["remaining_battery_pct"])
                  for s in strategies for a in areas}
-    d["fig7"] = {(s, a, w): st.mean_ci(u[(u["strategy"] == s) & (u["area"] == a) & (u["wind"] == w)]
-                                       ["remaining_battery_pct"], floor=0.0)
+    d["fig7"] = {(s, a, w): battery_ci(u[(u["strategy"] == s) & (u["area"] == a) & (u["wind"] == w)]
+                                       ["remaining_battery_pct"])
                  for s in strategies for a in areas for w in winds}
     d["fig8"] = {(s, w): st.total_ci(r[(r["strategy"] == s) & (r["wind"] == w)]["distance_m"] / 1000.0, floor=0.0)
                  for s in strategies for w in winds}
-    d["fig9"] = {(s, kind): st.total_ci(r[r["strategy"] == s][col], floor=0.0)
+    # no more UAVs can be removed than flew in those runs
+    d["fig9"] = {(s, kind): st.total_ci(r[r["strategy"] == s][col], floor=0.0,
+                                        ceiling=float(r[r["strategy"] == s]["n_uavs"].sum()))
                  for s in strategies for kind, col in (("uav", "uav_collided"), ("zone", "zone_collided"))}
-    d["fig10"] = {(s, n): st.mean_ci(u[(u["strategy"] == s) & (u["n_uavs"] == n)]["remaining_battery_pct"],
-                                     floor=0.0)
+    d["fig10"] = {(s, n): battery_ci(u[(u["strategy"] == s) & (u["n_uavs"] == n)]["remaining_battery_pct"])
                   for s in strategies for n in fleets}
     return d
 
@@ -382,7 +398,7 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
     add("success_dir", f"{srow['A']} (A) vs {srow['B']} (B), Fisher p = {_fmt_p(srow['p'])}",
         None if srow["lead"] == "tie" else srow["lead"] == "B", ("geometry", "collisions_model", "stochastic"),
         sig=srow["p"] < 0.05 if math.isfinite(srow["p"]) else None)
-    bm = {s: st.mean_ci(u[u["strategy"] == s]["remaining_battery_pct"]) for s in ("A", "B")}
+    bm = {s: battery_ci(u[u["strategy"] == s]["remaining_battery_pct"]) for s in ("A", "B")}
     erow = next(x for x in t2 if x["key"] == "energy")
     add("battery_total", f"{bm['A'].fmt(2, ' %')} (A), {bm['B'].fmt(2, ' %')} (B); Mann-Whitney p = "
                          f"{_fmt_p(erow['p'])}",
@@ -406,7 +422,7 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
     free = [a for a in fd["areas"] if not _is_zone(a)]
     if zones and free:
         xz, xf = u[u["area"].isin(zones)]["remaining_battery_pct"], u[u["area"].isin(free)]["remaining_battery_pct"]
-        bz, bf, p = st.mean_ci(xz), st.mean_ci(xf), _mwu(xz, xf)
+        bz, bf, p = battery_ci(xz), battery_ci(xf), _mwu(xz, xf)
         add("battery_zones", f"zones {bz.fmt(1, ' %')} vs free {bf.fmt(1, ' %')} (p = {_fmt_p(p)})",
             bz.estimate > bf.estimate, ("collisions_model", "geometry"), sig=math.isfinite(p) and p < 0.05)
     drow = next(x for x in t2 if x["key"] == "distance")
@@ -432,9 +448,8 @@ def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
     for s in ("A", "B"):
         sub = r[r["strategy"] == s]
         nu, nz = int(sub["uav_collided"].sum()), int(sub["zone_collided"].sum())
-        ratio = nz / nu if nu else math.inf
-        parts.append(f"{s}: {nz} zone vs {nu} UAV ({'∞' if not math.isfinite(ratio) else f'{ratio:.2f}'}×)")
-        agree &= math.isfinite(ratio) and 2.0 <= ratio <= 4.0
+        parts.append(f"{s}: {nz} zone vs {nu} UAV ({ratio_text(nz, nu)})")
+        agree &= nu > 0 and 2.0 <= nz / nu <= 4.0
     add("wall_ratio", "; ".join(parts), agree, ("collisions_model", "geometry", "collisions_count"),
         "agreement = ratio between 2 and 4 in both strategies")
     parts, agree, sig = [], True, True
@@ -612,7 +627,8 @@ def uav_report(manifest, df, out: Path) -> str | None:
               "samples without ties, normal approximation with tie and continuity corrections otherwise); trends "
               "as least-squares slopes with t intervals. Unit of analysis: the UAV mission for success and "
               "remaining battery (as the paper's 42/84/126/168), the run for distance, photos and collisions. "
-              "Only completed runs are analysed. Intervals of quantities that cannot be negative are truncated at 0. "
+              "Only completed runs are analysed. Intervals of quantities that cannot be negative are truncated at 0, "
+              "of percentages also at 100, of UAVs removed at the number of UAVs that flew. "
               "Caveat: the UAV missions of one run are not independent (they share the wind and can collide with "
               "each other), so intervals and tests that treat missions as independent are indicative."
               + (" The campaign is paired on the strategy (same seed, i.e. same wind, for A and B): Table II also "

@@ -87,7 +87,9 @@ class UavScenario:
     impact_diameter: float = 2.6                     # m (paper)
     lookahead: float = 2.0                           # m, zone detection distance (paper)
     algorithm: str = "jacobi"
-    end_when_all_landed: bool = False                # end the run once every UAV has landed or crashed
+    # end the run once every UAV has landed or been removed (the shipped SSPs do): the outputs are the same,
+    # the idle rest up to stop_time is skipped; false = run to stop_time
+    end_when_all_landed: bool = True
     zone_planning: bool = True                       # plan legs around zones (false: the paper's late detection)
 
     # ----------------------------------------------------------- local frame

@@ -15,7 +15,7 @@ from ..scenario_kinds import SCENARIO_KINDS
 from . import stats as st
 from .table import build_table, load_manifest
 
-__all__ = ["build_report", "md_table", "campaign_facts", "failures_md"]
+__all__ = ["build_report", "md_table", "campaign_facts", "failures_md", "fmt_duration"]
 
 
 def md_table(header: list[str], rows: list[list]) -> str:
@@ -23,6 +23,15 @@ def md_table(header: list[str], rows: list[list]) -> str:
     for r in rows:
         out.append("| " + " | ".join(str(x).replace("|", "\\|") for x in r) + " |")
     return "\n".join(out)
+
+
+def fmt_duration(seconds: float) -> str:
+    """A duration in the unit that shows it (a 3 s total is not "0.1 min")."""
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.2f} h"
 
 
 def campaign_facts(manifest: dict, df) -> list[str]:
@@ -38,7 +47,7 @@ def campaign_facts(manifest: dict, df) -> list[str]:
              f"Parameters: {', '.join(manifest['param_keys']) or '(none)'}."]
     if "wall_time_s" in runs.columns and len(runs):
         w = runs["wall_time_s"].astype(float)
-        facts.append(f"Run wall time: mean {w.mean():.2f} s, max {w.max():.2f} s, sum {w.sum() / 60:.1f} min.")
+        facts.append(f"Run wall time: mean {w.mean():.2f} s, max {w.max():.2f} s, sum {fmt_duration(w.sum())}.")
     return facts
 
 

@@ -133,9 +133,19 @@ def _clean(values) -> np.ndarray:
     return a[np.isfinite(a)]
 
 
-def mean_ci(values, level: float = 0.95, floor: float | None = None) -> CI:
+def _clip(low: float, high: float, floor: float | None, ceiling: float | None) -> tuple[float, float]:
+    """An interval cut to the values the quantity can take (e.g. [0, 100] for a percentage)."""
+    if floor is not None:
+        low = max(floor, low)
+    if ceiling is not None:
+        high = min(ceiling, high)
+    return low, high
+
+
+def mean_ci(values, level: float = 0.95, floor: float | None = None, ceiling: float | None = None) -> CI:
     """Mean and its t interval; n = 1 gives an unbounded interval (reported as the value alone).
-    ``floor``: truncate the interval there (0 for quantities that cannot be negative)."""
+    ``floor`` / ``ceiling``: truncate the interval there (0 for quantities that cannot be negative, 100 for
+    percentages)."""
     a = _clean(values)
     n = a.size
     if n == 0:
@@ -145,16 +155,16 @@ def mean_ci(values, level: float = 0.95, floor: float | None = None) -> CI:
         return CI(m, math.nan, math.nan, 1)
     s = float(a.std(ddof=1))
     h = t_ppf(0.5 + level / 2.0, n - 1) * s / math.sqrt(n)
-    low = m - h if floor is None else max(floor, m - h)
-    return CI(m, low, m + h, n)
+    return CI(m, *_clip(m - h, m + h, floor, ceiling), n)
 
 
-def total_ci(values, level: float = 0.95, floor: float | None = None) -> CI:
-    """Sum of n per-run values, with the t interval of the mean scaled by n (``floor`` as in mean_ci)."""
+def total_ci(values, level: float = 0.95, floor: float | None = None, ceiling: float | None = None) -> CI:
+    """Sum of n per-run values, with the t interval of the mean scaled by n.  ``floor`` bounds the per-run
+    mean (as in mean_ci), ``ceiling`` the total (e.g. the number of UAVs that flew, for UAVs removed)."""
     c = mean_ci(values, level, floor)
     if c.n == 0:
         return CI(0.0, math.nan, math.nan, 0)
-    return CI(c.estimate * c.n, c.low * c.n, c.high * c.n, c.n)
+    return CI(c.estimate * c.n, *_clip(c.low * c.n, c.high * c.n, None, ceiling), c.n)
 
 
 def wilson_ci(successes: int, n: int, level: float = 0.95) -> CI:

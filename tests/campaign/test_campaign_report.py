@@ -46,9 +46,10 @@ def make_campaign(folder: Path):
                     params = {"strategy": s, "n_uavs": n, "variant": a, "wind.probability": w}
                     uavs = [_mission(s, n, a, w, k) for k in range(n)]
                     total = {"strategy": s, "uavs": n, "scenario": f"paper_{a}", "wind_probability": w,
-                             "run_outcome": "completed", "successes": sum(u["success"] for u in uavs),
-                             "distance_m": sum(u["distance_m"] for u in uavs),
-                             "photos": sum(u["photos"] for u in uavs),
+                             "run_outcome": "completed", "uavs_successful": sum(u["success"] for u in uavs),
+                             "success": all(u["success"] for u in uavs),
+                             "distance_m_sum": sum(u["distance_m"] for u in uavs),
+                             "photos_sum": sum(u["photos"] for u in uavs),
                              "uav_collisions": sum(u["outcome"] == "uav_collision" for u in uavs) // 2,
                              "zone_collisions": sum(u["outcome"] == "zone_collision" for u in uavs)}
                     rec = {"run_id": rid, "params": params, "rep": 0, "seed": 1, "outcome": "completed",
@@ -150,6 +151,46 @@ def test_build_report_writes_figures_and_markdown(hand):
     assert "Fisher exact" in text and "Mann-Whitney U" in text
     assert "worker process died with signal 11 (SIGSEGV)" in text
     assert "## Where and why we differ" in text
+    # B has 2 zone collisions and no UAV-UAV collision: no ratio, and no "∞"
+    assert "B: 2 zone vs 0 UAV (n/a: none in the denominator)" in text and "∞" not in text
+    # 16 runs of 1.0 s and the failed one of 0.5 s: 16.5 s, not "0.3 min"
+    assert "sum 16.5 s." in text
+
+
+def test_intervals_stop_where_the_quantity_does():
+    """Hand-computed: [10, 90] has mean 50, s = 56.569, t(0.975, 1) = 12.706, half-width 508.2: the battery
+    interval [-458.2, 558.2] is cut to [0, 100]."""
+    from uavstudy.report import battery_ci
+    ci = battery_ci([10.0, 90.0])
+    assert (ci.estimate, ci.low, ci.high) == (50.0, 0.0, 100.0)
+    plain = st.mean_ci([10.0, 90.0])
+    assert plain.low == pytest.approx(50 - 12.706205 * 56.568542 / math.sqrt(2), abs=1e-4)
+    # [0, 1, 2] per run: mean 1, s = 1, t(0.975, 2) = 4.302653, half-width 2.484138 -> total 3 [0, 10.45],
+    # cut at 4 UAVs that flew
+    tot = st.total_ci([0, 1, 2], floor=0.0, ceiling=4.0)
+    assert (tot.estimate, tot.low, tot.high) == (3.0, 0.0, 4.0)
+    assert st.total_ci([0, 1, 2], floor=0.0).high == pytest.approx(3 * (1 + 4.302653 / math.sqrt(3)), abs=1e-5)
+    assert st.mean_ci([5.0, 7.0], floor=0.0, ceiling=100.0).low == 0.0     # 6 - 12.7: cut at 0 as well
+
+
+def test_removed_uav_intervals_stop_at_the_uavs_that_flew():
+    """Three 1-UAV runs, one UAV removed by a zone: total 1, t interval of the run mean 1/3 +- 4.3027 *
+    0.57735 / sqrt(3) = [-1.10, 1.77] -> total [0, 5.30], cut at the 3 UAVs that flew: [0, 3]."""
+    import pandas as pd
+    u = pd.DataFrame({"run_id": ["a", "b", "c"], "strategy": "A", "n_uavs": 1, "area": "free", "wind": 0.0,
+                      "success": [True, True, False], "remaining_battery_pct": [40.0, 42.0, 30.0]})
+    r = pd.DataFrame({"run_id": ["a", "b", "c"], "strategy": "A", "n_uavs": 1, "area": "free", "wind": 0.0,
+                      "uav_collided": [0, 0, 0], "zone_collided": [0, 0, 1], "distance_m": [1.0, 2.0, 3.0]})
+    ci = figure_data(u, r)["fig9"][("A", "zone")]
+    assert (ci.estimate, ci.low, ci.high) == (1.0, 0.0, 3.0)
+
+
+def test_ratio_and_duration_texts():
+    from master.campaign.report import fmt_duration
+    from uavstudy.report import ratio_text
+    assert ratio_text(6, 2) == "3.00×" and ratio_text(0, 0) == "both 0"
+    assert ratio_text(2, 0) == "n/a: none in the denominator"
+    assert fmt_duration(16.5) == "16.5 s" and fmt_duration(90.0) == "1.5 min" and fmt_duration(7200.0) == "2.00 h"
 
 
 def test_stats_module_agrees_with_scipy():

@@ -44,6 +44,9 @@ keep: summary
     tot = ok[ok["uav"] == "total"]
     assert (tot["wind_probability"] == 0.1).all() and (tot["scenario_seed"] == tot["seed"]).all()
     assert (tot["uavs"] == 2).all() and (tot["summary.strategy"] == tot["strategy"]).all()
+    # the total row's own columns: counts, sums and the mean battery; success means all UAVs succeeded
+    assert tot["uavs_successful"].between(0, 2).all() and "remaining_battery_pct_total" not in df.columns
+    assert (tot["success"].astype(bool) == (tot["uavs_successful"] == 2)).all()
     per_uav = ok[ok["uav"] != "total"]
     assert per_uav["remaining_battery_pct"].between(0, 100).all() and per_uav["distance_m"].notna().all()
     bad = df[df["run_outcome"] == "failed"]

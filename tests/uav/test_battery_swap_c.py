@@ -354,7 +354,8 @@ def mission_ssp(tmp_path_factory) -> Path:
 
     scenario = {"name": "battery_swap", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 4,
                 "strategy": "B", "assignment": "equal", "targets": [latlon(e, n) for e, n in TARGETS_ENU],
-                "wind": {"probability": 0.3, "decision_interval": 5.0}, "seed": 3, "step": 0.5, "stop_time": 110.0}
+                "wind": {"probability": 0.3, "decision_interval": 5.0}, "seed": 3, "step": 0.5, "stop_time": 110.0,
+                "end_when_all_landed": False}     # the step-by-step comparison runs to the stop time
     y = tmp / "battery_swap.yaml"
     y.write_text(yaml.safe_dump(scenario, sort_keys=False))
     return build_scenario(y, tmp / "battery_swap.ssp")

@@ -95,7 +95,8 @@ def one_uav_ssp(tmp_path_factory) -> Path:
     scenario = {"name": "libcosim_one_uav", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 1,
                 "strategy": "B", "targets": [latlon(0, 40), latlon(40, 40), latlon(40, 0)],
                 "wind": {"probability": 0.3, "decision_interval": 5.0}, "seed": 3, "step": 0.5,
-                "stop_time": STOP, "algorithm": "jacobi"}
+                "stop_time": STOP, "algorithm": "jacobi",
+                "end_when_all_landed": False}     # libcosim runs to the stop time: so must ours
     y = tmp / "one_uav.yaml"
     y.write_text(yaml.safe_dump(scenario, sort_keys=False))
     return build_scenario(y, tmp / "one_uav.ssp")

@@ -112,12 +112,14 @@ def test_short_mission_success(short_run):
     assert u["outcome"] == "success" and u["targets_visited"] == 3 and u["photos"] == 3
     assert u["distance_to_home_m"] <= 5.0 and u["remaining_battery_pct"] > 5.0
     assert 200 < u["distance_xy_m"] < 260 and u["flight_time_s"] > 0 and u["energy_used_Wh"] > 0
-    assert summary["total"]["mission_success"] is True
+    assert summary["total"]["success"] is True and summary["total"]["uavs_successful"] == 1
     s = pd.read_csv(out / "summary.csv")
     assert list(s["uav"]) == ["uav1", "total"]
     traj = pd.read_csv(out / "trajectory.csv")
     assert {"time", "uav", "lat", "lon", "alt", "x", "y", "z", "speed", "soc", "phase", "mission_state"} <= set(traj)
-    assert len(traj) == 121 and traj["time"].iloc[-1] == 120.0
+    # recorded every 1 s up to the landing that ended the run, then the final row
+    end = short_run.metadata["ended_early"]["time"]
+    assert list(traj["time"].iloc[:-1]) == list(range(int(end) + 1)) and traj["time"].iloc[-1] == pytest.approx(end)
     assert (out / "map.png").stat().st_size > 10_000
     ev = pd.read_csv(out / "events.csv")
     assert list(ev[ev.type == "mission"]["event"])[-1] == "landed_base"
@@ -149,8 +151,9 @@ def test_two_uavs_head_on_collide(tmp_path):
     # pads: uav1 at (0, 4), uav2 at (0, -4); uav1 is given the southern target, uav2 the northern one, so
     # right after take-off they fly head-on along x = 0
     assert pad_positions(2) == [(0.0, 4.0), (0.0, -4.0)]
+    # run on after the collision (not the default), to see the removed UAVs stay where they were hit
     y = write_yaml(tmp_path / "h.yaml", name="head_on", n_uavs=2, strategy="A",
-                   targets=[latlon(0, -150), latlon(0, 150)], stop_time=40.0)
+                   targets=[latlon(0, -150), latlon(0, 150)], stop_time=40.0, end_when_all_landed=False)
     out = tmp_path / "out"
     assert main(["build-scenario", str(y), "-o", str(tmp_path / "h.ssp")]) == 0
     assert main(["run", str(tmp_path / "h.ssp"), "-o", str(out), "--no-csv"]) == 0
@@ -161,7 +164,7 @@ def test_two_uavs_head_on_collide(tmp_path):
     assert abs(hits.iloc[0]["y"]) < 1.0 and hits.iloc[0]["z"] > 15
     summary = json.loads((out / "summary.json").read_text())
     assert [u["outcome"] for u in summary["uavs"]] == ["uav_collision", "uav_collision"]
-    assert summary["total"]["uav_collisions"] == 1 and summary["total"]["successes"] == 0
+    assert summary["total"]["uav_collisions"] == 1 and summary["total"]["uavs_successful"] == 0
     t_hit = hits.iloc[0]["time"]
     # both removed: they stop stepping, their last state stays
     df = pd.read_parquet(out / "results.parquet")
@@ -189,15 +192,113 @@ def test_shipped_archives_are_fresh(tmp_path):
 def test_run_ends_when_the_fleet_has_landed(short_run, tmp_path):
     """end_when_all_landed: the same mission ends at the landing instead of idling to the stop time, and the
     mission summary (targets, photos, distance, outcome) is the one of the full-length run."""
-    ssp = build_scenario(write_yaml(tmp_path / "e.yaml", end_when_all_landed=True), tmp_path / "e.ssp")
-    r = run(ssp, output=tmp_path / "out")
-    ended = r.metadata["ended_early"]
+    ssp = build_scenario(write_yaml(tmp_path / "e.yaml", end_when_all_landed=False), tmp_path / "e.ssp")
+    run(ssp, output=tmp_path / "full")
+    ended = short_run.metadata["ended_early"]      # the default (true)
     assert ended["reason"] == "every UAV has landed or been removed" and ended["time"] < 120.0
-    full = json.loads((short_run.output_dir / "summary.json").read_text())["uavs"][0]
-    early = json.loads((tmp_path / "out" / "summary.json").read_text())["uavs"][0]
+    full = json.loads((tmp_path / "full" / "summary.json").read_text())["uavs"][0]
+    early = json.loads((short_run.output_dir / "summary.json").read_text())["uavs"][0]
     for key in ("outcome", "targets_visited", "photos", "distance_m", "flight_time_s"):
         assert early[key] == full[key], key
     # the landing happened inside the step the run ended with
-    states = pd.read_csv(tmp_path / "out" / "events.csv")
+    states = pd.read_csv(short_run.output_dir / "events.csv")
     landed = states[states["event"] == "landed_base"]["time"]
     assert len(landed) == 1 and landed.iloc[0] <= ended["time"] + 1e-9
+
+
+# ------------------------------------------------------------------------------ what the outputs say
+def test_summary_reports_the_seed_the_run_used(short_ssp, tmp_path):
+    """The SSP was built with seed 3; --seed 11 replaces the wind's seed parameter, and the summary says 11."""
+    run(short_ssp, output=tmp_path / "s11", seed=11)
+    total = json.loads((tmp_path / "s11" / "summary.json").read_text())["total"]
+    assert total["scenario_seed"] == 11
+    run(short_ssp, output=tmp_path / "s3")
+    assert json.loads((tmp_path / "s3" / "summary.json").read_text())["total"]["scenario_seed"] == 3
+
+
+def test_events_and_trajectory_name_what_happened(short_run):
+    """Three targets visited: the return starts after the third photo (not "return_done" before it); the
+    trajectory shows phases and mission states by name, from preflight on the pad to landed_base."""
+    out = short_run.output_dir
+    ev = pd.read_csv(out / "events.csv")
+    mission = ev[ev.type == "mission"]
+    assert list(mission["event"]) == ["takeoff", "transit", "return_started", "landing", "landed_base"]
+    started = mission[mission["event"] == "return_started"].iloc[0]
+    assert started["detail"] == "all targets visited, returning to base"
+    last_photo = pd.read_csv(out / "photos.csv")["time"].max()
+    assert started["time"] >= last_photo
+    traj = pd.read_csv(out / "trajectory.csv")
+    assert set(traj["phase"]) == {"preflight", "takeoff", "fly", "land", "landed"}
+    assert traj["phase"].iloc[0] == "preflight" and traj["phase"].iloc[-1] == "landed"
+    assert traj["mission_state"].iloc[0] == "preflight" and traj["mission_state"].iloc[-1] == "landed_base"
+    assert "return_started" in set(traj["mission_state"])
+
+
+def test_summary_total_row_has_one_meaning_per_column(short_ssp, tmp_path):
+    """Two UAVs, three targets (equal split: 2 + 1): the total row's success is a boolean like the UAV rows',
+    its count of successes, sums and mean battery are in their own columns and agree with the UAV rows."""
+    ssp = build_scenario(write_yaml(tmp_path / "two.yaml", n_uavs=2), tmp_path / "two.ssp")
+    run(ssp, output=tmp_path / "out")
+    s = pd.read_csv(tmp_path / "out" / "summary.csv")
+    uavs, total = s[s.uav != "total"], s[s.uav == "total"].iloc[0]
+    assert list(uavs["outcome"]) == ["success", "success"] and list(uavs["targets_assigned"]) == [2, 1]
+    assert total["success"] == True and total["uavs"] == 2 and total["uavs_successful"] == 2   # noqa: E712
+    assert total["targets_assigned"] == 3 and total["targets_visited"] == 3 and total["targets_total"] == 3
+    assert total["photos_sum"] == 3 and total["distance_m_sum"] == pytest.approx(uavs["distance_m"].sum())
+    assert total["energy_used_Wh_sum"] == pytest.approx(uavs["energy_used_Wh"].sum())
+    assert total["remaining_battery_pct_mean"] == pytest.approx(uavs["remaining_battery_pct"].mean())
+    # a column the total row does not share with the UAV rows stays empty there, and the reverse
+    assert pd.isna(total["outcome"]) and pd.isna(total["distance_m"]) and pd.isna(total["remaining_battery_pct"])
+    assert uavs["distance_m_sum"].isna().all() and uavs["uavs_successful"].isna().all()
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())["total"]
+    assert "remaining_battery_pct_total" not in doc and "successes" not in doc and "mission_success" not in doc
+    assert doc["success"] is True and doc["uavs_successful"] == 2
+
+
+def test_uav_without_targets_is_not_a_success(tmp_path, caplog):
+    """Three UAVs for two targets: the equal split gives one UAV nothing; it takes off, lands again and ends
+    as no_targets, not success; build-scenario warns (one line) and still writes the SSP."""
+    y = write_yaml(tmp_path / "idle.yaml", n_uavs=3, targets=[latlon(0, 55), latlon(55, 0)])
+    with caplog.at_level("WARNING", logger="uavstudy.build"):
+        ssp = build_scenario(y, tmp_path / "idle.ssp")
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 1 and "3 UAVs for 2 targets" in warned[0] and "\n" not in warned[0]
+    run(ssp, output=tmp_path / "out")
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())
+    by_assigned = {u["targets_assigned"]: u for u in doc["uavs"]}
+    assert sorted(u["targets_assigned"] for u in doc["uavs"]) == [0, 1, 1]
+    idle = by_assigned[0]
+    assert idle["outcome"] == "no_targets" and idle["success"] is False
+    assert doc["total"]["uavs_successful"] == 2 and doc["total"]["success"] is False
+    assert doc["total"]["outcomes"] == {"success": 2, "no_targets": 1}
+
+
+def test_build_warns_about_a_target_on_the_base(tmp_path, caplog):
+    y = write_yaml(tmp_path / "b.yaml", targets=[latlon(0, 55), latlon(2, 1)])
+    with caplog.at_level("WARNING", logger="uavstudy.build"):
+        build_scenario(y, tmp_path / "b.ssp")
+    assert [r.getMessage() for r in caplog.records] == [
+        "warning: scenario short: target(s) [1] lie on the base (within 5 m of the base or a landing pad)"]
+
+
+def test_shipped_yaml_builds_the_shipped_behaviour(tmp_path):
+    """build-scenario on a shipped YAML ends the mission when the fleet has landed, as the shipped SSPs do."""
+    def end_when(ssp):
+        with zipfile.ZipFile(ssp) as z:
+            ssd = etree.fromstring(z.read("SystemStructure.ssd"))
+        return next(ssd.iter("{https://cosim-master.org/ssp/uav}UavMonitor")).get("endWhenAllLanded")
+    built = build_scenario(ROOT / "ssp" / "scenarios" / "paper_area_zones.yaml", tmp_path / "z.ssp")
+    assert end_when(built) == end_when(ROOT / "ssp" / "paper_zones_4uav_B.ssp") == "true"
+
+
+def test_fleet_all_removed_ends_the_run(tmp_path):
+    """Two UAVs collide head-on at t ~ 14 s: nothing is left to fly, the run ends there, not at 40 s."""
+    y = write_yaml(tmp_path / "h.yaml", name="head_on", n_uavs=2, strategy="A",
+                   targets=[latlon(0, -150), latlon(0, 150)], stop_time=40.0)
+    r = run(build_scenario(y, tmp_path / "h.ssp"), output=tmp_path / "out")
+    hit = pd.read_csv(tmp_path / "out" / "events.csv").query("type == 'uav'")["time"].iloc[0]
+    ended = r.metadata["ended_early"]
+    assert ended["reason"] == "every UAV has landed or been removed"
+    assert hit <= ended["time"] <= hit + 0.1 + 1e-9      # within the step of the collision (step 0.1 s)
+    total = json.loads((tmp_path / "out" / "summary.json").read_text())["total"]
+    assert total["mission_end_time"] == pytest.approx(hit)

@@ -19,7 +19,7 @@ ROLES = {"x": "x", "y": "y", "z": "z", "phase": "phase", "missionState": "missio
 INTEGER = {"phase", "mission_state", "photo_count", "last_photo_target", "targets_assigned", "targets_visited"}
 
 
-def annotation(names, zones=(), targets=(), impact=2.6, homes=None):
+def annotation(names, zones=(), targets=(), impact=2.6, homes=None, extra=""):
     uavs = []
     for k, n in enumerate(names):
         hx, hy = homes[k] if homes else (0.0, 0.0)
@@ -31,7 +31,7 @@ def annotation(names, zones=(), targets=(), impact=2.6, homes=None):
     ts = f'<uav:Targets>{" ".join(f"{x},{y}" for x, y in targets)}</uav:Targets>' if targets else ""
     xml = (f'<ssc:Annotation xmlns:ssc="{SSC}" type="{MONITOR_TYPE}"><uav:UavMonitor xmlns:uav="{UAV}" '
            f'impactDiameter="{impact}" originLatitude="45.0" originLongitude="7.0" originAltitude="250.0" '
-           f'scenario="unit" strategy="B">{"".join(uavs)}{ts}{zs}</uav:UavMonitor></ssc:Annotation>')
+           f'scenario="unit" strategy="B" {extra}>{"".join(uavs)}{ts}{zs}</uav:UavMonitor></ssc:Annotation>')
     return etree.fromstring(xml)
 
 
@@ -52,6 +52,7 @@ class FakeCtx:
         self.buf = {"Real": np.zeros(nr), "Integer": np.zeros(ni, dtype=np.int32)}
         self.deactivated = []
         self.events = []
+        self.stop_reasons = []
 
     def position(self, q):
         return self.pos[q]
@@ -64,6 +65,9 @@ class FakeCtx:
 
     def emit(self, event):
         self.events.append(event)
+
+    def request_stop(self, reason):
+        self.stop_reasons.append(reason)
 
     def set(self, uav, **values):
         for var, v in values.items():
@@ -225,7 +229,7 @@ def test_mission_events_and_photos():
     ctx.set("a", targets_assigned=2, targets_visited=1)
     s = mon.finish(None, "completed")
     assert s["uavs"]["a"] == "forced_landing"
-    assert s["total"]["photos"] == 1 and s["total"]["targets_visited"] == 1
+    assert s["total"]["photos_sum"] == 1 and s["total"]["targets_visited"] == 1
 
 
 def test_finish_writes_outputs_without_results(tmp_path):
@@ -352,3 +356,113 @@ def test_idle_steps_share_track_arrays_and_memory_stays_flat():
     assert len(mon.track_t) == 201                              # every 0.5 s of 100 s, plus the start
     assert len({id(p) for p in mon.track_p}) <= 2
     assert mon.records[0].mission_states == [] and ctx.events == []
+
+
+# ------------------------------------------------------------------------------ the end of a mission
+def test_fleet_removed_by_a_collision_stops_the_run():
+    """endWhenAllLanded: a fleet all removed has nothing left to do, like one that has landed."""
+    mon, ctx = make(["a", "b"], extra='endWhenAllLanded="true"')
+    pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t), steps=5)          # the contact is in the step [4, 5]
+    assert all(r.removed for r in mon.records)
+    assert ctx.stop_reasons == ["every UAV has landed or been removed"]
+
+
+def test_one_uav_left_keeps_the_run_going():
+    mon, ctx = make(["a", "b", "c"], extra='endWhenAllLanded="true"')
+    pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0),
+           "c": lambda t: (300.0, 300.0, 20.0)}
+    fly(mon, ctx, lambda n, t: pos[n](t), steps=5)
+    assert [r.removed for r in mon.records] == [True, True, False] and ctx.stop_reasons == []
+
+
+def test_mission_end_time_is_the_last_landing_or_removal():
+    from uavstudy.outputs import map_title
+    mon, ctx = make(["a", "b"])
+    ctx.set("a", mission_state=0, phase=0)
+    ctx.set("b", mission_state=0, phase=0)
+    mon.attach(ctx, 0.0)
+    # a lands at base (state 7) seen in the step [300, 301]; b is removed by a zone at t = 120 (hand-set)
+    mon.records[1].removed_time = 120.0
+    mon.records[1].removed = True
+    mon.records[1].removed_reason = "zone_collision"
+    mon._removed[1] = True
+    for n, (t0, t1, ms) in enumerate([(0.0, 1.0, 1), (1.0, 2.0, 2), (299.0, 300.0, 5), (300.0, 301.0, 7)]):
+        ctx.set("a", mission_state=ms, phase=4 if ms == 7 else 2, z=0.0 if ms == 7 else 20.0)
+        mon.after_step(n, t0, t1)
+    s = mon.finish(None, "completed")
+    assert s["total"]["mission_end_time"] == 300.0     # the landing was registered at t0 of its step
+    mon.last_time = 1500.0
+    total = dict(s["total"], end_time=1500.0)
+    title = map_title(mon.cfg, total)
+    assert "mission ended at t=300.0 s" in title and "1500" not in title
+    total["mission_end_time"] = None
+    assert "mission unfinished when the run stopped at t=1500.0 s" in map_title(mon.cfg, total)
+
+
+def test_seed_is_the_one_the_run_gave_the_wind():
+    """plan.params lists the SSD's values, then the overrides (run --seed): the last one is the FMU's."""
+    from types import SimpleNamespace
+
+    from uavstudy.monitor import run_seed
+
+    def var(comp, name):
+        return SimpleNamespace(component=comp, name=name)
+    plan = SimpleNamespace(params=[(var("wind", "seed"), 1, "SystemStructure.ssd:12"),
+                                   (var("uav1_dyn", "seed"), 5, "command line"),
+                                   (var("wind", "probability"), 0.2, "SystemStructure.ssd:13"),
+                                   (var("wind", "seed"), 42, "command line")])
+    assert run_seed(plan, "1") == "42"
+    assert run_seed(SimpleNamespace(params=[]), "1") == "1"
+
+
+# ------------------------------------------------------------------------------ map
+def test_uav_styles_are_distinct_beyond_ten_uavs():
+    from uavstudy.outputs import uav_styles
+    for n in (4, 10, 12, 20, 45):
+        styles = uav_styles(n)
+        assert len(set(styles)) == n, n
+    assert len({c for c, _ in uav_styles(12)}) == 12       # 12 UAVs: 12 colours, no repeat
+
+
+def test_time_marks_and_arrows_on_a_track():
+    """A UAV parked until t = 10 s, then east at 10 m/s until t = 150 s: marks at t = 60 and 120 s, i.e.
+    x = 500 and 1100 m; arrows at t = 30, 90 s (x = 200, 800 m) pointing east; none while parked."""
+    from matplotlib.figure import Figure
+
+    from uavstudy.outputs import _flight_marks
+    t = np.arange(0.0, 150.5, 0.5)
+    x = np.where(t < 10.0, 0.0, 10.0 * (t - 10.0))
+    xy = np.column_stack((x, np.zeros_like(x)))
+    ax = Figure().add_subplot(1, 1, 1)
+    _flight_marks(ax, t, xy, "C0")
+    dots = ax.collections[0].get_offsets()
+    np.testing.assert_allclose(dots, [[500.0, 0.0], [1100.0, 0.0]])
+    arrows = [(a.xyann, a.xy) for a in ax.texts]
+    np.testing.assert_allclose([tail for tail, _ in arrows], [(190.0, 0.0), (790.0, 0.0)])
+    np.testing.assert_allclose([head for _, head in arrows], [(210.0, 0.0), (810.0, 0.0)])
+
+
+def test_landing_markers_are_hollow_and_the_base_on_top(tmp_path):
+    from uavstudy.outputs import END_MARKERS
+    assert END_MARKERS["landed"][0]["facecolors"] == "none" and END_MARKERS["forced"][0]["facecolors"] == "none"
+    mon, ctx = make(["a", "b"], targets=[(50, 0)])
+    fly(mon, ctx, lambda n, t: (0.0, 0.0, 0.0), phases=lambda n, t: 4, steps=2)
+    mon._took_off[0] = True         # a flew and landed on its pad, at the base
+    import matplotlib.figure
+    seen = {}
+    orig = matplotlib.figure.Figure.savefig
+
+    def keep(fig, path, *a, **k):
+        seen["ax"] = fig.axes[0]
+        return orig(fig, path, *a, **k)
+    matplotlib.figure.Figure.savefig = keep
+    try:
+        mon.finish(tmp_path, "completed")
+    finally:
+        matplotlib.figure.Figure.savefig = orig
+    base = [c for c in seen["ax"].collections if c.get_zorder() == 8]
+    assert len(base) == 1 and base[0].get_offsets().tolist() == [[0.0, 0.0]]
+    assert max(c.get_zorder() for c in seen["ax"].collections) == 8
+    landed = [c for c in seen["ax"].collections if c.get_zorder() == 6]
+    assert len(landed) == 1 and landed[0].get_facecolor().size == 0       # hollow: the base shows through
