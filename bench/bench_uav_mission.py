@@ -67,7 +67,7 @@ def main(argv=None) -> int:
             sim = meta["stop_time"] - meta["start_time"]
             tot = meta.get("monitors", {}).get("org.cosim-master.uav-monitor", {}).get("total", {})
             rows.append((name, n, meta["steps"], sim, best, sim / best, 1e6 * best / meta["steps"],
-                         f"{tot.get('successes', '?')}/{n}", tot.get("uav_collisions", "?"),
+                         f"{tot.get('uavs_successful', '?')}/{n}", tot.get("uav_collisions", "?"),
                          tot.get("zone_collisions", "?"), mission_end(events), meta["outcome"]))
     hdr = ("scenario", "UAVs", "steps", "sim s", "wall s", "RTF", "us/step", "success", "uav coll", "zone coll",
            "mission end s", "run")

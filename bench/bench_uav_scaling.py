@@ -208,7 +208,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
            "hwm_kb": _status_kb("VmHWM"), "rss_start_kb": loop.get("rss_start_kb"),
            "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
-           "successes": tot.get("successes"), "uav_collisions": tot.get("uav_collisions"),
+           "successes": tot.get("uavs_successful"), "uav_collisions": tot.get("uav_collisions"),
            "zone_collisions": tot.get("zone_collisions"), "targets": tot.get("targets_total"),
            "targets_visited": tot.get("targets_visited")}
     import shutil

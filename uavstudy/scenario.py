@@ -34,11 +34,10 @@ from uavsim.geodesy import enu_from_geodetic
 
 __all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
-           "STRATEGIES", "ASSIGNMENTS", "ALGORITHMS", "MAX_RANGE_M"]
+           "STRATEGIES", "ASSIGNMENTS", "MAX_RANGE_M"]
 
 STRATEGIES = ("A", "B")
 ASSIGNMENTS = ("equal", "spatial")
-ALGORITHMS = ("jacobi", "gauss-seidel")
 WIND_LEVELS = ("weak", "moderate", "strong")
 #: targets and zone vertices must lie within this distance of the base (the
 #: geodesy error bound is stated for 50 km)
@@ -302,7 +301,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
     if "lookahead" in data:
         kw["lookahead"] = v.number("lookahead", data["lookahead"], lo=0)
     if "algorithm" in data:
-        kw["algorithm"] = v.choice("algorithm", data["algorithm"], ALGORITHMS)
+        from master.algorithms import ALGORITHMS as REGISTERED      # any algorithm the engine knows
+        kw["algorithm"] = v.choice("algorithm", data["algorithm"], REGISTERED.names())
     if "end_when_all_landed" in data:
         kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
     if "zone_planning" in data:
