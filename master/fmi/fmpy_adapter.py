@@ -68,8 +68,11 @@ class _LazyFunctions(dict):
         self._fmu = fmu
 
     def __missing__(self, name: str):
+        method = getattr(self._fmu, name, None)
+        if method is None:                  # not a function of this FMI kind (fmi2DoStep for model exchange)
+            raise MissingFunction(name)
         c_fun = _symbol(self._fmu.dll, name)
-        _prototype(c_fun, getattr(self._fmu, name))
+        _prototype(c_fun, method)
         self[name] = c_fun
         return c_fun
 
