@@ -215,7 +215,10 @@ C_MODELS: dict[str, CModel] = {
 # providesDirectionalDerivative)
 FMI2_OPTIONAL_FUNCTIONS = ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate", "fmi2SerializedFMUstateSize",
                            "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative")
-C_MODELS["GainPreRelease"] = CModel(
+# FMUs with deliberate defects, built on request (build_c_fmu) and not among the fixture's keys: the factory's
+# own tests expect complete FMUs
+VARIANT_MODELS: dict[str, CModel] = {}
+VARIANT_MODELS["GainPreRelease"] = CModel(
     name="GainPreRelease",
     description="y = k u, as an FMI 2.0 release-candidate exporter (JModelica.org 1.15) builds it: no FMU state or "
     "directional derivative functions but fmi2DeSerializeFMUstate, spelled fmi2DeserializeFMUstate",
@@ -491,9 +494,9 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
     fmi_version 2 supports kind "cs" and "me" (as declared per model in
     ``C_MODELS``); fmi_version 3 supports kind "cs".
     """
-    if model not in C_MODELS:
-        raise KeyError(f"unknown C model {model!r}; known: {sorted(C_MODELS)}")
-    spec = C_MODELS[model]
+    spec = C_MODELS.get(model) or VARIANT_MODELS.get(model)
+    if spec is None:
+        raise KeyError(f"unknown C model {model!r}; known: {sorted(C_MODELS)} and {sorted(VARIANT_MODELS)}")
     if (fmi_version, kind) not in spec.versions_kinds:
         raise ValueError(f"{model} is not available as FMI {fmi_version} {kind!r} ({sorted(spec.versions_kinds)})")
     out_dir = Path(out_dir)

@@ -79,11 +79,13 @@ def test_stair_ends_the_run_where_it_asks_to_terminate(tmp_path, reference_fmus,
     assert list(df["stair.counter"]) == list(ref["counter"])
 
 
-def test_a_discard_with_fmi2_terminated_ends_the_run_with_its_results(tmp_path, test_fmus):
+@pytest.mark.parametrize("kind,inprocess", [("c2", True), ("py", True), ("py", False)])
+def test_a_discard_with_fmi2_terminated_ends_the_run_with_its_results(tmp_path, test_fmus, kind, inprocess):
     # Faulty mode 2 discards the step from 0.5 (its first to end after fail_time) and then reports
-    # fmi2Terminated: the run ends after that master step; y stays at the last successful time, 0.5
-    ssp = _single(tmp_path, test_fmus["c2:Faulty"], "f", 1.0, 0.1, mode=2, fail_time=0.5)
-    meta, df = _run(ssp, tmp_path / "out")
+    # fmi2Terminated (pythonfmu's binary does for every Discard; in process the same): the run ends after
+    # that master step; y stays at the last successful time, 0.5
+    ssp = _single(tmp_path, test_fmus[f"{kind}:Faulty"], "f", 1.0, 0.1, mode=2, fail_time=0.5)
+    meta, df = _run(ssp, tmp_path / "out", inprocess=inprocess)
     assert meta["outcome"] == "completed"
     assert meta["ended_early"] == {"time": pytest.approx(0.6), "reason": "component f asked to terminate the simulation"}
     np.testing.assert_allclose(df["time"], np.arange(7) * 0.1, atol=1e-12)
@@ -193,7 +195,8 @@ def test_build_plan_takes_the_implementation_over_the_ssd(tmp_path, reference_fm
 
 # -- 4. optional functions looked up when used, under their pre-release names too -------------------------------
 def test_fmu_without_optional_functions_and_with_pre_release_names_runs(tmp_path, test_fmus):
-    fmu = test_fmus["c2:GainPreRelease"]
+    import fmu_factory
+    fmu = fmu_factory.build_c_fmu("GainPreRelease", tmp_path / "fmus")
     b = SspBuilder("pre", stop=0.3, step=0.1)
     b.add_component("g", fmu, params={"k": 3.0})
     b.add_component("i", test_fmus["c2:Integrator"], params={"x0": 1.0})
