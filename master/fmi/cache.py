@@ -97,8 +97,8 @@ def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
         return read_model_description(str(unzip_dir), validate=True)
     except Exception as exc:  # fmpy raises bare Exceptions with the schema message
         reason = " ".join(str(exc).split())
-        if not lenient:
-            raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as) from None
+    if not lenient:
+        raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as)
     _log.warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
     try:
         md = read_model_description(str(unzip_dir), validate=False)

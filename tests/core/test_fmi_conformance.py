@@ -28,19 +28,26 @@ def _run(ssp, out, **options):
     return json.loads((out / "run.json").read_text()), pd.read_csv(out / "results.csv")
 
 
-def _with_implementation(ssp: Path, implementation: dict[str, str]) -> Path:
-    """The same SSP with the SSD Components' implementation attribute set (SspBuilder does not write it)."""
-    with zipfile.ZipFile(ssp) as zf:
+def _edit_xml_in_zip(src: Path, member: str, edit, dst: Path | None = None) -> Path:
+    """A copy of the archive (``dst``, default: in place) with ``edit(root)`` applied to one XML member."""
+    with zipfile.ZipFile(src) as zf:
         items = {name: zf.read(name) for name in zf.namelist()}
-    root = etree.fromstring(items["SystemStructure.ssd"])
-    for comp in root.iter(f"{{{SSD_NS}}}Component"):
-        if comp.get("name") in implementation:
-            comp.set("implementation", implementation[comp.get("name")])
-    items["SystemStructure.ssd"] = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
-    with zipfile.ZipFile(ssp, "w") as zf:
+    root = etree.fromstring(items[member])
+    edit(root)
+    items[member] = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
+    with zipfile.ZipFile(dst or src, "w") as zf:
         for name, data in items.items():
             zf.writestr(name, data)
-    return ssp
+    return dst or src
+
+
+def _with_implementation(ssp: Path, implementation: dict[str, str]) -> Path:
+    """The same SSP with the SSD Components' implementation attribute set (SspBuilder does not write it)."""
+    def edit(root):
+        for comp in root.iter(f"{{{SSD_NS}}}Component"):
+            if comp.get("name") in implementation:
+                comp.set("implementation", implementation[comp.get("name")])
+    return _edit_xml_in_zip(ssp, "SystemStructure.ssd", edit)
 
 
 def _plan(ssp, **flags):
@@ -215,17 +222,11 @@ def test_fmu_without_optional_functions_and_with_pre_release_names_runs(tmp_path
 # -- 6. lenient reading of a modelDescription.xml ---------------------------------------------------------
 def _with_duplicate_variable(src: Path, dst: Path) -> Path:
     """The FMU with its parameter k declared twice (as the Ecos dp_ship FMU declares some variables)."""
-    with zipfile.ZipFile(src) as zf:
-        items = {name: zf.read(name) for name in zf.namelist()}
-    root = etree.fromstring(items["modelDescription.xml"])
-    variables = root.find("ModelVariables")
-    first = next(v for v in variables if v.get("name") == "k")
-    variables.append(etree.fromstring(etree.tostring(first)))
-    items["modelDescription.xml"] = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
-    with zipfile.ZipFile(dst, "w") as zf:
-        for name, data in items.items():
-            zf.writestr(name, data)
-    return dst
+    def edit(root):
+        variables = root.find("ModelVariables")
+        first = next(v for v in variables if v.get("name") == "k")
+        variables.append(etree.fromstring(etree.tostring(first)))
+    return _edit_xml_in_zip(src, "modelDescription.xml", edit, dst)
 
 
 def test_lenient_reads_a_duplicate_variable_name_with_a_warning(tmp_path, test_fmus, caplog):
