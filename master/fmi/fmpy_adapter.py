@@ -12,8 +12,9 @@ import typing
 
 from ..errors import FmuError
 
-# Other names under which exporters publish an FMI function: the FMI 2.0 release candidates (JModelica.org
-# 1.15 and tools of its time) and later tools spell the state functions differently from the final standard.
+# Other names under which exporters publish an FMI function: tools that predate the final FMI 2.0 names
+# (JModelica.org 1.15) or capitalise them their own way spell the FMU state functions differently. Looked up
+# only when the standard name is missing.
 ALIASES = {
     "fmi2GetFMUstate": ("fmi2GetFMUState",),
     "fmi2SetFMUstate": ("fmi2SetFMUState",),
