@@ -94,7 +94,8 @@ def test_a_discard_with_fmi2_terminated_ends_the_run_with_its_results(tmp_path, 
     ssp = _single(tmp_path, test_fmus[f"{kind}:Faulty"], "f", 1.0, 0.1, mode=2, fail_time=0.5)
     meta, df = _run(ssp, tmp_path / "out", inprocess=inprocess)
     assert meta["outcome"] == "completed"
-    assert meta["ended_early"] == {"time": pytest.approx(0.6), "reason": "component f asked to terminate the simulation"}
+    assert meta["ended_early"] == {"time": pytest.approx(0.6),
+                                   "reason": "component f asked to terminate the simulation"}
     np.testing.assert_allclose(df["time"], np.arange(7) * 0.1, atol=1e-12)
     np.testing.assert_allclose(df["f.y"], [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.5], atol=1e-12)
     assert "illegal call sequence" not in (tmp_path / "out" / "fmu.log").read_text()
