@@ -106,6 +106,10 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     """``lenient``: modelDescription.xml files are read as far as the master can use them (see
     ``fmi.cache.load_fmu``); ``implementation``: component -> "ModelExchange" / "CoSimulation" / "any",
     over the SSD's implementation attribute."""
+    unknown = sorted(set(implementation or {}) - set(model.components))
+    if unknown:
+        raise ScenarioError(f"implementation given for unknown component{'s' if len(unknown) > 1 else ''} "
+                            f"{', '.join(unknown)}", file=shown_as, element="implementation")
     fmus: dict[str, LoadedFmu] = {}
     variables: dict[str, dict[str, Var]] = {}
     feed: dict[str, dict[str, set | None]] = {}

@@ -199,6 +199,8 @@ def test_build_plan_takes_the_implementation_over_the_ssd(tmp_path, reference_fm
     ssp = _single(tmp_path, reference_fmus / "fmi2" / "VanDerPol.fmu", "vdp", 1.0, 0.1, "CoSimulation")
     assert _plan(ssp).fmus["vdp"].kind == "CoSimulation"
     assert _plan(ssp, implementation={"vdp": "ModelExchange"}).fmus["vdp"].kind == "ModelExchange"
+    with pytest.raises(ScenarioError, match="implementation given for unknown component nope"):
+        _plan(ssp, implementation={"nope": "ModelExchange"})
 
 
 # -- 4. optional functions looked up when used, under their pre-release names too -------------------------------
