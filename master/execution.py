@@ -182,7 +182,7 @@ class Execution:
                      "parameters_overridden": dict(p.user_params),
                      "fmus": {name: {"source": model.components[name].source, "sha256": f.sha256,
                                      "fmi_version": f.fmi_version,
-                                     "kind": "CoSimulation" if f.md.coSimulation else "ModelExchange",
+                                     "kind": f.kind,
                                      "generation_tool": f.md.generationTool}
                               for name, f in plan.fmus.items()}})
         self.monitors = monitors_for(model, plan, shown_as)

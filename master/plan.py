@@ -5,12 +5,14 @@ unit dimension) is reported here, so that no FMU is instantiated for a scenario 
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field, replace
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
+from .fmi.factory import choose_kind
 from .fmi.slave import INTEGER_BASES, array_shape, base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
@@ -169,33 +171,29 @@ def _element_feedthrough(plan_vars: dict[str, Var], outs: dict) -> dict:
     return result
 
 
-def _fmu_kind(fmu: LoadedFmu) -> str:
-    md = fmu.md
-    if md.coSimulation is not None:
-        return "CoSimulation"
-    if md.modelExchange is not None:
-        return "ModelExchange"
-    return "none"
-
-
 def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | None = None,
-               allow_nonfinite: bool = False) -> Plan:
+               allow_nonfinite: bool = False, lenient: bool = False,
+               implementation: dict[str, str] | None = None) -> Plan:
+    """``lenient``: modelDescription.xml files are read as far as the master can use them (see
+    ``fmi.cache.load_fmu``); ``implementation``: component -> "ModelExchange" / "CoSimulation" / "any",
+    over the SSD's implementation attribute."""
+    unknown = sorted(set(implementation or {}) - set(model.components))
+    if unknown:
+        raise ScenarioError(f"implementation given for unknown component{'s' if len(unknown) > 1 else ''} "
+                            f"{', '.join(unknown)}", file=shown_as, element="implementation")
     fmus: dict[str, LoadedFmu] = {}
     variables: dict[str, dict[str, Var]] = {}
     feed: dict[str, dict[str, set | None]] = {}
     for name, comp in model.components.items():
         where = f"Component {name}"
-        fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source)
-        kind = _fmu_kind(fmu)
-        if kind == "none":
-            raise ScenarioError("the FMU supports neither co-simulation nor model exchange", file=shown_as,
-                                element=where, line=comp.line)
-        if kind == "ModelExchange" and not fmu.fmi_version.startswith("2"):
-            raise ScenarioError(f"model-exchange FMUs are supported for FMI 2.0 only (this is FMI {fmu.fmi_version}); "
-                                "export it for co-simulation", file=shown_as, element=where, line=comp.line)
+        fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source, lenient=lenient)
         if fmu.fmi_version.startswith("1"):
             raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
-        fmus[name] = fmu
+        try:
+            kind = choose_kind(fmu, (implementation or {}).get(name) or comp.implementation)
+        except ValueError as exc:
+            raise ScenarioError(str(exc), file=shown_as, element=where, line=comp.line) from None
+        fmus[name] = dataclasses.replace(fmu, kind=kind)
         variables[name] = _component_variables(name, fmu)
         for conn in comp.connectors.values():
             v = variables[name].get(conn.name)

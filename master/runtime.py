@@ -16,7 +16,7 @@ import numpy as np
 from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
-from .fmi.slave import BASE_TYPES, DTYPES, WARNING
+from .fmi.slave import BASE_TYPES, DTYPES, ERROR, FATAL, OK, WARNING
 from .plan import Link, Plan, Var
 
 
@@ -349,10 +349,24 @@ class Runtime:
             if self.staging[i]:
                 self.publish(i)
 
+    def ends_run_on_request(self, i: int, status: int) -> bool:
+        """After slave i's doStep returned ``status`` above Warning: True when the FMU asked to terminate the
+        simulation (FMI's terminateSimulation). The run then ends normally after this step, with the reason
+        in run.json, as when a monitor stops it."""
+        slave = self.slaves[i]
+        asks = getattr(slave, "asks_to_terminate", None)
+        if asks is None or not asks(status):
+            return False
+        if self.stop_reason is None:
+            self.stop_reason = f"component {slave.name} asked to terminate the simulation"
+        return True
+
     def terminate(self):
-        """Terminate and free every instance; errors here are logged, not raised, to keep the results."""
+        """Terminate and free every instance; errors here are logged, not raised, to keep the results. FMI
+        forbids fmi*Terminate after a call returned Error (only freeInstance is allowed then) and any call
+        after Fatal, so such instances are left alone."""
         for i, slave in enumerate(self.slaves):
-            if slave is None:
+            if slave is None or getattr(slave, "error_status", OK) >= ERROR:
                 continue
             self._at(PHASE_TERMINATE, i)
             try:
@@ -360,7 +374,7 @@ class Runtime:
             except Exception as exc:  # a failing terminate must not hide the run's own outcome
                 self.log.message(slave.name, "warning", f"terminate failed: {exc}")
         for slave in self.slaves:
-            if slave is None:
+            if slave is None or getattr(slave, "error_status", OK) >= FATAL:
                 continue
             try:
                 slave.free()

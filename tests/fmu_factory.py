@@ -95,6 +95,10 @@ class CModel:
     # ME: derivative name -> dependencies
     derivative_deps: dict[str, Optional[list[str]]] = field(default_factory=dict)
     source: Optional[str] = None  # C file, defaults to <name>.c
+    # FMI functions the library does not export, and functions exported under another name only (new name ->
+    # the framework's function): FMUs of tools that predate the final FMI 2.0 names
+    hidden_functions: tuple[str, ...] = ()
+    renamed_functions: dict[str, str] = field(default_factory=dict)
 
     @property
     def c_source(self) -> Path:
@@ -206,6 +210,25 @@ C_MODELS: dict[str, CModel] = {
         versions_kinds={(2, "cs")},
     ),
 }
+
+# FMI 2.0's optional functions (capability flags canGetAndSetFMUstate, canSerializeFMUstate,
+# providesDirectionalDerivative)
+FMI2_OPTIONAL_FUNCTIONS = ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate", "fmi2SerializedFMUstateSize",
+                           "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative")
+# FMUs with deliberate defects, built on request (build_c_fmu) and not among the fixture's keys: the factory's
+# own tests expect complete FMUs
+VARIANT_MODELS: dict[str, CModel] = {}
+VARIANT_MODELS["GainPreRelease"] = CModel(
+    name="GainPreRelease",
+    description="y = k u, as an FMI 2.0 release-candidate exporter (JModelica.org 1.15) builds it: no FMU state or "
+    "directional derivative functions but fmi2DeSerializeFMUstate, spelled fmi2DeserializeFMUstate",
+    variables=C_MODELS["Gain"].variables,
+    output_deps={"y": ["u"]},
+    versions_kinds={(2, "cs")},
+    source="Gain.c",
+    hidden_functions=FMI2_OPTIONAL_FUNCTIONS,
+    renamed_functions={"fmi2DeserializeFMUstate": "fmi2DeSerializeFMUstate"},
+)
 
 PY_MODELS = ("MassA", "MassB", "Integrator", "Gain", "Faulty", "Types")
 
@@ -440,6 +463,18 @@ def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> st
     return "\n".join(out) + "\n"
 
 
+def _export_flags(spec: CModel, tmp: Path) -> list[str]:
+    """Linker flags that leave out ``spec.hidden_functions`` and publish the framework's functions under
+    ``spec.renamed_functions`` (a version script: a named symbol wins over the wildcard)."""
+    if not (spec.hidden_functions or spec.renamed_functions):
+        return []
+    hidden = [*spec.hidden_functions, *spec.renamed_functions.values()]
+    script = tmp / "exports.map"
+    script.write_text("{ global: *; local: " + " ".join(f"{name};" for name in hidden) + " };\n")
+    return [f"-Wl,--version-script={script}"] + [f"-Wl,--defsym={new}={old}"
+                                                for new, old in spec.renamed_functions.items()]
+
+
 def _zip_dir(src: Path, fmu: Path) -> None:
     tmp = fmu.with_name(fmu.name + f".tmp{os.getpid()}")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -459,9 +494,9 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
     fmi_version 2 supports kind "cs" and "me" (as declared per model in
     ``C_MODELS``); fmi_version 3 supports kind "cs".
     """
-    if model not in C_MODELS:
-        raise KeyError(f"unknown C model {model!r}; known: {sorted(C_MODELS)}")
-    spec = C_MODELS[model]
+    spec = C_MODELS.get(model) or VARIANT_MODELS.get(model)
+    if spec is None:
+        raise KeyError(f"unknown C model {model!r}; known: {sorted(C_MODELS)} and {sorted(VARIANT_MODELS)}")
     if (fmi_version, kind) not in spec.versions_kinds:
         raise ValueError(f"{model} is not available as FMI {fmi_version} {kind!r} ({sorted(spec.versions_kinds)})")
     out_dir = Path(out_dir)
@@ -504,6 +539,7 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
             str(so),
             "-lm",
         ]
+        cmd += _export_flags(spec, tmp)
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"gcc failed for {model} (FMI {fmi_version} {kind}):\n{proc.stderr}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     from ctypes import c_double
-    ns: dict = {"_fail": _failer(rt), "_D": c_double}
+    ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double}
     uses_ct = False
     body: list[str] = []
     tail: list[str] = []
@@ -37,7 +37,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         for j, s in enumerate(setters):
             ns[f"s{i}_{j}"] = s
             lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-        lines.append(f"{ind}if (st := {call}) > 1: _fail({i}, 'doStep', st, t)")
+        lines.append(f"{ind}if (st := {call}) > 1: _step_failed({i}, st, t)")
         gets = []
         for j, g in enumerate(getters):
             ns[f"g{i}_{j}"] = g
@@ -63,3 +63,12 @@ def _failer(rt):
     def fail(i, what, status, t):
         raise rt.slaves[i].fail(what, status, t)
     return fail
+
+
+def _step_failer(rt):
+    def step_failed(i, status, t):
+        """A doStep above Warning: an FMU that asked to terminate the simulation ends the run after this
+        step (the rest of the step goes on, so that every output is read at its end); anything else fails."""
+        if not rt.ends_run_on_request(i, status):
+            raise rt.slaves[i].fail("doStep", status, t)
+    return step_failed

@@ -5,6 +5,7 @@ extraction; every instance of the same FMU shares it.
 """
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import tempfile
@@ -30,6 +31,7 @@ class LoadedFmu:
     sha256: str
     unzip_dir: Path
     md: object              # fmpy ModelDescription
+    kind: str | None = None  # the FMI kind a component runs it as (set per component by plan.build_plan)
 
     @property
     def fmi_version(self) -> str:
@@ -37,7 +39,8 @@ class LoadedFmu:
 
 
 _by_stat: dict[tuple, str] = {}
-_by_hash: dict[str, LoadedFmu] = {}
+_by_hash: dict[tuple[str, bool], LoadedFmu] = {}     # (SHA-256, lenient) -> the FMU read that way
+_log = logging.getLogger("cosim_master")
 
 
 def _extract(path: Path, sha: str, shown_as: str) -> Path:
@@ -63,8 +66,10 @@ def _extract(path: Path, sha: str, shown_as: str) -> Path:
     return target
 
 
-def load_fmu(path: str | os.PathLike, shown_as: str | None = None) -> LoadedFmu:
-    """Unpack (once) and read the model description of an FMU."""
+def load_fmu(path: str | os.PathLike, shown_as: str | None = None, lenient: bool = False) -> LoadedFmu:
+    """Unpack (once) and read the model description of an FMU. ``lenient``: a modelDescription.xml that
+    breaks the schema or the standard's rules is accepted when the master can still use it; what was
+    tolerated is logged as warnings (``cosim_master`` logger)."""
     path = Path(path)
     shown_as = shown_as or str(path)
     try:
@@ -76,15 +81,39 @@ def load_fmu(path: str | os.PathLike, shown_as: str | None = None) -> LoadedFmu:
     if sha is None:
         sha = file_sha256(path)
         _by_stat[key] = sha
-    loaded = _by_hash.get(sha)
+    loaded = _by_hash.get((sha, lenient))
     if loaded is not None:
         return loaded if loaded.path == path else LoadedFmu(path, sha, loaded.unzip_dir, loaded.md)
     unzip_dir = _extract(path, sha, shown_as)
+    md = _read_description(unzip_dir, shown_as, lenient)
+    loaded = LoadedFmu(path, sha, unzip_dir, md)
+    _by_hash[(sha, lenient)] = loaded
+    return loaded
+
+
+def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
     from fmpy import read_model_description
     try:
-        md = read_model_description(str(unzip_dir), validate=True)
+        return read_model_description(str(unzip_dir), validate=True)
     except Exception as exc:  # fmpy raises bare Exceptions with the schema message
-        raise FmuError(f"invalid modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
-    loaded = LoadedFmu(path, sha, unzip_dir, md)
-    _by_hash[sha] = loaded
-    return loaded
+        reason = " ".join(str(exc).split())
+    if not lenient:
+        raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as)
+    _log.warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
+    try:
+        md = read_model_description(str(unzip_dir), validate=False)
+    except Exception as exc:
+        raise FmuError(f"unreadable modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
+    for problem in _usability_problems(md):
+        _log.warning("%s: %s", shown_as, problem)
+    return md
+
+
+def _usability_problems(md) -> list[str]:
+    """What a lenient read lets through that changes what the master does with the FMU."""
+    by_name: dict[str, list[int]] = {}
+    for v in md.modelVariables:
+        by_name.setdefault(v.name, []).append(int(v.valueReference))
+    return [f"variable {name!r} is declared {len(vrs)} times (value references {', '.join(map(str, vrs))}); "
+            "the SSD's connectors and parameters reach the last of them"
+            for name, vrs in by_name.items() if len(vrs) > 1]

@@ -5,12 +5,33 @@ from .cache import LoadedFmu
 from .logsink import LogSink
 from .slave import Slave
 
+# what a component may ask for (the SSP Component's implementation attribute)
+IMPLEMENTATIONS = ("any", "ModelExchange", "CoSimulation")
 
-def slave_class(fmu: LoadedFmu, inprocess: bool = True) -> type[Slave]:
-    """Co-simulation is preferred when the FMU offers both kinds; pythonfmu FMUs run in process (their slave
-    class called directly, bit-identical to their binary) unless ``inprocess`` is false."""
+
+def choose_kind(fmu: LoadedFmu, implementation: str = "any") -> str:
+    """The FMI kind ("CoSimulation" or "ModelExchange") a component runs its FMU as: the one asked for, or
+    co-simulation when the FMU offers both. A ValueError says why the FMU cannot run as asked."""
     md = fmu.md
-    if md.coSimulation is None and md.modelExchange is not None:
+    offered = [k for k, part in (("CoSimulation", md.coSimulation), ("ModelExchange", md.modelExchange)) if part]
+    if implementation not in IMPLEMENTATIONS:
+        raise ValueError(f"implementation {implementation!r} is not one of {', '.join(IMPLEMENTATIONS)}")
+    if not offered:
+        raise ValueError("the FMU supports neither co-simulation nor model exchange")
+    wanted = offered[0] if implementation == "any" else implementation
+    if wanted not in offered:
+        raise ValueError(f"implementation {implementation} is asked for, but the FMU offers {offered[0]} only")
+    if wanted == "ModelExchange" and not fmu.fmi_version.startswith("2"):
+        raise ValueError(f"model exchange is supported for FMI 2.0 only (this is FMI {fmu.fmi_version}); "
+                         + ("run it as co-simulation" if "CoSimulation" in offered else "export it for co-simulation"))
+    return wanted
+
+
+def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | None = None) -> type[Slave]:
+    """The class for the kind chosen by :func:`choose_kind` (``implementation`` None: the kind the plan chose
+    for the component, ``fmu.kind``); pythonfmu FMUs run in process (their slave class called directly,
+    bit-identical to their binary) unless ``inprocess`` is false."""
+    if choose_kind(fmu, implementation or fmu.kind or "any") == "ModelExchange":
         from .model_exchange import Fmi2MeSlave
         return Fmi2MeSlave
     if fmu.fmi_version.startswith("3"):
@@ -25,8 +46,8 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True) -> type[Slave]:
 
 
 def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, *, logging_on: bool = False,
-               inprocess: bool = True) -> Slave:
-    cls = slave_class(fmu, inprocess)
+               inprocess: bool = True, implementation: str | None = None) -> Slave:
+    cls = slave_class(fmu, inprocess, implementation)
     from .inprocess import PythonFmuSlave
     if cls is PythonFmuSlave:
         return cls(name, fmu, log, shown_as)

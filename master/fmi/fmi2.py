@@ -6,11 +6,17 @@ import functools
 from ctypes import byref, c_char_p, c_double, c_int, c_uint, c_void_p
 
 from .fmpy_adapter import fmi2_callbacks, load_library
-from .slave import ERROR, OK, Port, Slave
+from .slave import DISCARD, ERROR, OK, WARNING, Port, Slave
+
+FMI2_TERMINATED = 3        # fmi2StatusKind fmi2Terminated: does the slave want to end the simulation?
 
 
 class Fmi2Slave(Slave):
     """FMI 2.0 co-simulation through fmpy's library loading, with direct ctypes calls on the hot path."""
+
+    # the worst status above Discard a call returned: after Error FMI allows only freeInstance (or reset),
+    # after Fatal no call at all (Runtime.terminate reads it)
+    error_status = OK
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
@@ -95,6 +101,20 @@ class Fmi2Slave(Slave):
 
     def do_step(self, t, h) -> int:
         return self._do_step(self.c, t, h, 1)
+
+    def asks_to_terminate(self, status: int) -> bool:
+        """After a doStep returned ``status`` above Warning: whether the slave asks to end the simulation
+        (Discard with fmi2Terminated) instead of failing."""
+        if status != DISCARD:
+            return False
+        terminated = c_int()
+        get = self._f.get("fmi2GetBooleanStatus")
+        return get is not None and get(self.c, FMI2_TERMINATED, byref(terminated)) <= WARNING and bool(terminated.value)
+
+    def fail(self, call, status, time=None):
+        if status > DISCARD:
+            self.error_status = max(self.error_status, status)
+        return super().fail(call, status, time)
 
     def _raw(self, name):
         return self.lib.raw(name)

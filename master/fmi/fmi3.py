@@ -7,7 +7,7 @@ from ctypes import POINTER, byref, c_char_p, c_double, c_uint, c_void_p
 import numpy as np
 
 from .fmpy_adapter import fmi3_callbacks, load_library
-from .slave import ERROR, OK, Port, Slave, array_shape
+from .slave import DISCARD, ERROR, OK, Port, Slave, array_shape
 
 
 def _ptr(arr: np.ndarray, ctype):
@@ -134,7 +134,13 @@ class Fmi3Slave(Slave):
 
     def do_step(self, t, h) -> int:
         a, b, c = self._flags
-        return self._f["fmi3DoStep"](self.c, t, h, True, byref(a), byref(b), byref(c), byref(self._last_successful))
+        st = self._f["fmi3DoStep"](self.c, t, h, True, byref(a), byref(b), byref(c), byref(self._last_successful))
+        # terminateSimulation comes as Discard, so that the master's step tests one number when all is well
+        return max(st, DISCARD) if b else st
+
+    def asks_to_terminate(self, status: int) -> bool:
+        """After do_step returned ``status`` above Warning: whether the FMU asked to end the simulation."""
+        return status == DISCARD and bool(self._flags[1])
 
     def save_state(self, t=None):
         if not self.can_save_state:

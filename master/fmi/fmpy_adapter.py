@@ -1,12 +1,90 @@
 """The one place that reaches into fmpy: loading an FMU's shared library, its raw function table, the
 callback structures, and the CVode solver. fmpy keeps these behind private attributes (``_functions``,
-``dll._handle``), so a change of fmpy breaks this module only."""
+``_loadFunctions``, ``dll._handle``), so a change of fmpy breaks this module only."""
 from __future__ import annotations
 
 import ctypes
+import functools
+import inspect
 import os
+import types
+import typing
 
 from ..errors import FmuError
+
+# Other names under which exporters publish an FMI function: tools that predate the final FMI 2.0 names
+# (JModelica.org 1.15) or capitalise them their own way spell the FMU state functions differently. Looked up
+# only when the standard name is missing.
+ALIASES = {
+    "fmi2GetFMUstate": ("fmi2GetFMUState",),
+    "fmi2SetFMUstate": ("fmi2SetFMUState",),
+    "fmi2FreeFMUstate": ("fmi2FreeFMUState",),
+    "fmi2SerializedFMUstateSize": ("fmi2SerializedFMUStateSize",),
+    "fmi2SerializeFMUstate": ("fmi2SerializeFMUState",),
+    "fmi2DeSerializeFMUstate": ("fmi2DeserializeFMUstate", "fmi2DeserializeFMUState", "fmi2DeSerializeFMUState"),
+}
+
+
+class MissingFunction(KeyError):
+    """The FMU's library exports neither the function nor a known alias of it."""
+
+    def __str__(self):
+        return f"the FMU's binary does not export {self.args[0]}"
+
+
+def _symbol(dll, name: str):
+    """The library's function for ``name`` or a known alias of it (MissingFunction when it has neither)."""
+    for candidate in (name, *ALIASES.get(name, ())):
+        try:
+            return getattr(dll, candidate)
+        except AttributeError:
+            continue
+    raise MissingFunction(name)
+
+
+def _prototype(c_fun, method) -> None:
+    """Argument and result types from fmpy's annotated Python method of the same name (what fmpy's own
+    ``_loadFunctions`` does, for one function)."""
+    sig = inspect.signature(method)
+    argtypes = []
+    for param in sig.parameters.values():
+        annotation = param.annotation
+        if isinstance(annotation, types.UnionType):
+            annotation = typing.get_args(annotation)[0]
+        argtypes.append(annotation)
+    restype = sig.return_annotation
+    restype = ctypes.c_char_p if restype is bytes else ctypes.c_int if restype is int else restype
+    c_fun.argnames = list(sig.parameters)
+    c_fun.argtypes = argtypes
+    c_fun.restype = restype
+
+
+class _LazyFunctions(dict):
+    """fmpy's function table, filled on first use. fmpy looks up every FMI function when it loads a library
+    and refuses an FMU that lacks an optional one or exports it under an older name; here a function is
+    looked up (with its aliases) only when it is called, and a missing one is a MissingFunction then."""
+
+    def __init__(self, fmu):
+        super().__init__()
+        self._fmu = fmu
+
+    def __missing__(self, name: str):
+        method = getattr(self._fmu, name, None)
+        if method is None:                  # not a function of this FMI kind (fmi2DoStep for model exchange)
+            raise MissingFunction(name)
+        c_fun = _symbol(self._fmu.dll, name)
+        _prototype(c_fun, method)
+        self[name] = c_fun
+        return c_fun
+
+
+@functools.cache
+def _lazy(cls):
+    """fmpy's FMU class with the function table filled on demand instead of all at once."""
+    class Lazy(cls):
+        def _loadFunctions(self):
+            self._functions = _LazyFunctions(self)
+    return Lazy
 
 
 class Library:
@@ -21,7 +99,11 @@ class Library:
         return self.functions[name]
 
     def get(self, name: str):
-        return self.functions.get(name)
+        """The function, or None when the FMU does not export it (optional functions)."""
+        try:
+            return self.functions[name]
+        except MissingFunction:
+            return None
 
     def bind_instance(self, component) -> None:
         """fmpy's own methods (used for model exchange) act on this instance."""
@@ -35,7 +117,7 @@ class Library:
         this thread finds the GIL already held, which PyGILState_Ensure allows)."""
         if self._pydll is None:
             self._pydll = ctypes.PyDLL(self.obj.dll._name, handle=self.obj.dll._handle)
-        return self._pydll[name]
+        return _symbol(self._pydll, name)
 
 
 def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str) -> Library:
@@ -52,8 +134,8 @@ def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str
         raise ValueError(kind)
     cwd = os.getcwd()
     try:
-        return Library(cls(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir), modelIdentifier=model_identifier,
-                           instanceName=name))
+        return Library(_lazy(cls)(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir),
+                                  modelIdentifier=model_identifier, instanceName=name))
     except Exception as exc:
         raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
                        element=f"component {name}") from None

@@ -248,6 +248,11 @@ class PythonFmuSlave(Slave):
             return OK if ok else DISCARD
         return op
 
+    def asks_to_terminate(self, status: int) -> bool:
+        """A do_step that returned False is a Discard, which pythonfmu's binary reports together with
+        fmi2Terminated: the slave asks to end the simulation (the same here as through the binary)."""
+        return status == DISCARD
+
     def _step_error(self, t, h):
         exc = sys.exc_info()[1]
         self.log.message(self.name, "error", f"do_step: {type(exc).__name__}: {exc}")

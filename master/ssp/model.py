@@ -33,6 +33,7 @@ class Component:
     type: str
     connectors: dict[str, Connector] = field(default_factory=dict)
     line: int | None = None
+    implementation: str = "any"   # SSP: the FMI kind to run, "any", "ModelExchange" or "CoSimulation"
 
 
 @dataclass

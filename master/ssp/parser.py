@@ -151,7 +151,8 @@ class _Reader:
         if not fmu_path.is_file():
             raise ScenarioError(f"FMU {source!r} not found in the scenario", file=shown_as, element=where,
                                 line=el.sourceline)
-        comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline)
+        comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline,
+                         el.get("implementation", "any"))
         self.components[path] = comp
         self.read_bindings(el, path, shown_as, ssd_dir, is_component=True)
 

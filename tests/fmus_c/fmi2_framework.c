@@ -88,7 +88,7 @@ static fmi2Status check(Instance *inst, const char *fname, unsigned allowed)
         return fmi2Fatal;
     }
     if (!(allowed & MASK(inst->state))) {
-        LOGE(inst, "%s: call not allowed in the current state (%d)", fname, (int)inst->state);
+        LOGE(inst, "%s: illegal call sequence: not allowed in the current state (%d)", fname, (int)inst->state);
         return fmi2Error;
     }
     return fmi2OK;
@@ -235,7 +235,8 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 fmi2Status fmi2Terminate(fmi2Component c)
 {
     Instance *inst = (Instance *)c;
-    if (check(inst, "fmi2Terminate", MASK(ST_STEP) | MASK(ST_EVENT) | MASK(ST_ERROR)) != fmi2OK)
+    /* FMI 2.0: after Error only fmi2FreeInstance and fmi2Reset */
+    if (check(inst, "fmi2Terminate", MASK(ST_STEP) | MASK(ST_EVENT)) != fmi2OK)
         return fmi2Error;
     inst->state = ST_TERMINATED;
     return fmi2OK;
