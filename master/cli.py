@@ -20,6 +20,18 @@ def _kv(items, what):
     return out
 
 
+IMPLEMENTATIONS = {"me": "ModelExchange", "cs": "CoSimulation", "any": "any"}
+
+
+def _implementations(items) -> dict | None:
+    out = {}
+    for comp, kind in _kv(items, "--implementation").items():
+        if kind.strip().lower() not in IMPLEMENTATIONS:
+            raise CosimError(f"{comp}: expected me, cs or any, got {kind!r}", element="--implementation")
+        out[comp] = IMPLEMENTATIONS[kind.strip().lower()]
+    return out or None
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
@@ -58,6 +70,11 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--progress", action="store_true", help="show a progress bar")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
+    r.add_argument("--implementation", action="append", metavar="COMPONENT=me|cs", default=[],
+                   help="run the component's FMU as model exchange or co-simulation (default: the SSD's "
+                        "implementation attribute, else co-simulation when the FMU offers both); repeatable")
+    r.add_argument("--lenient", action="store_true",
+                   help="accept slightly non-conforming modelDescription.xml files, saying what was tolerated")
     r.add_argument("--allow-nonfinite", action="store_true",
                    help="let NaN and infinite values through (default: a parameter or output that is not finite "
                         "ends the run with an error at the step it appears)")
@@ -142,7 +159,8 @@ def _dispatch(args) -> int:
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
-                       tolerance=args.tolerance)
+                       tolerance=args.tolerance, lenient=args.lenient,
+                       implementation=_implementations(args.implementation))
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

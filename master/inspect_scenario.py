@@ -18,7 +18,7 @@ def inspect(scenario, **overrides) -> dict:
             md = fmu.md
             info["components"][name] = {
                 "source": comp.source, "fmi_version": md.fmiVersion,
-                "kind": "CoSimulation" if md.coSimulation else "ModelExchange",
+                "kind": fmu.kind,
                 "model_name": md.modelName, "generation_tool": md.generationTool, "sha256": fmu.sha256,
                 "connectors": [{"name": c.name, "kind": c.kind, "type": c.type or plan.variables[name][c.name].fmi_type,
                                 "unit": c.unit or plan.variables[name][c.name].unit}

@@ -16,7 +16,7 @@ import numpy as np
 from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
-from .fmi.slave import BASE_TYPES, DTYPES, ERROR, FATAL, OK, WARNING
+from .fmi.slave import BASE_TYPES, DTYPES, ERROR, FATAL, WARNING
 from .plan import Link, Plan, Var
 
 
@@ -354,8 +354,7 @@ class Runtime:
         simulation (FMI's terminateSimulation). The run then ends normally after this step, with the reason
         in run.json, as when a monitor stops it."""
         slave = self.slaves[i]
-        asks = getattr(slave, "asks_to_terminate", None)
-        if asks is None or not asks(status):
+        if not slave.asks_to_terminate(status):
             return False
         if self.stop_reason is None:
             self.stop_reason = f"component {slave.name} asked to terminate the simulation"
@@ -366,7 +365,7 @@ class Runtime:
         forbids fmi*Terminate after a call returned Error (only freeInstance is allowed then) and any call
         after Fatal, so such instances are left alone."""
         for i, slave in enumerate(self.slaves):
-            if slave is None or getattr(slave, "error_status", OK) >= ERROR:
+            if slave is None or slave.error_status >= ERROR:
                 continue
             self._at(PHASE_TERMINATE, i)
             try:
@@ -374,7 +373,7 @@ class Runtime:
             except Exception as exc:  # a failing terminate must not hide the run's own outcome
                 self.log.message(slave.name, "warning", f"terminate failed: {exc}")
         for slave in self.slaves:
-            if slave is None or getattr(slave, "error_status", OK) >= FATAL:
+            if slave is None or slave.error_status >= FATAL:
                 continue
             try:
                 slave.free()

@@ -16,7 +16,6 @@ class Fmi2Slave(Slave):
 
     # the worst status above Discard a call returned: after Error FMI allows only freeInstance (or reset),
     # after Fatal no call at all (Runtime.terminate reads it)
-    error_status = OK
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
@@ -110,11 +109,6 @@ class Fmi2Slave(Slave):
         terminated = c_int()
         get = self._f.get("fmi2GetBooleanStatus")
         return get is not None and get(self.c, FMI2_TERMINATED, byref(terminated)) <= WARNING and bool(terminated.value)
-
-    def fail(self, call, status, time=None):
-        if status > DISCARD:
-            self.error_status = max(self.error_status, status)
-        return super().fail(call, status, time)
 
     def _raw(self, name):
         return self.lib.raw(name)

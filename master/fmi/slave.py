@@ -72,6 +72,7 @@ class Slave(abc.ABC):
     """
     kind = "CoSimulation"
     can_save_state = False
+    error_status = OK       # the worst status above Discard a call returned: FMI allows no Terminate after Error
 
     def __init__(self, name: str, fmu: LoadedFmu, log: LogSink, shown_as: str):
         self.name = name
@@ -150,7 +151,14 @@ class Slave(abc.ABC):
     raw_step = None
 
     # -- errors -------------------------------------------------------------------------------------------
+    def asks_to_terminate(self, status: int) -> bool:
+        """After a doStep returned ``status`` above Warning: whether the FMU asks to end the simulation
+        (terminateSimulation) instead of failing."""
+        return False
+
     def fail(self, call: str, status: int, time: float | None = None) -> FmuError:
+        if status > DISCARD:
+            self.error_status = max(self.error_status, status)
         detail = self.log.pop_error(self.name)
         reason = f"{call} returned {STATUS_NAME.get(status, status)}"
         if detail:

@@ -3,6 +3,9 @@ Modelica Reference FMUs' own results (``ref/*.csv``), hand computations, and the
 standard allows (our C framework logs "illegal call sequence" for any other)."""
 import json
 import logging
+import os
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -246,3 +249,22 @@ def test_lenient_reads_a_duplicate_variable_name_with_a_warning(tmp_path, test_f
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert any("modelDescription.xml is not valid" in w for w in warnings), warnings
     assert any("variable 'k' is declared 2 times (value references 0, 0)" in w for w in warnings), warnings
+
+
+def _cli(args):
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+    return subprocess.run([sys.executable, "-m", "master.cli"] + args, capture_output=True, text=True,
+                          timeout=120, env=env)
+
+
+def test_the_command_line_chooses_the_implementation(tmp_path, reference_fmus):
+    b = SspBuilder("vdp", stop=1.0, step=0.01)
+    b.add_component("vdp", reference_fmus / "fmi2" / "VanDerPol.fmu")
+    ssp = b.write(tmp_path / "vdp.ssp")
+    for choice, kind in (("me", "ModelExchange"), ("cs", "CoSimulation")):
+        out = tmp_path / choice
+        r = _cli(["run", str(ssp), "-o", str(out), "--implementation", f"vdp={choice}"])
+        assert r.returncode == 0, r.stderr
+        assert json.loads((out / "run.json").read_text())["fmus"]["vdp"]["kind"] == kind
+    r = _cli(["run", str(ssp), "-o", str(tmp_path / "x"), "--implementation", "vdp=fast"])
+    assert r.returncode == 1 and "--implementation: vdp: expected me, cs or any, got 'fast'" in r.stderr
