@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
 from .fmi.factory import choose_kind
-from .fmi.slave import INTEGER_BASES, array_shape, base_type
+from .fmi.slave import INTEGER_BASES, OBJECT_FILL, array_shape, base_type
 from .ssp.model import Connection, SystemModel
 from .units import conversion, unit_from_fmu
 
@@ -24,10 +24,11 @@ KIND_CAUSALITY = {
     "parameter": {"parameter", "structuralParameter"},
     "calculatedParameter": {"calculatedParameter"},
 }
-# SSD connector types and the FMU variable types they may describe
+# SSD connector types and the FMU variable types they may describe (an enumeration's values are integers, and
+# an SSD Integer connector is how one is declared without the SSD's own enumeration definitions)
 SSD_TYPE_FMI = {
     "Real": {"Real", "Float64", "Float32"},
-    "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64"},
+    "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Enumeration"},
     "Boolean": {"Boolean"},
     "String": {"String"},
     "Enumeration": {"Enumeration"},
@@ -141,7 +142,7 @@ def _component_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
 def _array_start(v: Var, text, size: int) -> tuple:
     """The start values of an array (a space-separated list in FMI 3), zeros (or false, "") when it has none."""
     if text is None:
-        return (({"Real": 0.0, "Boolean": False, "String": ""}).get(v.type, 0),) * size
+        return (({"Real": 0.0, "Boolean": False, **OBJECT_FILL}).get(v.type, 0),) * size
     return tuple(parse_value(v, raw, v.qualified, allow_nonfinite=True) for raw in str(text).split())
 
 
@@ -211,7 +212,7 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
             if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
                 raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
                                     element=here, line=conn.line)
-            if v.type not in ("Real", *INTEGER_BASES, "Boolean", "String"):
+            if v.type not in ("Real", *INTEGER_BASES, "Boolean", *OBJECT_FILL):
                 raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
                                     element=here, line=conn.line)
         outs = {}
@@ -375,7 +376,10 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
         link.offset = t.factor * link.offset + t.offset
         link.factor = t.factor * link.factor
     elif t is not None and t.kind == "map":
-        conv = {"Integer": int, "Int64": int, "UInt64": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}[src.type]
+        conv = {"Integer": int, "Int64": int, "UInt64": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}.get(src.type)
+        if conv is None:
+            raise ScenarioError(f"a mapping transformation cannot map {src.fmi_type} values", file=shown_as,
+                                element=where, line=c.line)
         try:
             link.mapping = {conv(k): conv(v) for k, v in t.mapping.items()}
         except ValueError:
@@ -404,7 +408,7 @@ def _check_value(v: Var, value, ssp_type, origin, where):
     file = origin.rsplit(":", 1)[0]
     integer = ("Integer", "Enumeration")
     compatible = {"Real": ("Real",), "Integer": integer, "Int64": integer, "UInt64": integer,
-                  "Boolean": ("Boolean",), "String": ("String",)}
+                  "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}
     if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
         return value
     if ssp_type not in compatible.get(v.type, ()):
@@ -454,6 +458,8 @@ def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
                 if low not in ("true", "false", "1", "0"):
                     raise ValueError
                 value = low in ("true", "1")
+            elif v.type == "Binary":
+                value = bytes.fromhex(raw)       # as FMI 3 writes Binary start values: hexadecimal digits
         except ValueError:
             raise ScenarioError(f"{raw!r} is not a valid {v.fmi_type} for {v.qualified}",
                                 element=f"--param {where}") from None

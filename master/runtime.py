@@ -16,12 +16,8 @@ import numpy as np
 from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
-from .fmi.slave import BASE_TYPES, DTYPES, ERROR, FATAL, WARNING
+from .fmi.slave import BASE_TYPES, ERROR, FATAL, WARNING, new_buffer
 from .plan import Link, Plan, Var
-
-
-def _dtype(t):
-    return DTYPES.get(t, object)
 
 
 PHASE_INSTANTIATE, PHASE_INITIALIZE, PHASE_STEP, PHASE_TERMINATE = 1, 2, 3, 4
@@ -84,7 +80,7 @@ class Runtime:
                 slices.append((pos - len(reads[i][t]), pos))
             held = self._held_slots(t, pos)
             pos += len(held)
-            self.out[t] = np.zeros(pos, dtype=_dtype(t)) if t != "String" else np.full(pos, "", dtype=object)
+            self.out[t] = new_buffer(t, pos)
             for p, value in held:
                 self.out[t][p] = value
             self.out_slice[t] = slices
@@ -105,8 +101,7 @@ class Runtime:
         self.in_slice: dict[str, list[tuple[int, int]]] = {}
         for t in BASE_TYPES:
             links = [ln for i in range(n) for ln in writes[i][t]] + [ln for i in range(n) for ln in init_writes[i][t]]
-            self.inb[t] = (np.zeros(len(links), dtype=_dtype(t)) if t != "String"
-                           else np.full(len(links), "", dtype=object))
+            self.inb[t] = new_buffer(t, len(links))
             self.src[t] = np.array([self._held_pos.get(id(ln)) if ln.src is None else self.out_pos[ln.src.qualified]
                                     for ln in links], dtype=np.intp)
             self.factor[t] = np.array([ln.factor for ln in links], dtype=np.float64)

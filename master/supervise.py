@@ -116,8 +116,7 @@ class _ChildRecording(Recording):
     def sample(self, t):
         super().sample(t)
         if self.str_:
-            s = self.rt.out["String"]
-            self.conn.send(("str", [s[p] for p in self.str_pos]))
+            self.conn.send(("str", self.object_row()))
         self.header[H_LAST_ROW] = t
         self.header[H_FILL] = self.fill
 
@@ -356,7 +355,7 @@ class _Supervisor:
         if n <= 0:
             return 0
         str_rows = self.pending_str[:n]
-        if len(str_rows) < n and any(f.type == pa.string() for f in self.schema):
+        if len(str_rows) < n and any(f.type in (pa.string(), pa.binary()) for f in self.schema):
             n = len(str_rows)      # a row whose strings never arrived is incomplete
         if n == 0:
             return 0

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, byref, c_char_p, c_double, c_uint, c_void_p
+from ctypes import POINTER, byref, c_char_p, c_double, c_size_t, c_uint, c_uint8, c_void_p
 
 import numpy as np
 
@@ -12,6 +12,14 @@ from .slave import DISCARD, ERROR, OK, Port, Slave, array_shape
 
 def _ptr(arr: np.ndarray, ctype):
     return arr.ctypes.data_as(POINTER(ctype))
+
+
+def _binary_args(values) -> tuple:
+    """FMI 3 Binary arguments for ``values`` (bytes): the sizes and the pointers. The pointers lead into the
+    bytes objects themselves (no copy), which the caller keeps alive for the call."""
+    n = len(values)
+    return (c_size_t * n)(*map(len, values)), (POINTER(c_uint8) * n)(*(ctypes.cast(c_char_p(b), POINTER(c_uint8))
+                                                                       for b in values))
 
 
 class Fmi3Slave(Slave):
@@ -72,6 +80,9 @@ class Fmi3Slave(Slave):
         n = len(values)
         if t3 == "String":
             return self._f["fmi3SetString"](self.c, vrs, 1, (c_char_p * n)(*(str(x).encode() for x in values)), n)
+        if t3 == "Binary":
+            data = [bytes(x) for x in values]
+            return self._f["fmi3SetBinary"](self.c, vrs, 1, *_binary_args(data), n)
         return self._fn("Set", t3)(self.c, vrs, 1, (self._CT[t3] * n)(*values), n)
 
     def _collapse(self, vrs) -> np.ndarray:
@@ -93,6 +104,8 @@ class Fmi3Slave(Slave):
             g_vrs = self._collapse(per_value[idx])
             if t3 == "String":
                 scratch = (c_char_p * len(idx))()
+            elif t3 == "Binary":         # the sizes and the pointers the FMU fills in
+                scratch = ((c_size_t * len(idx))(), (POINTER(c_uint8) * len(idx))())
             else:
                 scratch = (self._CT[t3] * len(idx))()
             groups.append((t3, idx, len(g_vrs), _ptr(g_vrs, c_uint), scratch, g_vrs))
@@ -110,6 +123,12 @@ class Fmi3Slave(Slave):
                 st = self._f["fmi3GetString"](self.c, vr_ptr, nvr, scratch, n)
                 for k, i in enumerate(idx):
                     port.buf[i] = scratch[k].decode("utf-8", "replace") if scratch[k] else ""
+            elif t3 == "Binary":
+                sizes, pointers = scratch
+                st = self._f["fmi3GetBinary"](self.c, vr_ptr, nvr, sizes, pointers, n)
+                # the FMU's memory is only valid until its next call: copy the bytes out now
+                for k, i in enumerate(idx):
+                    port.buf[i] = ctypes.string_at(pointers[k], sizes[k]) if pointers[k] else b""
             else:
                 st = self._fn("Get", t3)(self.c, vr_ptr, nvr, scratch, n)
                 port.buf[idx] = np.ctypeslib.as_array(scratch) if t3 != "Boolean" else [bool(x) for x in scratch]
@@ -125,6 +144,9 @@ class Fmi3Slave(Slave):
             if t3 == "String":
                 scratch[:] = [str(port.buf[i]).encode() for i in idx]
                 st = self._f["fmi3SetString"](self.c, vr_ptr, nvr, scratch, n)
+            elif t3 == "Binary":
+                data = [bytes(port.buf[i]) for i in idx]
+                st = self._f["fmi3SetBinary"](self.c, vr_ptr, nvr, *_binary_args(data), n)
             else:
                 vals = port.buf[idx]
                 scratch[:] = [bool(x) for x in vals] if t3 == "Boolean" else vals.tolist()

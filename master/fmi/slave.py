@@ -23,16 +23,19 @@ OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 # FMI type whose values it holds exactly goes there. "Integer" (int32) keeps FMI 2.0 Integer and FMI 3.0 types
 # up to Int32 where they always were (the hot path and its results unchanged); FMI 3.0 UInt32 and Int64 need
 # "Int64" (int64 holds every UInt32), UInt64 its own "UInt64". Two more buffers rather than one per FMI type:
-# a slave moves each buffer with one port, so fewer buffers mean fewer calls per step.
-BASE_TYPES = ("Real", "Integer", "Int64", "UInt64", "Boolean", "String")
+# a slave moves each buffer with one port, so fewer buffers mean fewer calls per step. String and FMI 3.0
+# Binary (bytes) are object buffers of their own, which a Real/Integer-only system never touches.
+BASE_TYPES = ("Real", "Integer", "Int64", "UInt64", "Boolean", "String", "Binary")
 DTYPES = {"Real": np.float64, "Integer": np.int32, "Int64": np.int64, "UInt64": np.uint64, "Boolean": np.int32}
 INTEGER_BASES = ("Integer", "Int64", "UInt64")
+# the buffers of Python objects and the value an empty slot holds
+OBJECT_FILL = {"String": "", "Binary": b""}
 
 FMI3_TYPE_BASE = {
     "Float64": "Real", "Float32": "Real",
     "Int8": "Integer", "UInt8": "Integer", "Int16": "Integer", "UInt16": "Integer",
     "Int32": "Integer", "UInt32": "Int64", "Int64": "Int64", "UInt64": "UInt64",
-    "Enumeration": "Integer", "Boolean": "Boolean", "String": "String",
+    "Enumeration": "Integer", "Boolean": "Boolean", "String": "String", "Binary": "Binary",
 }
 FMI2_TYPE_BASE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean",
                   "String": "String"}
@@ -43,6 +46,13 @@ def array_shape(v, by_vr: dict) -> tuple[int, ...]:
     structural parameter ``valueReference`` names (``by_vr``: value reference -> model variable)."""
     return tuple(int(d.start) if d.start is not None else int(by_vr[d.valueReference].start)
                  for d in getattr(v, "dimensions", None) or ())
+
+
+def new_buffer(typ: str, size: int) -> np.ndarray:
+    """A zeroed buffer of the base type ``typ`` (empty strings or bytes for the object buffers)."""
+    if typ in OBJECT_FILL:
+        return np.full(size, OBJECT_FILL[typ], dtype=object)
+    return np.zeros(size, dtype=DTYPES[typ])
 
 
 def base_type(fmi_version: str, var_type: str) -> str | None:

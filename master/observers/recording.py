@@ -13,12 +13,13 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from ..fmi.slave import OBJECT_FILL
 from ..plan import Var
 from ..sinks.group import SinkGroup
 from .base import Observer
 
 ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Int64": pa.int64(), "UInt64": pa.uint64(),
-               "Boolean": pa.bool_(), "String": pa.string()}
+               "Boolean": pa.bool_(), "String": pa.string(), "Binary": pa.binary()}
 # FMI 3.0 integers get a column of their own width (FMI 2.0 Integer and enumerations stay int32)
 FMI3_INT_ARROW = {"Int8": pa.int8(), "UInt8": pa.uint8(), "Int16": pa.int16(), "UInt16": pa.uint16(),
                   "Int32": pa.int32(), "UInt32": pa.uint32(), "Int64": pa.int64(), "UInt64": pa.uint64()}
@@ -55,21 +56,23 @@ NUMERIC_ORDER = ("Real", "Integer", "Int64", "UInt64", "Boolean")
 BIT_STORED = ("Int64", "UInt64")
 _BASE_OF = {pa.float64(): "Real", pa.int8(): "Integer", pa.uint8(): "Integer", pa.int16(): "Integer",
             pa.uint16(): "Integer", pa.int32(): "Integer", pa.uint32(): "Int64", pa.int64(): "Int64",
-            pa.uint64(): "UInt64", pa.bool_(): "Boolean", pa.string(): "String"}
+            pa.uint64(): "UInt64", pa.bool_(): "Boolean", pa.string(): "String", pa.binary(): "Binary"}
 
 
-def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list[str]]) -> pa.Table:
+def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> pa.Table:
     """A block of rows as a table: ``block`` holds time then the numeric columns grouped by buffer type
-    (``NUMERIC_ORDER``, each in schema order), ``str_rows`` the string columns of each row, in schema order."""
+    (``NUMERIC_ORDER``, each in schema order), ``str_rows`` the object (String and Binary) columns of each row,
+    in schema order."""
     fields = list(schema)[1:]
     kinds = [_BASE_OF[f.type] for f in fields]
-    numeric = sorted((k for k, kind in enumerate(kinds) if kind != "String"), key=lambda k: NUMERIC_ORDER.index(kinds[k]))
+    numeric = sorted((k for k, kind in enumerate(kinds) if kind not in OBJECT_FILL),
+                     key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
     arrays = [pa.array(block[:, 0])]
     j = 0
     for k, kind in enumerate(kinds):
-        if kind == "String":
-            arrays.append(pa.array([r[j] for r in str_rows], type=pa.string()))
+        if kind in OBJECT_FILL:
+            arrays.append(pa.array([r[j] for r in str_rows], type=fields[k].type))
             j += 1
             continue
         col = block[:, column_of[k]]
@@ -116,12 +119,13 @@ class Recording(Observer):
         rt = self.rt = ctx.rt
         variables = self.variables
         # numeric values share one 8-byte-a-cell block, grouped by buffer type so that each type fills a
-        # contiguous run of columns with one np.take per row
-        self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type != "String"),
+        # contiguous run of columns with one np.take per row; String and Binary values are kept per row as
+        # Python objects (``str_``, named for the strings that came first)
+        self.num = sorted(((k, v) for k, v in enumerate(variables) if v.type not in OBJECT_FILL),
                           key=lambda kv: NUMERIC_ORDER.index(kv[1].type))
-        self.str_ = [(k, v) for k, v in enumerate(variables) if v.type == "String"]
+        self.str_ = [(k, v) for k, v in enumerate(variables) if v.type in OBJECT_FILL]
         self.block = self._new_block(self.block_rows, 1 + len(self.num))
-        self.str_rows: list[list[str]] = []
+        self.str_rows: list[list] = []
         self.fill = 0
         self.gather = []
         col = 1
@@ -130,7 +134,7 @@ class Recording(Observer):
             if pos:
                 self.gather.append((rt.out[typ], np.array(pos, dtype=np.intp), col, col + len(pos)))
                 col += len(pos)
-        self.str_pos = [rt.out_pos[v.qualified] for _, v in self.str_]
+        self.str_pos = [(rt.out[v.type], rt.out_pos[v.qualified]) for _, v in self.str_]
         self.group.open(self.schema)
         self.sample(start)
 
@@ -154,11 +158,14 @@ class Recording(Observer):
             else:
                 row[a:b] = out[pos]
         if self.str_:
-            s = self.rt.out["String"]
-            self.str_rows.append([s[p] for p in self.str_pos])
+            self.str_rows.append(self.object_row())
         self.fill += 1
         if self.fill == self.block_rows:
             self.flush()
+
+    def object_row(self) -> list:
+        """The String and Binary values of the current row, in schema order."""
+        return [buf[p] for buf, p in self.str_pos]
 
     def _table(self) -> pa.Table:
         return block_table(self.schema, self.block[: self.fill], self.str_rows)

@@ -1,4 +1,5 @@
-"""results.csv: a header, then one line per row; doubles written with repr (they read back exactly)."""
+"""results.csv: a header, then one line per row; doubles written with repr (they read back exactly), FMI 3.0
+Binary values as lowercase hexadecimal digits (as the FMI cross-check results write them)."""
 from __future__ import annotations
 
 import pyarrow as pa
@@ -34,6 +35,8 @@ class CsvSink(Sink):
                 cols.append(["true" if x else "false" for x in vals])
             elif pa.types.is_string(typ):
                 cols.append([csv_quote(str(x)) for x in vals])
+            elif pa.types.is_binary(typ):
+                cols.append([x.hex() for x in vals])
             else:
                 cols.append([str(int(x)) for x in vals])
         self._fh.write("".join(",".join(r) + "\n" for r in zip(*cols)))

@@ -1,6 +1,7 @@
 """results.parquet: one row group per block."""
 from __future__ import annotations
 
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 from . import SINKS
@@ -45,9 +46,11 @@ class ParquetSink(Sink):
             os.replace(self.path, kept)
             return f"{self.path.name} could not be completed and there is no CSV to rebuild it from: kept as {kept.name}"
         self.path.unlink(missing_ok=True)     # its space is what the rebuilt file needs
-        opts = pc.ConvertOptions(column_types={f.name: f.type for f in schema}, strings_can_be_null=False,
+        # Binary columns are hexadecimal text in the CSV: read as text, then decoded
+        opts = pc.ConvertOptions(column_types={f.name: pa.string() if pa.types.is_binary(f.type) else f.type
+                                               for f in schema}, strings_can_be_null=False,
                                  quoted_strings_can_be_null=False)
-        table = pc.read_csv(str(csv.path), convert_options=opts)
+        table = _hex_decoded(pc.read_csv(str(csv.path), convert_options=opts), schema)
         tmp = self.path.with_name(f".{self.path.name}.tmp")
         pq.write_table(table, str(tmp))
         os.replace(tmp, self.path)
@@ -56,3 +59,12 @@ class ParquetSink(Sink):
 
     def files(self):
         return [self.path]
+
+
+def _hex_decoded(table: pa.Table, schema: pa.Schema) -> pa.Table:
+    """The table with its Binary columns (hexadecimal text in the CSV) turned back into bytes."""
+    for k, f in enumerate(schema):
+        if pa.types.is_binary(f.type):
+            values = [bytes.fromhex(x) for x in table.column(k).to_pylist()]
+            table = table.set_column(k, f, pa.array(values, type=pa.binary()))
+    return table

@@ -287,8 +287,8 @@ class _Reader:
                 if raw.strip().lower() not in ("true", "false", "1", "0"):
                     raise ValueError(raw)
                 return raw.strip().lower() in ("true", "1")
-            if typ == "Enumeration":
-                return raw
+            if typ == "Binary":
+                return bytes.fromhex(raw)      # ssv:Binary values are xs:hexBinary
             return raw
         except (TypeError, ValueError):
             raise ScenarioError(f"value {raw!r} is not a valid {typ}", file=shown_as,

@@ -35,6 +35,8 @@ def _fmt(v):
         return "true" if v else "false"
     if isinstance(v, float):
         return repr(v)
+    if isinstance(v, bytes):
+        return v.hex()          # ssv:Binary values are xs:hexBinary
     return str(v)
 
 
@@ -80,7 +82,8 @@ class SspBuilder:
         kinds = {c[0]: c[2] for c in connectors}
         for k, v in params.items():
             t = kinds.get(k) or ("Boolean" if isinstance(v, bool) else "Integer" if isinstance(v, int)
-                                 else "Real" if isinstance(v, float) else "String")
+                                 else "Real" if isinstance(v, float) else "Binary" if isinstance(v, bytes)
+                                 else "String")
             typed[k] = (t, v)
         self.components.append(_Comp(name, fmu_path, list(connectors), typed, f"{name}.ssv" if ssv else None))
         return self
