@@ -54,6 +54,9 @@ def _parser() -> argparse.ArgumentParser:
                         "a non-empty folder of other files is refused")
     r.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[],
                    help="set a parameter or start value (in the variable's own unit); repeatable")
+    r.add_argument("--input", metavar="FILE.csv",
+                   help="drive the inputs of a one-FMU scenario from a CSV file: a 'time' column, then one column "
+                        "per input, named as the input (the FMI cross-check _in.csv format)")
     r.add_argument("--record", action="append", metavar="PATTERN", default=[],
                    help="record the variables whose 'component.variable' matches this shell pattern "
                         "(default: every connected output); repeatable")
@@ -160,7 +163,7 @@ def _dispatch(args) -> int:
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
                        tolerance=args.tolerance, lenient=args.lenient,
-                       implementation=_implementations(args.implementation))
+                       implementation=_implementations(args.implementation), inputs=args.input)
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

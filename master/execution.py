@@ -73,6 +73,7 @@ class Options:
     output_prepared: bool = False                     # the caller made the folder for this run (a campaign puts the
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
+    inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
 
 
 @dataclass
@@ -87,14 +88,14 @@ class Prepared:
 
 
 def prepare(scenario, *, params: dict | None = None, seed: int | None = None, allow_nonfinite: bool = False,
-            lenient: bool = False, implementation: dict | None = None) -> Prepared:
+            lenient: bool = False, implementation: dict | None = None, inputs=None) -> Prepared:
     scenario = Path(scenario)
     shown_as = str(scenario)
     src = open_scenario(scenario)
     try:
         model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
         plan = build_plan(model, shown_as, allow_nonfinite=allow_nonfinite, lenient=lenient,
-                          implementation=implementation)
+                          implementation=implementation, inputs=inputs)
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
         user_params.update(params or {})
         add_overrides(plan, user_params, allow_nonfinite)
@@ -164,7 +165,7 @@ class Execution:
         if self.scenario.is_file():
             meta["scenario_sha256"] = file_sha256(self.scenario)
         self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed, allow_nonfinite=o.allow_nonfinite,
-                                    lenient=o.lenient, implementation=o.implementation)
+                                    lenient=o.lenient, implementation=o.implementation, inputs=o.inputs)
         model, plan, shown_as = p.model, p.plan, p.shown_as
         st = self.settings = resolve_settings(
             model, shown_as, start_time=o.start_time, stop_time=o.stop_time, step=o.step, algorithm=o.algorithm,

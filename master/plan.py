@@ -9,12 +9,14 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 from .errors import ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
 from .fmi.factory import choose_kind
 from .fmi.slave import INTEGER_BASES, OBJECT_FILL, array_shape, base_type
-from .ssp.model import Connection, SystemModel
+from .fmi.table import TableColumn, column_values, csv_source, read_csv_table
+from .ssp.model import CSV_SOURCE_TYPE, Component, Connection, Connector, SystemModel
 from .units import conversion, unit_from_fmu
 
 # SSD connector kinds and the FMU causalities they may describe
@@ -174,10 +176,11 @@ def _element_feedthrough(plan_vars: dict[str, Var], outs: dict) -> dict:
 
 def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | None = None,
                allow_nonfinite: bool = False, lenient: bool = False,
-               implementation: dict[str, str] | None = None) -> Plan:
+               implementation: dict[str, str] | None = None, inputs=None) -> Plan:
     """``lenient``: modelDescription.xml files are read as far as the master can use them (see
     ``fmi.cache.load_fmu``); ``implementation``: component -> "ModelExchange" / "CoSimulation" / "any",
-    over the SSD's implementation attribute."""
+    over the SSD's implementation attribute; ``inputs``: a CSV file whose columns drive the inputs of the
+    scenario's one FMU (``run --input``, the FMI cross-check ``_in.csv`` format)."""
     unknown = sorted(set(implementation or {}) - set(model.components))
     if unknown:
         raise ScenarioError(f"implementation given for unknown component{'s' if len(unknown) > 1 else ''} "
@@ -186,40 +189,18 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     variables: dict[str, dict[str, Var]] = {}
     feed: dict[str, dict[str, set | None]] = {}
     for name, comp in model.components.items():
-        where = f"Component {name}"
-        fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source, lenient=lenient)
-        if fmu.fmi_version.startswith("1"):
-            raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
-        try:
-            kind = choose_kind(fmu, (implementation or {}).get(name) or comp.implementation)
-        except ValueError as exc:
-            raise ScenarioError(str(exc), file=shown_as, element=where, line=comp.line) from None
-        fmus[name] = dataclasses.replace(fmu, kind=kind)
-        variables[name] = _component_variables(name, fmu)
-        for conn in comp.connectors.values():
-            v = variables[name].get(conn.name)
-            here = f"Connector {name}.{conn.name}"
-            if v is None:
-                raise ScenarioError(f"the FMU {comp.source} has no variable {conn.name!r}", file=shown_as,
-                                    element=here, line=conn.line)
-            allowed = KIND_CAUSALITY.get(conn.kind)
-            if allowed is None:
-                raise ScenarioError(f"connector kind {conn.kind!r} is not allowed on a component", file=shown_as,
-                                    element=here, line=conn.line)
-            if v.causality not in allowed:
-                raise ScenarioError(f"kind {conn.kind!r} does not match the FMU's causality {v.causality!r}",
-                                    file=shown_as, element=here, line=conn.line)
-            if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
-                raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
-                                    element=here, line=conn.line)
-            if v.type not in ("Real", *INTEGER_BASES, "Boolean", *OBJECT_FILL):
-                raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
-                                    element=here, line=conn.line)
-        outs = {}
-        for u in fmu.md.outputs:
-            deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
-            outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
-        feed[name] = _element_feedthrough(variables[name], outs)
+        if comp.type != CSV_SOURCE_TYPE:
+            kind = (implementation or {}).get(name) or comp.implementation
+            fmus[name], variables[name], feed[name] = _fmu_component(name, comp, kind, shown_as, lenient)
+    if inputs is not None:
+        _add_input_file(model, Path(inputs), variables, shown_as)
+    # input tables last: their columns take the types of the FMU inputs they drive
+    for name, comp in model.components.items():
+        if comp.type == CSV_SOURCE_TYPE:
+            fmus[name], variables[name] = _csv_component(name, comp, model, variables, shown_as)
+            feed[name] = {column: set() for column in variables[name]}
+    fmus = {name: fmus[name] for name in model.components}              # declaration order, as the SSD has it
+    variables = {name: variables[name] for name in model.components}
     units = _unit_table(model, fmus)
     links = [ln for c in model.connections for ln in _array_links(_link(c, model, variables, units, shown_as),
                                                                    variables, shown_as)]
@@ -260,6 +241,129 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
         plan.params.append((v, value, pv.origin))
     add_overrides(plan, params, allow_nonfinite)
     return plan
+
+
+def _fmu_component(name: str, comp: Component, implementation: str, shown_as: str, lenient: bool):
+    """An FMU component's loaded FMU (with the kind it runs as), variables and output dependencies, its SSD
+    connectors checked against them."""
+    where = f"Component {name}"
+    fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source, lenient=lenient)
+    if fmu.fmi_version.startswith("1"):
+        raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
+    try:
+        kind = choose_kind(fmu, implementation)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file=shown_as, element=where, line=comp.line) from None
+    variables = _component_variables(name, fmu)
+    for conn in comp.connectors.values():
+        v = variables.get(conn.name)
+        if v is None:
+            raise ScenarioError(f"the FMU {comp.source} has no variable {conn.name!r}", file=shown_as,
+                                element=f"Connector {name}.{conn.name}", line=conn.line)
+        _check_connector(conn, v, shown_as)
+    outs = {}
+    for u in fmu.md.outputs:
+        deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
+        outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
+    return dataclasses.replace(fmu, kind=kind), variables, _element_feedthrough(variables, outs)
+
+
+def _check_connector(conn: Connector, v: Var, shown_as: str) -> None:
+    """The SSD connector ``conn`` describes ``v``: its kind, type and a type the master can connect."""
+    here = f"Connector {v.qualified}"
+    allowed = KIND_CAUSALITY.get(conn.kind)
+    if allowed is None:
+        raise ScenarioError(f"connector kind {conn.kind!r} is not allowed on a component", file=shown_as,
+                            element=here, line=conn.line)
+    if v.causality not in allowed:
+        raise ScenarioError(f"kind {conn.kind!r} does not match the FMU's causality {v.causality!r}",
+                            file=shown_as, element=here, line=conn.line)
+    if conn.type is not None and v.fmi_type not in SSD_TYPE_FMI.get(conn.type, set()):
+        raise ScenarioError(f"type {conn.type} does not match the FMU's type {v.fmi_type}", file=shown_as,
+                            element=here, line=conn.line)
+    if v.type not in ("Real", *INTEGER_BASES, "Boolean", *OBJECT_FILL):
+        raise ScenarioError(f"variables of type {v.fmi_type} cannot be connected", file=shown_as,
+                            element=here, line=conn.line)
+
+
+# -- input tables (fmi/table.py) -------------------------------------------------------------------------------
+INPUT_FILE_COMPONENT = "inputs"
+
+
+def _add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: str) -> None:
+    """``run --input FILE``: the file as an input table whose columns drive the inputs of the scenario's one FMU
+    of the same names."""
+    targets = [name for name, comp in model.components.items() if comp.type != CSV_SOURCE_TYPE]
+    if len(targets) != 1:
+        raise ScenarioError(f"--input drives the inputs of a scenario with one FMU; this one has {len(targets)} "
+                            f"({', '.join(targets)})", file=shown_as, element="--input")
+    if INPUT_FILE_COMPONENT in model.components:
+        raise ScenarioError(f"the scenario has a component named {INPUT_FILE_COMPONENT!r} already, the name --input "
+                            "gives its table", file=shown_as, element="--input")
+    target, columns = targets[0], list(read_csv_table(path, str(path)).columns)
+    inputs = sorted(n for n, v in variables[target].items() if v.causality == "input" and not v.is_array)
+    unknown = [c for c in columns if c not in inputs]
+    if unknown:
+        raise ScenarioError(f"column {unknown[0]!r} is not an input of {target} (its inputs: "
+                            f"{', '.join(inputs) or 'none'})", file=str(path), element="--input")
+    model.components[INPUT_FILE_COMPONENT] = Component(INPUT_FILE_COMPONENT, str(path), path, CSV_SOURCE_TYPE,
+                                                       {c: Connector(c, "output") for c in columns})
+    model.connections += [Connection(INPUT_FILE_COMPONENT, c, target, c) for c in columns]
+
+
+def _csv_component(name: str, comp: Component, model: SystemModel, variables: dict, shown_as: str):
+    """An input table's stand-in for an FMU and its variables: one per connected column, typed as the input it
+    drives and interpolated as that input's variability asks (linear for a continuous Real, else hold)."""
+    shown = f"{shown_as}/{comp.source}" if shown_as else comp.source
+    table = read_csv_table(comp.fmu_path, shown)
+    for conn in comp.connectors.values():
+        if conn.name not in table.columns:
+            raise ScenarioError(f"the input table {comp.source} has no column {conn.name!r} (its columns: "
+                                f"{', '.join(table.columns)})", file=shown_as,
+                                element=f"Connector {name}.{conn.name}", line=conn.line)
+    out, columns = {}, []
+    for vr, (column, driven) in enumerate(_driven_inputs(name, model, variables, shown_as).items()):
+        if column not in table.columns:
+            raise ScenarioError(f"the input table {comp.source} has no column {column!r}", file=shown_as,
+                                element=f"Connection {name}.{column} -> {driven[0].qualified}")
+        v = out[column] = _column_var(name, column, vr, driven, shown_as)
+        if column in comp.connectors:
+            _check_connector(comp.connectors[column], v, shown_as)
+        values = column_values(table, column, v.type, shown)
+        why = next((w for w in (value_error(v, x, allow_nonfinite=True) for x in values) if w), None)
+        if why:
+            raise ScenarioError(why, file=shown)
+        columns.append(TableColumn(vr, values, linear=v.variability == "continuous"))
+    return csv_source(table, columns), out
+
+
+def _driven_inputs(name: str, model: SystemModel, variables: dict, shown_as: str) -> dict[str, list[Var]]:
+    """Column -> the FMU variables the table's connections drive from it."""
+    driven: dict[str, list[Var]] = {}
+    for c in model.connections:
+        if c.src_component != name:
+            continue
+        dst = variables.get(c.dst_component, {}).get(c.dst_connector)
+        if dst is None:
+            raise ScenarioError(f"component {c.dst_component!r} has no variable {c.dst_connector!r}", file=shown_as,
+                                element=f"Connection {c.src} -> {c.dst}", line=c.line)
+        driven.setdefault(c.src_connector, []).append(dst)
+    return driven
+
+
+def _column_var(name: str, column: str, vr: int, driven: list[Var], shown_as: str) -> Var:
+    """A column as an output of the type of the inputs it drives; continuous when it drives a continuous Real
+    (interpolated linearly), discrete otherwise (held). Inputs of other types or variabilities need columns of
+    their own."""
+    def how(v):
+        return v.fmi_type, "continuous" if v.type == "Real" and v.variability == "continuous" else "discrete"
+    first = driven[0]
+    other = next((v for v in driven if how(v) != how(first)), None)
+    if other is not None:
+        raise ScenarioError(f"column {column!r} drives {first.qualified} ({' '.join(how(first))}) and "
+                            f"{other.qualified} ({' '.join(how(other))}): give each its own column",
+                            file=shown_as, element=f"Component {name}")
+    return Var(name, column, vr, first.type, first.fmi_type, "output", how(first)[1], first.unit)
 
 
 def _array_links(link: Link, variables, shown_as) -> list[Link]:

@@ -30,7 +30,10 @@ def choose_kind(fmu: LoadedFmu, implementation: str = "any") -> str:
 def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | None = None) -> type[Slave]:
     """The class for the kind chosen by :func:`choose_kind` (``implementation`` None: the kind the plan chose
     for the component, ``fmu.kind``); pythonfmu FMUs run in process (their slave class called directly,
-    bit-identical to their binary) unless ``inprocess`` is false."""
+    bit-identical to their binary) unless ``inprocess`` is false. An input table (no FMU) is a CSV source."""
+    from .table import CSV_KIND, CsvSourceSlave
+    if fmu.kind == CSV_KIND:
+        return CsvSourceSlave
     if choose_kind(fmu, implementation or fmu.kind or "any") == "ModelExchange":
         from .model_exchange import Fmi2MeSlave
         return Fmi2MeSlave

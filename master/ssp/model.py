@@ -6,6 +6,8 @@ from pathlib import Path
 
 # SSP connector type names mapped to the four FMI 2.0 base types the master moves around.
 SSP_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
+# the component type of an input table (OMSimulator's convention): a CSV file whose columns drive inputs
+CSV_SOURCE_TYPE = "text/csv"
 
 
 @dataclass

@@ -12,7 +12,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
-from .model import (SSP_TYPES, Component, Connection, Connector, MasterSettings, ParameterValue,
+from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, MasterSettings, ParameterValue,
                     SystemModel, Transformation, Unit)
 from .settings_annotations import read_master_settings
 from ..units import BASE_UNITS
@@ -142,14 +142,15 @@ class _Reader:
         ctype = el.get("type", "application/x-fmu-sharedlibrary")
         source = el.get("source")
         where = f"Component {path}"
-        if ctype not in FMU_TYPES:
-            raise ScenarioError(f"component type {ctype!r} is not supported (only FMUs: {FMU_TYPES[0]})",
-                                file=shown_as, element=where, line=el.sourceline)
+        if ctype not in (*FMU_TYPES, CSV_SOURCE_TYPE):
+            raise ScenarioError(f"component type {ctype!r} is not supported (FMUs: {FMU_TYPES[0]}; input tables: "
+                                f"{CSV_SOURCE_TYPE})", file=shown_as, element=where, line=el.sourceline)
         if not source:
             raise ScenarioError("component has no source", file=shown_as, element=where, line=el.sourceline)
         fmu_path = self.resolve_source(source, ssd_dir)
         if not fmu_path.is_file():
-            raise ScenarioError(f"FMU {source!r} not found in the scenario", file=shown_as, element=where,
+            what = "input table" if ctype == CSV_SOURCE_TYPE else "FMU"
+            raise ScenarioError(f"{what} {source!r} not found in the scenario", file=shown_as, element=where,
                                 line=el.sourceline)
         comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline,
                          el.get("implementation", "any"))
