@@ -35,6 +35,7 @@ from lxml import etree
 from master.errors import ScenarioError
 from master.ssp.writer import NS as SSP_NS
 from master.ssp.writer import SspBuilder
+from uavsim.mission_encoding import encode as encode_mission
 
 from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEGY, UAV_NS, UAV_PARTS, WIND,
                     component, uav_name)
@@ -148,6 +149,15 @@ def _check_targets_on_base(scn: UavScenario, targets, pads) -> None:
         _warn(scn, f"target(s) {near} lie on the base (within {HOME_TOLERANCE:g} m of the base or a landing pad)")
 
 
+def _mission_parameters(scn: UavScenario, targets, zones) -> dict:
+    """The strategy's targets and zones as indexed Integer/Real parameters (uavsim/mission_encoding.py):
+    every master applies those, not every one applies String parameters (Ecos does not)."""
+    try:
+        return encode_mission(targets, [z["polygon"] for z in zones])
+    except ValueError as exc:
+        raise ScenarioError(f"scenario {scn.name}: {exc}", element="targets/zones") from None
+
+
 def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
     """The ``ssc:Annotation`` element of the UAV monitor (format: docs/uav_monitor.md)."""
     ann = etree.Element(f"{{{SSP_NS['ssc']}}}Annotation", nsmap={"ssc": SSP_NS["ssc"]}, type=MONITOR_TYPE)
@@ -191,10 +201,11 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     zones = scn.zones_enu()
     targets_s = _pts(targets)
     zones_s = "|".join(_pts(z["polygon"]) for z in zones)
-    # the strings the FMUs get are rounded to mm; the monitor gets the same values
+    # coordinates rounded to mm (through the String form); the FMUs and the monitor get the same values
     targets_r = [tuple(map(float, p.split(","))) for p in targets_s.split(";")] if targets_s else []
     zones_r = [{"name": z["name"], "polygon": [tuple(map(float, p.split(","))) for p in s.split(";")]}
                for z, s in zip(zones, zones_s.split("|") if zones_s else [])]
+    mission = _mission_parameters(scn, targets_r, zones_r)
 
     b = SspBuilder(scn.name)
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
@@ -219,7 +230,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         b.add_component(bt, fmus[BATTERY])
         b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
-            "targets": targets_s, "zones": zones_s, "lookahead": float(scn.lookahead),
+            **mission, "lookahead": float(scn.lookahead),
             "zone_planning": bool(scn.zone_planning),
             "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):
