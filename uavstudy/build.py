@@ -42,7 +42,7 @@ from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEG
 from .scenario import UavScenario, load_paper_config, load_scenario_yaml
 
 __all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
-           "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS"]
+           "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS", "PARAMETER_SET"]
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +67,22 @@ RECORD_PATTERNS = (
                                                       "current_target", "avoiding")]
     + [f"{WIND}.{v}" for v in ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")]
 )
+
+
+#: the one name of every component's parameter set: Ecos (ecospy) applies a parameter set only when its name
+#: is passed to ``init(parameter_set=...)``, and then only the sets of that name, so per-component names
+#: (SspBuilder's "<component>-parameters") would leave all but one component unparameterised there
+PARAMETER_SET = "scenario"
+
+
+class _OneParameterSetBuilder(SspBuilder):
+    """SspBuilder naming every component's parameter set PARAMETER_SET (our master and libcosim apply a
+    component's first set whatever its name)."""
+
+    def _params(self, values_parent, comp):
+        pset = super()._params(values_parent, comp)
+        pset.set("name", PARAMETER_SET)
+        return pset
 
 
 def default_fmu_dir() -> Path:
@@ -207,7 +223,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
                for z, s in zip(zones, zones_s.split("|") if zones_s else [])]
     mission = _mission_parameters(scn, targets_r, zones_r)
 
-    b = SspBuilder(scn.name)
+    b = _OneParameterSetBuilder(scn.name)
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
     b.record_interval = _record_interval(float(scn.step))
