@@ -1,8 +1,8 @@
 """A one-UAV mission runs in libcosim (libcosimpy) with the same trajectory as ours under Jacobi.
 
 The SSP is the one ``uavstudy.build.build_scenario`` writes, given to libcosim unchanged: no variant
-was needed.  It contains String parameters (the strategy's ``targets``, ``strategy``, ``assignment``,
-``zones``), Integer connectors (``cmd``, ``phase``, ``mission_state``), Boolean parameters (the wind's
+was needed.  It contains String parameters (the strategy's ``strategy``, ``assignment``; the targets and zones are
+indexed Integer/Real parameters since 2026-11-23, see uavsim/mission_encoding.py), Integer connectors (``cmd``, ``phase``, ``mission_state``), Boolean parameters (the wind's
 ``turbulence``/``gusts``), our settings and UAV-monitor annotations next to the OSP step annotation,
 and pythonfmu FMUs (whose binaries libcosim instantiates without a resource location, see
 ``tests/peers/libcosim_runner.py``).  libcosim (libcosimpy 0.0.6 / libcosim 0.11.2) applies the
@@ -84,6 +84,20 @@ def _run_libcosim_child(ssp: Path, step: float, stop: float, out: Path) -> pd.Da
     return pd.read_parquet(out)
 
 
+def _assert_same_values(ours: pd.DataFrame, theirs: pd.DataFrame) -> dict[str, float]:
+    """Integers equal, reals within ATOL, at every step; the largest difference of each variable."""
+    worst = {}
+    for c, v in VARS:
+        key = f"{c}.{v}"
+        a, b = ours[key].to_numpy(), theirs[key].to_numpy()
+        if key in INTEGERS:
+            assert np.array_equal(a.astype(int), b.astype(int)), key
+        else:
+            np.testing.assert_allclose(a, b, rtol=0, atol=ATOL, err_msg=key)
+        worst[key] = float(np.max(np.abs(a.astype(float) - b.astype(float))))
+    return worst
+
+
 @pytest.fixture(scope="module")
 def one_uav_ssp(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("libcosim_uav")
@@ -114,16 +128,7 @@ def test_one_uav_mission_same_trajectory_in_libcosim(one_uav_ssp, tmp_path, step
     if step == 0.5:
         assert np.array_equal(ours["time"].to_numpy(), theirs["time"].to_numpy())
 
-    worst = {}
-    for c, v in VARS:
-        key = f"{c}.{v}"
-        a, b = ours[key].to_numpy(), theirs[key].to_numpy()
-        if key in INTEGERS:
-            assert np.array_equal(a.astype(int), b.astype(int)), key
-        else:
-            np.testing.assert_allclose(a, b, rtol=0, atol=ATOL, err_msg=key)
-        worst[key] = float(np.max(np.abs(a.astype(float) - b.astype(float))))
-    record_property("max_abs_diff", json.dumps(worst))
+    record_property("max_abs_diff", json.dumps(_assert_same_values(ours, theirs)))
 
     # the mission really flew: three photos, back on the pad, wind blew in some intervals
     last = theirs.iloc[-1]
@@ -147,15 +152,6 @@ def test_shipped_mission_same_in_libcosim(tmp_path, record_property):
     stop = (len(ours) - 1) * step
     theirs = _run_libcosim_child(SHIPPED, step, stop, tmp_path / "libcosim.parquet")
     assert len(theirs) == len(ours)
-    worst = {}
-    for c, v in VARS:
-        key = f"{c}.{v}"
-        a, b = ours[key].to_numpy(), theirs[key].to_numpy()
-        if key in INTEGERS:
-            assert np.array_equal(a.astype(int), b.astype(int)), key
-        else:
-            np.testing.assert_allclose(a, b, rtol=0, atol=ATOL, err_msg=key)
-        worst[key] = float(np.max(np.abs(a.astype(float) - b.astype(float))))
-    record_property("max_abs_diff", json.dumps(worst))
+    record_property("max_abs_diff", json.dumps(_assert_same_values(ours, theirs)))
     last = theirs.iloc[-1]
     assert last["uav1_strat.photo_count"] == 24 and last["uav1_strat.mission_state"] == 7     # landed at base
