@@ -67,6 +67,11 @@ def _run_me(ssp: Path, out: Path, **options):
     return json.loads((out / "run.json").read_text()), pd.read_csv(out / "results.csv")
 
 
+def _solver_stats(ssp: Path, out: Path, **options) -> dict:
+    """run.json's statistics of component m's solver, run as model exchange."""
+    return _run_me(ssp, out, **options)[0]["solvers"]["m"]
+
+
 def _fmpy_me(fmu: Path, step: float):
     """fmpy's own model-exchange run of the FMU from its DefaultExperiment (its results on a grid of ``step``)."""
     import fmpy
@@ -196,16 +201,17 @@ def test_cvode_matches_the_exponential_within_its_tolerance(tmp_path, solver, re
 def test_adams_takes_fewer_steps_than_bdf_on_a_smooth_problem(tmp_path, reference_fmus):
     # Adams goes up to order 12, BDF to order 5: at a tight tolerance on a smooth non-stiff problem, Adams
     # needs clearly fewer steps (that the method really changed, which the results alone hardly show)
-    steps = {s: _run_me(_dahlquist(tmp_path, reference_fmus), tmp_path / s, solver=s, tolerance=1e-10)[0]["solvers"]["m"]["steps"]
+    ssp = _dahlquist(tmp_path, reference_fmus)
+    steps = {s: _solver_stats(ssp, tmp_path / s, solver=s, tolerance=1e-10)["steps"]
              for s in ("cvode-bdf", "cvode-adams")}
     assert steps["cvode-adams"] < 0.75 * steps["cvode-bdf"], steps
 
 
 def test_tolerance_from_the_command_line_else_the_default_experiment_else_1e_10(tmp_path, reference_fmus):
     roberts = _single(tmp_path, reference_fmus / "fmi3" / "Roberts.fmu", 1.0, 0.1)    # DefaultExperiment 1e-4
-    assert _run_me(roberts, tmp_path / "a")[0]["solvers"]["m"]["relative_tolerance"] == 1e-4
-    assert _run_me(roberts, tmp_path / "b", tolerance=1e-6)[0]["solvers"]["m"]["relative_tolerance"] == 1e-6
-    assert _run_me(_dahlquist(tmp_path, reference_fmus), tmp_path / "c")[0]["solvers"]["m"]["relative_tolerance"] == 1e-10
+    assert _solver_stats(roberts, tmp_path / "a")["relative_tolerance"] == 1e-4
+    assert _solver_stats(roberts, tmp_path / "b", tolerance=1e-6)["relative_tolerance"] == 1e-6
+    assert _solver_stats(_dahlquist(tmp_path, reference_fmus), tmp_path / "c")["relative_tolerance"] == 1e-10
 
 
 def test_co_simulation_runs_have_no_solver_statistics(tmp_path, reference_fmus):
@@ -227,8 +233,9 @@ def test_solver_options_are_checked_before_the_run(tmp_path, options, message, r
 def test_the_command_line_chooses_the_solver(tmp_path, reference_fmus):
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    r = subprocess.run([sys.executable, "-m", "master.cli", "run", str(_dahlquist(tmp_path, reference_fmus)), "-o", str(out),
-                        "--implementation", "m=me", "--solver", "euler", "--solver-step", "0.25"],
+    ssp = _dahlquist(tmp_path, reference_fmus)
+    r = subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), "--implementation",
+                        "m=me", "--solver", "euler", "--solver-step", "0.25"],
                        capture_output=True, text=True, timeout=120, env=env)
     assert r.returncode == 0, r.stderr
     stats = json.loads((out / "run.json").read_text())["solvers"]["m"]     # the supervised run's run.json
