@@ -27,7 +27,9 @@ KIND_CAUSALITY = {
 # SSD connector types and the FMU variable types they may describe
 SSD_TYPE_FMI = {
     "Real": {"Real", "Float64", "Float32"},
-    "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64"},
+    # an FMU enumeration is an integer to a connector; ssc:Enumeration would need a named SSD enumeration, which
+    # our writer and most tools do not write
+    "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Enumeration"},
     "Boolean": {"Boolean"},
     "String": {"String"},
     "Enumeration": {"Enumeration"},
