@@ -13,6 +13,7 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 
 from pythonfmu import Fmi2Slave  # noqa: E402
 
+from uavsim import mission_encoding as M  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.fmi import UnitsMixin  # noqa: E402
 from uavsim.strategy import Strategy, StrategyParams  # noqa: E402
@@ -33,9 +34,14 @@ _REAL = [  # name, unit, default, description
 _STR = [
     ("strategy", "A", "A: defined order, B: nearest remaining target first"),
     ("assignment", "equal", "equal (contiguous blocks), roundrobin (k mod N) or spatial (sectors)"),
-    ("targets", "", "targets 'x1,y1;x2,y2;...' ENU m"),
-    ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';'"),
+    ("targets", "", "targets 'x1,y1;x2,y2;...' ENU m (used when n_targets = -1)"),
+    ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';' "
+                  "(used when n_zones = -1)"),
 ]
+_INDEXED_DESCRIPTIONS = {  # docs/uav_models.md, "Mission data as indexed parameters"
+    "n_targets": f"number of targets target_x_k/target_y_k (0..{M.MAX_TARGETS}); -1: use the String 'targets'",
+    "n_zones": f"number of zones zone_z_* (0..{M.MAX_ZONES}); -1: use the String 'zones'",
+}
 
 
 class UavStrategy(UnitsMixin, Fmi2Slave):
@@ -50,6 +56,7 @@ class UavStrategy(UnitsMixin, Fmi2Slave):
         for name, default, desc in _STR:
             setattr(self, name, default)
             self.par_str(name, desc)
+        self._register_indexed_mission()
         self.zone_planning = True
         self.par_bool("zone_planning", "plan every leg around the zones (false: the paper's late 2 m detection)")
         self.uav_index = 0
@@ -88,9 +95,30 @@ class UavStrategy(UnitsMixin, Fmi2Slave):
             self.out_real(name, unit, desc)
         self._model = None
 
+    def _register_indexed_mission(self):
+        """The targets and zones as scalar Integer/Real parameters (uavsim/mission_encoding.py), which
+        every master applies (not all apply String parameters)."""
+        for name, typ in M.parameter_names():
+            if typ == "Integer":
+                default = M.NOT_GIVEN if name in _INDEXED_DESCRIPTIONS else 0
+                setattr(self, name, default)
+                self.par_int(name, _INDEXED_DESCRIPTIONS.get(name, "vertex count of this zone"))
+            else:
+                setattr(self, name, 0.0)
+                self.par_real(name, "m", "ENU coordinate (mission data, see n_targets / n_zones)")
+
+    def _mission(self) -> dict:
+        """targets and zones for StrategyParams: the indexed form where given (it wins: every master
+        applies it), else the String form."""
+        get = self.__getattribute__
+        targets, zones = M.decode_targets(get), M.decode_zones(get)
+        return {"targets": str(self.targets) if targets is None else targets,
+                "zones": str(self.zones) if zones is None else zones}
+
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _REAL}
         kw.update({n: str(getattr(self, n)) for n, *_ in _STR})
+        kw.update(self._mission())
         self._model = Strategy(StrategyParams(uav_index=int(self.uav_index),
                                               uav_count=int(self.uav_count),
                                               zone_planning=bool(self.zone_planning), **kw))

@@ -8,6 +8,7 @@ import sys
 from . import __version__
 from .algorithms import ALGORITHMS
 from .errors import CosimError
+from .fmi.ode_solvers import SOLVERS
 
 
 def _kv(items, what):
@@ -68,6 +69,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--log-level", choices=["debug", "info", "warning", "error", "none"], default="warning",
                    help="FMU messages shown from this level up (all go to fmu.log; default: warning)")
     r.add_argument("--no-csv", action="store_true", help="write results.parquet only, no results.csv")
+    r.add_argument("--solver", choices=SOLVERS, default="cvode-bdf",
+                   help="integrator of model-exchange components (default: cvode-bdf; euler: explicit fixed step)")
+    r.add_argument("--solver-step", type=float, metavar="S",
+                   help="euler's internal step (default: each communication step whole)")
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
@@ -162,7 +167,8 @@ def _dispatch(args) -> int:
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
-                       tolerance=args.tolerance, lenient=args.lenient,
+                       tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
+                       lenient=args.lenient,
                        implementation=_implementations(args.implementation), inputs=args.input)
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")

@@ -33,6 +33,7 @@ from .algorithms import get_algorithm
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order
 from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
+from .fmi.ode_solvers import SolverChoice
 from .monitors import monitors_for
 from .observers.base import ObserverContext
 from .observers.recording import Recording, select_variables
@@ -68,6 +69,8 @@ class Options:
     products: str = "all"                             # "summary": monitors write their summary files only
     allow_nonfinite: bool = False                     # let NaN and infinite values through (parameters, outputs)
     tolerance: float | None = None                    # given to every FMU (default: each FMU's own)
+    solver: str = "cvode-bdf"                         # model exchange: "cvode-bdf", "cvode-adams", "euler"
+    solver_step: float | None = None                  # euler's internal step (default: the communication step)
     lenient: bool = False                             # read slightly non-conforming modelDescriptions, warning
     implementation: dict | None = None                # component -> "ModelExchange" / "CoSimulation" / "any"
     output_prepared: bool = False                     # the caller made the folder for this run (a campaign puts the
@@ -175,6 +178,8 @@ class Execution:
                 raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
                                     element="Settings")
         self.algorithm = get_algorithm(st.algorithm)
+        self.solver = SolverChoice(o.solver, o.solver_step)
+        self.solver.check()
         if st.steps > LONG_RUN_STEPS:
             logging.getLogger("cosim_master").warning(
                 "%s steps of %g s from %g to %g s: this run may take very long (Ctrl-C keeps what it recorded)",
@@ -231,7 +236,7 @@ class Execution:
         sampled = [plan.var(q) for ob in self.observers for q in ob.sampled_variables()]
         # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
         self.rt = rt = Runtime(plan, observed, self.log, st.step_multiples, logging_on=(o.log_level != "none"),
-                               inprocess=o.inprocess, sampled=sampled)
+                               inprocess=o.inprocess, sampled=sampled, solver=self.solver)
         rt.instantiate(st.start, st.stop, st.tolerance)
         rt.apply_start_values(st.start)
         init_order = gauss_seidel_order(plan, rt.names).order
@@ -398,6 +403,10 @@ class Execution:
                     if self.recording.group.notes:
                         meta["results_notes"] = self.recording.group.notes
             if self.rt is not None:
+                # before terminate: a model-exchange slave's solver goes with its instance
+                solvers = {s.name: s.stats() for s in self.rt.slaves if s is not None}
+                if any(solvers.values()):
+                    meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
             if self._initialized:
                 for m in [*self.monitors, *self.extra_observers]:

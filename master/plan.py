@@ -26,10 +26,11 @@ KIND_CAUSALITY = {
     "parameter": {"parameter", "structuralParameter"},
     "calculatedParameter": {"calculatedParameter"},
 }
-# SSD connector types and the FMU variable types they may describe (an enumeration's values are integers, and
-# an SSD Integer connector is how one is declared without the SSD's own enumeration definitions)
+# SSD connector types and the FMU variable types they may describe
 SSD_TYPE_FMI = {
     "Real": {"Real", "Float64", "Float32"},
+    # an FMU enumeration is an integer to a connector; ssc:Enumeration would need a named SSD enumeration, which
+    # our writer and most tools do not write
     "Integer": {"Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Enumeration"},
     "Boolean": {"Boolean"},
     "String": {"String"},

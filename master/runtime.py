@@ -26,9 +26,11 @@ PHASE_NAMES = {1: "instantiation", 2: "initialization", 3: "a step", 4: "termina
 
 class Runtime:
     def __init__(self, plan: Plan, observed: list[Var], log: LogSink, step_multiples: dict[str, int] | None = None,
-                 logging_on: bool = False, inprocess: bool = False, sampled: list[Var] | None = None):
+                 logging_on: bool = False, inprocess: bool = False, sampled: list[Var] | None = None,
+                 solver=None):
         """``observed``: variables read after every step (monitors); ``sampled``: variables needed only when
-        the results are sampled (recording), read by :meth:`read_samples` then, not after every step."""
+        the results are sampled (recording), read by :meth:`read_samples` then, not after every step;
+        ``solver``: the integrator of model-exchange components (fmi.ode_solvers.SolverChoice)."""
         self.plan = plan
         self.log = log
         self.names = list(plan.fmus)
@@ -42,6 +44,7 @@ class Runtime:
         self.slaves = [None] * n
         self._logging_on = logging_on
         self._inprocess = inprocess
+        self._solver = solver
 
         # what is read from each slave: connection sources first, then monitored variables (both after every
         # step), then the variables only recorded (read when a sample is taken; a component on a multiple of
@@ -173,7 +176,8 @@ class Runtime:
             self._at(PHASE_INSTANTIATE, i)
             fmu = self.plan.fmus[name]
             shown = f"{self.plan.shown_as}/{self.plan.model.components[name].source}"
-            slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess)
+            slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess,
+                               solver=self._solver)
             self.slaves[i] = slave
             slave.instantiate()
             tol = tolerance

@@ -35,13 +35,14 @@ from lxml import etree
 from master.errors import ScenarioError
 from master.ssp.writer import NS as SSP_NS
 from master.ssp.writer import SspBuilder
+from uavsim.mission_encoding import encode as encode_mission
 
 from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEGY, UAV_NS, UAV_PARTS, WIND,
                     component, uav_name)
 from .scenario import UavScenario, load_paper_config, load_scenario_yaml
 
 __all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
-           "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS"]
+           "monitor_annotation", "UAV_NS", "MONITOR_TYPE", "PAD_SPACING", "RECORD_PATTERNS", "PARAMETER_SET"]
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +67,22 @@ RECORD_PATTERNS = (
                                                       "current_target", "avoiding")]
     + [f"{WIND}.{v}" for v in ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")]
 )
+
+
+#: the one name of every component's parameter set: Ecos (ecospy) applies a parameter set only when its name
+#: is passed to ``init(parameter_set=...)``, and then only the sets of that name, so per-component names
+#: (SspBuilder's "<component>-parameters") would leave all but one component unparameterised there
+PARAMETER_SET = "scenario"
+
+
+class _OneParameterSetBuilder(SspBuilder):
+    """SspBuilder naming every component's parameter set PARAMETER_SET (our master and libcosim apply a
+    component's first set whatever its name)."""
+
+    def _params(self, values_parent, comp):
+        pset = super()._params(values_parent, comp)
+        pset.set("name", PARAMETER_SET)
+        return pset
 
 
 def default_fmu_dir() -> Path:
@@ -148,6 +165,15 @@ def _check_targets_on_base(scn: UavScenario, targets, pads) -> None:
         _warn(scn, f"target(s) {near} lie on the base (within {HOME_TOLERANCE:g} m of the base or a landing pad)")
 
 
+def _mission_parameters(scn: UavScenario, targets, zones) -> dict:
+    """The strategy's targets and zones as indexed Integer/Real parameters (uavsim/mission_encoding.py):
+    every master applies those, not every one applies String parameters (Ecos does not)."""
+    try:
+        return encode_mission(targets, [z["polygon"] for z in zones])
+    except ValueError as exc:
+        raise ScenarioError(f"scenario {scn.name}: {exc}", element="targets/zones") from None
+
+
 def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
     """The ``ssc:Annotation`` element of the UAV monitor (format: docs/uav_monitor.md)."""
     ann = etree.Element(f"{{{SSP_NS['ssc']}}}Annotation", nsmap={"ssc": SSP_NS["ssc"]}, type=MONITOR_TYPE)
@@ -191,12 +217,13 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     zones = scn.zones_enu()
     targets_s = _pts(targets)
     zones_s = "|".join(_pts(z["polygon"]) for z in zones)
-    # the strings the FMUs get are rounded to mm; the monitor gets the same values
+    # coordinates rounded to mm (through the String form); the FMUs and the monitor get the same values
     targets_r = [tuple(map(float, p.split(","))) for p in targets_s.split(";")] if targets_s else []
     zones_r = [{"name": z["name"], "polygon": [tuple(map(float, p.split(","))) for p in s.split(";")]}
                for z, s in zip(zones, zones_s.split("|") if zones_s else [])]
+    mission = _mission_parameters(scn, targets_r, zones_r)
 
-    b = SspBuilder(scn.name)
+    b = _OneParameterSetBuilder(scn.name)
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
     b.record_interval = _record_interval(float(scn.step))
@@ -219,7 +246,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         b.add_component(bt, fmus[BATTERY])
         b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
-            "targets": targets_s, "zones": zones_s, "lookahead": float(scn.lookahead),
+            **mission, "lookahead": float(scn.lookahead),
             "zone_planning": bool(scn.zone_planning),
             "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):

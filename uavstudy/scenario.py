@@ -31,6 +31,7 @@ import yaml
 from master import yamlio
 from master.errors import ScenarioError
 from uavsim.geodesy import enu_from_geodetic
+from uavsim.mission_encoding import MAX_TARGETS, MAX_ZONE_VERTICES, MAX_ZONES
 
 __all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
@@ -178,6 +179,8 @@ class _V:
 
 _TOP_FIELDS = [f.name for f in fields(UavScenario)]
 _REQUIRED = ("name", "base", "n_uavs", "strategy", "targets")
+# the strategy FMU takes the mission as indexed scalar parameters, a fixed number of them
+_FMU_LIMIT = "(the strategy FMU's indexed parameters, docs/uav_models.md)"
 _WIND_FIELDS = [f.name for f in fields(WindConfig)]
 
 
@@ -237,6 +240,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
     t = data["targets"]
     if not isinstance(t, list) or not t:
         v.fail("targets", "expected a non-empty list of [lat, lon]")
+    if len(t) > MAX_TARGETS:
+        v.fail("targets", f"{len(t)} targets, at most {MAX_TARGETS} {_FMU_LIMIT}")
     kw["targets"] = [v.latlon(f"targets[{k}]", p) for k, p in enumerate(t)]
     if "takeoff_altitude" in data:
         kw["takeoff_altitude"] = v.number("takeoff_altitude", data["takeoff_altitude"],
@@ -249,6 +254,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
             zs = []
         if not isinstance(zs, list):
             v.fail("zones", "expected a list of {name, polygon}")
+        if len(zs) > MAX_ZONES:
+            v.fail("zones", f"{len(zs)} zones, at most {MAX_ZONES} {_FMU_LIMIT}")
         zones = []
         for zi, z in enumerate(zs):
             z = v.mapping(f"zones[{zi}]", z)
@@ -259,6 +266,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
             poly = z["polygon"]
             if not isinstance(poly, list) or len(poly) < 3:
                 v.fail(f"zones[{zi}].polygon", "expected a list of at least 3 [lat, lon] vertices")
+            if len(poly) > MAX_ZONE_VERTICES:
+                v.fail(f"zones[{zi}].polygon", f"{len(poly)} vertices, at most {MAX_ZONE_VERTICES} {_FMU_LIMIT}")
             zones.append({"name": name,
                           "polygon": [v.latlon(f"zones[{zi}].polygon[{k}]", p)
                                       for k, p in enumerate(poly)]})

@@ -87,6 +87,20 @@ def parse_zones(text: str) -> list[list[tuple[float, float]]]:
     return [pts for pts in (parse_points(p) for p in (text or "").split("|")) if len(pts) >= 3]
 
 
+def as_points(value) -> list[tuple[float, float]]:
+    """Targets given as the String form ("x1,y1;...") or as a sequence of (x, y)."""
+    if isinstance(value, str):
+        return parse_points(value)
+    return [(float(x), float(y)) for x, y in value]
+
+
+def as_zones(value) -> list[list[tuple[float, float]]]:
+    """Zones given as the String form ("x,y;...|...") or as a sequence of vertex sequences."""
+    if isinstance(value, str):
+        return parse_zones(value)
+    return [as_points(polygon) for polygon in value]
+
+
 def _blocks(n: int, count: int) -> list[range]:
     base, extra = divmod(n, count)
     out, start = [], 0
@@ -408,8 +422,8 @@ class StrategyParams:
     uav_index: int = 0
     uav_count: int = 1
     assignment: str = "equal"
-    targets: str = ""
-    zones: str = ""
+    targets: str | list = ""                    # String form or [(x, y), ...]
+    zones: str | list = ""                      # String form or [[(x, y), ...], ...]
     lookahead: float = P.LOOKAHEAD              # m
     home_x: float = 0.0                         # m
     home_y: float = 0.0                         # m
@@ -431,12 +445,12 @@ class Strategy:
         if s not in ("A", "B"):
             raise ValueError(f"strategy must be 'A' or 'B', got {self.p.strategy!r}")
         self.kind = s
-        self.targets = parse_points(self.p.targets)
+        self.targets = as_points(self.p.targets)
         self.home = (float(self.p.home_x), float(self.p.home_y))
         self.assigned = assign_targets(self.targets, self.p.uav_index, self.p.uav_count,
                                        self.p.assignment, self.home)
         self.remaining = list(self.assigned)
-        self.zones = ZoneMap(parse_zones(self.p.zones), self.p.avoid_margin)
+        self.zones = ZoneMap(as_zones(self.p.zones), self.p.avoid_margin)
         self.state = PREFLIGHT
         self.cmd = 1
         self.sp = (self.home[0], self.home[1], float(self.p.cruise_altitude))

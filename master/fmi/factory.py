@@ -21,9 +21,6 @@ def choose_kind(fmu: LoadedFmu, implementation: str = "any") -> str:
     wanted = offered[0] if implementation == "any" else implementation
     if wanted not in offered:
         raise ValueError(f"implementation {implementation} is asked for, but the FMU offers {offered[0]} only")
-    if wanted == "ModelExchange" and not fmu.fmi_version.startswith("2"):
-        raise ValueError(f"model exchange is supported for FMI 2.0 only (this is FMI {fmu.fmi_version}); "
-                         + ("run it as co-simulation" if "CoSimulation" in offered else "export it for co-simulation"))
     return wanted
 
 
@@ -35,6 +32,9 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
     if fmu.kind == CSV_KIND:
         return CsvSourceSlave
     if choose_kind(fmu, implementation or fmu.kind or "any") == "ModelExchange":
+        if fmu.fmi_version.startswith("3"):
+            from .model_exchange3 import Fmi3MeSlave
+            return Fmi3MeSlave
         from .model_exchange import Fmi2MeSlave
         return Fmi2MeSlave
     if fmu.fmi_version.startswith("3"):
@@ -49,9 +49,12 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
 
 
 def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, *, logging_on: bool = False,
-               inprocess: bool = True, implementation: str | None = None) -> Slave:
+               inprocess: bool = True, implementation: str | None = None, solver=None) -> Slave:
+    """``solver``: an ode_solvers.SolverChoice for a model-exchange component (None: the default)."""
     cls = slave_class(fmu, inprocess, implementation)
     from .inprocess import PythonFmuSlave
     if cls is PythonFmuSlave:
         return cls(name, fmu, log, shown_as)
+    if cls.kind == "ModelExchange":
+        return cls(name, fmu, log, shown_as, logging_on, solver=solver)
     return cls(name, fmu, log, shown_as, logging_on)

@@ -121,7 +121,7 @@ class Library:
 
 
 def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str) -> Library:
-    """Load the FMU's binary for ``kind`` ("fmi2cs", "fmi2me", "fmi3cs"). fmpy changes the working directory
+    """Load the FMU's binary for ``kind`` ("fmi2cs", "fmi2me", "fmi3cs", "fmi3me"). fmpy changes the working directory
     while loading and does not change it back when the library fails to load, so the caller's directory is
     restored here."""
     if kind == "fmi2cs":
@@ -130,6 +130,8 @@ def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str
         from fmpy.fmi2 import FMU2Model as cls
     elif kind == "fmi3cs":
         from fmpy.fmi3 import FMU3Slave as cls
+    elif kind == "fmi3me":
+        from fmpy.fmi3 import FMU3Model as cls
     else:   # pragma: no cover - the factory names the kinds
         raise ValueError(kind)
     cwd = os.getcwd()
@@ -164,16 +166,76 @@ def fmi3_callbacks(logger):
             fmi3IntermediateUpdateCallback())
 
 
-def cvode_solver(model, nx: int, nz: int, start: float, rtol: float):
-    """fmpy's CVode wrapper over an FMI 2.0 model-exchange instance (inputs are held by the caller)."""
-    from fmpy.sundials import CVodeSolver
+CVODE_METHODS = ("bdf", "adams")
 
-    class _NoInput:
-        @staticmethod
-        def apply(t):
-            return None
-    m = model
-    return CVodeSolver(nx=nx, nz=nz, get_x=m.getContinuousStates, set_x=m.setContinuousStates,
-                       get_dx=m.getDerivatives, get_z=m.getEventIndicators,
-                       get_nominals=m.getNominalsOfContinuousStates, set_time=m.setTime,
-                       input=_NoInput, startTime=start, relativeTolerance=rtol)
+
+@functools.cache
+def _cvode_class(method: str):
+    """fmpy's CVodeSolver for a linear multistep method. fmpy creates its solver with CVodeCreate(CV_BDF) and
+    offers no choice; for Adams its ``__init__`` is re-bound to globals in which CVodeCreate makes an Adams
+    solver instead (everything else as fmpy does it: tolerances, root finding, dense Newton iteration)."""
+    from fmpy.sundials import CVodeSolver
+    if method == "bdf":
+        return CVodeSolver
+    if method != "adams":
+        raise ValueError(method)
+    from fmpy.sundials.cvode import CV_ADAMS, CVodeCreate
+    init = CVodeSolver.__init__
+
+    def create_adams(_lmm, context):
+        return CVodeCreate(CV_ADAMS, context)
+    adams_init = types.FunctionType(init.__code__, {**init.__globals__, "CVodeCreate": create_adams},
+                                    init.__name__, init.__defaults__, init.__closure__)
+    return type("AdamsCVodeSolver", (CVodeSolver,), {"__init__": adams_init})
+
+
+def _cvode_counter(name: str):
+    """A CVodeGetNum* function of fmpy's SUNDIALS library (fmpy binds the solver calls only, not these)."""
+    from fmpy.sundials.libraries import sundials_cvode
+    fn = getattr(sundials_cvode, name)
+    fn.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_long)]
+    fn.restype = ctypes.c_int
+    return fn
+
+
+# run.json name -> CVode counter
+_CVODE_COUNTERS = {"steps": "CVodeGetNumSteps", "rhs_evaluations": "CVodeGetNumRhsEvals",
+                   "root_function_evaluations": "CVodeGetNumGEvals", "error_test_failures": "CVodeGetNumErrTestFails"}
+
+
+class CVode:
+    """fmpy's CVode over a model-exchange instance, with counters for the whole run: CVodeReInit (at every
+    communication step and after every event) sets CVode's own counters to zero, so they are banked first."""
+
+    def __init__(self, calls, nx: int, nz: int, start: float, rtol: float, method: str = "bdf"):
+        class _NoInput:                      # inputs are held by the caller over a communication step
+            @staticmethod
+            def apply(t):
+                return None
+        self.method = method
+        self._solver = _cvode_class(method)(
+            nx=nx, nz=nz, get_x=calls.get_x, set_x=calls.set_x, get_dx=calls.get_dx, get_z=calls.get_z,
+            get_nominals=calls.get_nominals, set_time=calls.set_time, input=_NoInput, startTime=start,
+            relativeTolerance=rtol)
+        self._counters = {key: _cvode_counter(name) for key, name in _CVODE_COUNTERS.items()}
+        self._banked = dict.fromkeys(self._counters, 0)
+
+    def step(self, t: float, t_next: float):
+        """(state event found, roots, time reached) as fmpy's CVodeSolver.step."""
+        return self._solver.step(t, t_next)
+
+    def reset(self, t: float) -> None:
+        for key, value in self._since_reset().items():
+            self._banked[key] += value
+        self._solver.reset(t)
+
+    def _since_reset(self) -> dict:
+        out = {}
+        for key, fn in self._counters.items():
+            value = ctypes.c_long(0)
+            fn(self._solver.cvode_mem, ctypes.byref(value))
+            out[key] = value.value
+        return out
+
+    def stats(self) -> dict:
+        return {key: self._banked[key] + value for key, value in self._since_reset().items()}

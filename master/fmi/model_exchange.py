@@ -1,18 +1,25 @@
-"""FMI 2.0 model-exchange FMUs run as co-simulation components, integrated with fmpy's CVode.
+"""Model-exchange FMUs run as co-simulation components on an ODE solver (``ode_solvers``: CVode BDF or
+Adams, or fixed-step forward Euler).
 
-Supported: continuous states, time events, state events (CVode root finding), step events, inputs held
-constant over each communication step (the solver is re-initialised at every step because a changed
-input is a discontinuity), discrete inputs (FMI 2.0 lets them change in event mode only: a changed one
-starts an event at the beginning of the step), and terminateSimulation (the run ends after the step, as
-when a monitor stops it). Not supported: FMI 3.0 model exchange (reported when the scenario is loaded).
+Supported: continuous states, time events, state events (CVode root finding; Euler: a sign change over an
+internal step), step events, inputs held constant over each communication step (the solver is re-initialised
+at every step because a changed input is a discontinuity), discrete inputs (FMI lets them change in event mode
+only: a changed one starts an event at the beginning of the step), and terminateSimulation (the run ends after
+the step, as when a monitor stops it).
+
+``ModelExchange`` holds the semantics, which FMI 2.0 and 3.0 share call for call; a version's class adds the
+few calls that differ in name (:class:`Fmi2MeSlave` here, ``Fmi3MeSlave`` in ``model_exchange3``) and
+inherits values, ports and the life cycle from that version's co-simulation class.
 """
 from __future__ import annotations
+
+import types
 
 import numpy as np
 
 from ..errors import FmuError
 from .fmi2 import Fmi2Slave
-from .fmpy_adapter import cvode_solver
+from .ode_solvers import DEFAULT_RTOL, SolverChoice, make_solver
 from .slave import DISCARD, ERROR, OK
 
 
@@ -20,42 +27,42 @@ def _ok():
     return OK
 
 
-class Fmi2MeSlave(Fmi2Slave):
+class ModelExchange:
+    """The model-exchange stepping shared by FMI 2.0 and 3.0, mixed in before a version's slave class. A
+    version's class provides ``_discrete_vrs()``, ``_state_counts()``, ``_derivatives_call()`` and names its
+    discrete-state update (``_UPDATE_DISCRETE``: fmpy's method, C function)."""
     kind = "ModelExchange"
-    _library_kind = "fmi2me"
+    _UPDATE_DISCRETE: tuple[str, str]
 
-    def __init__(self, name, fmu, log, shown_as, logging_on=False, rtol=1e-10):
-        super().__init__(name, fmu, log, shown_as, logging_on)
+    def _init_model_exchange(self, solver: SolverChoice | None) -> None:
         # rollback would also need the solver's state: not offered for model exchange
         self.can_save_state = False
-        self.rtol = rtol
-        self.nx = fmu.md.numberOfContinuousStates
-        self.nz = fmu.md.numberOfEventIndicators
+        self.solver_choice = solver or SolverChoice()
+        self.rtol = DEFAULT_RTOL
         self.solver = None
         self.terminate_requested = False
-        # FMI 2.0 sets discrete variables (all but continuous Reals) in initialization and event mode only
-        self._discrete = {int(v.valueReference) for v in fmu.md.modelVariables
-                          if v.type != "Real" or v.variability != "continuous"}
+        self.events = dict.fromkeys(("time", "state", "step", "input"), 0)
+        # FMI sets discrete variables (all but continuous floating-point ones) in initialization and event mode
+        self._discrete = self._discrete_vrs()
         self._held: dict[int, tuple] = {}      # id(port) -> (type, port): discrete inputs set at an event
         self._sent: dict[int, np.ndarray] = {}   # id(port) -> the values the FMU has
         self._held_values: dict[tuple, object] = {}   # (type, vr) -> a discrete value set after initialization
 
-    @staticmethod
-    def _fmi_kind(fmu):
-        return fmu.md.modelExchange
-
-    def _instantiate_call(self):
-        return 0  # fmi2ModelExchange
+    def setup(self, start, stop, tolerance=None):
+        """``tolerance``: the command line's or the FMU's DefaultExperiment's (Runtime.instantiate), the
+        solver's relative tolerance too."""
+        self.rtol = tolerance or DEFAULT_RTOL
+        super().setup(start, stop, tolerance)
 
     def _event_iteration(self, t) -> bool:
-        """fmi2NewDiscreteStates until the model has settled; True when it asks to terminate the simulation."""
-        m = self.lib.obj
+        """Update discrete states until the model has settled; True when it asks to terminate the simulation."""
+        method, call = self._UPDATE_DISCRETE
+        update = getattr(self.lib.obj, method)
         while True:
             try:
-                (new_needed, terminate, nominals_changed, values_changed,
-                 next_defined, next_time) = m.newDiscreteStates()
+                (new_needed, terminate, _nominals_changed, _values_changed, next_defined, next_time) = update()
             except Exception:
-                raise self.fail("fmi2NewDiscreteStates", ERROR, t) from None
+                raise self.fail(call, ERROR, t) from None
             if terminate:
                 return True
             if not new_needed:
@@ -70,7 +77,24 @@ class Fmi2MeSlave(Fmi2Slave):
             self.terminate_requested = True     # the first do_step reports it
             return
         self.lib.obj.enterContinuousTimeMode()
-        self.solver = cvode_solver(self.lib.obj, self.nx, self.nz, t, self.rtol)
+        nx, nz = self._state_counts()
+        self.solver = make_solver(self.solver_choice, self._solver_calls(), nx, nz, t, self.rtol)
+
+    def _solver_calls(self):
+        """The model's functions in the form the solvers call them (fmpy's methods)."""
+        m = self.lib.obj
+        return types.SimpleNamespace(get_x=m.getContinuousStates, set_x=m.setContinuousStates,
+                                     get_dx=self._derivatives_call(), get_z=m.getEventIndicators,
+                                     get_nominals=m.getNominalsOfContinuousStates, set_time=m.setTime)
+
+    def stats(self) -> dict:
+        """The solver and what it did, for run.json (empty before the solver started)."""
+        if self.solver is None:
+            return {}
+        return {"solver": self.solver_choice.name, "relative_tolerance": self.rtol,
+                **({"internal_step": self.solver_choice.step} if self.solver_choice.name == "euler" else {}),
+                **self.solver.stats(), "events": sum(self.events.values()),
+                **{f"{kind}_events": n for kind, n in self.events.items()}}
 
     # -- discrete inputs: held until the next step starts, then set in event mode ---------------------------
     def _is_discrete(self, port) -> bool:
@@ -102,7 +126,7 @@ class Fmi2MeSlave(Fmi2Slave):
                 if key not in self._sent or not np.array_equal(self._sent[key], port.buf)]
 
     def _set_discrete_inputs(self, changed, t) -> bool:
-        """An event at t for changed discrete inputs (FMI 2.0 allows setting them in event mode only);
+        """An event at t for changed discrete inputs (FMI allows setting them in event mode only);
         True when the model then asks to terminate the simulation."""
         m = self.lib.obj
         m.enterEventMode()
@@ -136,34 +160,83 @@ class Fmi2MeSlave(Fmi2Slave):
     def do_step(self, t, h) -> int:
         if self.terminate_requested:
             return DISCARD
-        m = self.lib.obj
-        t_end = t + h
-        time = t
         try:
-            changed = self._changed_discrete_inputs() if self._held else ()
-            if (changed or self._held_values) and self._set_discrete_inputs(changed, t):
+            if self._inputs_end_simulation(t) or self._integrate(t, t + h):
                 return self._terminating()
-            self.solver.reset(time)
-            while time < t_end and abs(time - t_end) > 1e-13 * max(1.0, abs(t_end)):
-                t_next = t_end
-                if self.next_event is not None and time < self.next_event < t_end:
-                    t_next = self.next_event
-                state_event, _roots, time = self.solver.step(time, t_next)
-                m.setTime(time)
-                step_event, terminate = m.completedIntegratorStep()
-                if terminate:
-                    return self._terminating()
-                time_event = self.next_event is not None and time >= self.next_event
-                if state_event or step_event or time_event:
-                    m.enterEventMode()
-                    if self._event_iteration(time):
-                        return self._terminating()
-                    m.enterContinuousTimeMode()
-                    self.solver.reset(time)
-            m.setTime(t_end)
         except FmuError:
             raise
         except Exception as exc:
             self.log.message(self.name, "error", f"integration failed: {' '.join(str(exc).split())}")
             return ERROR
         return OK
+
+    def _inputs_end_simulation(self, t) -> bool:
+        """Discrete inputs that changed since the last step start an event at t; True when the model then asks
+        to terminate the simulation."""
+        changed = self._changed_discrete_inputs() if self._held else ()
+        if not (changed or self._held_values):
+            return False
+        self.events["input"] += 1
+        return self._set_discrete_inputs(changed, t)
+
+    def _integrate(self, t, t_end) -> bool:
+        """From t to t_end with the inputs held, handling the events on the way; True when the model asks to
+        terminate the simulation."""
+        m = self.lib.obj
+        time = t
+        self.solver.reset(time)
+        while time < t_end and abs(time - t_end) > 1e-13 * max(1.0, abs(t_end)):
+            t_next = t_end
+            if self.next_event is not None and time < self.next_event < t_end:
+                t_next = self.next_event
+            state_event, _roots, time = self.solver.step(time, t_next)
+            m.setTime(time)
+            step_event, terminate = m.completedIntegratorStep()
+            if terminate:
+                return True
+            causes = {"time": self.next_event is not None and time >= self.next_event,
+                      "state": bool(state_event), "step": bool(step_event)}
+            if any(causes.values()) and self._event(time, causes):
+                return True
+        m.setTime(t_end)
+        return False
+
+    def _event(self, time, causes: dict) -> bool:
+        """An event at ``time`` (``causes``: which kinds, counted for the statistics); True when the model asks
+        to terminate the simulation."""
+        for kind, happened in causes.items():
+            self.events[kind] += happened
+        m = self.lib.obj
+        m.enterEventMode()
+        if self._event_iteration(time):
+            return True
+        m.enterContinuousTimeMode()
+        self.solver.reset(time)
+        return False
+
+
+class Fmi2MeSlave(ModelExchange, Fmi2Slave):
+    _library_kind = "fmi2me"
+    _UPDATE_DISCRETE = ("newDiscreteStates", "fmi2NewDiscreteStates")
+
+    def __init__(self, name, fmu, log, shown_as, logging_on=False, solver: SolverChoice | None = None):
+        super().__init__(name, fmu, log, shown_as, logging_on)
+        self._init_model_exchange(solver)
+
+    @staticmethod
+    def _fmi_kind(fmu):
+        return fmu.md.modelExchange
+
+    def _instantiate_call(self):
+        return 0  # fmi2ModelExchange
+
+    def _discrete_vrs(self) -> set[int]:
+        return {int(v.valueReference) for v in self.fmu.md.modelVariables
+                if v.type != "Real" or v.variability != "continuous"}
+
+    def _state_counts(self) -> tuple[int, int]:
+        md = self.fmu.md
+        return md.numberOfContinuousStates, md.numberOfEventIndicators
+
+    def _derivatives_call(self):
+        return self.lib.obj.getDerivatives

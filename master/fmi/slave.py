@@ -160,6 +160,10 @@ class Slave(abc.ABC):
     # one c_double for t among all slaves of a master step (no per-call argument conversion).
     raw_step = None
 
+    def stats(self) -> dict:
+        """What the slave's own solver did (model exchange), for run.json; empty when it has none."""
+        return {}
+
     # -- errors -------------------------------------------------------------------------------------------
     def asks_to_terminate(self, status: int) -> bool:
         """After a doStep returned ``status`` above Warning: whether the FMU asks to end the simulation

@@ -273,3 +273,20 @@ def test_nonfinite_parameters_and_outputs_stop_the_run(tmp_path, test_fmus):
     # x0 = inf, a = 0: y = inf, then 0 * inf = NaN from the first step on, and the run goes to its end
     y = ok.frame["a.y"]
     assert len(y) == 11 and np.isinf(y.iloc[0]) and np.isnan(y.iloc[1:]).all()
+
+
+def test_a_practically_endless_run_is_announced(tmp_path, test_fmus, caplog):
+    from master.execution import Execution
+    ex = Execution(_two(tmp_path, test_fmus), output=None, step=1e-9)
+    with caplog.at_level("WARNING", logger="cosim_master"):
+        ex.setup()
+    ex.close()
+    assert "1,000,000,000 steps of 1e-09 s from 0 to 1 s: this run may take very long" in caplog.text
+
+
+def test_a_scenario_yaml_given_to_run_says_to_build_it(tmp_path):
+    scenario = Path(__file__).parents[2] / "ssp" / "scenarios" / "paper_area.yaml"
+    r = _cli(["run", str(scenario), "-o", str(tmp_path / "o")], tmp_path)
+    assert r.returncode == 1 and "this is a UAV YAML scenario, not an SSP: build one with `cosim-master " \
+                                  f"build-scenario {scenario} -o scenario.ssp`" in r.stderr
+    _one_line(r.stderr)

@@ -194,3 +194,14 @@ def test_parameter_value_is_converted_to_the_fmu_unit(tmp_path, reference_fmus):
     t = df["time"].to_numpy()
     before_bounce = t <= 0.4
     np.testing.assert_allclose(df["ball.h"][before_bounce], 1 + 0.5 * g * t[before_bounce] ** 2, atol=2e-3)
+
+
+def test_an_ssp_we_write_for_an_fmu_with_an_enumeration_runs(tmp_path, reference_fmus):
+    # the writer declares an FMU enumeration as an ssc:Integer connector; the parser refused that pairing,
+    # so cosim-master rejected an SSP it wrote (the FMI 2.0 Reference FMU Feedthrough has Enumeration_input)
+    from master.ssp.writer import SspBuilder
+    b = SspBuilder("ft", stop=0.5, step=0.1)
+    b.add_component("m", reference_fmus / "fmi2" / "Feedthrough.fmu")
+    r = master.run(b.write(tmp_path / "ft.ssp"), output=None, params={"m.Enumeration_input": 2},
+                   record=["m.Enumeration_output"])
+    assert (r.frame["m.Enumeration_output"] == 2).all()

@@ -10,3 +10,11 @@ def build_fmus_module():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+def load_shell(name: str):
+    """An instance of the FMU shell fmu_sources/<name>.py (e.g. "UavStrategy") run in this process."""
+    spec = importlib.util.spec_from_file_location(f"shell_{name}", SRC / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return getattr(mod, name)(instance_name="t", resources=str(SRC), visible=False)

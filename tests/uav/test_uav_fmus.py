@@ -1,6 +1,5 @@
 """The four UAV FMU shells: build (into tmp_path), validate, simulate briefly with FMPy; and the
 shipped fmus/ must be fresh (built from the current fmu_sources/)."""
-import importlib.util
 import shutil
 import subprocess
 import sys
@@ -15,7 +14,7 @@ import pythonfmu.builder  # noqa: F401
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-from build_script import build_fmus_module
+from build_script import build_fmus_module, load_shell
 
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "fmu_sources"
@@ -179,11 +178,7 @@ def test_stale_detection(tmp_path, built):
     assert bf.stale_fmus(tmp_path / "nowhere", src) == [f"{n}.fmu" for n in bf.FMU_NAMES]
 
 
-def _shell(name):
-    spec = importlib.util.spec_from_file_location(f"shell_{name}", SRC / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return getattr(mod, name)(instance_name="t", resources=str(SRC), visible=False)
+_shell = load_shell
 
 
 @pytest.mark.parametrize("name", ["UavDynamics", "UavBattery", "UavWind", "UavStrategy"])
