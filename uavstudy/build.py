@@ -75,16 +75,6 @@ RECORD_PATTERNS = (
 PARAMETER_SET = "scenario"
 
 
-class _OneParameterSetBuilder(SspBuilder):
-    """SspBuilder naming every component's parameter set PARAMETER_SET (our master and libcosim apply a
-    component's first set whatever its name)."""
-
-    def _params(self, values_parent, comp):
-        pset = super()._params(values_parent, comp)
-        pset.set("name", PARAMETER_SET)
-        return pset
-
-
 def default_fmu_dir() -> Path:
     """The repository's ``fmus/`` folder (next to the ``uavstudy`` package)."""
     return Path(__file__).resolve().parents[1] / "fmus"
@@ -223,7 +213,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
                for z, s in zip(zones, zones_s.split("|") if zones_s else [])]
     mission = _mission_parameters(scn, targets_r, zones_r)
 
-    b = _OneParameterSetBuilder(scn.name)
+    b = SspBuilder(scn.name, parameter_set=PARAMETER_SET)
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
     b.record_interval = _record_interval(float(scn.step))

@@ -63,6 +63,9 @@ class SspBuilder:
     step_multiples: dict = field(default_factory=dict)
     record: list = field(default_factory=list)        # record patterns
     annotations: list = field(default_factory=list)   # lxml elements with ssc:Annotation root
+    # one name for every component's parameter set (Ecos applies only the set named in its init call); None:
+    # "<component>-parameters"
+    parameter_set: str | None = None
 
     def add_component(self, name, fmu_path, connectors=None, params=None, ssv=False):
         """connectors=None takes every input, output and set parameter from the FMU's modelDescription."""
@@ -115,7 +118,7 @@ class SspBuilder:
     def _params(self, values_parent, comp: _Comp):
         """Inline under values_parent, or (None) as the root of an .ssv file; libcosim's parser matches the
         literal 'ssv:' prefix, so the file root declares it."""
-        attrs = {"version": "1.0", "name": f"{comp.name}-parameters"}
+        attrs = {"version": "1.0", "name": self.parameter_set or f"{comp.name}-parameters"}
         if values_parent is None:
             pset = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]}, **attrs)
         else:
