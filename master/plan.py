@@ -18,6 +18,7 @@ from .fmi.slave import INTEGER_BASES, OBJECT_FILL, array_shape, base_type
 from .fmi.table import TableColumn, column_values, csv_source, read_csv_table
 from .ssp.model import CSV_SOURCE_TYPE, Component, Connection, Connector, SystemModel
 from .units import conversion, unit_from_fmu
+from .values import parse_text
 
 # SSD connector kinds and the FMU causalities they may describe
 KIND_CAUSALITY = {
@@ -481,7 +482,7 @@ def _link(c: Connection, model, variables, units, shown_as) -> Link:
         link.offset = t.factor * link.offset + t.offset
         link.factor = t.factor * link.factor
     elif t is not None and t.kind == "map":
-        conv = {"Integer": int, "Int64": int, "UInt64": int, "Boolean": lambda s: s.strip().lower() in ("true", "1"), "String": str}.get(src.type)
+        conv = (lambda raw: parse_text(src.type, raw)) if src.type in (*INTEGER_BASES, "Boolean", "String") else None
         if conv is None:
             raise ScenarioError(f"a mapping transformation cannot map {src.fmi_type} values", file=shown_as,
                                 element=where, line=c.line)
@@ -554,17 +555,7 @@ def parse_value(v: Var, raw, where: str, allow_nonfinite: bool = False):
     value = raw
     if isinstance(raw, str):
         try:
-            if v.type == "Real":
-                value = float(raw)
-            elif v.type in INTEGER_BASES:
-                value = int(raw)
-            elif v.type == "Boolean":
-                low = raw.strip().lower()
-                if low not in ("true", "false", "1", "0"):
-                    raise ValueError
-                value = low in ("true", "1")
-            elif v.type == "Binary":
-                value = bytes.fromhex(raw)       # as FMI 3 writes Binary start values: hexadecimal digits
+            value = parse_text(v.type, raw)      # Binary as FMI 3 writes its start values: hexadecimal digits
         except ValueError:
             raise ScenarioError(f"{raw!r} is not a valid {v.fmi_type} for {v.qualified}",
                                 element=f"--param {where}") from None

@@ -41,6 +41,7 @@ from lxml import etree
 
 from master.errors import ScenarioError
 from master.monitors import Monitor, register
+from master.values import parse_boolean
 
 from .geodetic import to_geodetic
 from .geometry import CollisionDetector, ZoneDetector
@@ -179,6 +180,11 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
     d = num(mon, "impactDiameter", 2.6, "uav:UavMonitor")
     if not d > 0:
         raise ScenarioError(f"impactDiameter must be > 0, got {d:g}", file=shown_as, element="uav:UavMonitor")
+    try:
+        end_when_done = parse_boolean(mon.get("endWhenAllLanded", "false"))
+    except ValueError:
+        raise ScenarioError(f"endWhenAllLanded={mon.get('endWhenAllLanded')!r} is not true or false", file=shown_as,
+                            element="uav:UavMonitor", line=mon.sourceline) from None
     return MonitorConfig(
         uavs=uavs, targets=targets, zones=zones, impact_diameter=d,
         altitude_threshold=num(mon, "altitudeThreshold", 0.5, "uav:UavMonitor"),
@@ -186,7 +192,7 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
                 num(mon, "originAltitude", 0.0, "uav:UavMonitor")),
         home_tolerance=num(mon, "homeTolerance", 5.0, "uav:UavMonitor"),
         success_battery=num(mon, "successBattery", 0.05, "uav:UavMonitor"),
-        end_when_done=mon.get("endWhenAllLanded", "false").strip().lower() in ("true", "1"),
+        end_when_done=end_when_done,
         scenario=mon.get("scenario", ""), strategy=mon.get("strategy", ""), assignment=mon.get("assignment", ""),
         seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
 

@@ -16,6 +16,7 @@ from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector
                     SystemModel, Transformation, Unit)
 from .settings_annotations import read_master_settings
 from ..units import BASE_UNITS
+from ..values import parse_boolean, parse_text
 
 FMU_TYPES = ("application/x-fmu-sharedlibrary",)
 
@@ -47,7 +48,11 @@ def _float(el, attr, default, shown_as):
 
 
 def _bool(raw: str | None) -> bool:
-    return raw is not None and raw.strip().lower() in ("true", "1")
+    """An optional xs:boolean attribute: absent or not true is false."""
+    try:
+        return raw is not None and parse_boolean(raw)
+    except ValueError:
+        return False
 
 
 def _declared(name: str, connectors: dict) -> bool:
@@ -280,17 +285,7 @@ class _Reader:
     @staticmethod
     def convert_value(typ, raw, shown_as, el):
         try:
-            if typ == "Real":
-                return float(raw)
-            if typ == "Integer":
-                return int(raw)
-            if typ == "Boolean":
-                if raw.strip().lower() not in ("true", "false", "1", "0"):
-                    raise ValueError(raw)
-                return raw.strip().lower() in ("true", "1")
-            if typ == "Binary":
-                return bytes.fromhex(raw)      # ssv:Binary values are xs:hexBinary
-            return raw
+            return parse_text(typ if typ != "Enumeration" else "String", raw)   # ssv:Binary is xs:hexBinary
         except (TypeError, ValueError):
             raise ScenarioError(f"value {raw!r} is not a valid {typ}", file=shown_as,
                                 element=f"Parameter {el.get('name')}", line=el.sourceline) from None
