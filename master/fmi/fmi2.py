@@ -6,16 +6,17 @@ import functools
 from ctypes import byref, c_char_p, c_double, c_int, c_uint, c_void_p
 
 from .fmpy_adapter import fmi2_callbacks, load_library
-from .slave import DISCARD, ERROR, OK, WARNING, Port, Slave
+from .native import NativeSlave
+from .slave import DISCARD, ERROR, WARNING, Port
 
 FMI2_TERMINATED = 3        # fmi2StatusKind fmi2Terminated: does the slave want to end the simulation?
 
 
-class Fmi2Slave(Slave):
+class Fmi2Slave(NativeSlave):
     """FMI 2.0 co-simulation through fmpy's library loading, with direct ctypes calls on the hot path."""
+    GET_STATE, SET_STATE, FREE_STATE = "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate"
+    TERMINATE, FREE_INSTANCE = "fmi2Terminate", "fmi2FreeInstance"
 
-    # the worst status above Discard a call returned: after Error FMI allows only freeInstance (or reset),
-    # after Fatal no call at all (Runtime.terminate reads it)
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
@@ -45,7 +46,7 @@ class Fmi2Slave(Slave):
         self.c = comp
         self.lib.bind_instance(comp)
         self.instantiated = True
-        f, c = self._f, comp
+        f = self._f
         self._do_step = f.get("fmi2DoStep")
         self._get = {"Real": f["fmi2GetReal"], "Integer": f["fmi2GetInteger"], "Boolean": f["fmi2GetBoolean"]}
         self._set = {"Real": f["fmi2SetReal"], "Integer": f["fmi2SetInteger"], "Boolean": f["fmi2SetBoolean"]}
@@ -135,30 +136,3 @@ class Fmi2Slave(Slave):
     @property
     def raw_step(self):
         return functools.partial(self._raw("fmi2DoStep"), c_void_p(self.c)) if self._do_step is not None else None
-
-    def save_state(self, t=None):
-        if not self.can_save_state:
-            return super().save_state(t)
-        state = c_void_p()
-        self.check("fmi2GetFMUstate", self._f["fmi2GetFMUstate"](self.c, byref(state)), t)
-        return state
-
-    def restore_state(self, token, t=None):
-        if not self.can_save_state:
-            return super().restore_state(token, t)
-        self.check("fmi2SetFMUstate", self._f["fmi2SetFMUstate"](self.c, token), t)
-
-    def release_state(self, token):
-        if token is not None and self.instantiated:
-            self._f["fmi2FreeFMUstate"](self.c, byref(token))
-
-    def terminate(self):
-        if self.initialized:
-            self.initialized = False
-            return self._f["fmi2Terminate"](self.c)
-        return OK
-
-    def free(self):
-        if self.instantiated:
-            self.instantiated = False
-            self._f["fmi2FreeInstance"](self.c)

@@ -2,12 +2,13 @@
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, byref, c_char_p, c_double, c_size_t, c_uint, c_uint8, c_void_p
+from ctypes import POINTER, byref, c_char_p, c_double, c_size_t, c_uint, c_uint8
 
 import numpy as np
 
 from .fmpy_adapter import fmi3_callbacks, load_library
-from .slave import DISCARD, ERROR, OK, Port, Slave, array_shape
+from .native import NativeSlave
+from .slave import DISCARD, ERROR, OK, Port, array_shape
 
 
 def _ptr(arr: np.ndarray, ctype):
@@ -22,8 +23,10 @@ def _binary_args(values) -> tuple:
                                                                        for b in values))
 
 
-class Fmi3Slave(Slave):
+class Fmi3Slave(NativeSlave):
     """FMI 3.0 co-simulation; variables of one base type may span several concrete FMI 3 types."""
+    GET_STATE, SET_STATE, FREE_STATE = "fmi3GetFMUState", "fmi3SetFMUState", "fmi3FreeFMUState"
+    TERMINATE, FREE_INSTANCE = "fmi3Terminate", "fmi3FreeInstance"
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
@@ -163,30 +166,3 @@ class Fmi3Slave(Slave):
     def asks_to_terminate(self, status: int) -> bool:
         """After do_step returned ``status`` above Warning: whether the FMU asked to end the simulation."""
         return status == DISCARD and bool(self._flags[1])
-
-    def save_state(self, t=None):
-        if not self.can_save_state:
-            return super().save_state(t)
-        state = c_void_p()
-        self.check("fmi3GetFMUState", self._f["fmi3GetFMUState"](self.c, byref(state)), t)
-        return state
-
-    def restore_state(self, token, t=None):
-        if not self.can_save_state:
-            return super().restore_state(token, t)
-        self.check("fmi3SetFMUState", self._f["fmi3SetFMUState"](self.c, token), t)
-
-    def release_state(self, token):
-        if token is not None and self.instantiated:
-            self._f["fmi3FreeFMUState"](self.c, byref(token))
-
-    def terminate(self):
-        if self.initialized:
-            self.initialized = False
-            return self._f["fmi3Terminate"](self.c)
-        return OK
-
-    def free(self):
-        if self.instantiated:
-            self.instantiated = False
-            self._f["fmi3FreeInstance"](self.c)

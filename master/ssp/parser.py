@@ -12,7 +12,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
-from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, MasterSettings, ParameterValue,
+from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
                     SystemModel, Transformation, Unit)
 from .settings_annotations import read_master_settings
 from ..units import BASE_UNITS
