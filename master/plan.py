@@ -249,7 +249,7 @@ def _fmu_component(name: str, comp: Component, implementation: str, shown_as: st
     """An FMU component's loaded FMU (with the kind it runs as), variables and output dependencies, its SSD
     connectors checked against them."""
     where = f"Component {name}"
-    fmu = load_fmu(comp.fmu_path, f"{shown_as}/{comp.source}" if shown_as else comp.source, lenient=lenient)
+    fmu = load_fmu(comp.fmu_path, shown_source(shown_as, comp.source), lenient=lenient)
     if fmu.fmi_version.startswith("1"):
         raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
     try:
@@ -316,7 +316,7 @@ def _add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: s
 def _csv_component(name: str, comp: Component, model: SystemModel, variables: dict, shown_as: str):
     """An input table's stand-in for an FMU and its variables: one per connected column, typed as the input it
     drives and interpolated as that input's variability asks (linear for a continuous Real, else hold)."""
-    shown = f"{shown_as}/{comp.source}" if shown_as else comp.source
+    shown = shown_source(shown_as, comp.source)
     table = read_csv_table(comp.fmu_path, shown)
     for conn in comp.connectors.values():
         if conn.name not in table.columns:
@@ -424,6 +424,16 @@ def _whole_arrays(params: list, plan: Plan) -> list:
         else:
             folded[whole.qualified][v.index] = value
     return out
+
+
+def shown_source(shown_as: str, source: str) -> str:
+    """How a file of the scenario is named in messages: inside the archive or folder the user named, or beside
+    a bare .ssd (not under the .ssd's own name)."""
+    if not shown_as:
+        return source
+    if shown_as.lower().endswith(".ssd"):
+        return str(Path(shown_as).parent / source)
+    return f"{shown_as}/{source}"
 
 
 def _line(origin: str):

@@ -17,7 +17,7 @@ from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
 from .fmi.slave import BASE_TYPES, ERROR, FATAL, WARNING, new_buffer
-from .plan import Link, Plan, Var
+from .plan import Link, Plan, Var, shown_source
 
 
 PHASE_INSTANTIATE, PHASE_INITIALIZE, PHASE_STEP, PHASE_TERMINATE = 1, 2, 3, 4
@@ -175,7 +175,7 @@ class Runtime:
         for i, name in enumerate(self.names):
             self._at(PHASE_INSTANTIATE, i)
             fmu = self.plan.fmus[name]
-            shown = f"{self.plan.shown_as}/{self.plan.model.components[name].source}"
+            shown = shown_source(self.plan.shown_as, self.plan.model.components[name].source)
             slave = make_slave(name, fmu, self.log, shown, logging_on=self._logging_on, inprocess=self._inprocess,
                                solver=self._solver)
             self.slaves[i] = slave

@@ -139,10 +139,24 @@ def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str
         return Library(_lazy(cls)(guid=fmu.md.guid, unzipDirectory=str(fmu.unzip_dir),
                                   modelIdentifier=model_identifier, instanceName=name))
     except Exception as exc:
-        raise FmuError(f"cannot load the FMU's binary: {' '.join(str(exc).split())}", file=shown_as,
-                       element=f"component {name}") from None
+        missing = _missing_platform(fmu)
+        reason = missing or f"cannot load the FMU's binary: {' '.join(str(exc).split())}"
+        raise FmuError(reason, file=shown_as, element=f"component {name}") from None
     finally:
         os.chdir(cwd)
+
+
+def _missing_platform(fmu) -> str | None:
+    """'this FMU has binaries for win32, win64 only' when it has none for this platform (a clearer reason than
+    the missing shared library)."""
+    from fmpy import platform as fmpy_platform, platform_tuple
+    here = platform_tuple if fmu.fmi_version.startswith("3") else fmpy_platform
+    folder = fmu.unzip_dir / "binaries"
+    found = sorted(p.name for p in folder.iterdir() if p.is_dir()) if folder.is_dir() else []
+    if here in found:
+        return None
+    return (f"this FMU has binaries for {', '.join(found)} only, not for {here}" if found
+            else f"this FMU has no binaries (source code only?), not for {here}")
 
 
 def fmi2_callbacks(logger):

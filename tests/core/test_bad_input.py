@@ -290,3 +290,26 @@ def test_a_scenario_yaml_given_to_run_says_to_build_it(tmp_path):
     assert r.returncode == 1 and "this is a UAV YAML scenario, not an SSP: build one with `cosim-master " \
                                   f"build-scenario {scenario} -o scenario.ssp`" in r.stderr
     _one_line(r.stderr)
+
+
+def test_files_beside_a_bare_ssd_are_named_by_their_own_path(tmp_path, test_fmus):
+    folder = _two(tmp_path, test_fmus)
+    (folder / "resources" / "Gain.fmu").write_bytes(b"not a zip")
+    with pytest.raises(FmuError) as e:
+        master.run(folder / "SystemStructure.ssd", output=None)
+    # not ".../SystemStructure.ssd/resources/Gain.fmu"
+    assert str(e.value).startswith(f"{folder / 'resources' / 'Gain.fmu'}: not a readable FMU archive")
+
+
+def test_an_fmu_without_binaries_for_this_platform_says_which_it_has(tmp_path, test_fmus):
+    src = zipfile.ZipFile(test_fmus["c2:Gain"])
+    fmu = tmp_path / "WinGain.fmu"
+    with zipfile.ZipFile(fmu, "w") as out:
+        for item in src.infolist():
+            name = item.filename.replace("binaries/linux64/", "binaries/win64/")
+            out.writestr(name, src.read(item.filename))
+    b = component("g", "resources/Gain.fmu", connector("u", "input") + connector("y", "output"))
+    folder = write_folder(tmp_path / "w", ssd("w", b, "", experiment_xml=experiment(1.0, settings(0.1))),
+                          {"Gain.fmu": fmu})
+    with pytest.raises(FmuError, match="component g: this FMU has binaries for win64 only, not for linux64"):
+        master.run(folder, output=None)
