@@ -7,17 +7,36 @@ subclasses Algorithm, implements ``prepare`` (and ``step`` if it is not a fixed 
 """
 from __future__ import annotations
 
+from ..errors import CosimError
+
 
 class Algorithm:
     name = "base"
     gauss_seidel = False
     info: dict = {}          # facts for run.json; an algorithm with facts sets its own dict in stepping_order
+    extrapolation = 0        # polynomial order of the coupled inputs (extrapolation.py); 0: held, as read
+    honours_extrapolation = True    # a fixed-step algorithm whose inputs come from earlier outputs
+
+    def configure(self, options) -> None:
+        """The run's options (execution.Options), before ``prepare``: an algorithm takes the ones it uses."""
+        k = int(getattr(options, "extrapolation", 0) or 0)
+        if k and not self.honours_extrapolation:
+            raise CosimError(f"--extrapolation does not apply to the {self.name} algorithm (only to fixed-step "
+                             "algorithms that feed inputs from earlier outputs: jacobi, gauss-seidel)",
+                             element="--extrapolation")
+        if k not in (0, 1, 2):
+            raise CosimError(f"--extrapolation must be 0, 1 or 2, not {k}", element="--extrapolation")
+        self.extrapolation = k
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
         self.rt = rt
         self.h = h
         self.order = self.stepping_order(rt, plan)
+        if self.extrapolation:
+            from .extrapolation import InputExtrapolation
+            self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation)
+            self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         self._build()
         return self.info
 
@@ -25,9 +44,15 @@ class Algorithm:
         return list(range(len(rt.slaves)))
 
     def _build(self):
-        from .compiled import compile_step
-        self._step = compile_step(self.rt, self.order, self.h, self.gauss_seidel)
+        self._step = self._compile(self.h)
         self.rt.changed = False
+
+    def _compile(self, h: float):
+        from .compiled import compile_step
+        step = compile_step(self.rt, self.order, h, self.gauss_seidel)
+        if self.extrapolation:      # only then: the default step stays the compiled function itself
+            step = self._extrapolator.around(step, h / self.h)
+        return step
 
     def step(self, n: int, t: float) -> None:
         if self.rt.changed:      # a monitor took a component out: step the others only
@@ -37,7 +62,6 @@ class Algorithm:
     def step_sized(self, n: int, t: float, h: float) -> None:
         """One step of another length than the master step (the shorter last step of an interval that is not
         a whole number of steps)."""
-        from .compiled import compile_step
         if self.rt.changed:
             self._build()
-        compile_step(self.rt, self.order, h, self.gauss_seidel)(n, t)
+        self._compile(h)(n, t)
