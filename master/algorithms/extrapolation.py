@@ -29,6 +29,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..fmi.slave import WARNING
+from .base import coupled_outputs
 from .ordering import gauss_seidel_order
 
 
@@ -80,15 +81,7 @@ class InputExtrapolation:
         """Positions in out["Real"] of coupled outputs of active components stepping every step, and the
         components whose coupled outputs have direct feedthrough; history restarts when they change."""
         rt = self.rt
-        owner = {}
-        for j, (a, _) in enumerate(rt.out_slice["Real"]):
-            if rt.active[j] and rt.multiple[j] == 1:
-                for p in range(a, a + rt._n_step_reads[j]["Real"]):
-                    owner[p] = j
-        n = len(rt.names)
-        sources = {int(p) for i in range(n) if rt.active[i]
-                   for p in rt.src["Real"][slice(*rt.in_slice["Real"][i])]}
-        positions = np.array(sorted(p for p in sources if p in owner), dtype=np.intp)
+        positions, owner = coupled_outputs(rt)
         feeds = {rt.names[owner[p]] for p in positions}
         through = {ln.src.component for ln in self.plan.links
                    if ln.src.component in feeds and ln.dst.causality == "input" and self._feeds_through(ln.src)}
