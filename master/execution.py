@@ -77,6 +77,11 @@ class Options:
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
+    extrapolation: int = 0                            # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
+    coupling_tol: float = 1e-10                       # iterative: relative tolerance of the coupled values
+    coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
+    coupling_max_iter: int = 50                       # iterative: iterations per step at most
+    coupling_update: str = "iqn-ils"                  # iterative: "fixed-point", "aitken", "iqn-ils"
 
 
 @dataclass
@@ -178,6 +183,7 @@ class Execution:
                 raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
                                     element="Settings")
         self.algorithm = get_algorithm(st.algorithm)
+        self.algorithm.configure(o)
         self.solver = SolverChoice(o.solver, o.solver_step)
         self.solver.check()
         if st.steps > LONG_RUN_STEPS:

@@ -99,6 +99,9 @@ class CModel:
     # the framework's function): FMUs of tools that predate the final FMI 2.0 names
     hidden_functions: tuple[str, ...] = ()
     renamed_functions: dict[str, str] = field(default_factory=dict)
+    # FMI 2.0 get/set/free FMU state work (the framework copies the model data; canGetAndSetFMUstate="true"):
+    # what iterative coupling's rollback needs. Off for the others, whose tests expect a refusal.
+    saves_state: bool = False
 
     @property
     def c_source(self) -> Path:
@@ -135,6 +138,7 @@ C_MODELS: dict[str, CModel] = {
         ],
         output_deps={"x": [], "v": []},
         versions_kinds={(2, "cs")},
+        saves_state=True,
     ),
     "MassB": CModel(
         name="MassB",
@@ -156,6 +160,7 @@ C_MODELS: dict[str, CModel] = {
         # state cannot be expressed: a Co-Simulation FMU exposes no states).
         output_deps={"x": [], "v": [], "F": ["x_in"]},
         versions_kinds={(2, "cs")},
+        saves_state=True,
     ),
     "Integrator": CModel(
         name="Integrator",
@@ -346,7 +351,8 @@ def _fmi2_model_description(spec: CModel, variables: list[Var], guid: str, kind:
     if kind == "cs":
         out.append(
             f'  <CoSimulation modelIdentifier="{spec.name}" canHandleVariableCommunicationStepSize="true"'
-            ' canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="false"'
+            ' canNotUseMemoryManagementFunctions="true"'
+            f' canGetAndSetFMUstate="{str(spec.saves_state).lower()}"'
             ' canSerializeFMUstate="false" canInterpolateInputs="false" maxOutputDerivativeOrder="0"/>'
         )
     else:
@@ -533,6 +539,7 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
             f"-I{fmi_headers_dir()}",
             f"-I{inc}",
             f"-I{C_DIR}",
+            *(["-DFW_CAN_SAVE_STATE"] if spec.saves_state and fmi_version == 2 else []),
             str(C_DIR / f"fmi{fmi_version}_framework.c"),
             str(spec.c_source),
             "-o",

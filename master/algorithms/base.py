@@ -7,17 +7,52 @@ subclasses Algorithm, implements ``prepare`` (and ``step`` if it is not a fixed 
 """
 from __future__ import annotations
 
+import numpy as np
+
+from ..errors import CosimError
+
+
+def coupled_outputs(rt) -> tuple[np.ndarray, dict[int, int]]:
+    """The positions in ``rt.out["Real"]`` of the outputs that feed step inputs, from active components that
+    step every master step (outputs of a component on a step multiple are staged and held), sorted; and the
+    component each comes from."""
+    owner = {}
+    for j, (a, _) in enumerate(rt.out_slice["Real"]):
+        if rt.active[j] and rt.multiple[j] == 1:
+            owner.update((p, j) for p in range(a, a + rt._n_step_reads[j]["Real"]))
+    fed = {int(p) for i in range(len(rt.names)) if rt.active[i]
+           for p in rt.src["Real"][slice(*rt.in_slice["Real"][i])]}
+    positions = np.array(sorted(p for p in fed if p in owner), dtype=np.intp)
+    return positions, {int(p): owner[int(p)] for p in positions}
+
 
 class Algorithm:
     name = "base"
     gauss_seidel = False
     info: dict = {}          # facts for run.json; an algorithm with facts sets its own dict in stepping_order
+    extrapolation = 0        # polynomial order of the coupled inputs (extrapolation.py); 0: held, as read
+    honours_extrapolation = True    # a fixed-step algorithm whose inputs come from earlier outputs
+
+    def configure(self, options) -> None:
+        """The run's options (execution.Options), before ``prepare``: an algorithm takes the ones it uses."""
+        k = int(getattr(options, "extrapolation", 0) or 0)
+        if k and not self.honours_extrapolation:
+            raise CosimError(f"--extrapolation does not apply to the {self.name} algorithm (only to fixed-step "
+                             "algorithms that feed inputs from earlier outputs: jacobi, gauss-seidel)",
+                             element="--extrapolation")
+        if k not in (0, 1, 2):
+            raise CosimError(f"--extrapolation must be 0, 1 or 2, not {k}", element="--extrapolation")
+        self.extrapolation = k
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
         self.rt = rt
         self.h = h
         self.order = self.stepping_order(rt, plan)
+        if self.extrapolation:
+            from .extrapolation import InputExtrapolation
+            self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation)
+            self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         self._build()
         return self.info
 
@@ -25,9 +60,15 @@ class Algorithm:
         return list(range(len(rt.slaves)))
 
     def _build(self):
-        from .compiled import compile_step
-        self._step = compile_step(self.rt, self.order, self.h, self.gauss_seidel)
+        self._step = self._compile(self.h)
         self.rt.changed = False
+
+    def _compile(self, h: float):
+        from .compiled import compile_step
+        step = compile_step(self.rt, self.order, h, self.gauss_seidel)
+        if self.extrapolation:      # only then: the default step stays the compiled function itself
+            step = self._extrapolator.around(step, h / self.h)
+        return step
 
     def step(self, n: int, t: float) -> None:
         if self.rt.changed:      # a monitor took a component out: step the others only
@@ -37,7 +78,6 @@ class Algorithm:
     def step_sized(self, n: int, t: float, h: float) -> None:
         """One step of another length than the master step (the shorter last step of an interval that is not
         a whole number of steps)."""
-        from .compiled import compile_step
         if self.rt.changed:
             self._build()
-        compile_step(self.rt, self.order, h, self.gauss_seidel)(n, t)
+        self._compile(h)(n, t)

@@ -5,8 +5,10 @@
  * model_vars.h.
  *
  * Written from the FMI 2.0.4 specification for this project.
- * FMU state functions (get/set/serialize) are not supported and return
- * fmi2Error (canGetAndSetFMUstate="false" in the model description).
+ * FMU state: get/set/free copy the model data (strings deep) when the model
+ * is built with FW_CAN_SAVE_STATE (canGetAndSetFMUstate="true", for the
+ * rollback of iterative coupling); otherwise, and for serialization always,
+ * they return fmi2Error.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -395,7 +397,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 }
 
 /* ------------------------------------------------------------------------ */
-/* FMU state: not supported                                                  */
+/* FMU state                                                                 */
 
 static fmi2Status unsupported(fmi2Component c, const char *fname)
 {
@@ -404,6 +406,81 @@ static fmi2Status unsupported(fmi2Component c, const char *fname)
     return fmi2Error;
 }
 
+#ifdef FW_CAN_SAVE_STATE
+/* A saved state: the model data plus the framework state that doStep changes. */
+typedef struct {
+    ModelData d;
+    FwState state;
+    int terminated;
+} SavedState;
+
+static void copy_strings(char **dst, char *const *src)
+{
+    int k;
+    for (k = 0; k < NVARS; k++) dst[k] = src[k] ? strdup(src[k]) : NULL;
+}
+
+static void free_strings(char **s)
+{
+    int k;
+    for (k = 0; k < NVARS; k++) {
+        free(s[k]);
+        s[k] = NULL;
+    }
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    Instance *inst = (Instance *)c;
+    SavedState *saved;
+    fmi2Status st = check(inst, "fmi2GetFMUstate", ANY_STATE & ~MASK(ST_ERROR));
+    if (st != fmi2OK) return st;
+    /* FMI 2.0: a non-NULL *FMUstate is a state of this instance to be overwritten */
+    saved = *FMUstate ? (SavedState *)*FMUstate : (SavedState *)calloc(1, sizeof *saved);
+    if (saved == NULL) {
+        LOGE(inst, "fmi2GetFMUstate: out of memory");
+        return fmi2Error;
+    }
+    if (*FMUstate) free_strings(saved->d.s);
+    saved->d = inst->d;
+    copy_strings(saved->d.s, inst->d.s);
+    saved->state = inst->state;
+    saved->terminated = inst->terminated;
+    *FMUstate = saved;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
+{
+    Instance *inst = (Instance *)c;
+    const SavedState *saved = (const SavedState *)FMUstate;
+    fmi2Status st = check(inst, "fmi2SetFMUstate", ANY_STATE & ~MASK(ST_ERROR));
+    if (st != fmi2OK) return st;
+    if (saved == NULL) {
+        LOGE(inst, "fmi2SetFMUstate: no state given");
+        return fmi2Error;
+    }
+    free_strings(inst->d.s);
+    inst->d = saved->d;
+    copy_strings(inst->d.s, saved->d.s);
+    inst->d.fw = inst;
+    inst->state = saved->state;
+    inst->terminated = saved->terminated;
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    SavedState *saved = FMUstate ? (SavedState *)*FMUstate : NULL;
+    (void)c;
+    if (saved != NULL) {
+        free_strings(saved->d.s);
+        free(saved);
+        *FMUstate = NULL;
+    }
+    return fmi2OK;
+}
+#else
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     (void)FMUstate;
@@ -421,6 +498,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
     (void)FMUstate;
     return unsupported(c, "fmi2FreeFMUstate");
 }
+#endif
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
 {
