@@ -301,7 +301,7 @@ class Execution:
         manipulators = self.manipulators
         check = None if self.options.allow_nonfinite else rt.nonfinite_error
         last_n = st.steps - 1 if st.last_step is not None else -1       # a shorter final step
-        out_real, zeros = rt.out["Real"], rt._zeros
+        out_real, zeros = rt.out["Real"], rt.real_zeros
         bar = None
         if self.options.progress:
             from tqdm import tqdm

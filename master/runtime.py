@@ -87,7 +87,7 @@ class Runtime:
             for p, value in held:
                 self.out[t][p] = value
             self.out_slice[t] = slices
-        self._zeros = np.zeros(len(self.out["Real"]))
+        self.real_zeros = np.zeros(len(self.out["Real"]))
         self._reads = reads
 
         # what is written to each slave; links into parameters are applied during initialization only
@@ -148,11 +148,16 @@ class Runtime:
                 held.append((pos + len(held), value))
         return held
 
+    def step_reads(self, i: int, typ: str) -> int:
+        """How many of slave i's values of type ``typ`` are read after every step (the first ones of its slice
+        of ``out[typ]``; the rest are read when a sample is taken)."""
+        return self._n_step_reads[i][typ]
+
     def nonfinite_error(self, t: float) -> CosimError | None:
         """An error naming the Real values read so far that are NaN or infinite, or None when all are finite.
         One dot product with zeros finds them (0 * finite = 0; 0 * NaN or 0 * inf = NaN): cheap per step."""
         out = self.out["Real"]
-        if not len(out) or out.dot(self._zeros) == 0.0:
+        if not len(out) or out.dot(self.real_zeros) == 0.0:
             return None
         bad = np.flatnonzero(~np.isfinite(out))
         if not len(bad):

@@ -3,7 +3,8 @@
 An algorithm sees only the Runtime (slaves, buffers, transfer and bound FMI operations, active and
 multi-rate bookkeeping); parsing, initialization and recording never depend on it. A new algorithm
 subclasses Algorithm, implements ``prepare`` (and ``step`` if it is not a fixed sequence of calls that
-``compiled.compile_step`` can express), and registers itself in ``algorithms/__init__.py``.
+``compiled.compile_step`` can express), and registers itself with ``@ALGORITHMS.register("name")`` in its own
+module of this folder.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ def coupled_outputs(rt) -> tuple[np.ndarray, dict[int, int]]:
     owner = {}
     for j, (a, _) in enumerate(rt.out_slice["Real"]):
         if rt.active[j] and rt.multiple[j] == 1:
-            owner.update((p, j) for p in range(a, a + rt._n_step_reads[j]["Real"]))
+            owner.update((p, j) for p in range(a, a + rt.step_reads(j, "Real")))
     fed = {int(p) for i in range(len(rt.names)) if rt.active[i]
            for p in rt.src["Real"][slice(*rt.in_slice["Real"][i])]}
     positions = np.array(sorted(p for p in fed if p in owner), dtype=np.intp)
