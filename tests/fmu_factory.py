@@ -463,8 +463,11 @@ def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> st
     return "\n".join(out) + "\n"
 
 
-# FMI 1.0 co-simulation builds (tests/fmus_c/fmi1_framework.c) of models whose FMI 2.0 twins they must match
+# FMI 1.0 co-simulation builds (tests/fmus_c/fmi1_framework.c) of models whose FMI 2.0 twins they must match.
+# Built by key (build_by_key("c1:Gain", ...)) but not among available_keys(), the test_fmus fixture's keys:
+# tests/test_fmu_factory.py checks those as FMI 2.0/3.0 FMUs; tests/core/test_fmi1.py builds and checks these.
 FMI1_MODELS = ("Integrator", "Gain", "Faulty")
+FMI1_KEYS = tuple(f"c1:{name}" for name in FMI1_MODELS)
 for _name in FMI1_MODELS:
     C_MODELS[_name].versions_kinds.add((1, "cs"))
 
@@ -702,8 +705,8 @@ _PREFIXES = {
 def available_keys() -> list[str]:
     keys = []
     for name, spec in C_MODELS.items():
-        for version, kind in sorted(spec.versions_kinds):
-            prefix = {(1, "cs"): "c1", (2, "cs"): "c2", (2, "me"): "me2", (3, "cs"): "c3"}[(version, kind)]
+        for version, kind in sorted(spec.versions_kinds - {(1, "cs")}):
+            prefix = {(2, "cs"): "c2", (2, "me"): "me2", (3, "cs"): "c3"}[(version, kind)]
             keys.append(f"{prefix}:{name}")
     keys += [f"py:{m}" for m in PY_MODELS]
     return keys

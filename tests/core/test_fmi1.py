@@ -5,13 +5,28 @@ import sys
 
 import numpy as np
 import pytest
+from fmpy.validation import validate_fmu
 
+import fmu_factory
 import master
 from master.errors import CosimError, ScenarioError
 from master.fmi.cache import load_fmu
 from master.fmi.factory import choose_kind, slave_class
 from master.fmi.fmi1 import Fmi1Slave
 from master.ssp.writer import SspBuilder
+
+@pytest.fixture(scope="module")
+def test_fmus(test_fmus, tmp_path_factory):
+    """The session's test FMUs and the FMI 1.0 ones (c1:*), which are not among its keys."""
+    root = tmp_path_factory.mktemp("fmi1")
+    fmi1 = {key: fmu_factory.build_by_key(key, root) for key in fmu_factory.FMI1_KEYS}
+    return {**{key: test_fmus[key] for key in ("c2:Integrator", "c2:Gain")}, **fmi1}
+
+
+@pytest.mark.parametrize("key", fmu_factory.FMI1_KEYS)
+def test_fmi1_test_fmus_validate(test_fmus, key):
+    assert validate_fmu(str(test_fmus[key])) == []
+
 
 H, K, A1, A2 = 0.05, -2.0, -0.3, 0.2
 RECORD = ["I1.y", "G.y", "I2.y"]
