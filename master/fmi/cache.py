@@ -127,7 +127,8 @@ def _add_fmi1_outputs(md, unzip_dir: Path) -> None:
         unknown.variable = by_name[sv.get("name")]
         direct = sv.find("DirectDependency")
         if direct is not None:
-            unknown.dependencies = [by_name[n.text.strip()] for n in direct.iterfind("Name") if n.text.strip() in by_name]
+            names = (n.text.strip() for n in direct.iterfind("Name"))
+            unknown.dependencies = [by_name[name] for name in names if name in by_name]
         md.outputs.append(unknown)
 
 

@@ -133,9 +133,9 @@ class Library:
 
 
 def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str) -> Library:
-    """Load the FMU's binary for ``kind`` ("fmi1cs", "fmi2cs", "fmi2me", "fmi3cs", "fmi3me"). fmpy changes the working directory
-    while loading and does not change it back when the library fails to load, so the caller's directory is
-    restored here."""
+    """Load the FMU's binary for ``kind`` ("fmi1cs", "fmi2cs", "fmi2me", "fmi3cs", "fmi3me"). fmpy changes the
+    working directory while loading and does not change it back when the library fails to load, so the caller's
+    directory is restored here."""
     if kind == "fmi1cs":
         from fmpy.fmi1 import FMU1Slave as cls
     elif kind == "fmi2cs":
