@@ -250,8 +250,6 @@ def _fmu_component(name: str, comp: Component, implementation: str, shown_as: st
     connectors checked against them."""
     where = f"Component {name}"
     fmu = load_fmu(comp.fmu_path, shown_source(shown_as, comp.source), lenient=lenient)
-    if fmu.fmi_version.startswith("1"):
-        raise ScenarioError("FMI 1.0 FMUs are not supported", file=shown_as, element=where, line=comp.line)
     try:
         kind = choose_kind(fmu, implementation)
     except ValueError as exc:

@@ -469,6 +469,63 @@ def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> st
     return "\n".join(out) + "\n"
 
 
+# FMI 1.0 co-simulation builds (tests/fmus_c/fmi1_framework.c) of models whose FMI 2.0 twins they must match.
+# Built by key (build_by_key("c1:Gain", ...)) but not among available_keys(), the test_fmus fixture's keys:
+# tests/test_fmu_factory.py checks those as FMI 2.0/3.0 FMUs; tests/core/test_fmi1.py builds and checks these.
+FMI1_MODELS = ("Integrator", "Gain", "Faulty")
+FMI1_KEYS = tuple(f"c1:{name}" for name in FMI1_MODELS)
+for _name in FMI1_MODELS:
+    C_MODELS[_name].versions_kinds.add((1, "cs"))
+
+
+def _fmi1_variability(v: Var) -> str:
+    """FMI 1.0 has no fixed/tunable parameters: both are variability "parameter" (causality internal)."""
+    return "parameter" if v.causality == "parameter" else v.variability
+
+
+def _fmi1_causality(v: Var) -> str:
+    return {"parameter": "internal", "local": "internal"}.get(v.causality, v.causality)
+
+
+def _fmi1_variable(spec: CModel, vr: int, v: Var) -> list[str]:
+    attrs = (f'name="{v.name}" valueReference="{vr}" variability="{_fmi1_variability(v)}"'
+             f' causality="{_fmi1_causality(v)}"')
+    if v.description:
+        attrs += f" description={quoteattr(v.description)}"
+    type_attrs = f' start="{_fmt(v.start, v.type)}" fixed="true"' if v.start is not None else ""
+    lines = [f"    <ScalarVariable {attrs}>", f"      <{v.type}{type_attrs}/>"]
+    deps = spec.output_deps.get(v.name) if v.causality == "output" else None
+    if deps is not None:  # FMI 1.0: without DirectDependency an output depends on every input
+        lines += ["      <DirectDependency>", *[f"        <Name>{d}</Name>" for d in deps], "      </DirectDependency>"]
+    return lines + ["    </ScalarVariable>"]
+
+
+def _fmi1_model_description(spec: CModel, variables: list[Var], guid: str) -> str:
+    out = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="1.0" modelName="{spec.name}" modelIdentifier="{spec.name}"'
+        f' guid="{guid}" description={quoteattr(spec.description)} generationTool={quoteattr(GENERATION_TOOL)}'
+        ' variableNamingConvention="structured" numberOfContinuousStates="0" numberOfEventIndicators="0">',
+        '  <DefaultExperiment startTime="0" stopTime="10"/>',
+        "  <ModelVariables>",
+    ]
+    for vr, v in enumerate(variables):
+        out += _fmi1_variable(spec, vr, v)
+    out += [
+        "  </ModelVariables>",
+        "  <Implementation>",
+        "    <CoSimulation_StandAlone>",
+        '      <Capabilities canHandleVariableCommunicationStepSize="true" canHandleEvents="true"'
+        ' canRejectSteps="false" canInterpolateInputs="false" maxOutputDerivativeOrder="0"'
+        ' canRunAsynchronuously="false" canSignalEvents="false" canBeInstantiatedOnlyOncePerProcess="false"'
+        ' canNotUseMemoryManagementFunctions="true"/>',
+        "    </CoSimulation_StandAlone>",
+        "  </Implementation>",
+        "</fmiModelDescription>",
+    ]
+    return "\n".join(out) + "\n"
+
+
 def _export_flags(spec: CModel, tmp: Path) -> list[str]:
     """Linker flags that leave out ``spec.hidden_functions`` and publish the framework's functions under
     ``spec.renamed_functions`` (a version script: a named symbol wins over the wildcard)."""
@@ -509,7 +566,10 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
     out_dir.mkdir(parents=True, exist_ok=True)
     variables = _variables_for(spec, fmi_version)
     guid = _guid(model, str(fmi_version), kind, _source_digest(spec, fmi_version))
-    if fmi_version == 2:
+    if fmi_version == 1:
+        md = _fmi1_model_description(spec, variables, guid)
+        platform_dir = "linux64"
+    elif fmi_version == 2:
         md = _fmi2_model_description(spec, variables, guid, kind)
         platform_dir = "linux64"
     else:
@@ -547,6 +607,8 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
             "-lm",
         ]
         cmd += _export_flags(spec, tmp)
+        if fmi_version == 1:  # FMI 1.0 functions carry the model identifier as prefix (fmi1_framework.c)
+            cmd.append(f"-DMODEL_IDENTIFIER={spec.name}")
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"gcc failed for {model} (FMI {fmi_version} {kind}):\n{proc.stderr}")
@@ -639,6 +701,7 @@ def build_python_fmu(model: str, out_dir: Path) -> Path:
 
 # key prefix -> (builder, kwargs)
 _PREFIXES = {
+    "c1": ("c", {"fmi_version": 1, "kind": "cs"}),
     "c2": ("c", {"fmi_version": 2, "kind": "cs"}),
     "me2": ("c", {"fmi_version": 2, "kind": "me"}),
     "c3": ("c", {"fmi_version": 3, "kind": "cs"}),
@@ -649,7 +712,7 @@ _PREFIXES = {
 def available_keys() -> list[str]:
     keys = []
     for name, spec in C_MODELS.items():
-        for version, kind in sorted(spec.versions_kinds):
+        for version, kind in sorted(spec.versions_kinds - {(1, "cs")}):
             prefix = {(2, "cs"): "c2", (2, "me"): "me2", (3, "cs"): "c3"}[(version, kind)]
             keys.append(f"{prefix}:{name}")
     keys += [f"py:{m}" for m in PY_MODELS]

@@ -86,6 +86,8 @@ def load_fmu(path: str | os.PathLike, shown_as: str | None = None, lenient: bool
         return loaded if loaded.path == path else LoadedFmu(path, sha, loaded.unzip_dir, loaded.md)
     unzip_dir = _extract(path, sha, shown_as)
     md = _read_description(unzip_dir, shown_as, lenient)
+    if md.fmiVersion == "1.0":
+        _add_fmi1_outputs(md, unzip_dir)
     loaded = LoadedFmu(path, sha, unzip_dir, md)
     _by_hash[(sha, lenient)] = loaded
     return loaded
@@ -107,6 +109,27 @@ def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
     for problem in _usability_problems(md):
         _log.warning("%s: %s", shown_as, problem)
     return md
+
+
+def _add_fmi1_outputs(md, unzip_dir: Path) -> None:
+    """FMI 1.0 has no ModelStructure, so fmpy leaves ``md.outputs`` empty; the outputs and their DirectDependency
+    (the inputs an output depends on directly; without the element: every input) are read here, so that the
+    master orders FMI 1.0 components as it does FMI 2.0 ones."""
+    from xml.etree import ElementTree
+
+    from fmpy.model_description import Unknown
+    by_name = {v.name: v for v in md.modelVariables}
+    root = ElementTree.parse(unzip_dir / "modelDescription.xml").getroot()
+    for sv in root.iterfind("ModelVariables/ScalarVariable"):
+        if sv.get("causality") != "output" or sv.get("name") not in by_name:
+            continue
+        unknown = Unknown()
+        unknown.variable = by_name[sv.get("name")]
+        direct = sv.find("DirectDependency")
+        if direct is not None:
+            names = (n.text.strip() for n in direct.iterfind("Name"))
+            unknown.dependencies = [by_name[name] for name in names if name in by_name]
+        md.outputs.append(unknown)
 
 
 def _usability_problems(md) -> list[str]:

@@ -21,6 +21,8 @@ def choose_kind(fmu: LoadedFmu, implementation: str = "any") -> str:
     wanted = offered[0] if implementation == "any" else implementation
     if wanted not in offered:
         raise ValueError(f"implementation {implementation} is asked for, but the FMU offers {offered[0]} only")
+    if wanted == "ModelExchange" and fmu.fmi_version.startswith("1"):
+        raise ValueError("FMI 1.0 model exchange is not supported (FMI 1.0 co-simulation is)")
     return wanted
 
 
@@ -40,6 +42,9 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
     if fmu.fmi_version.startswith("3"):
         from .fmi3 import Fmi3Slave
         return Fmi3Slave
+    if fmu.fmi_version.startswith("1"):
+        from .fmi1 import Fmi1Slave
+        return Fmi1Slave
     if inprocess:
         from .inprocess import PythonFmuSlave, is_pythonfmu
         if is_pythonfmu(fmu):

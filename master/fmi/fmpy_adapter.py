@@ -44,7 +44,9 @@ def _symbol(dll, name: str):
 
 def _prototype(c_fun, method) -> None:
     """Argument and result types from fmpy's annotated Python method of the same name (what fmpy's own
-    ``_loadFunctions`` does, for one function)."""
+    ``_loadFunctions`` does, for one function). fmpy annotates several FMI 1.0 co-simulation functions
+    (fmiInitializeSlave, fmiDoStep, fmiGet*Status ...) as returning fmi1String although they return an
+    fmiStatus; the genuine string results (fmiGetVersion, fmiGetTypesPlatform) are annotated ``bytes``."""
     sig = inspect.signature(method)
     argtypes = []
     for param in sig.parameters.values():
@@ -53,6 +55,8 @@ def _prototype(c_fun, method) -> None:
             annotation = typing.get_args(annotation)[0]
         argtypes.append(annotation)
     restype = sig.return_annotation
+    if restype is ctypes.c_char_p and method.__name__.startswith("fmi1"):
+        restype = ctypes.c_int
     restype = ctypes.c_char_p if restype is bytes else ctypes.c_int if restype is int else restype
     c_fun.argnames = list(sig.parameters)
     c_fun.argtypes = argtypes
@@ -72,10 +76,18 @@ class _LazyFunctions(dict):
         method = getattr(self._fmu, name, None)
         if method is None:                  # not a function of this FMI kind (fmi2DoStep for model exchange)
             raise MissingFunction(name)
-        c_fun = _symbol(self._fmu.dll, name)
+        c_fun = _symbol(self._fmu.dll, exported_name(self._fmu, name))
         _prototype(c_fun, method)
         self[name] = c_fun
         return c_fun
+
+
+def exported_name(fmu, name: str) -> str:
+    """The symbol the library exports for fmpy's function ``name``: FMI 1.0 binaries prefix every function with
+    their model identifier ("fmi1DoStep" -> "Gain_fmiDoStep"), so that several can be linked into one program."""
+    if name.startswith("fmi1"):
+        return f"{fmu.modelIdentifier}_fmi{name[4:]}"
+    return name
 
 
 @functools.cache
@@ -117,14 +129,16 @@ class Library:
         this thread finds the GIL already held, which PyGILState_Ensure allows)."""
         if self._pydll is None:
             self._pydll = ctypes.PyDLL(self.obj.dll._name, handle=self.obj.dll._handle)
-        return _symbol(self._pydll, name)
+        return _symbol(self._pydll, exported_name(self.obj, name))
 
 
 def load_library(kind: str, name: str, fmu, shown_as: str, model_identifier: str) -> Library:
-    """Load the FMU's binary for ``kind`` ("fmi2cs", "fmi2me", "fmi3cs", "fmi3me"). fmpy changes the working directory
-    while loading and does not change it back when the library fails to load, so the caller's directory is
-    restored here."""
-    if kind == "fmi2cs":
+    """Load the FMU's binary for ``kind`` ("fmi1cs", "fmi2cs", "fmi2me", "fmi3cs", "fmi3me"). fmpy changes the
+    working directory while loading and does not change it back when the library fails to load, so the caller's
+    directory is restored here."""
+    if kind == "fmi1cs":
+        from fmpy.fmi1 import FMU1Slave as cls
+    elif kind == "fmi2cs":
         from fmpy.fmi2 import FMU2Slave as cls
     elif kind == "fmi2me":
         from fmpy.fmi2 import FMU2Model as cls
@@ -170,6 +184,20 @@ def fmi2_callbacks(logger):
     cb.logger = fmi2CallbackLoggerTYPE(logger)
     cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    return cb
+
+
+def fmi1_callbacks(logger):
+    """fmiCallbackFunctions (FMI 1.0, passed by value) with our logger, messages taken verbatim as for FMI 2.0;
+    no stepFinished: doStep is called synchronously."""
+    from fmpy import calloc, free
+    from fmpy.fmi1 import (fmi1CallbackAllocateMemoryTYPE, fmi1CallbackFreeMemoryTYPE, fmi1CallbackFunctions,
+                           fmi1CallbackLoggerTYPE)
+    cb = fmi1CallbackFunctions()
+    cb.logger = fmi1CallbackLoggerTYPE(logger)
+    cb.allocateMemory = fmi1CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi1CallbackFreeMemoryTYPE(free)
+    cb.stepFinished = None
     return cb
 
 
