@@ -23,7 +23,7 @@ import os
 import platform
 import sys
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,7 @@ from .observers.base import ObserverContext
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
 from .results import claim_output_folder, products
-from .runtime import Runtime
+from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
 from .sinks import SINKS
 from .ssp.archive import file_sha256, open_scenario
@@ -128,12 +128,9 @@ def _seed_params(plan_vars, seed) -> dict:
 
 @dataclass
 class ExecutionState:
-    """A saved point of an execution (``save_state``): every FMU's state and the master's buffers."""
+    """A saved point of an execution (``save_state``): the steps done, every FMU's state and the buffers."""
     n: int
-    tokens: list
-    buffers: dict
-    active: list
-    staging: list = field(default_factory=list)
+    point: SavedPoint
 
 
 class Execution:
@@ -354,33 +351,15 @@ class Execution:
         """The state of every FMU and of the master's buffers at the current time. Observers are not saved:
         an algorithm rolls back within a step, before they see it."""
         self.initialize()
-        rt, t = self.rt, self.time
-        tokens = [s.save_state(t) if on else None for s, on in zip(rt.slaves, rt.active)]
-        buffers = {k: {t_: a.copy() for t_, a in getattr(rt, k).items()} for k in ("out", "inb")}
-        staging = [[buf.copy() for buf, _ in st] if st else None for st in rt.staging]
-        return ExecutionState(self.n, tokens, buffers, list(rt.active), staging)
+        return ExecutionState(self.n, SavedPoint(self.rt, self.time))
 
     def restore_state(self, state: ExecutionState) -> None:
-        rt = self.rt
-        t = self.settings.start + state.n * self.settings.step
-        for s, token in zip(rt.slaves, state.tokens):
-            if token is not None:
-                s.restore_state(token, t)
-        for k, by_type in state.buffers.items():
-            for t_, a in by_type.items():
-                getattr(rt, k)[t_][:] = a
-        for st, saved in zip(rt.staging, state.staging):
-            if st:
-                for (buf, _), copy in zip(st, saved):
-                    buf[:] = copy
+        state.point.restore()
         self.n = state.n
         self.metadata["last_time"] = self.time
 
     def release_state(self, state: ExecutionState) -> None:
-        for s, token in zip(self.rt.slaves, state.tokens):
-            if token is not None:
-                s.release_state(token)
-        state.tokens = [None] * len(state.tokens)
+        state.point.release()
 
     # -- the end ------------------------------------------------------------------------------------------
     def close(self, outcome: str | None = None, error: CosimError | None = None) -> dict:

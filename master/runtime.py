@@ -24,6 +24,35 @@ PHASE_INSTANTIATE, PHASE_INITIALIZE, PHASE_STEP, PHASE_TERMINATE = 1, 2, 3, 4
 PHASE_NAMES = {1: "instantiation", 2: "initialization", 3: "a step", 4: "termination"}
 
 
+class SavedPoint:
+    """Every active FMU's state and the master's value buffers at time t (rollback: ``Execution.save_state``,
+    the iterative algorithm). ``restore`` may be called any number of times; ``release`` frees the FMU states."""
+
+    def __init__(self, rt: "Runtime", t: float):
+        self.rt, self.t = rt, t
+        self.tokens = [s.save_state(t) if on else None for s, on in zip(rt.slaves, rt.active)]
+        self.buffers = {name: {typ: a.copy() for typ, a in getattr(rt, name).items()} for name in ("out", "inb")}
+        self.staged = [[buf.copy() for buf, _ in st] if st else None for st in rt.staging]
+
+    def restore(self) -> None:
+        rt = self.rt
+        for slave, token in zip(rt.slaves, self.tokens):
+            if token is not None:
+                slave.restore_state(token, self.t)
+        for name, by_type in self.buffers.items():
+            for typ, a in by_type.items():
+                getattr(rt, name)[typ][:] = a
+        for st, copies in zip(rt.staging, self.staged):
+            for (buf, _), copy in zip(st or (), copies or ()):
+                buf[:] = copy
+
+    def release(self) -> None:
+        for slave, token in zip(self.rt.slaves, self.tokens):
+            if token is not None:
+                slave.release_state(token)
+        self.tokens = [None] * len(self.tokens)
+
+
 class Runtime:
     def __init__(self, plan: Plan, observed: list[Var], log: LogSink, step_multiples: dict[str, int] | None = None,
                  logging_on: bool = False, inprocess: bool = False, sampled: list[Var] | None = None,

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import CosimError
+from ..runtime import SavedPoint
 from . import ALGORITHMS
 from .base import coupled_outputs
 from .coupling_updates import UPDATES
@@ -84,7 +85,7 @@ class Iterative(GaussSeidel):
             step(n, t)
             self._count(1, True)
             return
-        saved = _SavedPoint(self.rt, t)
+        saved = SavedPoint(self.rt, t)
         self.update.start()
         u = out[pos].copy()
         converged = False
@@ -112,31 +113,3 @@ class Iterative(GaussSeidel):
         info["iterations_mean"] = info["iterations_total"] / info["steps"]
         info["rollbacks"] += iterations - 1
         info["not_converged_steps"] += not converged
-
-
-class _SavedPoint:
-    """Every active FMU's state and the master's buffers at the start of a macro step (as
-    ``Execution.save_state``, without the step count: the algorithm stays within one step)."""
-
-    def __init__(self, rt, t: float):
-        self.rt, self.t = rt, t
-        self.tokens = [s.save_state(t) if on else None for s, on in zip(rt.slaves, rt.active)]
-        self.buffers = {name: {typ: a.copy() for typ, a in getattr(rt, name).items()} for name in ("out", "inb")}
-        self.staged = [[buf.copy() for buf, _ in st] if st else None for st in rt.staging]
-
-    def restore(self) -> None:
-        rt = self.rt
-        for slave, token in zip(rt.slaves, self.tokens):
-            if token is not None:
-                slave.restore_state(token, self.t)
-        for name, by_type in self.buffers.items():
-            for typ, a in by_type.items():
-                getattr(rt, name)[typ][:] = a
-        for st, copies in zip(rt.staging, self.staged):
-            for (buf, _), copy in zip(st or (), copies or ()):
-                buf[:] = copy
-
-    def release(self) -> None:
-        for slave, token in zip(self.rt.slaves, self.tokens):
-            if token is not None:
-                slave.release_state(token)

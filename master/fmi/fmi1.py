@@ -8,7 +8,7 @@ are set after instantiation, then one fmiInitializeSlave), no FMU state (no roll
 from __future__ import annotations
 
 import functools
-from ctypes import byref, c_char, c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
+from ctypes import c_char, c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 
 import numpy as np
 
