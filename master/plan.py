@@ -126,8 +126,21 @@ def _var(comp: str, fmu: LoadedFmu, v) -> Var:
     return Var(comp, v.name, int(v.valueReference), bt or v.type, v.type, v.causality, v.variability, unit)
 
 
+# (model description, component) -> (the description, kept alive for its id; the variables): a campaign worker
+# plans the same FMUs run after run, and an FMU with a thousand variables costs milliseconds to describe
+_VARIABLES: dict[tuple[int, str], tuple[object, dict[str, Var]]] = {}
+
+
 def _component_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
-    """Every variable by name; an FMI 3.0 array also as its elements."""
+    """Every variable by name; an FMI 3.0 array also as its elements (a fresh dict of shared frozen Vars)."""
+    key = (id(fmu.md), comp)
+    cached = _VARIABLES.get(key)
+    if cached is None or cached[0] is not fmu.md:
+        cached = _VARIABLES[key] = (fmu.md, _describe_variables(comp, fmu))
+    return dict(cached[1])
+
+
+def _describe_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
     by_vr = {v.valueReference: v for v in fmu.md.modelVariables}
     out = {}
     for mv in fmu.md.modelVariables:
