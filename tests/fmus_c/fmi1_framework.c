@@ -74,50 +74,12 @@ void fw_log(ModelData *d, int status, const char *category, const char *fmt, ...
 }
 
 #define LOGE(inst, ...) fw_log(&(inst)->d, M_ERROR, "logStatusError", __VA_ARGS__)
-#define MASK(s) (1u << (s))
-#define ANY_STATE 0xFFFFu
 
-static fmi1Status check(Instance *inst, const char *fname, unsigned allowed)
-{
-    if (inst == NULL) return fmi1Error;
-    if (inst->state == ST_FATAL) {
-        LOGE(inst, "%s: the FMU is in a fatal state", fname);
-        return fmi1Fatal;
-    }
-    if (!(allowed & MASK(inst->state))) {
-        LOGE(inst, "%s: illegal call sequence: not allowed in the current state (%d)", fname, (int)inst->state);
-        return fmi1Error;
-    }
-    return fmi1OK;
-}
-
-static void load_start_values(Instance *inst)
-{
-    ModelData *d = &inst->d;
-    int k;
-    for (k = 0; k < NVARS; k++) {
-        d->r[k] = START_REAL[k];
-        d->i[k] = START_INT[k];
-        d->b[k] = START_BOOL[k];
-        free(d->s[k]);
-        d->s[k] = NULL;
-        if (VAR_TYPE[k] == T_STRING) {
-            const char *s0 = START_STRING[k] ? START_STRING[k] : "";
-            d->s[k] = (char *)malloc(strlen(s0) + 1);
-            if (d->s[k]) strcpy(d->s[k], s0);
-        }
-    }
-    d->time = 0.0;
-    d->initialized = 0;
-    d->step_count = 0;
-}
+#include "framework_common.h"
 
 static int refresh(Instance *inst)
 {
-    int st = M_OK;
-    if (!inst->d.initialized) st = model_initialize(&inst->d);
-    if (st <= M_WARNING) model_calc(&inst->d);
-    return st;
+    return refresh_model(&inst->d);
 }
 
 /* ------------------------------------------------------------------------ */
