@@ -418,8 +418,9 @@ class Execution:
 
     def memory_table(self):
         """The recorded rows of a run kept in memory (``output=None``), as a pyarrow Table."""
+        from .sinks.memory import MemorySink
         for s in getattr(self, "sinks", ()):
-            if hasattr(s, "table") and hasattr(s, "blocks"):
+            if isinstance(s, MemorySink) and hasattr(s, "blocks"):     # blocks: it was opened
                 return s.table()
         return None
 
