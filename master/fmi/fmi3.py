@@ -72,9 +72,16 @@ class Fmi3Slave(NativeSlave):
         self.early_return = bool(getattr(cs, "mightReturnEarlyFromDoStep", False))
         self.terminate_requested = False
         self.counts = dict.fromkeys(("events", "early_returns"), 0)
-        comp = self._f["fmi3InstantiateCoSimulation"](
-            self.name.encode(), self.fmu.md.guid.encode(), resources.encode(), False, self.logging_on,
-            self.event_mode, self.early_return, None, 0, None, self._log_cb, self._iu_cb)
+        comp = self._instantiate(resources)
+        if not comp and self.event_mode:
+            # some FMUs declare hasEventMode but refuse eventModeUsed (Reference FMU Roberts): without event mode
+            # an FMU handles its events itself, which FMI 3.0 requires of every co-simulation FMU
+            refusal = self.log.pop_error(self.name)
+            self.event_mode = False
+            comp = self._instantiate(resources)
+            if comp:
+                self.log.message(self.name, "warning", "declares hasEventMode but refused eventModeUsed"
+                                 + (f" ({refusal})" if refusal else "") + ": instantiated without event mode")
         if not comp:
             raise self.fail("fmi3InstantiateCoSimulation", ERROR)
         self.c = comp
@@ -82,6 +89,11 @@ class Fmi3Slave(NativeSlave):
         self.instantiated = True
         self._last_successful = c_double()
         self._flags = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool())
+
+    def _instantiate(self, resources: str):
+        return self._f["fmi3InstantiateCoSimulation"](
+            self.name.encode(), self.fmu.md.guid.encode(), resources.encode(), False, self.logging_on,
+            self.event_mode, self.early_return, None, 0, None, self._log_cb, self._iu_cb)
 
     def setup(self, start, stop, tolerance=None):
         self._start, self._stop, self._tol = start, stop, tolerance
