@@ -199,6 +199,12 @@ class Fmi3Slave(NativeSlave):
             worst = max(worst, st)
         return worst
 
+    _may_roll_back = False
+
+    def save_state(self, t=None):
+        self._may_roll_back = True
+        return super().save_state(t)
+
     def _event_iteration(self, t) -> bool:
         """In Event Mode at t: update the discrete states until settled, then back to Step Mode; True when the
         FMU asks to terminate the simulation (it then stays in Event Mode, from which it may terminate)."""
@@ -216,8 +222,10 @@ class Fmi3Slave(NativeSlave):
         worst = OK
         stalled = 0
         while True:
-            st = self._f["fmi3DoStep"](self.c, t, h, True, byref(event), byref(terminate), byref(early),
-                                       byref(last))
+            # noSetFMUStatePriorToCurrentPoint: not when the master may roll back to the start of its step, which
+            # lies before the continuation of an early return
+            st = self._f["fmi3DoStep"](self.c, t, h, not self._may_roll_back, byref(event), byref(terminate),
+                                       byref(early), byref(last))
             worst = max(worst, st)
             if st > WARNING or terminate:
                 break

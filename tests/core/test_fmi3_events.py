@@ -139,3 +139,16 @@ def test_reference_stair_time_events_handled_by_the_master(tmp_path, reference_f
     assert meta["ended_early"]["time"] == pytest.approx(9.0)
     np.testing.assert_allclose(df["time"], ref["time"], atol=1e-9)
     assert list(df["m.counter"]) == list(ref["counter"])
+
+
+def test_an_fmu_that_refuses_the_event_mode_it_declares_runs_without(tmp_path, reference_fmus):
+    # Roberts declares hasEventMode and mightReturnEarlyFromDoStep, but its binary refuses eventModeUsed ("Event
+    # Mode is not supported."): instantiated again without event mode, it handles its events itself
+    b = SspBuilder("roberts", stop=0.01, step=0.001)
+    b.add_component("m", reference_fmus / "fmi3" / "Roberts.fmu")
+    out = tmp_path / "out"
+    master.run(b.write(tmp_path / "roberts.ssp"), output=out, record=["m.y1"], implementation={"m": "CoSimulation"})
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["outcome"] == "completed"
+    assert meta["solvers"]["m"] == {"event_mode": False, "early_return": True, "events": 0, "early_returns": 0}
+    assert "declares hasEventMode but refused eventModeUsed" in (out / "fmu.log").read_text()
