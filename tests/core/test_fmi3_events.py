@@ -9,7 +9,8 @@ t1 = sqrt(2 h0 / g) with rebound speed v1 = e g t1, then t(k+1) = t(k) + 2 v(k) 
 between h = v(k) (t - t(k)) - g (t - t(k))^2 / 2.
 
 The Reference FMUs that offer event mode (BouncingBall, Stair) are checked against their own reference results
-and their event counts: every BouncingBall bounce and every Stair count is an event the master handled.
+and their event counts: every BouncingBall bounce and every Stair count is an event the master handled. Roberts
+declares event mode but refuses it when instantiated: it runs without.
 """
 import json
 import math
