@@ -5,9 +5,10 @@ or more *adaptive steps* h <= min(--max-step, H); a step that would pass the mas
 that equal steps land on it exactly (``fit_to_grid``), so recorded values are the FMUs' own values at the
 record points, never interpolated. Every adaptive step is a Jacobi step: all components step from the same
 coupled inputs, the mean over the step of the polynomial through the last K + 1 accepted samples of each
-coupled output (``--extrapolation K``; K = 0 holds the last value), on the actual, uneven step times. After
-each step the components with a direct-feedthrough coupled output get their inputs again and are read once
-more (as extrapolation.py does), so every sample is the value at the step's end.
+coupled output (``--extrapolation K``; K = 0 holds the last value), on the actual, uneven step times. With
+K > 0, after each step the components with a direct-feedthrough coupled output get their inputs again and are
+read once more (as extrapolation.py does), so every sample is the value at the step's end; with K = 0 a step
+is exactly a ``jacobi`` step of that length.
 
 Error estimates (``--error-estimate``):
 - ``extrapolation`` (default): the difference between the value the predictor polynomial gives at the
@@ -221,7 +222,8 @@ class Adaptive(Algorithm):
                 if (st := g()) > WARNING:
                     raise rt.slaves[i].fail("getting outputs", st, t + h)
         self.stats.fmu_calls += len(stepped)
-        self._feed._refresh(t + h)
+        if self.extrapolation:      # consistent samples for the polynomial (extrapolation.py); held: as jacobi
+            self._feed._refresh(t + h)
         history.insert(0, (t + h, out[pos].copy()))
         del history[self.extrapolation + 1:]
         return predicted
