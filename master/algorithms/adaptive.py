@@ -127,8 +127,7 @@ class Adaptive(Algorithm):
             self.history[0] = (t0, self.history[0][1])
         t_end, t, first = t0 + length, t0, True
         while first or t_end - t > 1e-12 * length:
-            h = fit_to_grid(t_end - t, self.h_next)
-            h = self._one_step(n, t, h, first, t_end)
+            h = self._one_step(n, t, self.h_next, first, t_end)
             t = t_end if h >= t_end - t else t + h
             first = False
         for i, k, _, _, _, _, publish in self.components:
@@ -136,8 +135,10 @@ class Adaptive(Algorithm):
                 publish()
         self.info.update(self.stats.describe())
 
-    def _one_step(self, n: int, t: float, h: float, first: bool, t_end: float) -> float:
-        """Take one adaptive step from t, retrying shorter while it is rejected; returns its length."""
+    def _one_step(self, n: int, t: float, wanted: float, first: bool, t_end: float) -> float:
+        """Take one adaptive step from t of the controller's length ``wanted`` (shortened to land on the
+        master step's end), retrying shorter while it is rejected; returns its length."""
+        h = fit_to_grid(t_end - t, wanted)
         stats, saved = self.stats, None
         if self.rejects or self.estimate == "doubling":
             saved = SavedPoint(self.rt, t)
@@ -160,7 +161,9 @@ class Adaptive(Algorithm):
                 saved.release()
         stats.accept(t + h, h, r, extra)
         self._set_gains(q)
-        self.h_next = self.controller.accepted(h, r, after_rejection)
+        # a step shortened only to land on the master step's end: the controller goes on from the step it
+        # wanted (else every master step would pull it back to its equal share)
+        self.h_next = self.controller.accepted(h if after_rejection else max(h, wanted), r, after_rejection)
         return h
 
     def _set_gains(self, q: float) -> None:
