@@ -106,12 +106,15 @@ def test_rerun_is_bit_identical(tmp_path, test_fmus):
 
 
 def test_a_component_on_a_step_multiple_steps_once_per_macro_step(tmp_path, test_fmus):
-    # B steps once per two master steps (12 calls over 24 master steps), A with every adaptive step
+    # B steps once per two master steps (12 times over 24 master steps, again when the adaptive step it stepped
+    # with is rejected), A with every adaptive step; B's outputs appear when its macro step ends, as with jacobi
     ssp = _masses(tmp_path, test_fmus, 0.125, 3.0)
     r = _run(ssp, None, step_rtol=1e-2, step_multiples={"B": 2})
     info = r.metadata["algorithm_info"]
-    assert info["fmu_calls"] == info["steps"] + info["rejected"] + 12
     assert info["steps"] > 24
+    assert 0 <= info["fmu_calls"] - (info["steps"] + info["rejected"] + 12) <= info["rejected"]
+    x2 = r.frame["B.x"].to_numpy()
+    assert np.array_equal(x2[1::2], x2[0:-1:2]) and np.all(x2[2::2] != x2[1::2])
 
 
 def test_step_doubling_costs_three_sweeps_and_a_rollback_per_step(tmp_path, test_fmus):
