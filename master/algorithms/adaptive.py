@@ -83,6 +83,7 @@ class Adaptive(Algorithm):
         if self.rejects and (error := cannot_roll_back(rt, plan, self.name)) is not None:
             raise error
         self.rt, self.plan, self.h = rt, plan, h
+        self._step = None        # no compiled step (the supervisor maps a crash in one to its component)
         self.limits = StepLimits.from_options(self.options, h, self.defaults)
         self.stats = StepStats()
         self.h_next = self.limits.h_initial
