@@ -43,8 +43,8 @@ def _chain_error(df) -> float:
 def test_adaptive_meets_its_tolerance_with_far_fewer_steps_than_a_fixed_step(tmp_path, integrator):
     # held inputs (K = 0): the estimate is the change of each coupled value over the step, i.e. the largest
     # error of the held input; on this contracting system the global error stays below the tolerance
-    # (measured 6.0e-3 at 1e-2 with 185 steps, 1.7e-4 at 1e-3 with 1108 steps). A fixed step needs ~6000 steps
-    # for 6e-3 (error 4.6e-3 at 8000, 1.9e-2 at 2000: first order): the transient needs small steps, the slow
+    # (measured 7.2e-3 at 1e-2 with 172 steps, 2.8e-4 at 1e-3 with 1072 steps). A fixed step needs ~5200 steps
+    # for 7.2e-3 (error 4.6e-3 at 8000, 1.9e-2 at 2000: first order): the transient needs small steps, the slow
     # decay after it does not.
     ssp = _chain(tmp_path, integrator, 0.5)
     steps = {}
