@@ -78,32 +78,32 @@ class StepLimits:
 
     @classmethod
     def from_options(cls, options, h: float, defaults: dict) -> "StepLimits":
-        """``h``: the master step, which bounds every step (steps end on each master step)."""
-        def get(name):
+        """``h``: the master step, which bounds every step (steps end on each master step); ``defaults``:
+        step_rtol, min_step_ratio (of the maximum step), initial_ratio (of the maximum step)."""
+        def given(name):
             value = getattr(options, name, None)
-            return float(defaults[name] if value is None else value)
-        rtol = get("step_rtol")
-        atol = float(options.step_atol) if getattr(options, "step_atol", None) is not None else rtol
-        h_max = min(get("max_step") if getattr(options, "max_step", None) is not None else h, h)
-        h_min = get("min_step") if getattr(options, "min_step", None) is not None else h_max * defaults["min_step_ratio"]
+            return None if value is None else float(value)
+        rtol = given("step_rtol") if given("step_rtol") is not None else defaults["step_rtol"]
+        atol = given("step_atol") if given("step_atol") is not None else rtol
         for name, value in (("--step-rtol", rtol), ("--step-atol", atol)):
             if not (value >= 0 and math.isfinite(value)):
                 raise CosimError(f"the tolerance must be a finite number >= 0, got {value:g}", element=name)
         if rtol == 0 and atol == 0:
             raise CosimError("--step-rtol and --step-atol are both 0: no step could meet that",
                              element="--step-rtol")
+        h_max = given("max_step") if given("max_step") is not None else h
+        h_min = given("min_step") if given("min_step") is not None else min(h_max, h) * defaults["min_step_ratio"]
         for name, value in (("--min-step", h_min), ("--max-step", h_max)):
             if not (value > 0 and math.isfinite(value)):
                 raise CosimError(f"must be a positive time in seconds, got {value:g}", element=name)
-        given_max = getattr(options, "max_step", None)
-        if h_min > (float(given_max) if given_max is not None else h_max):
-            raise CosimError(f"the minimum step {h_min:g} s is larger than the maximum step "
-                             f"{float(given_max) if given_max is not None else h_max:g} s", element="--min-step")
+        if h_min > h_max:
+            raise CosimError(f"the minimum step {h_min:g} s is larger than the maximum step {h_max:g} s",
+                             element="--min-step")
         if h_min > h:
             raise CosimError(f"the minimum step {h_min:g} s is larger than the master step {h:g} s (steps end on "
                              "every master step)", element="--min-step")
-        initial = getattr(options, "initial_step", None)
-        h0 = float(initial) if initial is not None else h_max * defaults["initial_ratio"]
+        h_max = min(h_max, h)
+        h0 = given("initial_step") if given("initial_step") is not None else h_max * defaults["initial_ratio"]
         if not (h0 > 0 and math.isfinite(h0)):
             raise CosimError(f"must be a positive time in seconds, got {h0:g}", element="--initial-step")
         return cls(rtol, atol, h_min, h_max, min(max(h0, h_min), h_max))
