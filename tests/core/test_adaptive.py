@@ -175,3 +175,27 @@ def test_a_rejected_step_is_restored_bit_for_bit(tmp_path, test_fmus):
     with ex:
         ex.simulate_until()
     assert len(checked) >= 3
+
+
+def test_monitors_see_master_steps_and_can_take_components_out(tmp_path, integrator):
+    # test_monitors' Threshold monitor on the same system, with adaptive steps: an Integrator with input 1 is
+    # exact at any step (x += h), so the expectations of the fixed-step test hold at every master step: 'other'
+    # freezes at 0.5 (the algorithm rebuilds without it) and the run ends at 1.0
+    from test_monitors import _annotation
+    b = SspBuilder("mon", stop=10.0, step=0.1)
+    b.add_component("one", integrator, params={"x0": 1.0})
+    b.add_component("clock", integrator)
+    b.add_component("other", integrator)
+    b.connect("one", "y", "clock", "u")
+    b.connect("one", "y", "other", "u")
+    b.annotations.append(_annotation(watch="clock.y", freeze="other", level="0.45", stop="0.95"))
+    r = master.run(b.write(tmp_path / "mon.ssp"), output=None, algorithm="adaptive", record=["clock.y", "other.y"],
+                   initial_step=0.03)
+    df = r.frame
+    np.testing.assert_allclose(df["clock.y"], df["time"], atol=1e-12)
+    frozen = df["time"] >= 0.5 - 1e-12
+    np.testing.assert_allclose(df.loc[frozen, "other.y"], 0.5, atol=1e-12)
+    np.testing.assert_allclose(df.loc[~frozen, "other.y"], df.loc[~frozen, "time"], atol=1e-12)
+    assert abs(df["time"].iloc[-1] - 1.0) < 1e-12
+    info = r.metadata["algorithm_info"]
+    assert info["steps"] > 10 and info["step_min"] < 0.1        # more than one step per master step at first
