@@ -30,7 +30,6 @@ fixed-step algorithms.
 from __future__ import annotations
 
 import numpy as np
-from numpy.polynomial import polynomial as P
 
 from ..errors import CosimError
 from ..fmi.slave import WARNING
@@ -46,6 +45,7 @@ ESTIMATES = ("extrapolation", "doubling")
 def predictor_weights(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For samples at ``nodes`` (times in units of the coming step, relative to its start: 0, negative
     values), the weights of the polynomial through them giving its mean over [0, 1] and its value at 1."""
+    from numpy.polynomial import polynomial as P
     mean, end = [], []
     for j in range(len(nodes)):
         others = np.delete(nodes, j)
