@@ -14,6 +14,30 @@ from master.ssp.writer import SspBuilder
 
 from analytic import chain_exact, two_mass_cosim_steps
 
+def test_predictor_weights_and_grid_fitting():
+    from master.algorithms.adaptive import predictor_weights
+    from master.algorithms.step_control import fit_to_grid, gustafsson
+    # equal steps: the mean over the next step of the line (quadratic) through the samples is the Adams-Bashforth
+    # combination, its value at the step's end the extrapolated line (parabola)
+    mean, end = predictor_weights(np.array([0.0, -1.0]))
+    np.testing.assert_allclose(mean, [1.5, -0.5], rtol=1e-14)
+    np.testing.assert_allclose(end, [2.0, -1.0], rtol=1e-14)
+    mean, end = predictor_weights(np.array([0.0, -1.0, -2.0]))
+    np.testing.assert_allclose(mean, [23 / 12, -16 / 12, 5 / 12], rtol=1e-14)
+    np.testing.assert_allclose(end, [3.0, -3.0, 1.0], rtol=1e-14)
+    # uneven: samples of t^2 at t = 0, -0.5, -2 (in units of the step) give its mean 1/3 and end value 1
+    mean, end = predictor_weights(np.array([0.0, -0.5, -2.0]))
+    y = np.array([0.0, 0.25, 4.0])
+    assert abs(mean @ y - 1 / 3) < 1e-14 and abs(end @ y - 1.0) < 1e-14
+    # equal steps onto the grid point, never a sliver
+    assert fit_to_grid(0.1, 0.04) == 0.1 / 3 and fit_to_grid(0.1, 0.1) == 0.1 and fit_to_grid(0.1, 0.5) == 0.1
+    # PI.3.4 keeps the step where 0.9 r^-0.3/q = 1 (r = r_prev): r = 0.9^(q/0.3)
+    c = gustafsson(2.0)
+    r = 0.9 ** (2.0 / 0.3)
+    c.r_prev = r
+    assert abs(c.accepted(0.01, r) - 0.01) < 1e-15
+
+
 A1, A2, K = -20.0, -0.5, 1.0      # x1' = -20 x1 + x2, x2' = -0.5 x2 + x1: a fast transient, then a slow decay
 
 
