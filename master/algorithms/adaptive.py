@@ -236,13 +236,17 @@ class Adaptive(Algorithm):
         """Called when the coupled values of a step are set, before any component steps."""
 
     def finish(self, out_dir) -> dict:
-        """steps.csv: one row per accepted step (its end, length, normalised error estimate, ...)."""
-        if out_dir is not None and self.stats.rows:
+        """steps.csv: one row per accepted step (its end, length, normalised error estimate, ...); not for
+        runs that write summaries only (campaigns: ``products="summary"``)."""
+        if out_dir is not None and self.stats.rows and getattr(self.options, "products", "all") != "summary":
             import csv
-            with open(out_dir / "steps.csv", "w", newline="", encoding="utf-8") as f:
+            import os
+            tmp = out_dir / "steps.csv.tmp"
+            with open(tmp, "w", newline="", encoding="utf-8") as f:
                 w = csv.writer(f)
                 w.writerow(self.step_columns())
                 w.writerows(self.stats.rows)
+            os.replace(tmp, out_dir / "steps.csv")
         return {}
 
     def step_columns(self) -> list[str]:
