@@ -51,11 +51,12 @@ class Ecco(Adaptive):
             raise CosimError(f"ecco needs power bonds, and the SSD declares none (an annotation of type "
                              f"{POWER_BONDS_TYPE}: docs/coupling.md)", file=plan.shown_as, element="--algorithm ecco")
         out_pos = rt.out_pos
-        # positions in out["Real"]: e_out,Y and f_out,X; and the links' affine maps for the inputs held
+        # positions in out["Real"] of e_out,Y and f_out,X, and the effort connection's affine map (a unit
+        # conversion): both powers are taken in X's units, P_Y as T(e_out,Y) times the flow X sent (= f_in,Y)
         self._effort_out = np.array([out_pos[b.effort.src.qualified] for b in self.bonds], dtype=np.intp)
         self._flow_out = np.array([out_pos[b.flow.src.qualified] for b in self.bonds], dtype=np.intp)
-        self._maps = [(np.array([getattr(b, kind).factor for b in self.bonds]),
-                       np.array([getattr(b, kind).offset for b in self.bonds])) for kind in ("effort", "flow")]
+        self._effort_map = (np.array([b.effort.factor for b in self.bonds]),
+                            np.array([b.effort.offset for b in self.bonds]))
         self.energy_residual = np.zeros(len(self.bonds))
         self.power_residual_max = np.zeros(len(self.bonds))
         info = super().prepare(rt, plan, h)
@@ -71,15 +72,16 @@ class Ecco(Adaptive):
 
     def _inputs_held(self) -> None:
         out = self.rt.out["Real"]
-        (fe, oe), (ff, of) = self._maps
-        self._effort_in = out[self._effort_out] * fe + oe        # e_in,X: what X holds over the step
-        self._flow_in = out[self._flow_out] * ff + of            # f_in,Y
+        factor, offset = self._effort_map
+        self._effort_in = out[self._effort_out] * factor + offset     # e_in,X: what X holds over the step
+        self._flow_in = out[self._flow_out].copy()                    # f_in,Y, in X's units
 
     def _attempt(self, n: int, t: float, h: float, first: bool, saved) -> tuple[float, float, tuple]:
         self._sweep(n, t, h, first)
         out = self.rt.out["Real"]
+        factor, offset = self._effort_map
         p_x = self._effort_in * out[self._flow_out]
-        p_y = out[self._effort_out] * self._flow_in
+        p_y = (out[self._effort_out] * factor + offset) * self._flow_in
         residual = p_x - p_y
         self.energy_residual += residual * h
         np.maximum(self.power_residual_max, np.abs(residual), out=self.power_residual_max)
