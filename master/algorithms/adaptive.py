@@ -29,6 +29,8 @@ fixed-step algorithms.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import CosimError
@@ -148,7 +150,11 @@ class Adaptive(Algorithm):
         try:
             while True:
                 r, q, extra = self._attempt(n, t, h, first, saved)
-                if not self.rejects or r <= 1.0 or h <= self.limits.h_min * (1 + 1e-12):
+                if not math.isfinite(r) and not self.options.allow_nonfinite:
+                    # no shorter step mends a NaN or an overflow: stop here, not at the master step's end
+                    if (error := self.rt.nonfinite_error(t + h)) is not None:
+                        raise error
+                if not self.rejects or r <= 1.0 or h <= self.limits.h_min * (1 + 1e-12) or not math.isfinite(r):
                     stats.above_tolerance += self.rejects and r > 1.0
                     break
                 saved.restore()
@@ -247,7 +253,7 @@ class Adaptive(Algorithm):
                 w.writerow(self.step_columns())
                 w.writerows(self.stats.rows)
             os.replace(tmp, out_dir / "steps.csv")
-        return {}
+        return self.stats.describe()        # also when the run failed within a master step
 
     def step_columns(self) -> list[str]:
         return ["time", "step", "error_estimate"]

@@ -100,6 +100,6 @@ class Ecco(Adaptive):
                                          for c in ("power_a", "power_b", "power_residual", "energy_residual")]
 
     def finish(self, out_dir) -> dict:
-        super().finish(out_dir)
-        return {"energy_residual": {b.name: float(e) for b, e in zip(self.bonds, self.energy_residual)},
+        return {**super().finish(out_dir),
+                "energy_residual": {b.name: float(e) for b, e in zip(self.bonds, self.energy_residual)},
                 "power_residual_max": {b.name: float(p) for b, p in zip(self.bonds, self.power_residual_max)}}

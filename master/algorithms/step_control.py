@@ -36,6 +36,8 @@ class PIController:
 
     def accepted(self, h: float, r: float, after_rejection: bool = False) -> float:
         """The next step after an accepted step h with error estimate r."""
+        if not math.isfinite(r):        # a NaN or infinite value (reported by the run's finiteness check)
+            return self._clamp(h * self.min_rate)
         if self.keep_on_zero and (r == 0.0 or self.r_prev == 0.0):
             self.r_prev = r
             return self._clamp(h)

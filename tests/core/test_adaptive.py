@@ -223,3 +223,18 @@ def test_monitors_see_master_steps_and_can_take_components_out(tmp_path, integra
     assert abs(df["time"].iloc[-1] - 1.0) < 1e-12
     info = r.metadata["algorithm_info"]
     assert info["steps"] > 10 and info["step_min"] < 0.1        # more than one step per master step at first
+
+
+def test_a_non_finite_value_ends_the_run_with_the_usual_error(tmp_path, integrator):
+    # x1 grows by a factor 1e299 per step and overflows: the estimate becomes NaN, which no shorter step can
+    # mend; the run stops at once with the finiteness check's error (not after endless minimal steps)
+    b = SspBuilder("blowup", stop=1.0, step=0.1)
+    b.add_component("I1", integrator, params={"a": 1e300, "x0": 1.0})
+    b.add_component("I2", integrator, params={"a": -1.0, "x0": 0.0})
+    b.connect("I2", "y", "I1", "u")
+    b.connect("I1", "y", "I2", "u")
+    with pytest.raises(master.CosimError) as e:
+        master.run(b.write(tmp_path / "blowup.ssp"), output=None, algorithm="adaptive")
+    assert "non-finite output" in str(e.value) and "\n" not in str(e.value)
+    info = e.value.result.metadata["algorithm_info"]
+    assert e.value.time < 0.1 and 1 <= info["steps"] < 10 and info["accepted_above_tolerance"] >= 1
