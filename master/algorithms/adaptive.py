@@ -133,6 +133,8 @@ class Adaptive(Algorithm):
             h = self._one_step(n, t, self.h_next, first, t_end)
             t = t_end if h >= t_end - t else t + h
             first = False
+            if self.rt.stop_reason is not None:     # an FMU asked to end the simulation: no further doStep
+                break
         for i, k, _, _, _, _, publish in self.components:
             if k > 1 and publish is not None and (n + 1) % k == 0:
                 publish()
