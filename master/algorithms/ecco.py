@@ -40,7 +40,7 @@ class Ecco(Adaptive):
 
     def configure(self, options) -> None:
         super().configure(options)
-        if getattr(options, "error_estimate", None) not in (None, "power"):
+        if getattr(options, "error_estimate", None) is not None:
             raise CosimError("--error-estimate does not apply to ecco (its estimate is the power residual)",
                              element="--error-estimate")
         self.estimate = "power residual"
