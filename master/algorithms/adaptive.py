@@ -13,8 +13,9 @@ is exactly a ``jacobi`` step of that length.
 Error estimates (``--error-estimate``):
 - ``extrapolation`` (default): the difference between the value the predictor polynomial gives at the
   step's end and the coupled output the FMUs computed there, per coupled value: the error of the input the
-  FMUs were given, O(h^(K+1)). It costs no extra FMU step: only a rejected step is repeated. This is the
-  estimate of DACCOSIM's and Busch's input-error based step control (Busch 2016).
+  FMUs were given, O(h^(K+1)). It costs no extra FMU step: only a rejected step is repeated. It is the
+  "explicit predictor/corrector" error indicator reviewed by Kyllingstad, Sadjina and Skjong (2024), on the
+  step-mean extrapolation of Busch (2016).
 - ``doubling``: the step is taken once with h and, after a rollback, as two steps of h/2; the difference of
   all Real outputs read after every step, divided by 2^p - 1 (p = 1 for held inputs, 2 with extrapolation:
   the global order, docs/coupling.md), estimates the local error of the two half steps, which are kept
