@@ -38,6 +38,14 @@ def test_predictor_weights_and_grid_fitting():
     assert abs(c.accepted(0.01, r) - 0.01) < 1e-15
 
 
+def test_the_variable_step_closed_form_agrees_with_the_fixed_step_one():
+    from analytic import two_mass_cosim
+    fixed = two_mass_cosim(40, 0.05, "jacobi_delayed")
+    steps = two_mass_cosim_steps(np.full(40, 0.05), "jacobi_delayed")
+    for key in ("x1", "v1", "x2", "v2", "F"):
+        np.testing.assert_allclose(steps[key], fixed[key], rtol=0, atol=1e-13)
+
+
 A1, A2, K = -20.0, -0.5, 1.0      # x1' = -20 x1 + x2, x2' = -0.5 x2 + x1: a fast transient, then a slow decay
 
 

@@ -52,6 +52,12 @@ def _ecco(ssp, out, tol, **options):
     return master.run(ssp, output=out, algorithm="ecco", step_rtol=tol, record=RECORD, **options)
 
 
+def test_the_exact_solution_keeps_its_energy():
+    t = np.linspace(0.0, 10.0, 101)
+    energy = two_mass_energy(*two_mass_exact(t))
+    np.testing.assert_allclose(energy, 1.0, rtol=1e-13)       # E0 = k1 x10^2 / 2 + kc x10^2 / 2 = 1
+
+
 def test_powers_are_those_of_the_exact_steps_and_the_residual_sits_at_the_tolerance(tmp_path, masses):
     # every ECCO step is a Jacobi step with held inputs, an exact linear map (analytic.two_mass_cosim_steps,
     # "jacobi_delayed"): A holds F from the step before, B holds v_in = v1 from the step before, so
