@@ -59,6 +59,18 @@ def _parser() -> argparse.ArgumentParser:
                    help="iterative: iterations per step at most (default: 50)")
     r.add_argument("--coupling-update", choices=["fixed-point", "aitken", "iqn-ils"], default="iqn-ils",
                    help="iterative: how the next iterate is formed (default: iqn-ils)")
+    r.add_argument("--step-rtol", type=float, metavar="REL",
+                   help="adaptive: relative tolerance of the step's error estimate (default 1e-4); ecco: of the "
+                        "energy residual (default 1e-4)")
+    r.add_argument("--step-atol", type=float, metavar="ABS", help="adaptive, ecco: absolute tolerance "
+                                                                  "(default: --step-rtol)")
+    r.add_argument("--min-step", type=float, metavar="SECONDS", help="adaptive, ecco: smallest step")
+    r.add_argument("--max-step", type=float, metavar="SECONDS",
+                   help="adaptive, ecco: largest step (default and at most: --step, the grid steps end on)")
+    r.add_argument("--initial-step", type=float, metavar="SECONDS", help="adaptive, ecco: first step")
+    r.add_argument("--error-estimate", choices=["extrapolation", "doubling"],
+                   help="adaptive: local error from the extrapolated vs computed coupled values (default) or "
+                        "from step doubling (docs/coupling.md)")
     r.add_argument("--tolerance", type=float, metavar="REL",
                    help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
@@ -183,7 +195,9 @@ def _dispatch(args) -> int:
                        implementation=_implementations(args.implementation), inputs=args.input,
                        extrapolation=args.extrapolation, coupling_tol=args.coupling_tol,
                        coupling_atol=args.coupling_atol, coupling_max_iter=args.coupling_max_iter,
-                       coupling_update=args.coupling_update)
+                       coupling_update=args.coupling_update,
+                       step_rtol=args.step_rtol, step_atol=args.step_atol, min_step=args.min_step,
+                       max_step=args.max_step, initial_step=args.initial_step, error_estimate=args.error_estimate)
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

@@ -82,6 +82,12 @@ class Options:
     coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
     coupling_max_iter: int = 50                       # iterative: iterations per step at most
     coupling_update: str = "iqn-ils"                  # iterative: "fixed-point", "aitken", "iqn-ils"
+    step_rtol: float | None = None                    # adaptive, ecco: relative tolerance of the step's error
+    step_atol: float | None = None                    # adaptive, ecco: absolute tolerance (default: step_rtol)
+    min_step: float | None = None                     # adaptive, ecco: smallest step (s)
+    max_step: float | None = None                     # adaptive, ecco: largest step (s; at most the master step)
+    initial_step: float | None = None                 # adaptive, ecco: first step (s)
+    error_estimate: str | None = None                 # adaptive: "extrapolation" (default) or "doubling"
 
 
 @dataclass
@@ -393,6 +399,8 @@ class Execution:
                 if any(solvers.values()):
                     meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
+            if self._initialized:
+                meta["algorithm_info"].update(self.algorithm.finish(self.out_dir))
             if self._initialized:
                 for m in [*self.monitors, *self.extra_observers]:
                     try:

@@ -82,3 +82,8 @@ class Algorithm:
         if self.rt.changed:
             self._build()
         self._compile(h)(n, t)
+
+    def finish(self, out_dir) -> dict:
+        """Called once when the run closes (also after a failure): files of its own in ``out_dir`` (None: the
+        run keeps its results in memory); returns facts to add to run.json's ``algorithm_info``."""
+        return {}
