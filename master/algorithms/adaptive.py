@@ -71,6 +71,8 @@ def cannot_roll_back(rt, plan, algorithm: str) -> CosimError | None:
 @ALGORITHMS.register("adaptive")
 class Adaptive(Algorithm):
     name = "adaptive"
+    loop_treatment = ("adaptive sweeps in Jacobi fashion inside each of its steps, so the loop delays values by "
+                      "one adaptive step")
     rejects = True                   # a step above the tolerance is rolled back and retried
     defaults = {"step_rtol": 1e-4, "min_step_ratio": 1e-6, "initial_ratio": 1.0}
 

@@ -35,6 +35,8 @@ LIBCOSIM_GAINS = {"safety": 0.99, "min_rate": 0.2, "max_rate": 1.5, "k_p": 0.2, 
 @ALGORITHMS.register("ecco")
 class Ecco(Adaptive):
     name = "ecco"
+    loop_treatment = ("ecco sweeps in Jacobi fashion inside each of its steps, so the loop delays values by one "
+                      "of its steps")
     rejects = False
     defaults = {"step_rtol": 1e-4, "min_step_ratio": 1e-3, "initial_ratio": 0.1}
 
