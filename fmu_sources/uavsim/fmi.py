@@ -2,10 +2,13 @@
 
 pythonfmu 0.7's ``Real`` has no ``unit`` attribute, so ``UnitReal`` adds it to the ``<Real>``
 element, and ``UnitsMixin.to_xml`` inserts the matching ``<UnitDefinitions>`` (with SI base-unit
-exponents) that FMI 2.0 requires for every unit used.
+exponents) that FMI 2.0 requires for every unit used.  ``StateMixin`` gives a shell FMI's get/set FMU
+state (rollback: iterative coupling).
 """
 from __future__ import annotations
 
+import copy
+import sys
 from operator import attrgetter
 from xml.etree.ElementTree import Element, SubElement
 
@@ -255,3 +258,40 @@ class UnitsMixin:
             idx = list(root).index(root.find("CoSimulation")) + 1
             root.insert(idx, ud)
         return root
+
+
+#: slave attributes that are no state: pythonfmu's variable table and log queue, the accessor caches (closures
+#: over this very instance, valid as long as its __dict__ object is), the instance's identity
+_NOT_STATE = frozenset({"vars", "log_queue", "_vr_cache", "_vr_readers", "_vr_writers", "instance_name",
+                        "resources", "visible", "guid"})
+
+
+def _shared_objects() -> dict:
+    """Objects a state shares instead of copying (deepcopy's memo): the loaded kernels (a ctypes library,
+    immutable once loaded) of the UAV models. This module is also bundled alone (the coupling benchmark FMUs
+    of fmu_sources/coupling), where there are none."""
+    kernels = sys.modules.get(f"{__package__}.kernels") if __package__ else None
+    if kernels is None:
+        return {}
+    return {id(k): k for k in (*kernels._loaded.values(), *kernels._found.values())}
+
+
+class StateMixin:
+    """FMI get/set FMU state for a pythonfmu slave (pythonfmu calls ``_get_fmu_state`` / ``_set_fmu_state``
+    for fmi2GetFMUstate / fmi2SetFMUstate; cosim-master's in-process path calls them too).
+
+    The state is a deep copy of every instance attribute: parameters, inputs, outputs, the model objects with
+    their sub-step state, random generators (numpy's copy their bit generator's state) and caches, so a
+    restore is bit-exact whatever the model keeps. pythonfmu's default saves the registered variables only,
+    which misses all of that. Restoring updates the instance's own __dict__ in place (the fast accessors hold
+    it) and drops attributes made after the save."""
+
+    def _get_fmu_state(self):
+        own = {k: v for k, v in self.__dict__.items() if k not in _NOT_STATE}
+        return copy.deepcopy(own, _shared_objects())
+
+    def _set_fmu_state(self, state):
+        d = self.__dict__
+        for k in [k for k in d if k not in _NOT_STATE and k not in state]:
+            del d[k]
+        d.update(copy.deepcopy(state, _shared_objects()))

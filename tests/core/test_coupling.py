@@ -53,7 +53,7 @@ def test_extrapolation_is_recorded_and_refused_where_it_does_not_apply(tmp_path,
     ssp = _oscillator(tmp_path, {m: test_fmus[f"c2:{m}"] for m in ("MassA", "MassB")}, 0.05)
     r = master.run(ssp, output=None, extrapolation=1)
     assert r.metadata["algorithm_info"]["extrapolation"]["weights"] == [1.5, -0.5]
-    with pytest.raises(master.CosimError, match="--extrapolation must be 0, 1 or 2"):
+    with pytest.raises(master.CosimError, match="extrapolation.*0, 1,? (or )?2"):
         master.run(ssp, output=None, extrapolation=3)
 
 
