@@ -130,6 +130,29 @@ def _parser() -> argparse.ArgumentParser:
     rp.add_argument("campaign_dir")
     rp.add_argument("--debug", action="store_true")
 
+    st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
+                                      "reference: study.csv (errors, observed order, FMU calls) and figures",
+                        description="Run every combination of --algorithm, --extrapolation and --step on one "
+                                    "scenario (as a resumable campaign), compare each run with the reference at its "
+                                    "recorded times and write study.csv and PNG figures into --output "
+                                    "(docs/coupling.md).")
+    st.add_argument("scenario")
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A")
+    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K")
+    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H")
+    st.add_argument("--reference", required=True, metavar="REF",
+                    help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
+                         "signals by name), fine:H (the scenario at step H with iterative coupling) or a results "
+                         "file (.parquet, .csv)")
+    st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
+                                                                   "connected output the reference knows)")
+    st.add_argument("--stop-time", type=float, metavar="SECONDS")
+    st.add_argument("--output", "-o", required=True, metavar="DIR")
+    st.add_argument("--workers", type=int, default=None)
+    st.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    st.add_argument("--no-progress", action="store_true")
+    st.add_argument("--debug", action="store_true")
+
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
     b.add_argument("scenario_yaml")
@@ -234,6 +257,14 @@ def _dispatch(args) -> int:
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
         return 0 if summary.ok else 1
+    if args.command == "study":
+        from .study import run_study
+        summary = run_study(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
+                            steps=args.step, reference=args.reference, record=args.record, output=args.output,
+                            workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
+                            progress=not args.no_progress)
+        print(summary.describe())
+        return 0
     if args.command == "report":
         from .campaign.report import build_report
         path = build_report(args.campaign_dir)       # the kind recorded in campaign.json writes it
