@@ -198,3 +198,19 @@ def test_settings_annotation_written_by_the_builder(tmp_path):
     meta = master.run(b.write(tmp_path / "o.ssp"), output=None).metadata
     assert meta["algorithm_options"]["extrapolation"] == 2
     assert meta["settings_sources"]["extrapolation"] == "SSD settings annotation"
+
+
+def test_algorithm_settings_in_a_uav_scenario_yaml(tmp_path):
+    from uavstudy.build import build_ssp
+    from uavstudy.scenario import load_scenario_yaml
+    text = (REPO / "ssp" / "scenarios" / "paper_area.yaml").read_text()
+    good = tmp_path / "good.yaml"
+    good.write_text(text + "\nalgorithm_options:\n  extrapolation: 1\n")
+    meta = master.run(build_ssp(load_scenario_yaml(good), tmp_path / "good.ssp"), output=None,
+                      stop_time=0.3).metadata
+    assert meta["algorithm_options"]["extrapolation"] == 1
+    assert meta["settings_sources"]["extrapolation"] == "SSD settings annotation"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text + "\nalgorithm_options:\n  coupling_update: newton\n")
+    with pytest.raises(master.CosimError, match=r"algorithm_options.coupling_update: must be one of fixed-point"):
+        load_scenario_yaml(bad)
