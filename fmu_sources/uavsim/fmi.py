@@ -8,7 +8,8 @@ state (rollback: iterative coupling).
 from __future__ import annotations
 
 import copy
-import sys
+import ctypes
+import types
 from operator import attrgetter
 from xml.etree.ElementTree import Element, SubElement
 
@@ -264,16 +265,66 @@ class UnitsMixin:
 #: over this very instance, valid as long as its __dict__ object is), the instance's identity
 _NOT_STATE = frozenset({"vars", "log_queue", "_vr_cache", "_vr_readers", "_vr_writers", "instance_name",
                         "resources", "visible", "guid"})
+#: kept by reference in a state, never copied: code and loaded libraries (a model's bound kernel closures, the
+#: kernels object holding a ctypes library), which do not change while the FMU runs
+_CODE = (types.FunctionType, types.BuiltinFunctionType, types.MethodType, types.ModuleType, ctypes.CDLL,
+         ctypes._CFuncPtr)
+_IMMUTABLE = frozenset({float, int, bool, str, bytes, complex, type(None)})
 
 
-def _shared_objects() -> dict:
-    """Objects a state shares instead of copying (deepcopy's memo): the loaded kernels (a ctypes library,
-    immutable once loaded) of the UAV models. This module is also bundled alone (the coupling benchmark FMUs
-    of fmu_sources/coupling), where there are none."""
-    kernels = sys.modules.get(f"{__package__}.kernels") if __package__ else None
-    if kernels is None:
-        return {}
-    return {id(k): k for k in (*kernels._loaded.values(), *kernels._found.values())}
+_PLAIN: dict = {}        # class -> its slots, or None: not a plain record (decided once per class)
+
+
+def _record_slots(t):
+    """The slots of a class defined in Python that copies like a plain record (its attributes, ``__dict__``
+    and slots, are its state: no custom copy or pickle protocol, no built-in base but object), else None."""
+    if t not in _PLAIN:
+        _PLAIN[t] = _slots(t) if _plain(t) else None
+    return _PLAIN[t]
+
+
+def _plain(t) -> bool:
+    return (t.__flags__ & (1 << 9)                # Py_TPFLAGS_HEAPTYPE: defined in Python
+            and all(b is object or b.__flags__ & (1 << 9) for b in t.__mro__)
+            and "__deepcopy__" not in dir(t) and t.__reduce_ex__ is object.__reduce_ex__
+            and t.__reduce__ is object.__reduce__ and getattr(t, "__setstate__", None) is None)
+
+
+def _slots(t) -> tuple:
+    return tuple(n for c in t.__mro__ for n in c.__dict__.get("__slots__", ()) if n not in ("__dict__", "__weakref__"))
+
+
+def _copy(obj, memo: dict):
+    """A deep copy of a state value: like copy.deepcopy (which it falls back to for numpy, random generators,
+    geometry ...), but shares code and libraries and copies plain records and containers directly, several
+    times faster (a model keeps hundreds of small slotted records, e.g. the wind's drawn intervals)."""
+    t = type(obj)
+    if t in _IMMUTABLE:
+        return obj
+    found = memo.get(id(obj))
+    if found is not None:
+        return found
+    if t is list:
+        out = memo[id(obj)] = []
+        out.extend([_copy(x, memo) for x in obj])
+    elif t is dict:
+        out = memo[id(obj)] = {}
+        out.update({k: _copy(v, memo) for k, v in obj.items()})
+    elif t is tuple:
+        out = tuple([_copy(x, memo) for x in obj])
+    elif isinstance(obj, _CODE) or t.__name__ == "Kernels":
+        out = obj
+    elif (slots := _record_slots(t)) is not None:
+        out = memo[id(obj)] = object.__new__(t)
+        for name in slots:
+            if hasattr(obj, name):
+                object.__setattr__(out, name, _copy(getattr(obj, name), memo))
+        if hasattr(obj, "__dict__"):
+            out.__dict__.update({k: _copy(v, memo) for k, v in obj.__dict__.items()})
+    else:
+        out = copy.deepcopy(obj, memo)
+    memo[id(obj)] = out
+    return out
 
 
 class StateMixin:
@@ -283,15 +334,18 @@ class StateMixin:
     The state is a deep copy of every instance attribute: parameters, inputs, outputs, the model objects with
     their sub-step state, random generators (numpy's copy their bit generator's state) and caches, so a
     restore is bit-exact whatever the model keeps. pythonfmu's default saves the registered variables only,
-    which misses all of that. Restoring updates the instance's own __dict__ in place (the fast accessors hold
-    it) and drops attributes made after the save."""
+    which misses all of that. Code and libraries are shared, not copied. Restoring copies the saved values
+    again (a state restores any number of times), updates the instance's own __dict__ in place (the fast
+    accessors hold it) and drops attributes made after the save."""
 
     def _get_fmu_state(self):
-        own = {k: v for k, v in self.__dict__.items() if k not in _NOT_STATE}
-        return copy.deepcopy(own, _shared_objects())
+        memo: dict = {}
+        state = {k: _copy(v, memo) for k, v in self.__dict__.items() if k not in _NOT_STATE}
+        return state
 
     def _set_fmu_state(self, state):
         d = self.__dict__
         for k in [k for k in d if k not in _NOT_STATE and k not in state]:
             del d[k]
-        d.update(copy.deepcopy(state, _shared_objects()))
+        memo: dict = {}
+        d.update({k: _copy(v, memo) for k, v in state.items()})
