@@ -214,3 +214,21 @@ def test_algorithm_settings_in_a_uav_scenario_yaml(tmp_path):
     bad.write_text(text + "\nalgorithm_options:\n  coupling_update: newton\n")
     with pytest.raises(master.CosimError, match=r"algorithm_options.coupling_update: must be one of fixed-point"):
         load_scenario_yaml(bad)
+
+
+def test_shipped_benchmark_fmus_carry_the_current_sources():
+    # a change to a model source without `python fmu_sources/coupling/build.py` leaves a stale FMU behind
+    import zipfile
+    c_dir, py_dir = REPO / "tests" / "fmus_c", REPO / "fmu_sources" / "coupling"
+    expected = {"MassA": {"sources/MassA.c": c_dir / "MassA.c"}, "MassB": {"sources/MassB.c": c_dir / "MassB.c"},
+                "Affine": {"sources/Affine.c": py_dir / "c" / "Affine.c"}}
+    for name in ("MassA", "MassB", "Affine"):
+        expected[name].update({f"sources/{f}": c_dir / f for f in ("fmi2_framework.c", "framework_common.h",
+                                                                 "model_api.h", "oscillator_math.h")})
+    for name in ("PyMassA", "PyMassB", "PyAffine"):
+        expected[name] = {f"resources/{name}.py": py_dir / f"{name}.py",
+                          "resources/cosim_fmi.py": REPO / "fmu_sources" / "uavsim" / "fmi.py"}
+    for name, files in expected.items():
+        with zipfile.ZipFile(COUPLING / "fmus" / f"{name}.fmu") as z:
+            for member, source in files.items():
+                assert z.read(member) == source.read_bytes(), f"{name}.fmu: {member} is stale"
