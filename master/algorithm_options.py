@@ -3,8 +3,10 @@
 Every setting here is accepted, under the same name, from the command line (``--extrapolation``,
 ``--coupling-tol``: dashes for underscores), the API (``master.run(extrapolation=1)``), a campaign's ``run:``
 keys and grid axes, and the SSD settings annotation (``<cm:Settings extrapolation="1" couplingTol="1e-8">``:
-the camelCase of the name). A new algorithm setting is one row here plus its field in ``execution.Options``;
-run.json records each value and where it came from (``settings_sources``).
+the camelCase of the name). A new algorithm setting is one row in ``ALGORITHM_OPTIONS`` plus its field in
+``execution.Options`` (here, not registered by the algorithm's module: the command line, the campaign format
+and the SSD reader read the table before any algorithm is imported); run.json records each value and where it
+came from (``settings_sources``).
 """
 from __future__ import annotations
 
@@ -72,11 +74,6 @@ ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
     AlgorithmOption("coupling_update", "choice", "iqn-ils", "iterative: how the next iterate is formed",
                     choices=("fixed-point", "aitken", "iqn-ils")),
 )}
-
-
-def register_option(option: AlgorithmOption) -> None:
-    """An algorithm module adds its settings (one call at import; the name must be an ``Options`` field)."""
-    ALGORITHM_OPTIONS[option.name] = option
 
 
 def resolve_algorithm_options(options, from_ssd: dict, caller: str) -> dict:

@@ -151,7 +151,8 @@ def test_iterative_coupling_names_the_fmus_that_cannot_roll_back_before_the_firs
 
 def test_iterative_settings_are_checked(tmp_path, test_fmus):
     ssp = _masses(tmp_path, {m: test_fmus[f"c2:{m}"] for m in ("MassA", "MassB")}, 0.1, 0.2)
-    with pytest.raises(master.CosimError, match="coupling-update: must be one of fixed-point, aitken, iqn-ils, got 'newton'"):
+    with pytest.raises(master.CosimError, match="coupling-update: must be one of fixed-point, aitken, iqn-ils, "
+                                                "got 'newton'"):
         master.run(ssp, output=None, algorithm="iterative", coupling_update="newton")
     with pytest.raises(master.CosimError, match="does not apply to the iterative algorithm"):
         master.run(ssp, output=None, algorithm="iterative", extrapolation=1)
