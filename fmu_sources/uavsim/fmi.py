@@ -294,33 +294,46 @@ def _slots(t) -> tuple:
     return tuple(n for c in t.__mro__ for n in c.__dict__.get("__slots__", ()) if n not in ("__dict__", "__weakref__"))
 
 
+_MISSING = object()
+try:
+    from numpy import ndarray as _ndarray
+except ImportError:              # a bundle without numpy: no array to copy
+    _ndarray = None
+
+
 def _copy(obj, memo: dict):
-    """A deep copy of a state value: like copy.deepcopy (which it falls back to for numpy, random generators,
-    geometry ...), but shares code and libraries and copies plain records and containers directly, several
-    times faster (a model keeps hundreds of small slotted records, e.g. the wind's drawn intervals)."""
+    """A deep copy of a state value: like copy.deepcopy (which it falls back to for random generators,
+    geometry ...), but shares code and libraries and copies plain records, containers and numeric arrays
+    directly, several times faster (a model keeps hundreds of small slotted records, e.g. the wind's drawn
+    intervals; bench/bench_fmu_state.py)."""
     t = type(obj)
     if t in _IMMUTABLE:
         return obj
     found = memo.get(id(obj))
     if found is not None:
         return found
+    imm = _IMMUTABLE
     if t is list:
         out = memo[id(obj)] = []
-        out.extend([_copy(x, memo) for x in obj])
+        out.extend([x if type(x) in imm else _copy(x, memo) for x in obj])
     elif t is dict:
         out = memo[id(obj)] = {}
-        out.update({k: _copy(v, memo) for k, v in obj.items()})
+        out.update({k: v if type(v) in imm else _copy(v, memo) for k, v in obj.items()})
     elif t is tuple:
-        out = tuple([_copy(x, memo) for x in obj])
+        out = tuple([x if type(x) in imm else _copy(x, memo) for x in obj])
+    elif t is _ndarray and obj.dtype.hasobject is False and obj.base is None:
+        out = obj.copy()         # an array that owns its numbers (a view would need its base shared)
     elif isinstance(obj, _CODE) or t.__name__ == "Kernels":
         out = obj
     elif (slots := _record_slots(t)) is not None:
         out = memo[id(obj)] = object.__new__(t)
+        setattr_ = object.__setattr__
         for name in slots:
-            if hasattr(obj, name):
-                object.__setattr__(out, name, _copy(getattr(obj, name), memo))
+            v = getattr(obj, name, _MISSING)
+            if v is not _MISSING:
+                setattr_(out, name, v if type(v) in imm else _copy(v, memo))
         if hasattr(obj, "__dict__"):
-            out.__dict__.update({k: _copy(v, memo) for k, v in obj.__dict__.items()})
+            out.__dict__.update({k: v if type(v) in imm else _copy(v, memo) for k, v in obj.__dict__.items()})
     else:
         out = copy.deepcopy(obj, memo)
     memo[id(obj)] = out
