@@ -231,6 +231,7 @@ class Adaptive(Algorithm):
                     raise rt.slaves[i].fail("setting inputs", st, t)
             if (st := do_step(t, h if k == 1 else self.h * k)) > WARNING and not rt.ends_run_on_request(i, st):
                 raise rt.slaves[i].fail("doStep", st, t)
+            rt.do_step_calls[i] += 1
             stepped.append((i, getters))
         for i, getters in stepped:
             for g in getters:

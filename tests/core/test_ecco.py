@@ -164,3 +164,21 @@ def test_ecco_needs_power_bonds_and_checks_them(tmp_path, masses):
         _ecco(_bonded(tmp_path, masses, 0.5, 1.0, name="est"), None, 1e-3, error_estimate="doubling")
     with pytest.raises(master.CosimError, match="--min-step: the minimum step 0.2 s is larger than the maximum"):
         _ecco(_bonded(tmp_path, masses, 0.5, 1.0, name="minmax"), None, 1e-3, min_step=0.2, max_step=0.1)
+
+
+def test_a_study_of_ecco_draws_its_energy_residual(tmp_path, masses):
+    # the study reads the energy residual ECCO logs per step (steps.csv) into its energy-residual figure
+    import json
+    from master.study.study import run_study
+    ssp = _bonded(tmp_path, masses, 0.1, 2.0)
+    out = tmp_path / "study"
+    s = run_study(ssp, algorithms=["ecco"], extrapolations=[0], steps=[0.1], reference="fine:0.01",
+                  record=["A.x", "B.x"], output=out, workers=1, progress=False)
+    assert s.failed == 0 and (out / "energy_residual.png") in s.figures
+    run_dir = next(p for p in (out / "runs").iterdir() if (p / "steps.csv").is_file())
+    steps = pd.read_csv(run_dir / "steps.csv")
+    meta = json.loads((run_dir / "run.json").read_text())
+    assert steps["spring.energy_residual"].iloc[-1] == pytest.approx(meta["algorithm_info"]["energy_residual"]["spring"],
+                                                                     rel=1e-12)
+    # its work is counted like every algorithm's: two DoStep calls per accepted step (ECCO never rejects)
+    assert meta["fmu_calls"]["do_step_total"] == meta["algorithm_info"]["fmu_calls"] == 2 * len(steps)
