@@ -7,7 +7,7 @@ corrects the displacement).
 """
 import csv
 import json
-import math
+from pathlib import Path
 
 import pytest
 import yaml
@@ -21,6 +21,7 @@ from uavstudy.scenario import RULE_SETS, load_scenario_yaml, scenario_from_dict
 import master
 
 BASE = (-7.275, -35.965, 540.0)
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def latlon(x, y):
@@ -159,7 +160,7 @@ def test_improved_rules_keep_the_fmus_own_defaults(tmp_path):
     # Bit-identity with the model before rule sets: every parameter the builder now sets for the improved
     # rules equals the FMU's own default (uavsim.params), so the shipped scenarios fly the same model.
     from uavsim import params as P
-    scn = load_scenario_yaml("ssp/scenarios/paper_area_zones.yaml")
+    scn = load_scenario_yaml(ROOT / "ssp" / "scenarios" / "paper_area_zones.yaml")
     assert scn.rules == "improved"
     values = {(c, v): x for c, v, x in _ssd_parameters(build_ssp(scn, tmp_path / "z.ssp"))}
     assert values[("uav1_dyn", "speed")] == P.WP_SPEED and values[("uav1_dyn", "accel")] == P.WP_ACCEL
@@ -262,3 +263,15 @@ def test_changing_the_rule_set_makes_records_stale(tmp_path):
     s2 = run_campaign(camp, output=tmp_path / "out", workers=1, progress=False)
     assert s2.stale == 2 and s2.ok
     assert {r["summary"]["total"]["settings"]["rules"] for r in _records(tmp_path / "out").values()} == {"paper"}
+
+
+def test_paper_properties_file_selects_the_rule_set(tmp_path):
+    from uavstudy.scenario import PAPER_KEYS, load_paper_config
+    (tmp_path / "init.properties").write_text("uav.count=2\nstrategy=B\nrules=paper\ntakeoff=staggered\n"
+                                              "takeoff.interval=20\nuav.cruise_speed=6\n")
+    (tmp_path / "targets.txt").write_text("-7.275,-35.965\n-7.2774982,-35.9635114\n")
+    s = load_paper_config(tmp_path)
+    assert (s.rules, s.takeoff, s.takeoff_interval, s.cruise_speed, s.max_accel) == ("paper", "staggered", 20.0,
+                                                                                      6.0, 1.0)
+    doc = (ROOT / "docs" / "paper_config_format.md").read_text(encoding="utf-8")
+    assert all(f"`{key}`" in doc for key in PAPER_KEYS)        # every properties key is documented
