@@ -178,6 +178,7 @@ def step_py(s: list, p) -> None:
     if pd >= 0.0:
         # resting on the ground: no sinking, no bounce, held level and still by the landing gear
         pd = vn = ve = vd = rp2 = rq2 = rr2 = 0.0
+        nw, nz = qw, qz                  # the heading of the frame's start, not turned by this frame's torque
         n = sqrt(nw * nw + nz * nz)
         nx = ny = 0.0
         fx = fy = 0.0
