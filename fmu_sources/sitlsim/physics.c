@@ -6,8 +6,8 @@
  *
  * Bit-identical to the Python twin: only + - * / sqrt and comparisons, in the Python code's order (Python
  * evaluates a + b + c as (a + b) + c, like C); compile with -ffp-contract=off (no fused multiply-add) and
- * without -ffast-math.  Numbers are printed with printf's %.17g / %.9g, which round correctly as Python's
- * %-formatting does, so the answers are byte-identical too.
+ * without -ffast-math.  Numbers are printed in fixed point from integers (llrint rounds half to even like
+ * Python's round), so the answers are byte-identical too.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -33,7 +33,6 @@ enum { ST_OK = 0, ST_SILENT = 1, ST_SOCKET_ERROR = 2 };
 #define MAGIC_32 29569
 #define SIZE_16 40
 #define SIZE_32 72
-#define TIMESTAMP_EPS_US 0.0009765625
 
 void sitl_reset(double *s, const double *p)
 {
@@ -136,20 +135,97 @@ void sitl_step(double *s, const double *p)
     s[K] += 1.0;
 }
 
-static double timestamp(double k, double rate)
+static int64_t timestamp_ns(double k, double rate)
 {
     const int64_t ki = (int64_t)k, r = (int64_t)rate;
-    return ((double)((ki * 1000000) / r) + (double)ki * TIMESTAMP_EPS_US) * 1e-6;
+    return (ki * 1000000) / r * 1000 + ki;
 }
 
+#define LIMIT 9000000000000000000LL
+
+/* |n| as "a.bbbbbbbbb" (9 decimals) at b, with a leading '-' if neg; returns the end */
+static char *put_fixed(char *b, int neg, uint64_t n)
+{
+    char tmp[24];
+    int i = 0;
+    uint64_t a = n / 1000000000ULL, f = n % 1000000000ULL;
+    if (neg)
+        *b++ = '-';
+    do {
+        tmp[i++] = (char)('0' + a % 10);
+        a /= 10;
+    } while (a);
+    while (i)
+        *b++ = tmp[--i];
+    *b++ = '.';
+    for (int j = 8; j >= 0; j--) {
+        b[j] = (char)('0' + f % 10);
+        f /= 10;
+    }
+    return b + 9;
+}
+
+/* frames.fixed: round-half-even(v * 1e9) (llrint, default rounding mode = Python's round), clamped */
+static char *put_value(char *b, double v)
+{
+    long long n;
+    double x = v * 1e9;
+    if (v != v)
+        n = 0;
+    else if (x >= 9.0e18)
+        n = LIMIT;
+    else if (x <= -9.0e18)
+        n = -LIMIT;
+    else
+        n = llrint(x);
+    if (n > LIMIT)
+        n = LIMIT;
+    if (n < -LIMIT)
+        n = -LIMIT;
+    return n < 0 ? put_fixed(b, 1, (uint64_t)(-n)) : put_fixed(b, 0, (uint64_t)n);
+}
+
+static char *put_str(char *b, const char *s)
+{
+    while (*s)
+        *b++ = *s++;
+    return b;
+}
+
+static char *put_vec(char *b, const double *v, int n)
+{
+    *b++ = '[';
+    for (int i = 0; i < n; i++) {
+        if (i)
+            *b++ = ',';
+        b = put_value(b, v[i]);
+    }
+    *b++ = ']';
+    return b;
+}
+
+/* The answer into buf (at least 512 bytes: 17 numbers of at most 30 characters and 130 of keys). */
 int sitl_format(const double *s, const double *p, int no_time_sync, char *buf, int cap)
 {
-    int n = snprintf(buf, (size_t)cap,
-        "\n{\"timestamp\":%.17g,\"imu\":{\"gyro\":[%.9g,%.9g,%.9g],\"accel_body\":[%.9g,%.9g,%.9g]},"
-        "\"position\":[%.17g,%.17g,%.17g],\"velocity\":[%.9g,%.9g,%.9g],\"quaternion\":[%.9g,%.9g,%.9g,%.9g]%s}\n",
-        timestamp(s[K], p[RATE]), s[RP], s[RQ], s[RR], s[FX], s[FY], s[FZ], s[PN], s[PE], s[PD], s[VN], s[VE],
-        s[VD], s[QW], s[QX], s[QY], s[QZ], no_time_sync ? ",\"no_time_sync\":1" : "");
-    return n < cap ? n : cap - 1;
+    char *b = buf;
+    if (cap < 1024)
+        return 0;
+    b = put_str(b, "\n{\"timestamp\":");
+    b = put_fixed(b, 0, (uint64_t)timestamp_ns(s[K], p[RATE]));
+    b = put_str(b, ",\"imu\":{\"gyro\":");
+    b = put_vec(b, s + RP, 3);
+    b = put_str(b, ",\"accel_body\":");
+    b = put_vec(b, s + FX, 3);
+    b = put_str(b, "},\"position\":");
+    b = put_vec(b, s + PN, 3);
+    b = put_str(b, ",\"velocity\":");
+    b = put_vec(b, s + VN, 3);
+    b = put_str(b, ",\"quaternion\":");
+    b = put_vec(b, s + QW, 4);
+    if (no_time_sync)
+        b = put_str(b, ",\"no_time_sync\":1");
+    b = put_str(b, "}\n");
+    return (int)(b - buf);
 }
 
 static double now_s(void)

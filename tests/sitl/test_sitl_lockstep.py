@@ -9,6 +9,7 @@ import time
 import pytest
 
 from sitlsim import physics as ph
+from sitlsim.frames import seconds
 from sitlsim.lockstep import LockstepPhysics, SitlSilent
 from sitlphys_helpers import FakeSitl, free_instance, sitl_binary
 
@@ -55,7 +56,7 @@ def test_advance_answers_exactly_h_times_rate_frames(kernel):
         finally:
             peer.stop()
     ts = stamps(peer)
-    assert ts == [ph.timestamp(k, 1200) for k in range(1, 902)]
+    assert ts == [float(seconds(ph.timestamp_ns(k, 1200))) for k in range(1, 902)]
     assert phys.sitl_frame_rate == 1200 and st.frame_count == 900
 
 
@@ -99,7 +100,7 @@ def test_a_restarted_sitl_resets_the_physics(kernel):
             peer.stop()
     assert phys.resets == 1 and phys.frames_answered == 720
     assert phys.time == pytest.approx(0.1)
-    assert stamps(peer)[600] == ph.timestamp(1, 1200)     # the new SITL sees time start again
+    assert stamps(peer)[600] == float(seconds(ph.timestamp_ns(1, 1200)))     # the new SITL sees time start again
 
 
 def test_a_silent_sitl_raises_naming_the_wall_time(kernel):

@@ -168,3 +168,15 @@ def test_compiled_and_python_twins_are_bit_identical(compiled):
         if k % 7 == 0:
             assert py.format(a, p) == compiled.format(b, p), f"answers differ at frame {k}"
     assert any(v != 0.0 for v in a[ph.S_RP:ph.S_RR + 1])
+
+
+def test_twins_print_odd_numbers_alike(compiled):
+    p = ph.kernel_params(IrisParams(), RATE)
+    rng = random.Random(5)
+    odd = [float("nan"), float("inf"), -float("inf"), 2.5e-9, -3.5e-9, 0.5e-9, 1e12, -1e10, -0.0, 5e-324]
+    for trial in range(300):
+        s = ph.initial_state(p)
+        s[ph.S_K] = float(rng.randrange(0, 10 ** 9))
+        for i in list(range(ph.S_PN, ph.S_FZ + 1)):
+            s[i] = rng.choice(odd) if trial % 3 == 0 else rng.uniform(-1, 1) * 10 ** rng.randint(-12, 8)
+        assert ph.python().format(s, p) == compiled.format(s, p)
