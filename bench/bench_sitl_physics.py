@@ -85,16 +85,16 @@ def sitl_binary():
 class Sitl:
     """One SITL process with its LockstepPhysics and MAVLink connection."""
 
-    def __init__(self, binary: Path, n: int, folder: Path, kernel=None):
+    def __init__(self, binary: Path, n: int, folder: Path, kernel=None, rate: int = 1200):
         from pymavlink import mavutil
         self.mavutil = mavutil
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "frame.parm").write_text("FRAME_TYPE 1\n")
         defaults = f"{binary.parent / 'copter.parm'},{folder / 'frame.parm'}"
-        self.phys = LockstepPhysics(instance=n, kernel=kernel)
+        self.phys = LockstepPhysics(instance=n, kernel=kernel, frame_rate=rate)
         self.log = open(folder / "sitl.log", "w")
         self.proc = subprocess.Popen([str(binary), "--model", "JSON:127.0.0.1", "-I", str(n), "-w",
-                                      "--speedup", "1", "--defaults", defaults,
+                                      "--rate", str(rate), "--speedup", "1", "--defaults", defaults,
                                       "--home", "-7.2153,-35.9098,550,0"], cwd=folder, stdout=self.log,
                                      stderr=subprocess.STDOUT, start_new_session=True)
         deadline = time.monotonic() + 20
@@ -126,18 +126,26 @@ class Sitl:
         while self.phys.time < t - 1e-9:
             self.step(min(0.25, t - self.phys.time))
 
+    def cpu(self):
+        """CPU seconds (user + system) the SITL process has used."""
+        fields = Path(f"/proc/{self.proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
     def window(self, seconds, action=None):
-        """(real-time factor, shares) of advancing ``seconds`` of simulated time."""
+        """(real-time factor, shares, CPU s per simulated s of SITL, of this thread) of ``seconds``."""
         t0, w0, tm0 = self.phys.time, time.perf_counter(), dict(self.phys.timing)
+        c0, m0 = self.cpu(), time.thread_time()
         while self.phys.time < t0 + seconds - 1e-9:
             self.step()
             if action:
                 action()
         wall = time.perf_counter() - w0
+        sim = self.phys.time - t0
+        cpu_fw, cpu_us = (self.cpu() - c0) / sim, (time.thread_time() - m0) / sim
         d = {k: self.phys.timing[k] - tm0[k] for k in tm0}
         shares = {"firmware": d["wait"] / wall, "physics": d["physics"] / wall, "socket": d["io"] / wall}
         shares["python"] = 1 - sum(shares.values())
-        return (self.phys.time - t0) / wall, shares
+        return sim / wall, shares, cpu_fw, cpu_us
 
     def arm_and_takeoff(self, alt=10.0):
         mav = self.mavutil.mavlink
@@ -164,15 +172,17 @@ class Sitl:
         self.log.close()
 
 
-def sitl_rows(binary, tmp: Path, fleet: int, python_twin: bool):
+def sitl_rows(binary, tmp: Path, fleet: int, python_twin: bool, rate: int):
     rows = []
     kernels = [("compiled", None)] + ([("python", ph.python())] if python_twin else [])
     for kname, kernel in kernels:
-        v = Sitl(binary, 61, tmp / f"one_{kname}", kernel)
+        if rate != 1200:
+            kname += f", {rate} Hz"
+        v = Sitl(binary, 61, tmp / f"one_{kname.replace(', ', '_').replace(' ', '')}", kernel, rate)
         try:
             v.until(5.0)
             rows.append((f"1 SITL, {kname}", "disarmed 5-40 s", *v.window(35.0)))
-            if kname == "compiled":
+            if kname.startswith("compiled"):
                 v.until(43.0)
                 v.arm_and_takeoff()
                 rows.append((f"1 SITL, {kname}", "hover at 10 m, 20 s", *v.window(20.0)))
@@ -181,7 +191,7 @@ def sitl_rows(binary, tmp: Path, fleet: int, python_twin: bool):
         finally:
             v.close()
     if fleet:
-        vs = [Sitl(binary, 71 + i, tmp / f"fleet{i}") for i in range(fleet)]
+        vs = [Sitl(binary, 71 + i, tmp / f"fleet{i}", rate=rate) for i in range(fleet)]
         try:
             for v in vs:
                 v.until(5.0)
@@ -197,7 +207,8 @@ def sitl_rows(binary, tmp: Path, fleet: int, python_twin: bool):
                 t.join()
             wall = time.perf_counter() - w0
             shares = {k: sum(r[1][k] for r in results) / fleet for k in results[0][1]}
-            rows.append((f"{fleet} SITL in threads", "disarmed 5-30 s, each", 25.0 / wall, shares))
+            rows.append((f"{fleet} SITL in threads" + (f", {rate} Hz" if rate != 1200 else ""), "disarmed 5-30 s, each", 25.0 / wall, shares,
+                         sum(r[2] for r in results) / fleet, sum(r[3] for r in results) / fleet))
         finally:
             for v in vs:
                 v.close()
@@ -210,6 +221,7 @@ def main(argv=None):
     ap.add_argument("--no-sitl", action="store_true")
     ap.add_argument("--fleet", type=int, default=4, help="SITL instances of the fleet row (0: none)")
     ap.add_argument("--python-twin", action="store_true", help="also a 1-SITL row with the Python twin")
+    ap.add_argument("--rate", type=int, default=1200, help="SITL physics frame rate (--rate; copter 1200 Hz)")
     a = ap.parse_args(argv)
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores\n")
     print("| kernel | what | frames/s |\n| --- | --- | ---: |")
@@ -223,14 +235,23 @@ def main(argv=None):
         return 0
     tmp = Path(tempfile.mkdtemp(prefix="bench_sitl_"))
     try:
-        rows = sitl_rows(binary, tmp, a.fleet, a.python_twin)
+        rows = sitl_rows(binary, tmp, a.fleet, a.python_twin, a.rate)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    print("\n| run | window | real-time factor | frames/s | firmware | physics | socket | python |")
+    print("\nWall clock (depends on the machine's load; shares of the window's wall time):\n")
+    print("| run | window | real-time factor | frames/s | firmware | physics | socket | python |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for run, window, rtf, sh in rows:
-        print(f"| {run} | {window} | {rtf:.1f}x | {rtf * 1200:,.0f} | {sh['firmware']:.0%} | {sh['physics']:.0%} "
+    for run, window, rtf, sh, *_ in rows:
+        print(f"| {run} | {window} | {rtf:.1f}x | {rtf * a.rate:,.0f} | {sh['firmware']:.0%} | {sh['physics']:.0%} "
               f"| {sh['socket']:.0%} | {sh['python']:.0%} |")
+    print("\nCPU time per simulated second (independent of other load; 'bound' = 1 / (SITL + ours), the\n"
+          "real-time factor of one vehicle on an idle core; 'fleet bound' = cores / (4 x that sum)):\n")
+    print("| run | window | SITL CPU ms/s | our CPU ms/s | bound | 4 UAVs on this machine, bound |")
+    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    cores = os.cpu_count() or 1
+    for run, window, rtf, sh, cfw, cus in rows:
+        print(f"| {run} | {window} | {cfw * 1e3:.0f} | {cus * 1e3:.0f} | {1 / (cfw + cus):.0f}x "
+              f"| {cores / (4 * (cfw + cus)):.1f}x |")
     print(f"\nload average after: {os.getloadavg()}")
     return 0
 

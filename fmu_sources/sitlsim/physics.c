@@ -12,7 +12,6 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <math.h>
-#include <poll.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -20,6 +19,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 
 enum { K, PN, PE, PD, VN, VE, VD, QW, QX, QY, QZ, RP, RQ, RR, FX, FY, FZ, M1, M2, M3, M4, PWM1, PWM2, PWM3,
        PWM4, WN, WE, WD, POWER, ENERGY, GROUND, LAST, HAS_LAST, PEER_IP, PEER_PORT, ANSWERED, RESENDS,
@@ -242,43 +242,47 @@ static uint32_t rd32(const unsigned char *b)
 }
 
 /* Answer io[IO_NFRAMES] new servo frames; the same loop as physics.serve_py.  Returns the frames answered;
- * io[IO_STATUS] says why it stopped. */
+ * io[IO_STATUS] says why it stopped.  One blocking recvfrom per frame (SO_RCVTIMEO ticks of at most 50 ms
+ * bound each wait, so the timeouts are checked at least that often) and one sendto: two system calls. */
 int sitl_serve(int fd, double *s, const double *p, double *io)
 {
     const int nframes = (int)io[IO_NFRAMES], nts = io[IO_NO_TIME_SYNC] != 0.0;
     const double timeout = io[IO_TIMEOUT], grace = io[IO_GRACE];
+    double tick = 0.05;
     unsigned char pkt[256];
     char msg[1024];
     struct sockaddr_in peer;
+    struct timeval tv;
     int answered = 0, pending = 0, status = ST_OK, msglen;
     double pending_since = 0.0, last_new = now_s(), t_wait = 0.0, t_phys = 0.0, t_io = 0.0;
 
+    if (grace < tick)
+        tick = grace;
+    if (timeout < tick)
+        tick = timeout;
+    if (tick < 0.001)
+        tick = 0.001;
+    tv.tv_sec = (time_t)tick;
+    tv.tv_usec = (suseconds_t)((tick - (double)tv.tv_sec) * 1e6);
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
     memset(&peer, 0, sizeof peer);
     peer.sin_family = AF_INET;
     io[IO_ERRNO] = 0.0;
     while (answered < nframes) {
-        double now = now_s(), left = timeout - (now - last_new), t1, t2, t3, t4;
-        struct pollfd pfd = { fd, POLLIN, 0 };
         struct sockaddr_in src;
         socklen_t srclen = sizeof src;
         ssize_t len;
-        int r, ms;
         uint32_t count;
-        if (pending && grace - (now - pending_since) < left)
-            left = grace - (now - pending_since);
-        ms = left <= 0.0 ? 0 : (int)ceil(left * 1000.0);
-        t1 = now_s();
-        r = poll(&pfd, 1, ms);
+        double t1 = now_s(), t2, t3;
+        len = recvfrom(fd, pkt, sizeof pkt, 0, (struct sockaddr *)&src, &srclen);
         t2 = now_s();
         t_wait += t2 - t1;
-        if (r < 0) {
-            if (errno == EINTR)
-                continue;
-            status = ST_SOCKET_ERROR;
-            io[IO_ERRNO] = errno;
-            break;
-        }
-        if (r == 0) {
+        if (len < 0) {
+            if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR && errno != ECONNREFUSED) {
+                status = ST_SOCKET_ERROR;
+                io[IO_ERRNO] = errno;
+                break;
+            }
             if (pending && t2 - pending_since >= grace) {
                 peer.sin_addr.s_addr = htonl((uint32_t)s[PEER_IP]);
                 peer.sin_port = htons((uint16_t)s[PEER_PORT]);
@@ -295,16 +299,6 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
             }
             continue;
         }
-        len = recvfrom(fd, pkt, sizeof pkt, MSG_DONTWAIT, (struct sockaddr *)&src, &srclen);
-        t3 = now_s();
-        t_io += t3 - t2;
-        if (len < 0) {
-            if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR || errno == ECONNREFUSED)
-                continue;
-            status = ST_SOCKET_ERROR;
-            io[IO_ERRNO] = errno;
-            break;
-        }
         if (len < 8) {
             s[BAD] += 1.0;
             continue;
@@ -320,7 +314,7 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
         if (s[HAS_LAST] != 0.0 && (double)count == s[LAST]) {
             if (!pending) {
                 pending = 1;
-                pending_since = t3;
+                pending_since = t2;
             }
             s[STALE] += 1.0;
             continue;
@@ -339,11 +333,11 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
         s[PEER_PORT] = (double)ntohs(src.sin_port);
         sitl_step(s, p);
         msglen = sitl_format(s, p, nts, msg, sizeof msg);
-        t4 = now_s();
-        t_phys += t4 - t3;
+        t3 = now_s();
+        t_phys += t3 - t2;
         sendto(fd, msg, (size_t)msglen, 0, (struct sockaddr *)&src, srclen);
         last_new = now_s();
-        t_io += last_new - t4;
+        t_io += last_new - t3;
         s[LAST] = (double)count;
         s[HAS_LAST] = 1.0;
         s[ANSWERED] += 1.0;

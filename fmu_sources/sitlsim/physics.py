@@ -206,7 +206,7 @@ def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
     answered = 0
     pending = False
     pending_since = 0.0
-    t0 = last_new = clock()
+    last_new = clock()
     t_wait = t_phys = t_io = 0.0
     status = OK
     fd = sock.fileno()
@@ -232,7 +232,14 @@ def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
                 io[IO_WAITED] = now - last_new
                 break
             continue
-        data, addr = sock.recvfrom(4096)
+        try:
+            data, addr = sock.recvfrom(4096)
+        except ConnectionRefusedError:       # an ICMP error of an earlier sendto (SITL gone): keep waiting
+            continue
+        except OSError as exc:
+            status = SOCKET_ERROR
+            io[IO_ERRNO] = exc.errno or 0
+            break
         t3 = clock()
         t_io += t3 - t2
         n = len(data)
@@ -271,7 +278,6 @@ def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
     if status == OK:
         io[IO_WAITED] = 0.0
     io[IO_T_WAIT], io[IO_T_PHYS], io[IO_T_IO] = t_wait, t_phys, t_io
-    del t0
     return answered
 
 
