@@ -8,17 +8,18 @@ Usage::
 
 Kernel rows: frames per second of one physics step (``step``) and of a step plus its JSON answer
 (``step+answer``), for the Python twin and the compiled twin called through ctypes one frame per call
-(persistent argument arrays; what a per-frame Python loop would cost), and the compiled answering loop
-(``sitl_serve``) against a C-speed fake peer is not measured here: its cost per frame is in the SITL rows.
+(persistent argument arrays; what a per-frame Python loop would cost).  The compiled answering loop
+(``sitl_serve``) is measured in the SITL rows.  The CPU table (SITL's from /proc, ours per thread) does not
+depend on what else runs on the machine, the wall-clock table does.
 
 SITL rows (the binary from $ARDUPILOT_SITL, else ../shared/sitl/arducopter; copter.parm, FRAME_TYPE 1):
 one instance answered by LockstepPhysics with ``no_time_sync``, advanced in 0.25 s steps with its MAVLink
 stream (REQUEST_DATA_STREAM all at 4 Hz) read after each step, as the SITL vehicle FMU does.
 Windows: ``disarmed`` = simulated 5-40 s (EKF initialising, on the ground); ``hover`` = 20 s hovering at
 10 m after a GUIDED takeoff.  Real-time factor = simulated s / wall s of the window.  The split of the
-window's wall time: ``firmware`` = time our loop waits in poll() for SITL's next frame (the firmware's
-main loop, plus the OS scheduling both processes), ``physics`` = step + JSON formatting, ``socket`` =
-recvfrom + sendto, ``python`` = the rest (advance() and the MAVLink reads between steps).  The 4-SITL row
+window's wall time: ``firmware`` = time our loop is blocked in recvfrom() for SITL's next frame (the
+firmware's main loop, the OS scheduling both processes, the receive), ``physics`` = step + JSON formatting,
+``socket`` = sendto, ``python`` = the rest (advance() and the MAVLink reads between steps).  The 4-SITL row
 advances four instances in four Python threads (the compiled loop releases the GIL), disarmed, 5-30 s.
 """
 from __future__ import annotations

@@ -15,6 +15,8 @@ frame_count (it re-sends after ~1 s without an answer) advances nothing: if no n
 ``resend_grace`` s, our answer was lost and is sent again.  A frame_count going backwards is a restarted
 SITL: the vehicle is put back on the ground at the origin, time restarts at 0, ``resets`` counts it.  No new
 frame within ``wall_timeout`` wall seconds raises SitlSilent (the frames answered so far stay done).
+SITL sends its first frame only after a MAVLink client has connected to its SERIAL0 (TCP 5760+10N).
+A signal (Ctrl-C) interrupts the compiled loop at once: KeyboardInterrupt is raised from ``advance``.
 
 The answering loop runs in C without the GIL when the compiled kernel is available (else the Python twin,
 bit-identical, ~20x slower), so several vehicles can advance in parallel threads.
@@ -123,14 +125,18 @@ class LockstepPhysics:
         s, io = self._s, self._io
         s[ph.S_WN], s[ph.S_WE], s[ph.S_WD] = (float(w) for w in wind_ned)
         e0 = s[ph.S_ENERGY]
-        io[ph.IO_NFRAMES] = float(n)
-        done = self._serve(s, io) if n else 0
-        self.timing["wait"] += io[ph.IO_T_WAIT]
-        self.timing["physics"] += io[ph.IO_T_PHYS]
-        self.timing["io"] += io[ph.IO_T_IO]
+        done, status = 0, ph.OK
+        while done < n:
+            io[ph.IO_NFRAMES] = float(n - done)
+            done += self._serve(s, io)
+            self.timing["wait"] += io[ph.IO_T_WAIT]
+            self.timing["physics"] += io[ph.IO_T_PHYS]
+            self.timing["io"] += io[ph.IO_T_IO]
+            status = int(io[ph.IO_STATUS])
+            if status != ph.INTERRUPTED:   # back in Python a pending signal handler has run (Ctrl-C raises)
+                break
         if done:
             self._mean_power = (s[ph.S_ENERGY] - e0) * self.frame_rate / done
-        status = int(io[ph.IO_STATUS])
         if status == ph.SILENT:
             raise SitlSilent(f"SITL (UDP port {self.port}) sent no new servo frame for {io[ph.IO_WAITED]:.1f} s "
                              f"of wall clock (physics time {self.time:.4f} s, {done} of {n} frames of this step "

@@ -28,7 +28,7 @@ enum { DT, G, MASS, IXX, IYY, IZZ, KF, WMAX, KM, AUP, ADN, RDRAG, BDRAG, EXPO, S
        PWM_RANGE, PIND, PPROF, EFF_INV, AVIONICS, RATE, Q0W, Q0Z, MX1, NPARAM = MX1 + 12 };
 enum { IO_NFRAMES, IO_TIMEOUT, IO_GRACE, IO_NO_TIME_SYNC, IO_STATUS, IO_WAITED, IO_T_WAIT, IO_T_PHYS, IO_T_IO,
        IO_ERRNO, NIO };
-enum { ST_OK = 0, ST_SILENT = 1, ST_SOCKET_ERROR = 2 };
+enum { ST_OK = 0, ST_SILENT = 1, ST_SOCKET_ERROR = 2, ST_INTERRUPTED = 3 };
 #define MAGIC_16 18458
 #define MAGIC_32 29569
 #define SIZE_16 40
@@ -278,7 +278,11 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
         t2 = now_s();
         t_wait += t2 - t1;
         if (len < 0) {
-            if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR && errno != ECONNREFUSED) {
+            if (errno == EINTR) {          /* a signal (Ctrl-C): let Python run its handler, then resume */
+                status = ST_INTERRUPTED;
+                break;
+            }
+            if (errno != EAGAIN && errno != EWOULDBLOCK && errno != ECONNREFUSED) {
                 status = ST_SOCKET_ERROR;
                 io[IO_ERRNO] = errno;
                 break;

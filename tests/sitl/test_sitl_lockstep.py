@@ -112,6 +112,31 @@ def test_a_silent_sitl_raises_naming_the_wall_time(kernel):
         assert phys.frames_answered == 0
 
 
+class _Stop(Exception):
+    pass
+
+
+def test_a_signal_interrupts_a_waiting_advance_at_once(kernel):
+    # what Ctrl-C does (KeyboardInterrupt would end the pytest session, so SIGUSR1 raising _Stop stands in)
+    import threading
+
+    def handler(signum, frame):
+        raise _Stop()
+    old = signal.signal(signal.SIGUSR1, handler)
+    main = threading.main_thread().ident
+    timer = threading.Timer(0.2, lambda: signal.pthread_kill(main, signal.SIGUSR1))
+    try:
+        with lockstep(kernel, wall_timeout=5.0) as phys:
+            t0 = time.monotonic()
+            timer.start()
+            with pytest.raises(_Stop):
+                phys.advance(1.0)
+            assert time.monotonic() - t0 < 1.0
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGUSR1, old)
+
+
 def test_garbage_datagrams_are_ignored(kernel):
     import socket
     with lockstep(kernel) as phys:
