@@ -86,11 +86,11 @@ def sitl_binary():
 class Sitl:
     """One SITL process with its LockstepPhysics and MAVLink connection."""
 
-    def __init__(self, binary: Path, n: int, folder: Path, kernel=None, rate: int = 1200):
+    def __init__(self, binary: Path, n: int, folder: Path, kernel=None, rate: int = 1200, extra: str = ""):
         from pymavlink import mavutil
         self.mavutil = mavutil
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "frame.parm").write_text("FRAME_TYPE 1\n")
+        (folder / "frame.parm").write_text("FRAME_TYPE 1\n" + extra)
         defaults = f"{binary.parent / 'copter.parm'},{folder / 'frame.parm'}"
         self.phys = LockstepPhysics(instance=n, kernel=kernel, frame_rate=rate)
         self.log = open(folder / "sitl.log", "w")
