@@ -12,7 +12,8 @@ Kernel rows: frames per second of one physics step (``step``) and of a step plus
 (``sitl_serve``) is measured in the SITL rows.  The CPU table (SITL's from /proc, ours per thread) does not
 depend on what else runs on the machine, the wall-clock table does.
 
-SITL rows (the binary from $ARDUPILOT_SITL, else ../shared/sitl/arducopter; copter.parm, FRAME_TYPE 1):
+SITL rows (the binary from $ARDUPILOT_SITL, else ../shared/sitl/arducopter; copter.parm plus
+sitlsim.iris.defaults_text(): quad X, our thrust curve and hover thrust, SITL's IMU noise off):
 one instance answered by LockstepPhysics with ``no_time_sync``, advanced in 0.25 s steps with its MAVLink
 stream (REQUEST_DATA_STREAM all at 4 Hz) read after each step, as the SITL vehicle FMU does.
 Windows: ``disarmed`` = simulated 5-40 s (EKF initialising, on the ground); ``hover`` = 20 s hovering at
@@ -40,7 +41,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "fmu_sources"))
 
 from sitlsim import physics as ph          # noqa: E402
-from sitlsim.iris import IrisParams        # noqa: E402
+from sitlsim.iris import IrisParams, defaults_text   # noqa: E402
 from sitlsim.lockstep import LockstepPhysics   # noqa: E402
 
 
@@ -90,7 +91,7 @@ class Sitl:
         from pymavlink import mavutil
         self.mavutil = mavutil
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "frame.parm").write_text("FRAME_TYPE 1\n" + extra)
+        (folder / "frame.parm").write_text(defaults_text(IrisParams()) + extra)
         defaults = f"{binary.parent / 'copter.parm'},{folder / 'frame.parm'}"
         self.phys = LockstepPhysics(instance=n, kernel=kernel, frame_rate=rate)
         self.log = open(folder / "sitl.log", "w")

@@ -84,3 +84,28 @@ class IrisParams:
     def hover_pwm(self) -> float:
         """us: the PWM at which the four motors together carry the weight."""
         return self.pwm_for_thrust(self.mass * self.gravity / 4.0)
+
+
+#: SITL's own IMU noise on top of our exact gyro/accelerometer values: off, so the firmware sees the physics
+#: as it is (and one candidate source of run-to-run differences is gone; docs/sitl_physics.md, Determinism)
+QUIET_SENSORS = {f"SIM_{s}{i}_RND": 0 for s in ("ACC", "GYR") for i in (1, 2, 3)}
+
+
+def firmware_params(params: IrisParams = IrisParams(), quiet_sensors: bool = True) -> dict:
+    """ArduCopter parameters that make the firmware's mixer and thrust model match this physics (frame, thrust
+    curve, PWM range, hover thrust) and, if ``quiet_sensors``, switch SITL's own IMU noise off.  Write them
+    into a second ``--defaults`` file after copter.parm."""
+    frame = params.frame.lower()
+    out = {"FRAME_CLASS": 1, "FRAME_TYPE": 1 if frame == "x" else 0,
+           "MOT_THST_EXPO": params.thrust_expo, "MOT_SPIN_MIN": params.spin_min, "MOT_SPIN_MAX": params.spin_max,
+           "MOT_PWM_MIN": int(params.pwm_min), "MOT_PWM_MAX": int(params.pwm_max),
+           "MOT_THST_HOVER": round(params.mass * params.gravity / (4.0 * params.max_thrust), 4)}
+    params.motors        # validates the frame name
+    if quiet_sensors:
+        out.update(QUIET_SENSORS)
+    return out
+
+
+def defaults_text(params: IrisParams = IrisParams(), quiet_sensors: bool = True) -> str:
+    """firmware_params as the text of a SITL defaults file (one "NAME VALUE" per line)."""
+    return "".join(f"{k} {v}\n" for k, v in firmware_params(params, quiet_sensors).items())

@@ -10,6 +10,7 @@ import pytest
 
 from sitlsim import physics as ph
 from sitlsim.frames import seconds
+from sitlsim.iris import IrisParams, defaults_text
 from sitlsim.lockstep import LockstepPhysics, SitlSilent
 from sitlphys_helpers import FakeSitl, free_instance, sitl_binary
 
@@ -187,8 +188,11 @@ def sitl(tmp_path_factory):
     wd = tmp_path_factory.mktemp("sitl")
     phys = LockstepPhysics(instance=n, wall_timeout=10.0)
     parm = binary.parent / "copter.parm"
+    ours = wd / "sitlsim.parm"
+    ours.write_text(defaults_text(IrisParams()))
+    defaults = f"{parm},{ours}" if parm.is_file() else str(ours)
     cmd = [str(binary), "--model", "JSON:127.0.0.1", "-I", str(n), "-w", "--speedup", "1",
-           "--home", "-7.2153,-35.9098,550,0"] + (["--defaults", str(parm)] if parm.is_file() else [])
+           "--home", "-7.2153,-35.9098,550,0", "--defaults", defaults]
     log = open(wd / "sitl.log", "w")
     proc = subprocess.Popen(cmd, cwd=wd, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     conn = None
@@ -269,3 +273,15 @@ def test_real_sitl_rests_level_on_the_ground_while_disarmed(sitl):
     hb = seen["HEARTBEAT"]
     assert not hb.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
     assert phys.resets == 0
+    # the firmware took our defaults file: it mixes for the quad X this physics is
+    values = {}
+    for name in ("FRAME_TYPE", "MOT_THST_HOVER"):
+        conn.mav.param_request_read_send(conn.target_system or 1, 1, name.encode(), -1)
+    for _ in range(20):
+        phys.advance(0.05)
+        for m in drain(conn):
+            if m.get_type() == "PARAM_VALUE":
+                values[m.param_id] = m.param_value
+        if len(values) == 2:
+            break
+    assert values["FRAME_TYPE"] == 1 and values["MOT_THST_HOVER"] == pytest.approx(0.5204, abs=1e-6)
