@@ -51,7 +51,6 @@ def kernel_rows(frames: int):
     s = ph.initial_state(p)
     s[ph.S_PD], s[ph.S_GROUND] = -50.0, 0.0
     s[ph.S_PWM1:ph.S_PWM4 + 1] = [IrisParams().hover_pwm] * 4
-    py = ph.python()
     for name, fn in (("step", lambda: ph.step_py(s, p)),
                      ("step+answer", lambda: (ph.step_py(s, p), ph.format_py(s, p)))):
         n = frames // 10
@@ -74,7 +73,6 @@ def kernel_rows(frames: int):
             rows.append(("compiled (ctypes per frame)", name, frames / (time.perf_counter() - t)))
     else:
         rows.append(("compiled", "-", "no C compiler"))
-    del py
     return rows
 
 

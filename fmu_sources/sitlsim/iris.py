@@ -17,7 +17,7 @@ Sources (keys used below):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 G0 = 9.80665                 # m/s^2 standard gravity (ISO 80000-3), as uavsim.params
 

@@ -4,7 +4,9 @@ import math
 import os
 import signal
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -12,7 +14,8 @@ from sitlsim import physics as ph
 from sitlsim.frames import seconds
 from sitlsim.iris import IrisParams, defaults_text
 from sitlsim.lockstep import LockstepPhysics, SitlSilent
-from sitlphys_helpers import FakeSitl, free_instance, sitl_binary
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # helpers beside the tests, with or without __init__.py
+from sitlphys_helpers import FakeSitl, free_instance, sitl_binary  # noqa: E402
 
 
 @pytest.fixture(params=["python", "compiled"])

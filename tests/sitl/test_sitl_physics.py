@@ -1,12 +1,15 @@
 """The 6-DoF quadcopter of sitlsim against hand-derived expectations, and its two twins against each other."""
 import math
 import random
+import sys
+from pathlib import Path
 
 import pytest
 
 from sitlsim import physics as ph
 from sitlsim.iris import IrisParams
-from sitlphys_helpers import thrust_pwm
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # helpers beside the tests, with or without __init__.py
+from sitlphys_helpers import thrust_pwm  # noqa: E402
 
 G = 9.80665
 RATE = 1200
