@@ -82,11 +82,14 @@ class LockstepPhysics:
     no_time_sync  send "no_time_sync":1, so SITL runs as fast as we answer instead of pacing to --speedup.
     resend_grace  s to wait for a newer frame before answering a re-sent frame again.
     kernel        physics.Kernel to use (default: physics.load(), the compiled twin when it can be had).
+    watch         optional callable, asked every ``watch_interval`` s while SITL is silent; a string it returns
+                  (e.g. "SITL exited with code -9") ends the advance at once with SitlSilent naming it.
     """
 
     def __init__(self, instance: int = 0, params: IrisParams = IrisParams(), frame_rate: int = 1200,
                  bind_host: str = "127.0.0.1", port: int | None = None, wall_timeout: float = 10.0,
-                 yaw_deg: float = 0.0, no_time_sync: bool = True, resend_grace: float = 0.25, kernel=None):
+                 yaw_deg: float = 0.0, no_time_sync: bool = True, resend_grace: float = 0.25, kernel=None,
+                 watch=None, watch_interval: float = 0.5):
         if wall_timeout <= 0:
             raise ValueError(f"wall_timeout must be > 0 s, not {wall_timeout}")
         self.params = params
@@ -94,6 +97,7 @@ class LockstepPhysics:
         self.instance = int(instance)
         self.port = BASE_PORT + 10 * self.instance if port is None else int(port)
         self.wall_timeout = float(wall_timeout)
+        self.watch, self.watch_interval = watch, float(watch_interval)
         self.kernel = ph.load() if kernel is None else kernel
         self._p = ph.kernel_params(params, self.frame_rate, math.radians(yaw_deg))
         self._s = ph.initial_state(self._p)
@@ -125,22 +129,32 @@ class LockstepPhysics:
         s, io = self._s, self._io
         s[ph.S_WN], s[ph.S_WE], s[ph.S_WD] = (float(w) for w in wind_ned)
         e0 = s[ph.S_ENERGY]
-        done, status = 0, ph.OK
+        done, status, silent, reason = 0, ph.OK, 0.0, ""
         while done < n:
             io[ph.IO_NFRAMES] = float(n - done)
-            done += self._serve(s, io)
+            left = self.wall_timeout - silent
+            io[ph.IO_TIMEOUT] = min(left, self.watch_interval) if self.watch else left
+            got = self._serve(s, io)
+            done += got
             self.timing["wait"] += io[ph.IO_T_WAIT]
             self.timing["physics"] += io[ph.IO_T_PHYS]
             self.timing["io"] += io[ph.IO_T_IO]
             status = int(io[ph.IO_STATUS])
-            if status != ph.INTERRUPTED:   # back in Python a pending signal handler has run (Ctrl-C raises)
+            if status == ph.INTERRUPTED:   # back in Python a pending signal handler has run (Ctrl-C raises)
+                continue
+            if status != ph.SILENT:
+                break
+            silent = (0.0 if got else silent) + io[ph.IO_WAITED]
+            io[ph.IO_WAITED] = silent
+            reason = self.watch() if self.watch else ""
+            if reason or silent >= self.wall_timeout - 1e-6:
                 break
         if done:
             self._mean_power = (s[ph.S_ENERGY] - e0) * self.frame_rate / done
         if status == ph.SILENT:
             raise SitlSilent(f"SITL (UDP port {self.port}) sent no new servo frame for {io[ph.IO_WAITED]:.1f} s "
-                             f"of wall clock (physics time {self.time:.4f} s, {done} of {n} frames of this step "
-                             f"answered, {int(s[ph.S_STALE])} re-sent frames seen)")
+                             f"of wall clock{': ' + reason if reason else ''} (physics time {self.time:.4f} s, "
+                             f"{done} of {n} frames of this step answered, {int(s[ph.S_STALE])} re-sent frames seen)")
         if status == ph.SOCKET_ERROR:
             raise SitlSocketError(f"SITL physics socket (UDP port {self.port}) failed: "
                                   f"{_strerror(int(io[ph.IO_ERRNO]))}")

@@ -116,6 +116,28 @@ def test_a_silent_sitl_raises_naming_the_wall_time(kernel):
         assert phys.frames_answered == 0
 
 
+def test_a_watch_ends_the_wait_for_a_dead_sitl_early(kernel):
+    calls = []
+
+    def watch():
+        calls.append(time.monotonic())
+        return "SITL exited with code -9" if peer.thread.is_alive() is False else None
+    with lockstep(kernel, wall_timeout=5.0, watch=watch, watch_interval=0.2) as phys:
+        peer = FakeSitl(phys.port, frames=12).start()         # answers 12 frames' worth, then goes away
+        t0 = time.monotonic()
+        with pytest.raises(SitlSilent, match=r"of wall clock: SITL exited with code -9 \(physics time 0\.0100 s, "
+                                             r"12 of 120 frames"):
+            phys.advance(0.1)
+        assert time.monotonic() - t0 < 1.5 and len(calls) >= 1
+        peer.stop()
+    # a watch that sees nothing wrong does not shorten the wall-clock timeout: the silences add up
+    with lockstep(kernel, wall_timeout=0.9, watch=lambda: None, watch_interval=0.2) as phys:
+        t0 = time.monotonic()
+        with pytest.raises(SitlSilent, match=r"for 0\.9 s of wall clock \(physics"):
+            phys.advance(0.1)
+        assert 0.85 < time.monotonic() - t0 < 2.0
+
+
 class _Stop(Exception):
     pass
 
