@@ -179,6 +179,11 @@ class GroundStation:
             self._next_cmd.clear()
             self.acks.pop(mav.MAV_CMD_DO_SET_MODE, None)
 
+    def set_param(self, name: str, value: float) -> None:
+        """PARAM_SET (fire and forget: the firmware echoes PARAM_VALUE)."""
+        self._send(mav.MAVLink_param_set_message(self.target, 1, name.encode("ascii"), float(value),
+                                                 mav.MAV_PARAM_TYPE_REAL32))
+
     # ------------------------------------------------------------------ output
     def _send(self, msg) -> None:
         self._out.append(msg.pack(self.mav))
@@ -196,7 +201,7 @@ class GroundStation:
         self.now = float(now)
         if self.now >= self._next_hb or self._first_packet:
             self._first_packet = False
-            self._send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0))
+            self._send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3))
             self._next_hb = self.now + 1.0
         if self._t0 is None:
             self._t0 = self.now

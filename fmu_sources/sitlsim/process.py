@@ -179,8 +179,9 @@ class SitlProcess:
         return self.number
 
     def start(self) -> None:
-        if self.defaults and not Path(self.defaults).is_file():
-            raise SitlError(f"SITL defaults file not found: {self.defaults}")
+        for f in (self.defaults or "").split(","):
+            if f and not Path(f).is_file():
+                raise SitlError(f"SITL defaults file not found: {f}")
         self.claim()
         self.workdir.mkdir(parents=True, exist_ok=True)
         self._log = open(self.log_path, "ab")
