@@ -54,6 +54,11 @@ SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper
 
 FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "UavStrategy.fmu",
              WIND: "UavWind.fmu"}
+#: the dynamics FMU of a UAV with ``vehicle: sitl`` (docs/sitl.md)
+SITL_FMU = "UavSitl.fmu"
+#: what results.parquet records in addition for the SITL vehicles
+SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "tilt",
+                                                              "motor_power")]
 
 #: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
 RECORD_PATTERNS = (
@@ -194,10 +199,26 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
     return ann
 
 
+def _sitl_parameters(scn: UavScenario, i: int) -> dict:
+    """UavSitl's own parameters for UAV i; the binary stays unset unless the scenario names one, so that the
+    SSP runs wherever $ARDUPILOT_SITL points."""
+    o = scn.sitl
+    out = {"coupling": o.coupling, "frame": o.frame, "speedup": float(o.speedup), "sysid": i + 1,
+           "params": ",".join(f"{k}={v!r}" for k, v in sorted(o.params.items()))}
+    if o.binary:
+        out["sitl_binary"] = o.binary
+    if o.defaults:
+        out["defaults"] = o.defaults
+    return out
+
+
 def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder)."""
     fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
     fmus = {k: fmu_dir / f for k, f in FMU_FILES.items()}
+    sitl_uavs = [i for i in range(scn.n_uavs) if scn.vehicle_of(i) == "sitl"]
+    if sitl_uavs:
+        fmus["sitl"] = fmu_dir / SITL_FMU
     missing = [str(p) for p in fmus.values() if not p.is_file()]
     if missing:
         raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
@@ -217,7 +238,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
     b.record_interval = _record_interval(float(scn.step))
-    b.record = list(RECORD_PATTERNS)
+    b.record = list(RECORD_PATTERNS) + (SITL_RECORD if sitl_uavs else [])
     w = scn.wind
     di = float(w.decision_interval)
     b.add_component(WIND, fmus[WIND], params={
@@ -230,9 +251,12 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     for i, (hx, hy) in enumerate(pad_positions(scn.n_uavs)):
         name = uav_name(i)
         d, bt, s = (component(name, part) for part in UAV_PARTS)
-        b.add_component(d, fmus[DYNAMICS], params={
-            "origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
-            "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)})
+        dyn_params = {"origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
+                      "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)}
+        if i in sitl_uavs:
+            b.add_component(d, fmus["sitl"], params={**dyn_params, **_sitl_parameters(scn, i)})
+        else:
+            b.add_component(d, fmus[DYNAMICS], params=dyn_params)
         b.add_component(bt, fmus[BATTERY])
         b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,

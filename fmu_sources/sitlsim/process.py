@@ -15,6 +15,7 @@ started the child exits, so start SITL from a thread that lives as long as the r
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import errno
 import fcntl
@@ -32,6 +33,15 @@ MAVLINK_BASE, PHYSICS_BASE, RC_BASE = 5760, 9002, 5501
 MAX_INSTANCE = 200          # 5760 + 10*200 stays clear of the physics ports 9002+
 ENV_BINARY = "ARDUPILOT_SITL"
 PR_SET_PDEATHSIG = 1
+
+
+_LIVE: set = set()        # started and not yet stopped: stopped at interpreter exit, whatever else happened
+
+
+@atexit.register
+def _stop_all():
+    for p in list(_LIVE):
+        p.stop()
 
 
 class SitlError(RuntimeError):
@@ -189,6 +199,7 @@ class SitlProcess:
             self.proc = subprocess.Popen(self.command(), cwd=self.workdir, stdin=subprocess.DEVNULL,
                                          stdout=self._log, stderr=subprocess.STDOUT, start_new_session=True,
                                          preexec_fn=_die_with_parent, close_fds=True)
+            _LIVE.add(self)
         except OSError as exc:
             self.stop()
             raise SitlError(f"cannot start SITL {self.binary}: {exc.strerror or exc}") from None
@@ -214,6 +225,7 @@ class SitlProcess:
     def stop(self, timeout: float = 5.0) -> None:
         """SIGKILL the whole process group (SITL ignores SIGTERM in JSON mode), reap it, free the instance."""
         p = self.proc
+        _LIVE.discard(self)
         if p is not None:
             try:
                 os.killpg(p.pid, signal.SIGKILL)

@@ -77,6 +77,7 @@ class SitlVehicle:
         self.sock: socket.socket | None = None
         self.link: GroundStation | None = None
         self.t0 = 0.0              # vehicle time at mission t = 0
+        self.ready_time = 0.0      # vehicle time spent getting ready
         self.vtime = 0.0           # vehicle time now (s)
         self.pos = [self.home_enu[0], self.home_enu[1], 0.0]
         self.vel = [0.0, 0.0, 0.0]
