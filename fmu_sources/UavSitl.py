@@ -61,7 +61,8 @@ _OUT_REAL = [
 _OUT_INT = [("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed"),
             ("ready", "1 once the vehicle is ready to arm (always 1 after initialisation)"),
             ("flight_mode", "ArduCopter custom mode (4 GUIDED, 9 LAND, ...); -1 before the first HEARTBEAT"),
-            ("armed", "1 while the motors are armed"), ("ekf_ok", "1 while the EKF reports a usable position")]
+            ("armed", "1 while the motors are armed"), ("ekf_ok", "1 while the EKF reports a usable position"),
+            ("sitl_instance", "the SITL instance N flown (ports 5760+10N, 9002+10N); -1 before the start")]
 
 
 def _parse_params(text: str) -> dict:
@@ -109,7 +110,7 @@ class UavSitl(UnitsMixin, Fmi2Slave):
         for name, desc in _OUT_INT:
             setattr(self, name, 0)
             self.out_int(name, desc)
-        self.flight_mode = -1
+        self.flight_mode = self.sitl_instance = -1
         self._vehicle = None
         self._frame = None
         self._publish()
@@ -156,6 +157,7 @@ class UavSitl(UnitsMixin, Fmi2Slave):
         link = v.link
         self.phase, self.ready = int(v.phase), int(link.ready)
         self.flight_mode, self.armed, self.ekf_ok = link.custom_mode, int(link.armed), int(link.ekf_ok)
+        self.sitl_instance = v.instance
 
     def _geodetic(self):
         fr = self._frame or EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)

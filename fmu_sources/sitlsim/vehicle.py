@@ -78,6 +78,7 @@ class SitlVehicle:
         self.link: GroundStation | None = None
         self.t0 = 0.0              # vehicle time at mission t = 0
         self.ready_time = 0.0      # vehicle time spent getting ready
+        self.instance = -1
         self.vtime = 0.0           # vehicle time now (s)
         self.pos = [self.home_enu[0], self.home_enu[1], 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -104,7 +105,7 @@ class SitlVehicle:
                                     home=c.home, defaults=None, speedup=c.speedup, sysid=c.sysid,
                                     instance=None if c.instance < 0 else c.instance)
             self.proc.defaults = self._defaults_files()
-            n = self.proc.claim()
+            n = self.instance = self.proc.claim()
             if lockstep:
                 from .iris import IrisParams
                 from .lockstep import LockstepPhysics
@@ -270,6 +271,12 @@ class SitlVehicle:
                                 f"(stage {self.link.stage})")
         self.t0 = self.vtime
         self.ready_time = self.vtime - start
+        if self.physics is None:
+            # until the first step the master is busy with the other components: run slowly meanwhile, so
+            # that the vehicle is not far past t = 0 when the mission starts; _pace speeds it up again
+            self._speedup = 1.0
+            self.link.set_param("SIM_SPEEDUP", 1.0)
+            self.sock.sendall(self.link.update(self.vtime))
 
     # ------------------------------------------------------------------ the step
     def step(self, t: float, h: float, cmd: int, sp, wind) -> None:
