@@ -50,7 +50,7 @@ N_PARAM = P_MX1 + 12
  IO_ERRNO) = range(10)
 N_IO = 10
 OK, SILENT, SOCKET_ERROR = 0, 1, 2
-TIMESTAMP_EPS_US = 0.0009765625        # 2**-10 us; see timestamp()
+
 
 
 def kernel_params(params, frame_rate: int, yaw0: float = 0.0) -> tuple:
@@ -93,18 +93,19 @@ def reset_py(s: list, p) -> None:
     s[S_POWER] = p[P_AVIONICS]
 
 
-def timestamp(k: int, rate: int) -> float:
-    """The JSON timestamp of frame k.  SITL adds each timestamp difference to its integer microsecond clock
-    with truncation (time_now_us += dt * 1e6), so 1/1200 s would count as 833 us and its clock would lose
-    0.4 ms per second.  The timestamp is instead floor(k 1e6 / rate) us plus k * 2**-10 us: every difference
-    is a whole number of microseconds plus 0.001 us, which truncates to exactly that whole number whatever
-    the rounding of the decimal conversion, so the firmware's clock reads floor(physics time in us)."""
-    return ((k * 1000000) // rate + k * TIMESTAMP_EPS_US) * 1e-6
+def timestamp_ns(k: int, rate: int) -> int:
+    """The JSON timestamp of frame k, in integer nanoseconds.  SITL adds each timestamp difference to its
+    integer microsecond clock with truncation (time_now_us += dt * 1e6), so 1/1200 s would count as 833 us
+    and its clock would lose 0.4 ms per second.  The timestamp is instead floor(k 1e6 / rate) us plus k ns:
+    every difference is a whole number of microseconds plus 1 ns, which truncates to exactly that whole
+    number (the decimal-to-double rounding of SITL's atof is below 1e-5 us up to 1e5 s), so the firmware's
+    clock reads floor(physics time in us).  The timestamp runs ahead of the physics time by k ns (1.2 us/s)."""
+    return (k * 1000000) // rate * 1000 + k
 
 
 def format_py(s, p, no_time_sync: bool = True) -> bytes:
     k = int(s[S_K])
-    return answer(timestamp(k, int(p[P_RATE])), s[S_RP:S_RR + 1], s[S_FX:S_FZ + 1], s[S_PN:S_PD + 1],
+    return answer(timestamp_ns(k, int(p[P_RATE])), s[S_RP:S_RR + 1], s[S_FX:S_FZ + 1], s[S_PN:S_PD + 1],
                   s[S_VN:S_VD + 1], s[S_QW:S_QZ + 1], no_time_sync)
 
 
@@ -178,6 +179,7 @@ def step_py(s: list, p) -> None:
     if pd >= 0.0:
         # resting on the ground: no sinking, no bounce, held level and still by the landing gear
         pd = vn = ve = vd = rp2 = rq2 = rr2 = 0.0
+        nw, nz = qw, qz                  # the heading of the frame's start, not turned by this frame's torque
         n = sqrt(nw * nw + nz * nz)
         nx = ny = 0.0
         fx = fy = 0.0
