@@ -57,8 +57,9 @@ FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "
 #: the dynamics FMU of a UAV with ``vehicle: sitl`` (docs/sitl.md)
 SITL_FMU = "UavSitl.fmu"
 #: what results.parquet records in addition for the SITL vehicles
-SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "tilt",
-                                                              "motor_power")]
+SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "max_slip",
+                                                              "tilt", "motor_power", "ready_time",
+                                                              "sitl_instance")]
 
 #: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
 RECORD_PATTERNS = (

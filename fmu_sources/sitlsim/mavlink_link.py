@@ -10,7 +10,8 @@ testable against a fake peer.  Stages::
 
 * connect: wait for the vehicle's HEARTBEAT (our own heartbeat goes out at 1 Hz from the start; the firmware
   starts STATUSTEXT only after the first packet from a ground station).
-* configure: SET_MESSAGE_INTERVAL (MAV_CMD_SET_MESSAGE_INTERVAL) for each stream we read, re-sent until acked.
+* configure: SET_MESSAGE_INTERVAL (MAV_CMD_SET_MESSAGE_INTERVAL) for each stream we read, re-sent until acked
+  (or, with ``configure_at``, all of them at those fixed vehicle times: lock-step's determinism).
 * wait_position: the EKF reports attitude, velocity and absolute position without constant-position mode,
   the GPS has a 3D fix, HOME_POSITION is known and, when the firmware reports it, SYS_STATUS says the
   pre-arm checks pass.  Arming earlier is refused ("Need Position Estimate", "AHRS: waiting for home").
@@ -60,7 +61,8 @@ class LinkError(RuntimeError):
 class GroundStation:
     def __init__(self, *, target_system: int = 1, streams: dict | None = None, heartbeat_timeout: float = 5.0,
                  arm_retry: float = 1.0, arm_timeout: float = 30.0, command_retry: float = 1.0,
-                 goto_repeat: float = 1.0, source_system: int = 255, source_component: int = 190):
+                 goto_repeat: float = 1.0, source_system: int = 255, source_component: int = 190,
+                 configure_at: tuple = ()):
         self.mav = mav.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
         self.mav.robust_parsing = True
         self.target = int(target_system)
@@ -69,6 +71,8 @@ class GroundStation:
         self.arm_retry, self.arm_timeout = arm_retry, arm_timeout
         self.command_retry, self.goto_repeat = command_retry, goto_repeat
         self.stage = "connect"
+        self.configure_at = tuple(configure_at)
+        self._configured_at: set = set()
         self._out: list[bytes] = []
         self.now = 0.0
         # what the vehicle told us
@@ -96,15 +100,36 @@ class GroundStation:
         self._goto_sent_at = -1e9
         self._goto_sent = None
         self._first_packet = True
+        self._pending: list = []
         self._t0: float | None = None
         self._pending_stream: int | None = None
 
     # ------------------------------------------------------------------ input
-    def feed(self, data: bytes) -> None:
-        """Bytes received from the vehicle, in stream order."""
-        if not data:
-            return
-        msgs = self.mav.parse_buffer(data) or []
+    def feed(self, data: bytes, cut_ms: int | None = None) -> None:
+        """Bytes received from the vehicle, in stream order.
+
+        With ``cut_ms`` (lock-step), only the messages up to the last one stamped (``time_boot_ms``) at or before
+        ``cut_ms`` are taken now, the rest at a later call: a message is taken once a stamped one that follows
+        it is, so what the ground station has seen at a given vehicle time is fixed by the firmware's byte
+        stream alone, not by when the bytes happened to reach our socket."""
+        if data:
+            self._pending.extend(self.mav.parse_buffer(data) or [])
+            while True:                    # parse_buffer returns what one call could complete
+                more = self.mav.parse_char(b"")
+                if more is None:
+                    break
+                self._pending.append(more)
+        if cut_ms is None:
+            take = len(self._pending)
+        else:
+            take = 0
+            for i, m in enumerate(self._pending):
+                stamp = getattr(m, "time_boot_ms", None)
+                if stamp is not None:
+                    if stamp > cut_ms:
+                        break
+                    take = i + 1
+        msgs, self._pending = self._pending[:take], self._pending[take:]
         for m in msgs:
             self._handle(m)
 
@@ -216,11 +241,14 @@ class GroundStation:
         return out
 
     def _stage_connect(self):
-        if self.last_heartbeat is not None:
+        if self.last_heartbeat is not None or self.configure_at:
             self.stage = "configure"
             self._stage_configure()
 
     def _stage_configure(self):
+        if self.configure_at:
+            self._configure_blind()
+            return
         if self._pending_stream is not None and self.acks.pop(mav.MAV_CMD_SET_MESSAGE_INTERVAL, None) is not None:
             self._acked_streams.add(self._pending_stream)     # refused streams are not asked for again
             self._pending_stream = None
@@ -232,6 +260,21 @@ class GroundStation:
             return
         self._pending_stream = missing[0]
         self._command("interval", mav.MAV_CMD_SET_MESSAGE_INTERVAL, float(missing[0]), 1e6 / self.streams[missing[0]])
+
+    def _configure_blind(self):
+        """Lock-step: every stream request goes out at the fixed vehicle times ``configure_at`` whatever the
+        acks say, so that the firmware's stream schedule (and what the ground station later sees when) does not
+        depend on when acks reached us; at least one must have been accepted by the last of them."""
+        due = [t for t in self.configure_at if t <= self.now and t not in self._configured_at]
+        if due:
+            self._configured_at.update(due)
+            for mid, rate in self.streams.items():
+                self._send(mav.MAVLink_command_long_message(self.target, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                                            float(mid), 1e6 / rate, 0, 0, 0, 0, 0))
+        if len(self._configured_at) == len(self.configure_at) and self.now > max(self.configure_at):
+            if self.acks.get(mav.MAV_CMD_SET_MESSAGE_INTERVAL) is None:
+                raise LinkError(f"no SET_MESSAGE_INTERVAL acknowledged by {self.now:.1f} s of vehicle time")
+            self.stage = "wait_position"
 
     def _stage_wait_position(self):
         if self.position_ok:
