@@ -102,7 +102,7 @@ class SitlVehicle:
         self._speedup = cfg.speedup
         self._wall_mark = None
         self._sim_wind = None
-        self.timing = {"lockstep": 0.0, "link": 0.0}
+        self.timing = {"lockstep": 0.0, "link": 0.0, "step": 0.0}   # wall s (bench/bench_sitl.py)
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -304,6 +304,7 @@ class SitlVehicle:
     # ------------------------------------------------------------------ the step
     def step(self, t: float, h: float, cmd: int, sp, wind) -> None:
         """Advance from mission time t to t+h with the strategy's command and set-point and the wind (ENU)."""
+        w0 = time.perf_counter()
         try:
             self.wind = tuple(float(v) for v in wind)
             self._command(int(cmd), sp)
@@ -321,6 +322,8 @@ class SitlVehicle:
             raise
         except Exception as exc:
             raise SitlFault(self._why(exc)) from None
+        finally:
+            self.timing["step"] += time.perf_counter() - w0
 
     def _command(self, cmd: int, sp) -> None:
         link = self.link
