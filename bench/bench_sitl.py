@@ -50,16 +50,18 @@ def measure(n: int, stop: float) -> dict:
         w1 = time.perf_counter()
         vehicles = [s.obj._vehicle for s in ex.rt.slaves if getattr(getattr(s, "obj", None), "_vehicle", None)]
         ready = [v.ready_time for v in vehicles]
+        # get-ready already spent frames: count from here
+        before = [(dict(v.physics.timing), v.timing["step"]) for v in vehicles]
         try:
             ex.simulate_until()
             w2 = time.perf_counter()
             sim = ex.time
             tot = {"wait": 0.0, "physics": 0.0, "step": 0.0}
-            for v in vehicles:
+            for v, (pt0, st0) in zip(vehicles, before):
                 pt = v.physics.timing
-                tot["wait"] += pt["wait"]
-                tot["physics"] += pt["physics"] + pt["io"]
-                tot["step"] += v.timing["step"]
+                tot["wait"] += pt["wait"] - pt0["wait"]
+                tot["physics"] += pt["physics"] + pt["io"] - pt0["physics"] - pt0["io"]
+                tot["step"] += v.timing["step"] - st0
         finally:
             ex.close("completed")
     loop = w2 - w1
@@ -87,8 +89,7 @@ def main(argv=None) -> int:
     print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         t, loop = r["tot"], r["loop_s"]
-        fw = t["wait"] - 0.0
-        # the firmware's frames inside the loop: wait is counted from advance() only
+        fw = t["wait"]
         share = {"firmware": fw, "physics": t["physics"], "adapter": t["step"] - fw - t["physics"],
                  "master": loop - t["step"]}
         print(f"| {r['n']} | {r['ready_sim_s']:.1f} / {r['init_s']:.1f} / {r['rtf_ready']:.1f}x | {r['sim_s']:.0f} | "

@@ -196,3 +196,28 @@ def test_a_killed_sitl_is_reported_cleanly_and_the_results_are_kept(tmp_path, si
     f = master.results.read_results(out) if hasattr(master, "results") else res.frame
     assert f["time"].max() >= 2.0                            # what was recorded before stays
     assert sitl_pids(tmp_path) == []
+
+
+@needs_sitl
+def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_env):
+    import subprocess
+    import time
+    out = tmp_path / "cc"
+    ssp = scenario(tmp_path, stop=300.0)
+    cli = subprocess.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + 120
+        while not sitl_pids(out) and time.monotonic() < end and cli.poll() is None:
+            time.sleep(0.1)
+        assert sitl_pids(out), "SITL did not start"
+        time.sleep(3.0)                           # into get-ready or the mission
+        cli.send_signal(signal.SIGINT)
+        err = cli.communicate(timeout=60)[1]
+    finally:
+        if cli.poll() is None:
+            cli.kill()
+    assert cli.returncode != 0
+    assert "interrupted" in err
+    assert json.loads((out / "run.json").read_text())["outcome"] == "interrupted"
+    assert sitl_pids(tmp_path) == []
