@@ -126,10 +126,7 @@ def _check_short_mission(out: Path, frame, takeoff=5.0, target=(30.0, 20.0)):
 
 
 @needs_sitl
-def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sitl_env, monkeypatch):
-    # the Python twin of the physics: with the compiled kernel's faster frames, the firmware acts on a command
-    # a few frames earlier or later from run to run (docs/sitl.md, "Determinism"), which the twin's pace avoids
-    monkeypatch.setenv("SITLSIM_PURE_PYTHON", "1")
+def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sitl_env):
     ssp = scenario(tmp_path)
     a = run(ssp, tmp_path / "a")
     b = run(ssp, tmp_path / "b")
