@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import fcntl
 import math
-import os
 import select
 import socket
 import termios
