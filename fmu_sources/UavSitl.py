@@ -28,6 +28,7 @@ _REAL_PARAMS = [  # name, unit, default, description
     ("home_y", "m", 0.0, "initial (home) north position = SITL's home"),
     ("home_yaw", "deg", 0.0, "initial heading, clockwise from north"),
     ("takeoff_altitude", "m", P.TAKEOFF_ALTITUDE, "takeoff altitude above the origin"),
+    ("preflight_time", "s", 0.0, "mission time before which a takeoff command waits (staggered take-offs)"),
     ("speedup", "1", 50.0, "paced: the largest SIM_SPEEDUP; lockstep: SITL's --speedup (unused: no_time_sync)"),
     ("wall_timeout", "s", 30.0, "wall-clock seconds without progress before the step fails"),
     ("heartbeat_timeout", "s", 5.0, "vehicle seconds without HEARTBEAT before the step fails"),
@@ -134,6 +135,7 @@ class UavSitl(UnitsMixin, Fmi2Slave):
                              home=(lat, lon, self.origin_alt, self.home_yaw), coupling=self.coupling.strip(),
                              frame=self.frame.strip(), speedup=self.speedup, instance=int(self.instance),
                              sysid=int(self.sysid), takeoff_altitude=self.takeoff_altitude,
+                             preflight_time=self.preflight_time,
                              params=_parse_params(self.params), wall_timeout=self.wall_timeout,
                              heartbeat_timeout=self.heartbeat_timeout, ready_timeout=self.ready_timeout,
                              arm_timeout=self.arm_timeout, name=self.instance_name)

@@ -13,7 +13,7 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import params as P  # noqa: E402
-from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.wind import Wind, WindParams  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
@@ -35,7 +35,7 @@ _PARAMS = [  # name, unit, default, description
 ]
 
 
-class UavWind(UnitsMixin, Fmi2Slave):
+class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Paper's stochastic east-to-west wind with optional Dryden turbulence and 1-cosine gusts"
 
@@ -46,6 +46,8 @@ class UavWind(UnitsMixin, Fmi2Slave):
             self.par_real(name, unit, desc)
         self.seed = 0
         self.par_int("seed", "seed of the PCG64 generators")
+        self.stream = -1
+        self.par_int("stream", "-1: one wind for the fleet; i >= 0: UAV i's own draw from the same seed")
         self.turbulence = False
         self.par_bool("turbulence", "enable Dryden turbulence")
         self.gusts = False
@@ -64,7 +66,7 @@ class UavWind(UnitsMixin, Fmi2Slave):
 
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS}
-        self._model = Wind(WindParams(seed=int(self.seed), turbulence=bool(self.turbulence),
+        self._model = Wind(WindParams(seed=int(self.seed), stream=int(self.stream), turbulence=bool(self.turbulence),
                                       gusts=bool(self.gusts), **kw))
 
     def setup_experiment(self, start_time, stop_time, tolerance):

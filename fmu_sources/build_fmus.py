@@ -28,6 +28,8 @@ REPO = HERE.parent
 FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy", "UavSitl")
 #: FMU -> extra packages bundled besides uavsim (with their C sources, compiled here like kernels.c)
 EXTRA_PACKAGES = {"UavSitl": ("sitlsim",)}
+#: FMUs without FMI get/set state (the others mix in uavsim.fmi.StateMixin)
+NO_STATE = ("UavSitl",)
 #: package -> its C source (relative to the package)
 C_SOURCES = {"uavsim": "kernels.c", "sitlsim": "physics.c"}
 HASH_FILE = "sources.sha256"
@@ -133,7 +135,9 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
             from sitlsim.physics import compile_library
             compile_library(stage / "sitlsim", stage / "sitlsim" / "physics.c")
         out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
-                                   project_files=[*(stage / p for p in packages), stage / HASH_FILE])
+                                   project_files=[*(stage / p for p in packages), stage / HASH_FILE],
+                                   # uavsim.fmi.StateMixin; a SITL process cannot be saved and restored
+                                   canGetAndSetFMUstate=name not in NO_STATE)
     return Path(out)
 
 

@@ -59,6 +59,7 @@ class SitlConfig:
     instance: int = -1                     # -1: the first free one
     sysid: int = 1
     takeoff_altitude: float = 20.0
+    preflight_time: float = 0.0            # mission s before which a takeoff command waits (staggered take-offs)
     params: dict = field(default_factory=dict)   # extra firmware parameters NAME -> value
     wall_timeout: float = 30.0             # s of wall clock without progress -> fault
     heartbeat_timeout: float = 5.0         # s of vehicle time without HEARTBEAT -> fault
@@ -309,7 +310,7 @@ class SitlVehicle:
         w0 = time.perf_counter()
         try:
             self.wind = tuple(float(v) for v in wind)
-            self._command(int(cmd), sp)
+            self._command(int(cmd), sp, t)
             if self.physics is not None:
                 self._exchange()
                 self._advance_lockstep(h)
@@ -327,9 +328,9 @@ class SitlVehicle:
         finally:
             self.timing["step"] += time.perf_counter() - w0
 
-    def _command(self, cmd: int, sp) -> None:
+    def _command(self, cmd: int, sp, t: float = 0.0) -> None:
         link = self.link
-        if cmd in (CMD_TAKEOFF, CMD_GOTO) and link.stage == "ready":
+        if cmd in (CMD_TAKEOFF, CMD_GOTO) and link.stage == "ready" and t >= self.cfg.preflight_time - 1e-9:
             link.takeoff(self.cfg.takeoff_altitude)
         elif cmd == CMD_TAKEOFF and link.stage == "landed":
             link.takeoff(self.cfg.takeoff_altitude)
