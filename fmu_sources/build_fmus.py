@@ -1,4 +1,4 @@
-"""Build the four UAV FMUs (pythonfmu) into fmus/, bundling the uavsim package.
+"""Build the UAV FMUs (pythonfmu) into fmus/, bundling the uavsim package (and sitlsim for UavSitl).
 
     python fmu_sources/build_fmus.py [--dest DIR] [--check]
 
@@ -25,7 +25,13 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy")
+FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy", "UavSitl")
+#: FMU -> extra packages bundled besides uavsim (with their C sources, compiled here like kernels.c)
+EXTRA_PACKAGES = {"UavSitl": ("sitlsim",)}
+#: FMUs without FMI get/set state (the others mix in uavsim.fmi.StateMixin)
+NO_STATE = ("UavSitl",)
+#: package -> its C source (relative to the package)
+C_SOURCES = {"uavsim": "kernels.c", "sitlsim": "physics.c"}
 HASH_FILE = "sources.sha256"
 
 
@@ -39,6 +45,10 @@ def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
     files = [f"{name}.py"]
     files += sorted(f"uavsim/{p.name}" for p in (src_dir / "uavsim").glob("*.py"))
     files += ["uavsim/kernels.c"]
+    for pkg in EXTRA_PACKAGES.get(name, ()):
+        files += sorted(f"{pkg}/{p.name}" for p in (src_dir / pkg).glob("*.py"))
+        if (src_dir / pkg / C_SOURCES[pkg]).is_file():
+            files.append(f"{pkg}/{C_SOURCES[pkg]}")
     return files
 
 
@@ -111,18 +121,23 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
     dest.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=f"build_{name}_") as tmp:
         stage = Path(tmp)
-        pkg = stage / "uavsim"
-        pkg.mkdir()
+        packages = ("uavsim", *EXTRA_PACKAGES.get(name, ()))
+        for p in packages:
+            (stage / p).mkdir()
         for rel in bundled_sources(name, src_dir):
-            if rel.startswith("uavsim/"):
-                shutil.copy2(src_dir / rel, pkg / Path(rel).name)
+            if "/" in rel:
+                shutil.copy2(src_dir / rel, stage / rel)
         (stage / HASH_FILE).write_text(format_hashes(source_hashes(name, src_dir)))
         if str(src_dir) not in sys.path:
             sys.path.insert(0, str(src_dir))
-        compile_kernels(pkg, src_dir)
+        compile_kernels(stage / "uavsim", src_dir)
+        if "sitlsim" in packages and (stage / "sitlsim" / "physics.c").is_file():
+            from sitlsim.physics import compile_library
+            compile_library(stage / "sitlsim", stage / "sitlsim" / "physics.c")
         out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
-                                   project_files=[pkg, stage / HASH_FILE],
-                                   canGetAndSetFMUstate=True)     # uavsim.fmi.StateMixin
+                                   project_files=[*(stage / p for p in packages), stage / HASH_FILE],
+                                   # uavsim.fmi.StateMixin; a SITL process cannot be saved and restored
+                                   canGetAndSetFMUstate=name not in NO_STATE)
     return Path(out)
 
 

@@ -249,6 +249,11 @@ class Execution:
         observed = [plan.var(q) for ob in self.observers for q in ob.required_variables()]
         sampled = [plan.var(q) for ob in self.observers for q in ob.sampled_variables()]
         # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
+        # FMUs that keep files of their own (a SITL's eeprom and logs) put them into the run's output folder
+        if self.out_dir is not None:
+            os.environ["COSIM_MASTER_OUTPUT"] = str(self.out_dir.resolve())
+        else:
+            os.environ.pop("COSIM_MASTER_OUTPUT", None)
         self.rt = rt = Runtime(plan, observed, self.log, st.step_multiples, logging_on=(o.log_level != "none"),
                                inprocess=o.inprocess, sampled=sampled, solver=self.solver)
         rt.instantiate(st.start, st.stop, st.tolerance)

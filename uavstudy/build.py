@@ -60,6 +60,12 @@ SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper
 
 FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "UavStrategy.fmu",
              WIND: "UavWind.fmu"}
+#: the dynamics FMU of a UAV with ``vehicle: sitl`` (docs/sitl.md)
+SITL_FMU = "UavSitl.fmu"
+#: what results.parquet records in addition for the SITL vehicles
+SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "max_slip",
+                                                              "tilt", "motor_power", "ready_time",
+                                                              "sitl_instance")]
 
 #: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
 RECORD_PATTERNS = (
@@ -238,10 +244,29 @@ def _wind_params(scn: UavScenario, stream: int) -> dict:
     return params
 
 
+def _sitl_parameters(scn: UavScenario, i: int) -> dict:
+    """UavSitl's own parameters for UAV i; the binary stays unset unless the scenario names one, so that the
+    SSP runs wherever $ARDUPILOT_SITL points.  The cruise speed and acceleration become the firmware's
+    WPNAV_SPEED and WPNAV_ACCEL (cm/s, cm/s^2) unless ``sitl.params`` sets them."""
+    o = scn.sitl
+    fw = {"WPNAV_SPEED": round(100.0 * float(scn.cruise_speed), 3),
+          "WPNAV_ACCEL": round(100.0 * float(scn.max_accel), 3), **o.params}
+    out = {"coupling": o.coupling, "frame": o.frame, "speedup": float(o.speedup), "sysid": i + 1,
+           "params": ",".join(f"{k}={v!r}" for k, v in sorted(fw.items()))}
+    if o.binary:
+        out["sitl_binary"] = o.binary
+    if o.defaults:
+        out["defaults"] = o.defaults
+    return out
+
+
 def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder)."""
     fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
     fmus = {k: fmu_dir / f for k, f in FMU_FILES.items()}
+    sitl_uavs = [i for i in range(scn.n_uavs) if scn.vehicle_of(i) == "sitl"]
+    if sitl_uavs:
+        fmus["sitl"] = fmu_dir / SITL_FMU
     missing = [str(p) for p in fmus.values() if not p.is_file()]
     if missing:
         raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
@@ -263,7 +288,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     b.algorithm = scn.algorithm
     b.algorithm_options = dict(scn.algorithm_options)
     b.record_interval = _record_interval(float(scn.step))
-    b.record = record_patterns(scn.wind.shared)
+    b.record = record_patterns(scn.wind.shared) + (SITL_RECORD if sitl_uavs else [])
     if scn.wind.shared:
         b.add_component(WIND, fmus[WIND], params=_wind_params(scn, -1))
     speed, accel = float(scn.cruise_speed), float(scn.max_accel)
@@ -279,11 +304,17 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         if not scn.wind.shared:
             b.add_component(wind, fmus[WIND], params=_wind_params(scn, i))
         dyn = {"origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
-               "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude),
-               "speed": speed, "accel": accel, "wind_push": scn.wind.effect == "push"}
-        if staggered:       # the preflight check ends when the UAV's take-off slot comes
-            dyn["preflight_time"] = PREFLIGHT_TIME + slot * float(scn.takeoff_interval)
-        b.add_component(d, fmus[DYNAMICS], params=dyn)
+               "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)}
+        if i in sitl_uavs:
+            # SITL's wind is always an air velocity (drag): the 'push' effect has no SITL counterpart
+            if staggered:   # takes off no earlier than its slot (its get-ready is spent before t = 0)
+                dyn["preflight_time"] = slot * float(scn.takeoff_interval)
+            b.add_component(d, fmus["sitl"], params={**dyn, **_sitl_parameters(scn, i)})
+        else:
+            dyn.update({"speed": speed, "accel": accel, "wind_push": scn.wind.effect == "push"})
+            if staggered:       # the preflight check ends when the UAV's take-off slot comes
+                dyn["preflight_time"] = PREFLIGHT_TIME + slot * float(scn.takeoff_interval)
+            b.add_component(d, fmus[DYNAMICS], params=dyn)
         b.add_component(bt, fmus[BATTERY], params={"capacity_ah": float(scn.battery_capacity)})
         b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,

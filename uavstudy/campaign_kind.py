@@ -58,6 +58,15 @@ def _field_paths() -> dict[str, None]:
     return paths
 
 
+def _uses_sitl(scenario: Path) -> bool:
+    try:
+        data = yamlio.load(Path(scenario).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    veh = data.get("vehicle") if isinstance(data, dict) else None
+    return veh == "sitl" or (isinstance(veh, list) and "sitl" in veh)
+
+
 def _unknown_field(key: str) -> str:
     close = difflib.get_close_matches(key, list(_field_paths()), n=1)
     hint = f"did you mean {close[0]!r}?" if close else f"fields: {', '.join(_field_paths())}"
@@ -161,14 +170,18 @@ class UavKind(ScenarioKind):
         return {**params, **{k: options[k] for k in SCENARIO_OPTIONS if k in options}}
 
     def input_fmus(self, scenario: Path) -> dict:
-        """The study's FMUs (every UAV scenario runs the same four)."""
-        from .build import FMU_FILES, default_fmu_dir
+        """The study's FMUs (every UAV scenario runs the same four), and the SITL vehicle's when the base
+        scenario flies SITL (docs/sitl.md)."""
+        from .build import FMU_FILES, SITL_FMU, default_fmu_dir
         d = default_fmu_dir()
-        return {f: file_sha256(d / f) if (d / f).is_file() else None for f in sorted(FMU_FILES.values())}
+        files = sorted(FMU_FILES.values()) + ([SITL_FMU] if _uses_sitl(scenario) else [])
+        return {f: file_sha256(d / f) if (d / f).is_file() else None for f in files}
 
     def code_roots(self) -> list[Path]:
+        import sitlsim
         import uavsim
-        return [Path(__file__).resolve().parent, Path(uavsim.__file__).resolve().parent]
+        return [Path(__file__).resolve().parent, Path(uavsim.__file__).resolve().parent,
+                Path(sitlsim.__file__).resolve().parent]
 
     def prepare_run(self, task: dict, out: Path, used: dict) -> PreparedRun:
         """Base YAML + overrides + seed -> runs/<id>/scenario.yaml -> scenario.ssp."""

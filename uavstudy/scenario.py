@@ -33,7 +33,7 @@ from master.errors import ScenarioError
 from uavsim.geodesy import enu_from_geodetic
 from uavsim.mission_encoding import MAX_TARGETS, MAX_ZONE_VERTICES, MAX_ZONES
 
-__all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
+__all__ = ["UavScenario", "WindConfig", "SitlOptions", "VEHICLES", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
            "STRATEGIES", "ASSIGNMENTS", "MAX_RANGE_M", "RULE_SETS", "LAYOUTS", "TAKEOFFS", "WIND_EFFECTS"]
 
@@ -90,6 +90,28 @@ class WindConfig:
     effect: str = "drag"             # drag: air velocity the controller rejects; push: carries the UAV
 
 
+VEHICLES = ("point_mass", "sitl")
+COUPLINGS = ("lockstep", "paced")
+FRAMES = ("x", "+")
+
+
+@dataclass
+class SitlOptions:
+    """How the UAVs with ``vehicle: sitl`` are flown (docs/sitl.md).
+
+    ``coupling``: ``lockstep`` (SITL's physics is ours, answered frame by frame: deterministic) or ``paced``
+    (SITL's own physics at SIM_SPEEDUP: not deterministic).  ``frame``: motor layout x or +.  ``speedup``:
+    paced mode's largest SIM_SPEEDUP.  ``params``: extra firmware parameters.  ``binary``/``defaults``: the
+    arducopter executable and its defaults file (default: $ARDUPILOT_SITL and the copter.parm next to it).
+    """
+    coupling: str = "lockstep"
+    frame: str = "x"
+    speedup: float = 50.0
+    params: dict[str, float] = field(default_factory=dict)
+    binary: str = ""
+    defaults: str = ""
+
+
 @dataclass
 class UavScenario:
     """A multi-UAV surveillance mission (see module docstring for units)."""
@@ -124,6 +146,14 @@ class UavScenario:
     takeoff: str = "ring"                            # ring: pads 8 m apart, all at once; staggered: one base
     takeoff_interval: float = 15.0                   # s between staggered take-offs
     battery_capacity: float = 5.1                    # Ah per UAV (3DR Iris+ 5100 mAh)
+    # what flies each UAV: "point_mass" (UavDynamics.fmu) or "sitl" (UavSitl.fmu, ArduPilot SITL), fleet-wide
+    # or one entry per UAV
+    vehicle: str | list = "point_mass"
+    sitl: SitlOptions = field(default_factory=SitlOptions)
+
+    def vehicle_of(self, index: int) -> str:
+        """The vehicle kind of the UAV with 0-based ``index``."""
+        return self.vehicle[index] if isinstance(self.vehicle, list) else self.vehicle
 
     # ----------------------------------------------------------- local frame
     def targets_enu(self) -> np.ndarray:
@@ -385,6 +415,37 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
     if "end_when_all_landed" in data:
         kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
     _rule_fields(v, data, kw)
+    if "vehicle" in data:
+        veh = data["vehicle"]
+        if isinstance(veh, list):
+            kw["vehicle"] = [v.choice(f"vehicle[{k}]", x, VEHICLES) for k, x in enumerate(veh)]
+            if len(veh) != kw["n_uavs"]:
+                v.fail("vehicle", f"one entry per UAV expected ({kw['n_uavs']}), got {len(veh)}")
+        else:
+            kw["vehicle"] = v.choice("vehicle", veh, VEHICLES)
+    if "sitl" in data:
+        so = v.mapping("sitl", data["sitl"])
+        v.no_unknown("sitl", so, [f.name for f in fields(SitlOptions)])
+        sk: dict[str, Any] = {}
+        if "coupling" in so:
+            sk["coupling"] = v.choice("sitl.coupling", so["coupling"], COUPLINGS)
+        if "frame" in so:
+            sk["frame"] = v.choice("sitl.frame", so["frame"], FRAMES)
+        if "speedup" in so:
+            sk["speedup"] = v.number("sitl.speedup", so["speedup"], lo=1)
+        if "params" in so:
+            pm = v.mapping("sitl.params", so["params"] or {})
+            sk["params"] = {}
+            for name, val in pm.items():
+                if not isinstance(name, str) or not name.replace("_", "").isalnum() or len(name) > 16:
+                    v.fail(f"sitl.params.{name}", "expected a firmware parameter name (A-Z, 0-9, _; at most 16)")
+                sk["params"][name.upper()] = v.number(f"sitl.params.{name}", val)
+        for k in ("binary", "defaults"):
+            if k in so:
+                if not isinstance(so[k], str):
+                    v.fail(f"sitl.{k}", f"expected a path, got {so[k]!r}")
+                sk[k] = so[k].strip()
+        kw["sitl"] = SitlOptions(**sk)
     scn = UavScenario(**kw)
     if scn.stop_time < scn.step:
         v.fail("stop_time", f"must be >= step ({scn.step:g}), got {scn.stop_time:g}")
@@ -457,6 +518,9 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "layout": scn.layout, "layout_seed": scn.layout_seed, "area_scale": scn.area_scale,
         "takeoff": scn.takeoff, "takeoff_interval": scn.takeoff_interval,
         "battery_capacity": scn.battery_capacity,
+        "vehicle": list(scn.vehicle) if isinstance(scn.vehicle, list) else scn.vehicle,
+        "sitl": {"coupling": scn.sitl.coupling, "frame": scn.sitl.frame, "speedup": scn.sitl.speedup,
+                 "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults},
     }
 
 

@@ -61,6 +61,12 @@ CONTRACT = {
         "return_threshold": ("parameter", "Real"), "land_threshold": ("parameter", "Real")},
 }
 
+# the SITL vehicle (docs/sitl.md): UavDynamics' connectors plus what SITL adds
+CONTRACT["UavSitl"] = {**CONTRACT["UavDynamics"], "flight_mode": ("output", "Integer"),
+                       "armed": ("output", "Integer"), "ekf_ok": ("output", "Integer"), "slip": ("output", "Real"),
+                       "sitl_binary": ("parameter", "String"), "coupling": ("parameter", "String"),
+                       "speedup": ("parameter", "Real"), "instance": ("parameter", "Integer")}
+
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):

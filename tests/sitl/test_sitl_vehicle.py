@@ -1,0 +1,220 @@
+"""The SITL vehicle FMU (fmus/UavSitl.fmu) in UAV scenarios run by cosim-master.
+
+Without the binary: the faults a user meets first (no binary, a crashing one, one that never answers) end the run
+with a one-line error naming the UAV's component.  With the real ArduCopter SITL ($ARDUPILOT_SITL, else
+../shared/sitl/arducopter; skipped with the reason when absent): a short mission flown in lock-step and paced,
+two lock-step runs bit-identical, four SITL UAVs in one process on distinct instances, a killed SITL reported
+cleanly; after every run no SITL process is left.  The expected flights follow from the scenario (target
+position, takeoff altitude, home pad) and the firmware's documented behaviour (GUIDED takeoff climbs to the
+requested altitude, LAND ends disarmed on the ground).
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sys
+from pathlib import Path
+
+import pytest
+from sitlveh_helpers import real_binary
+
+import master
+from master.observers import Observer
+from uavsim.geodesy import EnuFrame
+from uavstudy.build import build_ssp
+from uavstudy.scenario import SitlOptions, UavScenario
+
+BASE = (-7.275, -35.965, 540.0)
+BINARY, WHY = real_binary()
+needs_sitl = pytest.mark.skipif(BINARY is None, reason=f"{WHY}: the real-SITL tests are skipped")
+
+
+def scenario(tmp_path, *, n_uavs=1, targets=((30.0, 20.0),), coupling="lockstep", stop=120.0, name="s",
+             takeoff=5.0, vehicle="sitl") -> Path:
+    fr = EnuFrame(*BASE)
+    latlon = [fr.to_geodetic(x, y, 0.0)[:2] for x, y in targets]
+    scn = UavScenario(name=name, base=BASE, n_uavs=n_uavs, strategy="B", targets=latlon,
+                      takeoff_altitude=takeoff, stop_time=stop, seed=3, vehicle=vehicle,
+                      sitl=SitlOptions(coupling=coupling, speedup=80.0))
+    return build_ssp(scn, tmp_path / f"{name}.ssp")
+
+
+def sitl_pids(under: Path) -> list[int]:
+    """arducopter-like processes whose working folder lies under ``under``."""
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if os.readlink(d / "cwd").startswith(str(under)) and int(d.name) != os.getpid():
+                    out.append(int(d.name))
+            except OSError:
+                pass
+    return out
+
+
+def run(ssp, out, **kw):
+    return master.run(ssp, output=out, raise_on_error=False, write_csv=False, **kw)
+
+
+def error_of(result) -> str:
+    return result.metadata.get("error") or ""
+
+
+# ------------------------------------------------------------------------------------------ without the binary
+@pytest.fixture
+def fake_binaries(tmp_path):
+    crash = tmp_path / "crash_sitl"
+    crash.write_text("#!/bin/sh\necho 'fake SITL: cannot open eeprom' >&2\nexit 3\n")
+    silent = tmp_path / "silent_sitl"
+    silent.write_text(f"#!{sys.executable}\nimport signal, time\nsignal.signal(signal.SIGTERM, signal.SIG_IGN)\n"
+                      "time.sleep(600)\n")
+    for f in (crash, silent):
+        f.chmod(0o755)
+    return {"crash": str(crash), "silent": str(silent)}
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("missing", "SITL binary not found: .*nope"),
+    ("crash", "exited with code 3"),
+    ("silent", "does not listen on 127.0.0.1:.* after 1.5 s of wall clock"),
+])
+def test_faults_end_the_run_with_one_line_naming_the_uav(tmp_path, fake_binaries, case, expected):
+    ssp = scenario(tmp_path)
+    binary = str(tmp_path / "nope") if case == "missing" else fake_binaries[case]
+    res = run(ssp, tmp_path / "out", params={"uav1_dyn.sitl_binary": binary, "uav1_dyn.wall_timeout": 1.5})
+    msg = error_of(res)
+    assert res.metadata["outcome"] == "error"
+    assert "\n" not in msg and "uav1_dyn" in msg and "t=0" in msg
+    import re
+    assert re.search(expected, msg), msg
+    assert json.loads((tmp_path / "out" / "run.json").read_text())["outcome"] == "error"
+    assert sitl_pids(tmp_path) == []
+
+
+def test_no_binary_at_all_says_how_to_provide_one(tmp_path, monkeypatch):
+    monkeypatch.delenv("ARDUPILOT_SITL", raising=False)
+    res = run(scenario(tmp_path), tmp_path / "out")
+    assert "set the parameter 'sitl_binary' or the environment variable ARDUPILOT_SITL" in error_of(res)
+
+
+# ------------------------------------------------------------------------------------------ with the real binary
+@pytest.fixture
+def sitl_env(monkeypatch):
+    monkeypatch.setenv("ARDUPILOT_SITL", BINARY or "")
+
+
+def _summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def _uav(summary: dict, name="uav1") -> dict:
+    return next(u for u in summary["uavs"] if u["uav"] == name)
+
+
+def _check_short_mission(out: Path, frame, takeoff=5.0, target=(30.0, 20.0)):
+    s = _uav(_summary(out))
+    assert s["outcome"] == "success" and s["targets_visited"] == 1
+    z = frame["uav1_dyn.z"]
+    assert takeoff - 1.0 < z.max() < takeoff + 1.5          # GUIDED takeoff to the requested altitude
+    d = ((frame["uav1_dyn.x"] - target[0]) ** 2 + (frame["uav1_dyn.y"] - target[1]) ** 2) ** 0.5
+    assert d.min() < 3.0                                      # it went to the target
+    assert abs(frame["uav1_dyn.x"].iloc[-1]) < 2.0 and abs(frame["uav1_dyn.y"].iloc[-1]) < 2.0   # back home
+    assert z.iloc[-1] < 0.2 and frame["uav1_dyn.armed"].iloc[-1] == 0                          # landed, disarmed
+    assert (out / "sitl" / "uav1_dyn" / "eeprom.bin").is_file()
+    assert sitl_pids(out) == []
+
+
+@needs_sitl
+def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sitl_env):
+    ssp = scenario(tmp_path)
+    a = run(ssp, tmp_path / "a")
+    b = run(ssp, tmp_path / "b")
+    assert a.metadata["outcome"] == "completed", error_of(a)
+    fa, fb = a.frame, b.frame
+    _check_short_mission(tmp_path / "a", fa)
+    assert (fa["uav1_dyn.flight_mode"] == 4).any() and (fa["uav1_dyn.flight_mode"] == 9).any()  # GUIDED, LAND
+    assert (fa["uav1_dyn.slip"] == 0.0).all()
+    assert list(fa.columns) == list(fb.columns) and len(fa) == len(fb)
+    for col in fa.columns:
+        assert fa[col].equals(fb[col]), f"{col} differs between two lock-step runs"
+
+
+@needs_sitl
+def test_paced_mission_is_flown_and_reports_its_slip(tmp_path, sitl_env):
+    res = run(scenario(tmp_path, coupling="paced"), tmp_path / "p")
+    assert res.metadata["outcome"] == "completed", error_of(res)
+    f = res.frame
+    _check_short_mission(tmp_path / "p", f)
+    slip = f["uav1_dyn.slip"]
+    # the vehicle clock is at or past each communication point; by how much depends on the machine's load
+    assert (slip >= 0.0).all() and slip.median() < 0.5
+
+
+@needs_sitl
+def test_four_sitl_uavs_in_one_process_on_distinct_instances(tmp_path, sitl_env):
+    ssp = scenario(tmp_path, n_uavs=4, targets=((40.0, 0.0), (0.0, 40.0), (-40.0, 0.0), (0.0, -40.0)), stop=8.0,
+                   name="four")
+    res = run(ssp, tmp_path / "four")
+    assert res.metadata["outcome"] == "completed", error_of(res)
+    f = res.frame
+    instances = {int(f[f"uav{k}_dyn.sitl_instance"].iloc[-1]) for k in range(1, 5)}
+    assert len(instances) == 4 and min(instances) >= 0      # four SITLs, four port sets
+    for k in range(1, 5):
+        assert f[f"uav{k}_dyn.z"].max() > 2.0, f"uav{k} did not take off"
+        assert (tmp_path / "four" / "sitl" / f"uav{k}_dyn" / "eeprom.bin").is_file()
+    assert sitl_pids(tmp_path) == []
+
+
+class KillSitlAt(Observer):
+    """Kills the SITL process of the run with SIGKILL once the mission clock passes ``at``."""
+
+    def __init__(self, under: Path, at: float):
+        self.under, self.at, self.killed = under, at, []
+
+    def after_step(self, n, t0, t1):
+        if t1 >= self.at and not self.killed:
+            self.killed = sitl_pids(self.under)
+            for pid in self.killed:
+                os.kill(pid, signal.SIGKILL)
+
+
+@needs_sitl
+def test_a_killed_sitl_is_reported_cleanly_and_the_results_are_kept(tmp_path, sitl_env):
+    out = tmp_path / "k"
+    killer = KillSitlAt(out, 3.0)
+    res = run(scenario(tmp_path), out, observers=[killer])
+    assert killer.killed
+    msg = error_of(res)
+    assert res.metadata["outcome"] == "error"
+    assert "\n" not in msg and "uav1_dyn" in msg and "killed by signal 9" in msg, msg
+    assert "t=3" in msg
+    from master.results import read_results
+    f = read_results(out)
+    assert f["time"].max() >= 2.0                            # what was recorded before stays
+    assert sitl_pids(tmp_path) == []
+
+
+@needs_sitl
+def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_env):
+    import subprocess
+    import time
+    out = tmp_path / "cc"
+    ssp = scenario(tmp_path, stop=300.0)
+    cli = subprocess.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + 120
+        while not sitl_pids(out) and time.monotonic() < end and cli.poll() is None:
+            time.sleep(0.1)
+        assert sitl_pids(out), "SITL did not start"
+        time.sleep(3.0)                           # into get-ready or the mission
+        cli.send_signal(signal.SIGINT)
+        err = cli.communicate(timeout=60)[1]
+    finally:
+        if cli.poll() is None:
+            cli.kill()
+    assert cli.returncode != 0
+    assert "interrupted" in err
+    assert json.loads((out / "run.json").read_text())["outcome"] == "interrupted"
+    assert sitl_pids(tmp_path) == []
