@@ -89,6 +89,7 @@ def scenario_sha256(path: Path) -> str:
 
 #: modules that only read finished records (the report, the table): editing them changes no run's result
 REPORT_ONLY = ("master/campaign/report.py", "master/campaign/stats.py", "master/campaign/table.py",
+               "master/campaign/blocked.py",
                "master/cli.py", "master/inspect_scenario.py")
 _code_sha: str | None = None
 
