@@ -102,20 +102,23 @@ def _strata_codes(strata, n: int) -> np.ndarray:
     return np.array([index[s] for s in labels], dtype=int)
 
 
-def _stratified(values: np.ndarray, codes: np.ndarray, level: float) -> tuple[float, float, float]:
-    """(mean, low, high): weights n_c / n, variance sum w_c^2 s_c^2 / n_c, Satterthwaite df.  Strata with one
-    value get the pooled within-stratum variance of the others (no variance of their own)."""
-    n = values.size
-    cells = [values[codes == c] for c in np.unique(codes)]
-    mean = float(sum(x.sum() for x in cells) / n)
+def _stratified(values: np.ndarray, codes: np.ndarray, level: float, weights=None) -> tuple[float, float, float]:
+    """(mean, low, high): stratum weights w_c = n_c / n (or the share of ``weights``, e.g. UAVs per run, so that
+    the mean is the mean over missions), mean sum w_c mean_c, variance sum w_c^2 s_c^2 / n_c, Satterthwaite
+    df.  Strata with one value get the pooled within-stratum variance of the others."""
+    wts = np.ones(values.size) if weights is None else np.asarray(weights, dtype=float)
+    ids = np.unique(codes)
+    cells = [values[codes == c] for c in ids]
+    share = np.array([wts[codes == c].sum() for c in ids]) / wts.sum()
+    mean = float(sum(w * x.mean() for w, x in zip(share, cells)))
     multi = [x for x in cells if x.size > 1]
     if not multi:
         return mean, math.nan, math.nan
     pooled = sum(((x - x.mean()) ** 2).sum() for x in multi) / sum(x.size - 1 for x in multi)
     terms, dfs = [], []
-    for x in cells:
+    for w, x in zip(share, cells):
         s2 = float(x.var(ddof=1)) if x.size > 1 else pooled
-        terms.append((x.size / n) ** 2 * s2 / x.size)
+        terms.append(w ** 2 * s2 / x.size)
         dfs.append(max(1, x.size - 1) if x.size > 1 else sum(y.size - 1 for y in multi))
     var = float(sum(terms))
     if var == 0.0:
@@ -138,26 +141,28 @@ def blocked_effect(diffs, strata=None, level: float = 0.95, seed: int = 0) -> Ef
     mean, low, high = _stratified(d, codes, level)
     sd = float(d.std(ddof=1)) if n > 1 else math.nan
     rng = np.random.default_rng(seed)
-    boots = np.empty(BOOTSTRAPS)
     groups = [np.flatnonzero(codes == c) for c in np.unique(codes)]
-    for i in range(BOOTSTRAPS):
-        boots[i] = np.concatenate([d[rng.choice(g, g.size)] for g in groups]).mean()
+    boots = np.zeros(BOOTSTRAPS)
+    for g in groups:        # resample each stratum's blocks with replacement, all bootstrap samples at once
+        boots += d[g][rng.integers(0, g.size, size=(BOOTSTRAPS, g.size))].sum(axis=1)
+    boots /= n
     q = (1.0 - level) / 2.0
     return Effect(mean, low, high, float(np.quantile(boots, q)), float(np.quantile(boots, 1 - q)),
                   sign_flip_p(d, seed), n, len(groups), sd, mean / sd if sd and math.isfinite(sd) else math.nan)
 
 
 def stratified_mean_ci(values, strata=None, level: float = 0.95, floor: float | None = None,
-                       ceiling: float | None = None) -> st.CI:
+                       ceiling: float | None = None, weights=None) -> st.CI:
     """Mean of ``values`` (one per run) with the stratified t interval (strata: the configurations pooled
-    into this mean), cut to [floor, ceiling]."""
+    into this mean; ``weights``: see _stratified), cut to [floor, ceiling]."""
     v = np.asarray(values, dtype=float)
     keep = np.isfinite(v)
     codes = _strata_codes(strata, v.size)[keep]
+    w = None if weights is None else np.asarray(weights, dtype=float)[keep]
     v = v[keep]
     if v.size == 0:
         return st.CI(math.nan, math.nan, math.nan, 0)
-    mean, low, high = _stratified(v, codes, level)
+    mean, low, high = _stratified(v, codes, level, w)
     if math.isfinite(low):
         low = low if floor is None else max(floor, low)
         high = high if ceiling is None else min(ceiling, high)
