@@ -79,6 +79,9 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
         self.out_int("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed")
         self.ready = 0
         self.out_int("ready", "1 once the preflight check has passed")
+        self.wind_push = False
+        self.par_bool("wind_push", "the wind carries the vehicle, corrected by the position loop only (the paper's "
+                                   "'force that pushes the UAV'); false: air velocity in the drag law")
         self._model = None
         self._frame = None
         self._geo_key = self._geo = None
@@ -87,6 +90,7 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
     def _build(self):
         names = DynamicsParams.__dataclass_fields__
         kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}
+        kw["wind_push"] = bool(self.wind_push)
         self._model = Dynamics(DynamicsParams(**kw), kernels=load_kernels(os.path.join(_HERE, "uavsim")))
         self._frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
 
@@ -103,7 +107,7 @@ class UavDynamics(UnitsMixin, Fmi2Slave):
             self.phase, self.ready = 0, 0
         else:
             self.x, self.y, self.z = m.pos
-            self.vx, self.vy, self.vz = m.vel
+            self.vx, self.vy, self.vz = m.ground_velocity
             self.airspeed, self.groundspeed, self.tilt = m.airspeed, m.groundspeed, m.tilt_deg
             self.phase, self.ready = int(m.phase), int(m.ready)
 

@@ -46,6 +46,8 @@ class UavWind(UnitsMixin, Fmi2Slave):
             self.par_real(name, unit, desc)
         self.seed = 0
         self.par_int("seed", "seed of the PCG64 generators")
+        self.stream = -1
+        self.par_int("stream", "-1: one wind for the fleet; i >= 0: UAV i's own draw from the same seed")
         self.turbulence = False
         self.par_bool("turbulence", "enable Dryden turbulence")
         self.gusts = False
@@ -64,7 +66,7 @@ class UavWind(UnitsMixin, Fmi2Slave):
 
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS}
-        self._model = Wind(WindParams(seed=int(self.seed), turbulence=bool(self.turbulence),
+        self._model = Wind(WindParams(seed=int(self.seed), stream=int(self.stream), turbulence=bool(self.turbulence),
                                       gusts=bool(self.gusts), **kw))
 
     def setup_experiment(self, start_time, stop_time, tolerance):

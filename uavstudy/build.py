@@ -10,22 +10,26 @@ System written for a scenario with N UAVs (connector names: docs/uav_connectors.
     uav{i}_bat   --consumed--------------------------------> uav{i}_strat
     wind         --wind_x, wind_y, wind_z------------------> uav{i}_dyn      (for every i)
 
-for i = 1..N, plus ONE ``wind`` component (UavWind) shared by all dynamics: the paper's wind is one
-weather condition over the whole (~1 km) surveillance area, so every UAV must feel the same gusts at
-the same time; one component also means one random stream, seeded with the scenario seed, so a run
-is reproducible and a different seed gives a different wind history for the whole fleet.
+for i = 1..N, plus ONE ``wind`` component (UavWind) shared by all dynamics when ``wind.shared`` (the
+``improved`` rules: one weather condition over the whole ~1 km area, the same gusts for every UAV at the
+same time), or one ``uav{i}_wind`` per UAV (the ``paper`` rules: the paper draws the wind for each UAV
+before its move), each on its own random stream (``stream`` = i) of the scenario seed.  Either way a run is
+reproducible and a different seed gives a different wind history.
 
 Landing pads: the UAVs cannot all stand on the base point (they would be in contact before take-off),
-so UAV i starts from and returns to its own pad; the pads lie on a ring around the base with
-``PAD_SPACING`` (8 m) between neighbours (one UAV: the base itself).  ``home_x``/``home_y`` of the
-dynamics and the strategy are that pad.  All ENU coordinates are metres about the base
-(``uavsim.geodesy``).
+so with ``takeoff: ring`` UAV i starts from and returns to its own pad, all at once; the pads lie on a
+ring around the base with ``PAD_SPACING`` (8 m) between neighbours (one UAV: the base itself).  With
+``takeoff: staggered`` every UAV starts from and lands on the base itself, one after the other
+(``takeoff_interval`` apart; the paper's UAVs share one base).  The layout (uavstudy/layout.py) says which
+pad or take-off slot each UAV gets.  ``home_x``/``home_y`` of the dynamics and the strategy are that pad.
+All ENU coordinates are metres about the base (``uavsim.geodesy``).
 
 The SSD also carries the master settings (step, stop time, algorithm, record interval and record
 patterns for the trajectory) and the UAV monitor annotation (docs/uav_monitor.md).
 """
 from __future__ import annotations
 
+import json
 import logging
 import math
 from pathlib import Path
@@ -39,6 +43,7 @@ from uavsim.mission_encoding import encode as encode_mission
 
 from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEGY, UAV_NS, UAV_PARTS, WIND,
                     component, uav_name)
+from .layout import realize
 from .scenario import UavScenario, load_paper_config, load_scenario_yaml
 
 __all__ = ["build_scenario", "build_from_paper_config", "build_ssp", "default_fmu_dir", "pad_positions",
@@ -51,6 +56,7 @@ RECORD_INTERVAL = 1.0      # s, trajectory resolution of the shipped scenarios
 ALTITUDE_THRESHOLD = 0.5   # m, below this height a UAV is on its pad (not checked by the monitor)
 HOME_TOLERANCE = 5.0       # m, "back at base" = landed within this distance of its pad
 SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper)
+PREFLIGHT_TIME = 5.0       # s, the vehicle's preflight check (uavsim.params.PREFLIGHT_TIME)
 
 FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "UavStrategy.fmu",
              WIND: "UavWind.fmu"}
@@ -67,6 +73,7 @@ RECORD_PATTERNS = (
                                                       "current_target", "avoiding")]
     + [f"{WIND}.{v}" for v in ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")]
 )
+WIND_OUTPUTS = ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")
 
 
 #: the one name of every component's parameter set: Ecos (ecospy) applies a parameter set only when its name
@@ -99,6 +106,25 @@ def _mm(v) -> str:
 
 def _pts(points, sep=";") -> str:
     return sep.join(f"{_mm(x)},{_mm(y)}" for x, y in points)
+
+
+def record_patterns(shared_wind: bool) -> list[str]:
+    """RECORD_PATTERNS, with the per-UAV wind components when the UAVs do not share one."""
+    if shared_wind:
+        return list(RECORD_PATTERNS)
+    return [p for p in RECORD_PATTERNS if not p.startswith(f"{WIND}.")] + \
+        [f"{component('uav*', WIND)}.{v}" for v in WIND_OUTPUTS]
+
+
+def settings(scn: UavScenario, layout) -> dict:
+    """The rule set and every model setting the paper leaves open, as the run's summary records them."""
+    w = scn.wind
+    return {"rules": scn.rules, "cruise_speed": float(scn.cruise_speed), "max_accel": float(scn.max_accel),
+            "zone_planning": bool(scn.zone_planning), "lookahead": float(scn.lookahead),
+            "wind_shared": bool(w.shared), "wind_effect": w.effect, "wind_episode_s": float(w.decision_interval),
+            "layout": scn.layout, "layout_seed": int(scn.layout_seed), "layout_id": layout.layout_id,
+            "area_scale": float(scn.area_scale), "takeoff": scn.takeoff,
+            "takeoff_interval": float(scn.takeoff_interval), "battery_capacity_ah": float(scn.battery_capacity)}
 
 
 def _record_interval(step: float) -> float:
@@ -164,7 +190,7 @@ def _mission_parameters(scn: UavScenario, targets, zones) -> dict:
         raise ScenarioError(f"scenario {scn.name}: {exc}", element="targets/zones") from None
 
 
-def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> etree._Element:
+def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones, run_settings=None) -> etree._Element:
     """The ``ssc:Annotation`` element of the UAV monitor (format: docs/uav_monitor.md)."""
     ann = etree.Element(f"{{{SSP_NS['ssc']}}}Annotation", nsmap={"ssc": SSP_NS["ssc"]}, type=MONITOR_TYPE)
     lat0, lon0, alt0 = scn.base
@@ -186,12 +212,30 @@ def monitor_annotation(scn: UavScenario, uavs: list[dict], targets, zones) -> et
             attrs["assigned"] = " ".join(str(k) for k in u["assigned"])
         for k, v in attrs.items():
             el.set(k, v)
+    if run_settings:
+        st = etree.SubElement(mon, f"{{{UAV_NS}}}Settings")
+        for k, v in run_settings.items():
+            st.set(k, json.dumps(v))
     t = etree.SubElement(mon, f"{{{UAV_NS}}}Targets")
     t.text = _pts(targets, " ")
     for z in zones:
         ze = etree.SubElement(mon, f"{{{UAV_NS}}}Zone", name=z["name"])
         ze.text = _pts(z["polygon"], " ")
     return ann
+
+
+def _wind_params(scn: UavScenario, stream: int) -> dict:
+    """UavWind's parameters; ``stream`` -1 is the fleet's one wind, i >= 0 UAV i's own draw."""
+    w = scn.wind
+    di = float(w.decision_interval)
+    params = {
+        "probability": float(w.probability), "seed": int(scn.seed), "direction_deg": float(w.direction_deg),
+        "decision_interval": di, "duration": di, "ramp": min(1.0, 0.25 * di),
+        "speed_weak": float(w.intensities["weak"]), "speed_moderate": float(w.intensities["moderate"]),
+        "speed_strong": float(w.intensities["strong"]), "turbulence": bool(w.turbulence), "gusts": bool(w.gusts)}
+    if stream >= 0:
+        params["stream"] = int(stream)
+    return params
 
 
 def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
@@ -203,8 +247,9 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
                             "'python fmu_sources/build_fmus.py')", file=str(fmu_dir), element="fmus")
     lat0, lon0, alt0 = scn.base
-    targets = scn.targets_enu()
-    zones = scn.zones_enu()
+    layout = realize(scn)
+    targets = layout.targets
+    zones = layout.zones
     targets_s = _pts(targets)
     zones_s = "|".join(_pts(z["polygon"]) for z in zones)
     # coordinates rounded to mm (through the String form); the FMUs and the monitor get the same values
@@ -217,27 +262,35 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
     b.record_interval = _record_interval(float(scn.step))
-    b.record = list(RECORD_PATTERNS)
-    w = scn.wind
-    di = float(w.decision_interval)
-    b.add_component(WIND, fmus[WIND], params={
-        "probability": float(w.probability), "seed": int(scn.seed), "direction_deg": float(w.direction_deg),
-        "decision_interval": di, "duration": di, "ramp": min(1.0, 0.25 * di),
-        "speed_weak": float(w.intensities["weak"]), "speed_moderate": float(w.intensities["moderate"]),
-        "speed_strong": float(w.intensities["strong"]), "turbulence": bool(w.turbulence), "gusts": bool(w.gusts),
-    })
+    b.record = record_patterns(scn.wind.shared)
+    if scn.wind.shared:
+        b.add_component(WIND, fmus[WIND], params=_wind_params(scn, -1))
+    speed, accel = float(scn.cruise_speed), float(scn.max_accel)
+    pads = pad_positions(scn.n_uavs)
     uavs = []
-    for i, (hx, hy) in enumerate(pad_positions(scn.n_uavs)):
+    for i in range(scn.n_uavs):
         name = uav_name(i)
+        slot = layout.order[i]
+        staggered = scn.takeoff == "staggered"
+        hx, hy = (0.0, 0.0) if staggered else pads[slot]
         d, bt, s = (component(name, part) for part in UAV_PARTS)
-        b.add_component(d, fmus[DYNAMICS], params={
-            "origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
-            "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude)})
-        b.add_component(bt, fmus[BATTERY])
+        wind = WIND if scn.wind.shared else component(name, WIND)
+        if not scn.wind.shared:
+            b.add_component(wind, fmus[WIND], params=_wind_params(scn, i))
+        dyn = {"origin_lat": float(lat0), "origin_lon": float(lon0), "origin_alt": float(alt0),
+               "home_x": float(hx), "home_y": float(hy), "takeoff_altitude": float(scn.takeoff_altitude),
+               "speed": speed, "accel": accel, "wind_push": scn.wind.effect == "push"}
+        if staggered:       # the preflight check ends when the UAV's take-off slot comes
+            dyn["preflight_time"] = PREFLIGHT_TIME + slot * float(scn.takeoff_interval)
+        b.add_component(d, fmus[DYNAMICS], params=dyn)
+        b.add_component(bt, fmus[BATTERY], params={"capacity_ah": float(scn.battery_capacity)})
         b.add_component(s, fmus[STRATEGY], params={
             "strategy": scn.strategy, "uav_index": i, "uav_count": int(scn.n_uavs), "assignment": scn.assignment,
             **mission, "lookahead": float(scn.lookahead),
             "zone_planning": bool(scn.zone_planning),
+            # the planning clearance and the safety net's deceleration follow the vehicle: V^2/(2A) is its
+            # braking distance at cruise (docs/uav_models.md)
+            "plan_margin": speed * speed / (2.0 * accel), "brake_accel": accel,
             "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):
             b.connect(s, v, d, v)
@@ -247,13 +300,13 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
             b.connect(d, v, bt, v)
         b.connect(bt, "consumed", s, "consumed")
         for v in ("wind_x", "wind_y", "wind_z"):
-            b.connect(WIND, v, d, v)
+            b.connect(wind, v, d, v)
         uavs.append({"name": name, "index": i, DYNAMICS: d, BATTERY: bt, STRATEGY: s, "home": (float(hx), float(hy)),
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
     _check_partition(scn, uavs, len(targets_r))
     _check_idle_uavs(scn, uavs, len(targets_r))
     _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])
-    b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r))
+    b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r, settings(scn, layout)))
     return b.write(out_path)
 
 

@@ -99,6 +99,14 @@ def _refuse_campaign_document(source: Path):
                             f"{source}`, or build one of the scenario files it names", file=str(source))
 
 
+def layout_seed(campaign_seed: int, rep: int) -> int:
+    """The random layout of repetition ``rep``: a function of the campaign seed and the repetition only, so every
+    cell of the grid (strategy, fleet size, wind, area variant) flies the same area in the same repetition."""
+    digest = hashlib.sha256(json.dumps({"campaign_seed": int(campaign_seed), "layout_rep": int(rep)},
+                                       sort_keys=True).encode()).hexdigest()
+    return int(digest[:8], 16) & 0x7FFFFFFF
+
+
 class UavKind(ScenarioKind):
     name = "uav"
     label = "UAV YAML"
@@ -178,6 +186,8 @@ class UavKind(ScenarioKind):
         for k, v in task["overrides"].items():
             _set_path(data, k, v, str(src))
         data["seed"] = int(task["seed"])
+        if data.get("layout") == "random" and "layout_seed" not in task["overrides"]:
+            data["layout_seed"] = layout_seed(task["campaign_seed"], task["rep"])
         # a campaign run ends when its fleet has landed (the summary is the same; the idle rest is skipped)
         data.setdefault("end_when_all_landed", True)
         head = (f"# campaign {task['campaign']}, run {task['run_id']} (rep {task['rep']}, seed {task['seed']})\n"

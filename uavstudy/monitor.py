@@ -32,6 +32,7 @@ the same bits as each other and as the plain vectorized algorithm.
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -82,6 +83,7 @@ class MonitorConfig:
     assignment: str = ""
     seed: str = ""
     wind_probability: str = ""
+    settings: dict = field(default_factory=dict)   # the rule set and model settings (uav:Settings), for summary.json
 
 
 @dataclass
@@ -143,6 +145,7 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
 
     uavs, names = [], set()
     zones, targets = [], np.empty((0, 2))
+    settings: dict = {}
     for ch in mon:
         tag = _local(ch)
         if tag == "Uav":
@@ -174,6 +177,8 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
             zones.append({"name": ch.get("name") or f"zone{len(zones) + 1}", "polygon": poly})
         elif tag == "Targets":
             targets = _points(ch.text, "uav:Targets", shown_as)
+        elif tag == "Settings":
+            settings = {k: _setting(v) for k, v in ch.attrib.items()}
     if not uavs:
         raise ScenarioError("uav:UavMonitor lists no uav:Uav", file=shown_as, element="uav:UavMonitor",
                             line=mon.sourceline)
@@ -194,7 +199,15 @@ def parse_config(element, shown_as: str = "") -> MonitorConfig:
         success_battery=num(mon, "successBattery", 0.05, "uav:UavMonitor"),
         end_when_done=end_when_done,
         scenario=mon.get("scenario", ""), strategy=mon.get("strategy", ""), assignment=mon.get("assignment", ""),
-        seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""))
+        seed=mon.get("seed", ""), wind_probability=mon.get("windProbability", ""), settings=settings)
+
+
+def _setting(text: str):
+    """A uav:Settings value: JSON as the builder writes it, else the text itself."""
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
 
 
 def run_seed(plan, default: str) -> str:
@@ -203,7 +216,7 @@ def run_seed(plan, default: str) -> str:
     values and then the overrides, and the last entry of a variable is the value the FMU gets."""
     seed = default
     for var, value, _origin in plan.params:
-        if var.component == WIND and var.name == "seed":
+        if var.name == "seed" and (var.component == WIND or var.component.endswith(f"_{WIND}")):
             seed = str(value)
     return seed
 

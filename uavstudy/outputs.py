@@ -200,6 +200,7 @@ def total_summary(mon, uavs: list[dict], run_outcome: str) -> dict:
     return {
         "scenario": mon.cfg.scenario, "strategy": mon.cfg.strategy, "assignment": mon.cfg.assignment,
         "scenario_seed": _int_or(mon.cfg.seed), "wind_probability": _f(mon.cfg.wind_probability, None),
+        "settings": dict(mon.cfg.settings),
         "run_outcome": run_outcome, "end_time": mon.last_time, "mission_end_time": _mission_end_time(uavs),
         "uavs": len(uavs), "uavs_successful": n_success,
         "success": bool(uavs) and n_success == len(uavs),

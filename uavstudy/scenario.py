@@ -35,11 +35,27 @@ from uavsim.mission_encoding import MAX_TARGETS, MAX_ZONE_VERTICES, MAX_ZONES
 
 __all__ = ["UavScenario", "WindConfig", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
-           "STRATEGIES", "ASSIGNMENTS", "MAX_RANGE_M"]
+           "STRATEGIES", "ASSIGNMENTS", "MAX_RANGE_M", "RULE_SETS", "LAYOUTS", "TAKEOFFS", "WIND_EFFECTS"]
 
 STRATEGIES = ("A", "B")
 ASSIGNMENTS = ("equal", "spatial")
 WIND_LEVELS = ("weak", "moderate", "strong")
+LAYOUTS = ("fixed", "random")
+TAKEOFFS = ("ring", "staggered")
+WIND_EFFECTS = ("drag", "push")
+
+#: The two named rule sets (docs/campaigns.md, "Rule sets"): the values a scenario takes for the fields it does
+#: not give itself.  ``improved`` is the project's model as it was before rule sets existed (every shipped
+#: scenario builds and runs bit-identically under it); ``paper`` is what the paper states and the defaults of
+#: the autopilot of its era (docs/uav_models.md, "The paper's rules").  A field given in the scenario wins.
+RULE_SETS: dict[str, dict[str, Any]] = {
+    "improved": {"cruise_speed": 10.0, "max_accel": 2.5, "zone_planning": True,
+                 "wind.shared": True, "wind.effect": "drag", "wind.decision_interval": 1.0},
+    # ArduCopter 3.x-4.0 (the paper's era): WPNAV_SPEED 500 cm/s, WPNAV_ACCEL 100 cm/s/s; the paper's late
+    # 2 m detection without planning; wind drawn per UAV, pushing it (docs/uav_models.md)
+    "paper": {"cruise_speed": 5.0, "max_accel": 1.0, "zone_planning": False,
+              "wind.shared": False, "wind.effect": "push", "wind.decision_interval": 10.0},
+}
 #: targets and zone vertices must lie within this distance of the base (the
 #: geodesy error bound is stated for 50 km)
 MAX_RANGE_M = 50_000.0
@@ -59,7 +75,10 @@ class WindConfig:
     ``intensities`` (m/s).  ``direction_deg``: meteorological direction the
     wind comes FROM, degrees clockwise from north (default 90: from the east,
     i.e. pushing the UAVs west as in the paper).  ``decision_interval``: s
-    between draws.  ``turbulence``/``gusts``: optional extra effects.
+    between draws (each episode lasts the whole interval).  ``turbulence``/``gusts``: optional extra
+    effects.  ``shared``: one wind for all UAVs, else one independent draw per UAV.  ``effect``: ``drag``
+    (air velocity in the drag law, rejected by the autopilot) or ``push`` (the paper's "force that pushes
+    the UAV": the vehicle is carried at the wind velocity, its position controller flies it back).
     """
     probability: float = 0.0
     intensities: dict[str, float] = field(default_factory=_default_intensities)
@@ -67,6 +86,8 @@ class WindConfig:
     decision_interval: float = 1.0
     turbulence: bool = False
     gusts: bool = False
+    shared: bool = True              # one wind for the whole fleet (false: each UAV draws its own)
+    effect: str = "drag"             # drag: air velocity the controller rejects; push: carries the UAV
 
 
 @dataclass
@@ -91,6 +112,15 @@ class UavScenario:
     # the idle rest up to stop_time is skipped; false = run to stop_time
     end_when_all_landed: bool = True
     zone_planning: bool = True                       # plan legs around zones (false: the paper's late detection)
+    rules: str = "improved"                          # the rule set giving the defaults (RULE_SETS)
+    cruise_speed: float = 10.0                       # m/s horizontal waypoint speed (WPNAV_SPEED)
+    max_accel: float = 2.5                           # m/s^2 horizontal acceleration (WPNAV_ACCEL)
+    layout: str = "fixed"                            # fixed: the given targets/zones; random: drawn (layout.py)
+    layout_seed: int = 0                             # the random layout's seed (a campaign sets it per repetition)
+    area_scale: float = 1.0                          # targets and zones scaled about the base
+    takeoff: str = "ring"                            # ring: pads 8 m apart, all at once; staggered: one base
+    takeoff_interval: float = 15.0                   # s between staggered take-offs
+    battery_capacity: float = 5.1                    # Ah per UAV (3DR Iris+ 5100 mAh)
 
     # ----------------------------------------------------------- local frame
     def targets_enu(self) -> np.ndarray:
@@ -215,6 +245,39 @@ def _check_geometry(v: _V, scn: UavScenario, where: dict[str, str]):
                                           "(a target in a restricted zone cannot be visited)")
 
 
+def _rule_fields(v: _V, data: dict, kw: dict) -> None:
+    """The fields a rule set gives defaults for, and the model settings the paper leaves open."""
+    rules = kw["rules"] = v.choice("rules", data.get("rules", "improved"), tuple(RULE_SETS))
+    defaults = RULE_SETS[rules]
+    wind = kw.setdefault("wind", WindConfig())
+    given_wind = data.get("wind") if isinstance(data.get("wind"), dict) else {}
+    for key, value in defaults.items():
+        if key.startswith("wind."):
+            if key[5:] not in given_wind:
+                setattr(wind, key[5:], value)
+        elif key not in data:
+            kw[key] = value
+    if "zone_planning" in data:
+        kw["zone_planning"] = v.boolean("zone_planning", data["zone_planning"])
+    if "cruise_speed" in data:
+        kw["cruise_speed"] = v.number("cruise_speed", data["cruise_speed"], lo=0.5, hi=20)
+    if "max_accel" in data:
+        kw["max_accel"] = v.number("max_accel", data["max_accel"], lo=0.1, hi=5)
+    if "layout" in data:
+        kw["layout"] = v.choice("layout", data["layout"], LAYOUTS)
+    if "layout_seed" in data:
+        kw["layout_seed"] = v.integer("layout_seed", data["layout_seed"], lo=0)
+    if "area_scale" in data:
+        kw["area_scale"] = v.number("area_scale", data["area_scale"], lo=0.1, hi=10)
+    if "takeoff" in data:
+        kw["takeoff"] = v.choice("takeoff", data["takeoff"], TAKEOFFS)
+    if "takeoff_interval" in data:
+        kw["takeoff_interval"] = v.number("takeoff_interval", data["takeoff_interval"], lo=0, hi=600)
+    if "battery_capacity" in data:
+        kw["battery_capacity"] = v.number("battery_capacity", data["battery_capacity"], lo=0.1, lo_open=False,
+                                          hi=100)
+
+
 def scenario_from_dict(data: Any, path) -> UavScenario:
     """Validate the fields of a scenario (as read from YAML); ``path`` names the file in errors."""
     v = _V(path)
@@ -295,9 +358,11 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
         if "decision_interval" in w:
             wk["decision_interval"] = v.number("wind.decision_interval", w["decision_interval"],
                                                lo=0, lo_open=True)
-        for k in ("turbulence", "gusts"):
+        for k in ("turbulence", "gusts", "shared"):
             if k in w:
                 wk[k] = v.boolean(f"wind.{k}", w[k])
+        if "effect" in w:
+            wk["effect"] = v.choice("wind.effect", w["effect"], WIND_EFFECTS)
         kw["wind"] = WindConfig(**wk)
     if "seed" in data:
         kw["seed"] = v.integer("seed", data["seed"], lo=0)
@@ -314,8 +379,7 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
         kw["algorithm"] = v.choice("algorithm", data["algorithm"], REGISTERED.names())
     if "end_when_all_landed" in data:
         kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
-    if "zone_planning" in data:
-        kw["zone_planning"] = v.boolean("zone_planning", data["zone_planning"])
+    _rule_fields(v, data, kw)
     scn = UavScenario(**kw)
     if scn.stop_time < scn.step:
         v.fail("stop_time", f"must be >= step ({scn.step:g}), got {scn.stop_time:g}")
@@ -360,11 +424,16 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "wind": {"probability": scn.wind.probability, "intensities": dict(scn.wind.intensities),
                  "direction_deg": scn.wind.direction_deg,
                  "decision_interval": scn.wind.decision_interval,
-                 "turbulence": scn.wind.turbulence, "gusts": scn.wind.gusts},
+                 "turbulence": scn.wind.turbulence, "gusts": scn.wind.gusts,
+                 "shared": scn.wind.shared, "effect": scn.wind.effect},
         "seed": scn.seed, "step": scn.step, "stop_time": scn.stop_time,
         "impact_diameter": scn.impact_diameter, "lookahead": scn.lookahead,
         "algorithm": scn.algorithm, "end_when_all_landed": scn.end_when_all_landed,
         "zone_planning": scn.zone_planning,
+        "rules": scn.rules, "cruise_speed": scn.cruise_speed, "max_accel": scn.max_accel,
+        "layout": scn.layout, "layout_seed": scn.layout_seed, "area_scale": scn.area_scale,
+        "takeoff": scn.takeoff, "takeoff_interval": scn.takeoff_interval,
+        "battery_capacity": scn.battery_capacity,
     }
 
 
@@ -413,6 +482,14 @@ PAPER_KEYS: dict[str, tuple[str, str]] = {
     "collision.impact_diameter": ("impact_diameter", "float"),
     "restricted.lookahead": ("lookahead", "float"),
     "restricted.zone_planning": ("zone_planning", "bool"),
+    "rules": ("rules", "str"),
+    "uav.cruise_speed": ("cruise_speed", "float"),
+    "uav.max_accel": ("max_accel", "float"),
+    "uav.battery_capacity": ("battery_capacity", "float"),
+    "wind.shared": ("wind.shared", "bool"),
+    "wind.effect": ("wind.effect", "str"),
+    "takeoff": ("takeoff", "str"),
+    "takeoff.interval": ("takeoff_interval", "float"),
     "master.algorithm": ("algorithm", "str"),
 }
 #: the landing point (first line of targets.txt) may differ from the base by this much

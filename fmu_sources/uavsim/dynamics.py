@@ -15,7 +15,10 @@ where sqrt_controller(d) = K d for d <= A/K^2 and sqrt(2 A (d - A/(2K^2))) beyon
 profile that stops at the goal without overshoot), a_ff = (v_t,new - v_t,old)/h and
 D_still(v) = (rho S_FP/2m)|v| v is the still-air drag feed-forward (the autopilot knows its own
 drag curve, not the wind: wind is rejected by the integrator, so a wind step produces a transient
-drift).  Vertically the thrust authority is ample, so v_z follows an acceleration-limited
+drift).  With ``wind_push`` (the paper's reading of wind, "a force that pushes the UAV") the wind does not
+enter the drag law: the vehicle is carried by the air mass, p <- p + (v + w) h, with v its velocity
+relative to the air (the one the controller limits to V_max), and only the position loop corrects the
+displacement (docs/uav_models.md, "The paper's rules").  Vertically the thrust authority is ample, so v_z follows an acceleration-limited
 (ACCEL_Z) reference bounded by SPEED_UP / SPEED_DN (or LAND_SPEED below LAND_ALT_LOW when landing).
 
 Phases (output ``phase``): 0 preflight (on ground; the check takes ``preflight_time`` from power-on),
@@ -71,6 +74,7 @@ class DynamicsParams:
     home_y: float = 0.0                       # m
     substep: float = P.SUBSTEP                # s
     g: float = P.G0                           # m/s^2
+    wind_push: bool = False                   # wind carries the vehicle (paper) instead of dragging it
 
     @property
     def drag_k(self) -> float:
@@ -117,11 +121,22 @@ class Dynamics:
     @property
     def airspeed(self) -> float:
         """Horizontal air-relative speed |v_xy - w_xy| [m/s] (input of the Zeng power model)."""
+        if self.params.wind_push:
+            return math.hypot(self.vel[0], self.vel[1])
         return math.hypot(self.vel[0] - self.wind[0], self.vel[1] - self.wind[1])
 
     @property
+    def ground_velocity(self) -> tuple[float, float, float]:
+        """(east, north, up) velocity over the ground [m/s]: ``vel`` plus the push of the wind when it carries
+        the vehicle (``vel`` is then relative to the air)."""
+        if self.params.wind_push and self.phase in (TAKEOFF, FLY, LAND):
+            return (self.vel[0] + self.wind[0], self.vel[1] + self.wind[1], self.vel[2])
+        return (self.vel[0], self.vel[1], self.vel[2])
+
+    @property
     def groundspeed(self) -> float:
-        return math.hypot(self.vel[0], self.vel[1])
+        vx, vy, _ = self.ground_velocity
+        return math.hypot(vx, vy)
 
     @property
     def tilt_deg(self) -> float:
@@ -172,7 +187,8 @@ class Dynamics:
     def _kernel_params(self) -> tuple:
         p = self.params
         return (p.speed, p.accel, p.pos_p, p.vel_p, p.vel_i, p.accel_z, p.pos_z_p, p.speed_up, p.speed_dn,
-                p.land_speed, p.land_alt_low, p.takeoff_altitude, p.drag_k, p.max_horizontal_accel)
+                p.land_speed, p.land_alt_low, p.takeoff_altitude, p.drag_k, p.max_horizontal_accel,
+                1.0 if p.wind_push else 0.0)
 
     def _run(self, n: int, h: float, cmd: int, sp) -> None:
         """n sub-steps of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
@@ -279,7 +295,10 @@ class Dynamics:
             self.integ[1] += evy * h
         self.a_cmd = [ax, ay]
         wx, wy, wz = self.wind
-        vax, vay = self.vel[0] - wx, self.vel[1] - wy
+        if p.wind_push:              # carried by the air: drag on the vehicle's own (air-relative) velocity
+            vax, vay = self.vel[0] - 0.0, self.vel[1] - 0.0
+        else:
+            vax, vay = self.vel[0] - wx, self.vel[1] - wy
         va = math.sqrt(vax * vax + vay * vay)
         self.vel[0] += (ax - k * va * vax) * h
         self.vel[1] += (ay - k * va * vay) * h
@@ -294,8 +313,12 @@ class Dynamics:
         self.vtz += dvz
         self.vel[2] = self.vtz
         # ---------------- integrate position
-        self.pos[0] += self.vel[0] * h
-        self.pos[1] += self.vel[1] * h
+        if p.wind_push:
+            self.pos[0] += (self.vel[0] + wx) * h
+            self.pos[1] += (self.vel[1] + wy) * h
+        else:
+            self.pos[0] += self.vel[0] * h
+            self.pos[1] += self.vel[1] * h
         self.pos[2] += self.vel[2] * h
         # ---------------- transitions
         if self.phase == TAKEOFF and self.pos[2] >= p.takeoff_altitude - 0.2:

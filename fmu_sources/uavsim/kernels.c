@@ -15,7 +15,7 @@ enum { PX, PY, PZ, VX, VY, VTX, VTY, VTZ, IX, IY, AX, AY, HX, HY, HOLDZ, PHASE, 
        SPX, SPY, SPZ, WX, WY, NSTATE };
 /* parameter slots (kernels.py: P_*) */
 enum { SPEED, ACCEL, POS_P, VEL_P, VEL_I, ACCEL_Z, POS_Z_P, SPEED_UP, SPEED_DN, LAND_SPEED, LAND_ALT_LOW,
-       TAKEOFF_ALT, DRAG_K, AMAX, NPARAM };
+       TAKEOFF_ALT, DRAG_K, AMAX, PUSH, NPARAM };
 enum { TAKEOFF = 1, FLY = 2, LAND = 3 };
 enum { CMD_GOTO = 2, CMD_LAND = 3 };
 
@@ -30,10 +30,13 @@ int uav_fly(double *s, const double *p)
     const double lin_z = accel_z / (pos_z_p * pos_z_p);
     const double land_speed = p[LAND_SPEED], land_alt_low = p[LAND_ALT_LOW], takeoff_alt = p[TAKEOFF_ALT];
     const double k = p[DRAG_K], amax = p[AMAX];
+    const int push = p[PUSH] != 0.0;
     const int n = (int)s[N], cmd = (int)s[CMD], goto_ = cmd == CMD_GOTO;
     const double h = s[H];
     const double lim = accel * h, limz = accel_z * h;
     const double wx = s[WX], wy = s[WY], spx = s[SPX], spy = s[SPY], spz = s[SPZ];
+    /* drag acts on the velocity relative to the air: the wind's (drag) or the vehicle's own (push) */
+    const double dwx = push ? 0.0 : wx, dwy = push ? 0.0 : wy;
     double px = s[PX], py = s[PY], pz = s[PZ], vx = s[VX], vy = s[VY];
     double vtx = s[VTX], vty = s[VTY], vtz = s[VTZ], ix = s[IX], iy = s[IY];
     double hx = s[HX], hy = s[HY], hold_z = s[HOLDZ], ax = 0.0, ay = 0.0;
@@ -93,7 +96,7 @@ int uav_fly(double *s, const double *p)
             ix += evx * h;
             iy += evy * h;
         }
-        vax = vx - wx; vay = vy - wy;
+        vax = vx - dwx; vay = vy - dwy;
         va = sqrt(vax * vax + vay * vay);
         vx += (ax - k * va * vax) * h;
         vy += (ay - k * va * vay) * h;
@@ -110,8 +113,13 @@ int uav_fly(double *s, const double *p)
             vzd = dmax(-speed_dn, dmin(speed_up, vzd));
         }
         vtz += dmax(-limz, dmin(limz, vzd - vtz));
-        px += vx * h;
-        py += vy * h;
+        if (push) {        /* carried by the air mass */
+            px += (vx + wx) * h;
+            py += (vy + wy) * h;
+        } else {
+            px += vx * h;
+            py += vy * h;
+        }
         pz += vtz * h;
         /* transitions */
         if (phase == TAKEOFF && pz >= takeoff_alt - 0.2) {

@@ -25,8 +25,8 @@ LIBRARY = "_uavsim_kernels.so"
 N_STATE = 27
 # dynamics parameter slots
 (P_SPEED, P_ACCEL, P_POS_P, P_VEL_P, P_VEL_I, P_ACCEL_Z, P_POS_Z_P, P_SPEED_UP, P_SPEED_DN, P_LAND_SPEED,
- P_LAND_ALT_LOW, P_TAKEOFF_ALT, P_DRAG_K, P_AMAX) = range(14)
-N_PARAM = 14
+ P_LAND_ALT_LOW, P_TAKEOFF_ALT, P_DRAG_K, P_AMAX, P_PUSH) = range(15)
+N_PARAM = 15
 # battery state slots; battery parameters: cells, resistance, capacity (C), m, m soc values, m ocv values
 B_Q, B_E, B_CUR, B_OVER, B_VOLT, B_POW, B_N, B_H, B_DEMAND = range(9)
 N_BSTATE = 9
@@ -44,10 +44,13 @@ def fly_py(s: list, p) -> int:
     lin_z = accel_z / (pos_z_p * pos_z_p)
     land_speed, land_alt_low, takeoff_alt = p[P_LAND_SPEED], p[P_LAND_ALT_LOW], p[P_TAKEOFF_ALT]
     k, amax = p[P_DRAG_K], p[P_AMAX]
+    push = p[P_PUSH] != 0.0
     n, cmd, h = int(s[S_N]), int(s[S_CMD]), s[S_H]
     goto = cmd == CMD_GOTO
     lim, limz = accel * h, accel_z * h
     wx, wy, spx, spy, spz = s[S_WX], s[S_WY], s[S_SPX], s[S_SPY], s[S_SPZ]
+    # drag acts on the velocity relative to the air: the wind's (drag) or the vehicle's own (push)
+    dwx, dwy = (0.0, 0.0) if push else (wx, wy)
     px, py, pz, vx, vy = s[S_PX], s[S_PY], s[S_PZ], s[S_VX], s[S_VY]
     vtx, vty, vtz, ix, iy = s[S_VTX], s[S_VTY], s[S_VTZ], s[S_IX], s[S_IY]
     hx, hy, hold_z = s[S_HX], s[S_HY], s[S_HOLDZ]
@@ -106,7 +109,7 @@ def fly_py(s: list, p) -> int:
         else:
             ix += evx * h
             iy += evy * h
-        vax, vay = vx - wx, vy - wy
+        vax, vay = vx - dwx, vy - dwy
         va = sqrt(vax * vax + vay * vay)
         vx += (ax - k * va * vax) * h
         vy += (ay - k * va * vay) * h
@@ -125,8 +128,12 @@ def fly_py(s: list, p) -> int:
             vzd = copysign(vzd, ez)
             vzd = max(-speed_dn, min(speed_up, vzd))
         vtz += max(-limz, min(limz, vzd - vtz))
-        px += vx * h
-        py += vy * h
+        if push:            # carried by the air mass
+            px += (vx + wx) * h
+            py += (vy + wy) * h
+        else:
+            px += vx * h
+            py += vy * h
         pz += vtz * h
         # transitions
         if phase == TAKEOFF and pz >= takeoff_alt - 0.2:

@@ -43,7 +43,7 @@ def simulate_mission(strategy: StrategyParams, dynamics: DynamicsParams | None =
     while t < t_end - 1e-9:
         # outputs at t
         x, y, z = d.pos
-        vx, vy, vz = d.vel
+        vx, vy, vz = d.ground_velocity
         airspeed, phase, consumed = d.airspeed, d.phase, b.consumed
         cmd, sp = s.cmd, s.sp
         # step all models t -> t+h

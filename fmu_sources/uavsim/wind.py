@@ -34,7 +34,8 @@ u_g(t) = A/2 (1 - cos(2 pi (t - t_g)/T_g)) for t_g <= t <= t_g + T_g.
 Gust and turbulence are scaled by the ramp factor U(t)/U_k, so the wind is continuous.
 
 Determinism: all random numbers for interval k are drawn when interval k is first entered, from
-three independent PCG64 streams (episode, gust, turbulence) spawned from SeedSequence(seed); the
+three independent PCG64 streams (episode, gust, turbulence) spawned from SeedSequence(seed) (with
+``stream`` >= 0, from SeedSequence((seed, stream + 1)): one independent wind per UAV of a fleet); the
 same numbers are drawn whether or not turbulence/gusts are enabled.  The output at time t is a
 function of t only (turbulence is held piecewise-constant on the turb_dt grid), hence identical
 for any master step size.
@@ -55,6 +56,7 @@ FT = 0.3048
 class WindParams:
     probability: float = P.WIND_PROBABILITY          # 1 per decision interval
     seed: int = 0
+    stream: int = -1                                 # -1: the fleet's one wind; i >= 0: UAV i's own
     direction_deg: float = P.WIND_DIRECTION_DEG      # deg, "from", clockwise from north
     decision_interval: float = P.WIND_DECISION_INTERVAL  # s
     duration: float = P.WIND_DURATION                # s
@@ -93,7 +95,8 @@ class Wind:
 
     def __init__(self, params: WindParams | None = None):
         self.p = params or WindParams()
-        ss = np.random.SeedSequence(int(self.p.seed))
+        seed = int(self.p.seed)
+        ss = np.random.SeedSequence(seed if int(self.p.stream) < 0 else (seed, int(self.p.stream) + 1))
         s_ep, s_gust, s_turb = ss.spawn(3)
         self._rng_ep = np.random.Generator(np.random.PCG64(s_ep))
         self._rng_gust = np.random.Generator(np.random.PCG64(s_gust))
