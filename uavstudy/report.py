@@ -748,7 +748,7 @@ def _finding_tests():
 
 def _config_label(config: str, baseline: dict) -> str:
     vals = json.loads(config)
-    diff = {k: v for k, v in vals.items() if canonical_json(baseline.get(k)) != canonical_json(v)}
+    diff = {k: v for k, v in vals.items() if k in baseline and canonical_json(baseline[k]) != canonical_json(v)}
     return "baseline" if not diff else ", ".join(f"{k} = {v}" for k, v in diff.items())
 
 

@@ -78,3 +78,39 @@ def test_agreement_is_by_value_with_a_stated_tolerance():
     assert a.agrees is False and "-15" in a.text and "±10" in a.text
     assert bl.agrees_by_value(0.0, 0.0, 0.0).agrees is True
     assert bl.agrees_by_value(1.0, st.CI(math.nan, math.nan, math.nan, 0), 1.0).agrees is None
+
+
+def _runs(config_value, single_uav_successes):
+    """Runs of one configuration (factor f): A/B x 1-2 UAVs x wind 0/0.15 x 2 repetitions; B flies 0.5 km less
+    than A in every block, a single UAV of strategy B succeeds ``single_uav_successes`` times per run."""
+    from master.campaign.spec import canonical_json
+    rows = []
+    for s in ("A", "B"):
+        for n in (1, 2):
+            for w in (0.0, 0.15):
+                for rep in (0, 1):
+                    cfg = canonical_json({"f": config_value})
+                    cell = f"{cfg}|{n}|free|{w:g}"
+                    rows.append({"run_id": f"{config_value}{s}{n}{w}{rep}", "strategy": s, "n_uavs": n,
+                                 "area": "free", "wind": w, "rep": rep, "config": cfg, "cell": cell,
+                                 "block": f"{cell}|{rep}",
+                                 "successes": single_uav_successes if (n == 1 and s == "B") else (1 if s == "B" else 0),
+                                 "battery": 40.0 - 10 * w - rep, "distance_km": 5.0 + rep - (0.5 if s == "B" else 0),
+                                 "photos": 10, "collisions": 0, "uav_collided": 0, "zone_collided": 0})
+    return rows
+
+
+def test_sensitivity_names_the_configuration_that_flips_a_finding():
+    from uavstudy.report import sensitivity_findings
+    r = pd.DataFrame(_runs(1, 0) + _runs(2, 1))
+    design = {"baseline": {"f": 1}, "one_at_a_time": {"f": [2]}, "factorial": {}}
+    sf = sensitivity_findings(r, design)
+    base, other = '{"f":1}', '{"f":2}'
+    assert sf["baseline"] == base and sf["labels"][other] == "f = 2"
+    assert sf["roles"][other] == ["one_at_a_time:f"]
+    # no single UAV succeeds at f = 1 (the finding holds); at f = 2 each of the 4 single-UAV B runs succeeds
+    assert sf["table"][base]["success_1"][0] is True and sf["table"][other]["success_1"][0] is False
+    assert "4/8 single-UAV missions succeed" in sf["table"][other]["success_1"][1]
+    assert sf["flips"]["success_1"] == [other]
+    # B flies 0.5 km less in all 8 blocks of each configuration: sign-flip p = 2/256, holds in both, flips nowhere
+    assert sf["table"][base]["distance_total"][0] is True and sf["flips"]["distance_total"] == []
