@@ -42,6 +42,7 @@ __all__ = ["uav_report", "uav_frames", "figure_data", "table2", "paper_compariso
            "paper_consistency", "sensitivity_findings", "run_settings"]
 
 COLORS = {"A": "tab:blue", "B": "tab:red"}
+NO_CI = st.CI(math.nan, math.nan, math.nan, 0)
 #: the grid axes of the paper's study; every other parameter is part of a configuration (rule set, factors)
 STUDY_AXES = ("strategy", "n_uavs", "variant", "wind.probability")
 
@@ -120,12 +121,14 @@ def paper_consistency() -> list[str]:
 
 # ============================================================================================ settings
 #: scenario fields that are not settings of the rules (the layout and identity of a run)
-_NOT_SETTINGS = ("name", "base", "targets", "zones", "seed", "description", "n_uavs", "strategy")
+_NOT_SETTINGS = ("name", "base", "targets", "zones", "seed", "description", "n_uavs", "strategy", "layout_seed")
 
 
-def run_settings(campaign_dir: Path, run_ids) -> dict:
-    """run_id -> the scalar settings of its scenario.yaml (``lookahead``, ``zone_planning``,
-    ``wind.decision_interval``, ...): what the run actually flew with, whatever the campaign varied."""
+def run_settings(campaign_dir: Path, run_ids, df=None) -> dict:
+    """run_id -> the scalar settings of its scenario.yaml (``lookahead``, ``wind.intensities.strong``, ...),
+    overlaid with the settings its summary recorded (``settings.*`` columns of the table: the values the rule
+    set resolved, ``cruise_speed``, ``zone_planning``, ``wind_episode_s``, ...): what the run actually flew
+    with, whatever the campaign varied."""
     import yaml
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     out = {}
@@ -149,13 +152,21 @@ def run_settings(campaign_dir: Path, run_ids) -> dict:
         if isinstance(data, dict):
             walk(data, "")
         out[rid] = flat
+    if df is not None and UAV_COLUMN in df.columns:
+        cols = [c for c in df.columns if c.startswith("settings.")]
+        tot = df[df[UAV_COLUMN] == TOTAL_ROW]
+        for rid, row in zip(tot["run_id"], tot[cols].itertuples(index=False)):
+            if rid in out or not out:
+                d = out.setdefault(rid, {})
+                d.update({c[len("settings."):]: _plain(v) for c, v in zip(cols, row)
+                          if v is not None and not (isinstance(v, float) and math.isnan(v))})
     return out
 
 
 def settings_summary(settings: dict) -> tuple[dict, dict]:
     """(constant, varying): the settings every run shares (name -> value) and the ones that differ
     (name -> sorted distinct values)."""
-    keys = sorted({k for s in settings.values() for k in s})
+    keys = sorted({k for s in settings.values() for k in s} - {"layout_seed", "layout_id"})
     const, vary = {}, {}
     for k in keys:
         vals = {canonical_json(s.get(k)) for s in settings.values()}
@@ -185,16 +196,27 @@ def causes(settings: dict) -> dict:
                  None)
     rules = f" Rule set: {val('rules')}." if ("rules" in const or "rules" in vary) else ""
     return {
-        "geometry": "The paper publishes no coordinates: our 24 targets, base and 4 restricted zones are an assumed "
-                    "layout (ssp/scenarios/paper_area*.yaml, docs/paper_config_format.md); every absolute number "
-                    "(distances, battery, collision counts) depends on it.",
+        "geometry": "The paper publishes no coordinates (its Fig. 4 is a map without scale): "
+                    + ("every repetition of these runs flies its own random layout (24 targets, 4 restricted zones "
+                       "drawn by the rules of docs/paper_config_format.md, uavstudy/layout.py)"
+                       if val("layout", "") == "random" else
+                       "our 24 targets, base and 4 restricted zones are one assumed layout "
+                       "(ssp/scenarios/paper_area*.yaml, docs/paper_config_format.md)")
+                    + f", area scale {val('area_scale', '1')}, take-off {val('takeoff', 'ring')}; every absolute number "
+                    "(distances, battery, collision counts) depends on the geometry.",
         "energy": "Our battery is a physical model (uavsim.battery: rotor power from airspeed and climb, Li-ion pack) "
                   "instead of the paper's Ptolemy Energy actor, whose consumption law is not published"
                   + (f"; cruise speed {val(speed)} m/s" if speed else "") + "." + rules,
-        "wind": f"The paper's wind model is not published; these runs drew wind every "
-                f"{val('wind.decision_interval')} s with the given probability, speeds "
+        "wind": f"The paper's wind model is not published; these runs drew wind episodes of "
+                f"{val('wind_episode_s', val('wind.decision_interval'))} s with the given probability, speeds "
                 f"{val('wind.intensities.weak')}/{val('wind.intensities.moderate')}/{val('wind.intensities.strong')}"
-                f" m/s from {val('wind.direction_deg')} degrees, and the UAV controller corrects the drift.",
+                f" m/s from {val('wind.direction_deg')} degrees, "
+                + ("one draw per UAV" if val("wind_shared", "") == "False" else
+                   "one draw shared by the fleet" if val("wind_shared", "") == "True" else "shared or per UAV: ?")
+                + ("; the wind pushes the UAV (displacement the controller does not cancel)"
+                   if val("wind_effect", "") == "push" else
+                   "; the wind is an air velocity the controller corrects" if val("wind_effect", "") == "drag"
+                   else "") + ".",
         "collisions_count": "The paper does not say whether a UAV-UAV collision counts once or once per UAV; we count "
                             "removed UAVs (a UAV-UAV collision removes two).",
         "collisions_model": f"Collision detection is continuous (swept) over each step; zone detection of these runs: "
@@ -252,8 +274,8 @@ def uav_frames(df):
                          "rep": tot["rep"].to_numpy() if "rep" in tot.columns else 0})
     for k in extra:
         runs[k] = tot[k].to_numpy()
-    if "layout" in tot.columns and "layout" not in runs.columns:
-        runs["layout"] = tot["layout"].to_numpy()
+    if "settings.layout_id" in tot.columns:          # the layout each run flew (summary.json settings)
+        runs["layout_id"] = tot["settings.layout_id"].astype(str).to_numpy()
     runs["config"] = [canonical_json({k: _plain(v) for k, v in zip(extra, row)})
                       for row in tot[extra].itertuples(index=False)] if extra else "{}"
     runs["cell"] = [f"{c}|{n}|{a}|{w:g}" for c, n, a, w in zip(runs["config"], runs["n_uavs"], runs["area"],
@@ -318,8 +340,9 @@ def n_text(r, u=None) -> str:
     runs = int(len(r))
     missions = int(len(u)) if u is not None else int(r["n_uavs"].sum())
     cells = int(r["cell"].nunique()) if "cell" in r.columns else 0
-    if "layout" in r.columns:
-        lay = f"{r['layout'].nunique()} layouts"
+    if "layout_id" in r.columns:
+        k = r["layout_id"].nunique()
+        lay = f"{k} layout{'s' if k != 1 else ''}"
     else:
         lay = f"1 fixed layout per area ({r['area'].nunique()} area{'s' if r['area'].nunique() != 1 else ''})"
     return f"n = {runs} runs, {missions} UAV missions, {cells} configurations, {lay}"
@@ -598,7 +621,8 @@ def paper_comparison(u, r, fd: dict, t2: list[dict], why_keys: dict | None = Non
     parts, agree, sig = [], True, True
     for a in fd["areas"]:
         e = ab_effect(r[r["area"] == a], "battery")
-        parts.append(f"{area_label(a)}: A {fd['fig6'][('A', a)].fmt(1)} vs B {fd['fig6'][('B', a)].fmt(1)}; "
+        parts.append(f"{area_label(a)}: A {fd['fig6'].get(('A', a), NO_CI).fmt(1)} vs B "
+                     f"{fd['fig6'].get(('B', a), NO_CI).fmt(1)}; "
                      f"B - A {_eff(e, 1)}")
         agree &= e.estimate < 0
         sig &= e.significant
@@ -977,14 +1001,14 @@ def uav_report(manifest, df, out: Path) -> str | None:
     if u is None:
         return None
     design = manifest.get("design") or {}
-    settings = run_settings(Path(out).parent, r["run_id"])
+    settings = run_settings(Path(out).parent, r["run_id"], df)
     why_text = causes(settings)
     L = [f"# Campaign report: {manifest['name']}", ""]
     L += [f"- {x}" for x in campaign_facts(manifest, df)]
     L += [f"- Analysed: {n_text(r, u)}."]
     const, vary = settings_summary(settings) if settings else ({}, {})
     if const:
-        L += ["- Settings every run flew with (from its scenario.yaml): "
+        L += ["- Settings every run flew with (its scenario.yaml and the settings its summary recorded): "
               + ", ".join(f"`{k}` = {v}" for k, v in const.items()) + "."]
     if vary:
         L += ["- Settings that differ between runs: " + ", ".join(f"`{k}` in {v}" for k, v in vary.items()) + "."]
