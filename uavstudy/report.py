@@ -854,6 +854,14 @@ def _note(ax, text: str) -> None:
                 ha="center", va="top", fontsize=7, color="dimgray", annotation_clip=False)
 
 
+def _headroom_legend(ax, n: int) -> None:
+    """The wind-probability legend in one row above the bars (room made for it), never over them."""
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, high + 0.22 * (high - low))
+    ax.legend(title="wind probability", fontsize=7, title_fontsize=7, ncol=n, loc="upper center",
+              columnspacing=0.8, handlelength=1.2)
+
+
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path)
@@ -936,7 +944,7 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
     ax.set_xlabel("strategy / area")
     ax.set_ylabel("mean remaining battery per UAV [%]")
     ax.set_title("Fig. 7a - remaining battery per wind probability", fontsize=10)
-    ax.legend(title="wind probability", fontsize=7, ncol=min(4, len(W)), loc="lower right")
+    _headroom_legend(ax, len(W))
     _note(ax, n_all)
     if fd["fig7b"]:
         _effect_lines(bx, fd["fig7b"], groups, W, lambda k: f"{k[0]} / {area_label(k[1])}")
@@ -957,7 +965,7 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
     ax.set_xlabel("strategy")
     ax.set_ylabel("total distance flown [km]")
     ax.set_title("Fig. 8a - total distance per wind probability", fontsize=10)
-    ax.legend(title="wind probability", fontsize=7, ncol=min(4, len(W)), loc="lower right")
+    _headroom_legend(ax, len(W))
     _note(ax, n_all)
     if fd["fig8b"]:
         _effect_lines(bx, fd["fig8b"], S, W, lambda k: f"Strategy {k}")
