@@ -149,6 +149,10 @@ def test_build_report_writes_figures_and_markdown(hand):
     assert "sign-flip p" in text and "n = 16 runs, 24 UAV missions, 8 configurations" in text
     assert "wind probability 10 %" in text and "restricted" in text
     assert "cannot all hold together" in text and "0.571 km per mission" in text
+    # n under every figure (its caption) and above the comparison table and Table II
+    captions = [line for line in text.splitlines() if line.startswith("*Fig. ")]
+    assert len(captions) == 6 and all("n = 16 runs, 24 UAV missions" in c for c in captions)
+    assert text.count("n = 16 runs, 24 UAV missions, 8 configurations") >= 6 + 3
     assert "worker process died with signal 11 (SIGSEGV)" in text
     assert "## Where and why we differ" in text
     # B has 2 zone collisions and no UAV-UAV collision: no ratio, and no "∞"
