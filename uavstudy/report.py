@@ -368,6 +368,13 @@ def total_ci(r, value: str, floor=0.0, ceiling=None) -> st.CI:
     return st.CI(c.estimate * n, low, high, n)
 
 
+def per_layout(r, value: str) -> list[float]:
+    """B - A per run averaged within each repetition (each layout, with ``layout: random``): whether an effect
+    holds in every layout, the unit a claim about layouts in general rests on."""
+    d = bl.paired_differences(r, value, "strategy", "A", "B", ["cell", "block", "rep"])
+    return [float(x) for x in d.groupby("rep")["diff"].mean().to_numpy()] if len(d) else []
+
+
 def ab_effect(r, value: str, agg: str = "mean") -> bl.Effect:
     """B - A over blocks (same configuration and repetition; same seed in a campaign paired on the strategy),
     stratified by configuration."""
@@ -480,7 +487,7 @@ def table2(u, r, alpha: float = 0.05, pairs: dict | None = None) -> list[dict]:
             unit = " km" if col == "distance_km" else ""
             row.update(A=f"{a[col].sum():.6g}{unit}", B=f"{b[col].sum():.6g}{unit}")
         e = ab_effect(data, col)
-        row.update(effect=e, p=e.p, n_blocks=e.n_blocks)
+        row.update(effect=e, p=e.p, n_blocks=e.n_blocks, per_layout=per_layout(data, col))
         if not math.isfinite(e.estimate) or e.estimate == 0:
             lead = "tie"
         else:
@@ -1118,9 +1125,16 @@ def uav_report(manifest, df, out: Path) -> str | None:
     rows = [[x["metric"], x["A"], x["B"], x["effect"].fmt(3),
              f"[{x['effect'].boot_low:.3g}, {x['effect'].boot_high:.3g}]" if x["n_blocks"] else "n/a",
              f"{x['effect'].d_z:.2f}" if math.isfinite(x["effect"].d_z) else "n/a", _fmt_p(x["p"]), x["n_blocks"],
-             v, "B"] for x, v in zip(t2, verdict)]
+             ", ".join(f"{x:+.3g}" for x in x["per_layout"]) or "n/a", v, "B"] for x, v in zip(t2, verdict)]
     L += [md_table(["metric", "Strategy A", "Strategy B", "B - A per run [t interval]", "bootstrap interval",
-                    "d_z", "sign-flip p", "blocks", "better (ours)", "paper"], rows), ""]
+                    "d_z", "sign-flip p", "blocks", "B - A per repetition (layout)", "better (ours)", "paper"],
+                   rows), ""]
+    n_rep = r["rep"].nunique()
+    L += [f"The blocks are {r['cell'].nunique()} configurations x {n_rep} "
+          f"repetitions; the repetitions are the layouts, shared by every configuration, so the p-values are "
+          f"conditional on these {n_rep} layouts. A claim about layouts in general rests on the per-layout column: "
+          f"with {n_rep} layouts, a sign-flip test over layouts cannot go below p = {2 / 2 ** n_rep:.2g}, so it "
+          "needs the same sign in every layout at least.", ""]
     L += ["Direction: more successes, photos and remaining energy are better; less distance and fewer collisions "
           "are better (the paper's reading). \"with wind\" rows use the runs with a wind probability above 0.", ""]
     L += ["## Failed runs", "", failures_md(df)]
