@@ -156,7 +156,10 @@ def test_build_report_writes_figures_and_markdown(hand):
     assert "worker process died with signal 11 (SIGSEGV)" in text
     assert "## Where and why we differ" in text
     # B has 2 zone collisions and no UAV-UAV collision: no ratio, and no "∞"
-    assert "B: 2 zone vs 0 UAV (n/a: none in the denominator)" in text and "∞" not in text
+    assert "B: 2 zone vs 0 UAVs removed by each other (n/a: none in the denominator)" in text and "∞" not in text
+    # both readings of the paper's collision count: A's one UAV-UAV collision removed two UAVs
+    assert "A: 2 zone vs 2 UAVs removed by each other (1.00×), vs 1 UAV-UAV collisions (2.00×)" in text
+    assert "4 (A), 2 (B) UAVs removed; counting a UAV-UAV collision once: 3 (A), 2 (B)" in text
     # 16 runs of 1.0 s and the failed one of 0.5 s: 16.5 s, not "0.3 min"
     assert "sum 16.5 s." in text
 
