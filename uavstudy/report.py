@@ -744,45 +744,40 @@ def _finding_tests():
     def success_1(r):
         s = r[r["n_uavs"] == 1]
         if s.empty:
-            return None, "no 1-UAV runs"
+            return None, "no 1-UAV runs", None
         k = int(s["successes"].sum())
-        return k == 0, f"{k}/{int(s['n_uavs'].sum())} single-UAV missions succeed"
+        return k == 0, f"{k}/{int(s['n_uavs'].sum())} single-UAV missions succeed", None
 
     def success_2(r):
         s = r[r["n_uavs"] == 2]
         if s.empty:
-            return None, "no 2-UAV runs"
+            return None, "no 2-UAV runs", None
         ka, kb = int(s[s["strategy"] == "A"]["successes"].sum()), int(s[s["strategy"] == "B"]["successes"].sum())
-        return ka == 0 and kb > 0, f"2 UAVs: A {ka}, B {kb} successes"
+        return ka == 0 and kb > 0, f"2 UAVs: A {ka}, B {kb} successes", None
 
     def b_more(r):
         e = ab_effect(r, "successes")
-        return (e.estimate > 0 and e.significant) if math.isfinite(e.estimate) else None, \
-            f"B - A successes per run {_eff(e)}"
+        return _holds(e, +1), f"B - A successes per run {_eff(e)}", e.estimate
 
     def wind_battery(r):
         e = wind_slope(r, "battery")
-        return (e.estimate < 0 and e.significant) if math.isfinite(e.estimate) else None, \
-            f"slope {_eff(e, 3)} %/%-pt"
+        return _holds(e, -1), f"slope {_eff(e, 3)} %/%-pt", e.estimate
 
     def wind_distance(r):
         e = wind_slope(r, "distance_km")
-        return (e.estimate > 0 and e.significant) if math.isfinite(e.estimate) else None, \
-            f"slope {_eff(e, 4)} km/%-pt"
+        return _holds(e, +1), f"slope {_eff(e, 4)} km/%-pt", e.estimate
 
     def b_shorter(r):
         e = ab_effect(r, "distance_km")
-        return (e.estimate < 0 and e.significant) if math.isfinite(e.estimate) else None, \
-            f"B - A km per run {_eff(e, 3)}"
+        return _holds(e, -1), f"B - A km per run {_eff(e, 3)}", e.estimate
 
     def wall_ratio(r):
-        nu, nz = int(r["uav_collided"].sum()), int(r["zone_collided"].sum())
-        return (nu > 0 and 2.0 <= nz / nu <= 4.0), f"zone {nz} vs UAV {nu} ({ratio_text(nz, nu)})"
+        ne, nz = int(r["uav_events"].sum()), int(r["zone_collided"].sum())
+        return (ne > 0 and 2.0 <= nz / ne <= 4.0), f"zone {nz} vs UAV-UAV {ne} ({ratio_text(nz, ne)})", None
 
     def b_fewer_collisions(r):
         e = ab_effect(r, "collisions")
-        return (e.estimate < 0 and e.significant) if math.isfinite(e.estimate) else None, \
-            f"B - A collisions per run {_eff(e)}"
+        return _holds(e, -1), f"B - A collisions per run {_eff(e)}", e.estimate
 
     return {"success_1": ("1 UAV never succeeds", success_1),
             "success_2": ("2 UAVs: only B succeeds", success_2),
@@ -791,7 +786,23 @@ def _finding_tests():
             "distance_wind": ("wind lengthens the distance", wind_distance),
             "distance_total": ("B flies less than A", b_shorter),
             "collisions": ("B has fewer collisions than A", b_fewer_collisions),
-            "wall_ratio": ("zone collisions ≈ 3 × UAV collisions", wall_ratio)}
+            "wall_ratio": ("zone collisions ≈ 3 × UAV-UAV collisions (counted once)", wall_ratio)}
+
+
+def _holds(e: bl.Effect, sign: int):
+    """The paper's direction (sign) and significant (blocked sign-flip test)."""
+    return (e.estimate * sign > 0 and e.significant) if math.isfinite(e.estimate) else None
+
+
+def flip_kind(base: tuple, other: tuple) -> str:
+    """How a configuration changes a finding: the statistic changes sign ("reversed"), or keeps the baseline's
+    sign but loses (or gains) significance ("weakened" / "strengthened"); counts simply "changed"."""
+    b, o = base[2], other[2]
+    if b is None or o is None or not (math.isfinite(b) and math.isfinite(o)):
+        return "changed"
+    if (b > 0) != (o > 0):
+        return "reversed"
+    return "strengthened" if other[0] else "weakened"
 
 
 def _config_label(config: str, baseline: dict) -> str:
@@ -840,10 +851,11 @@ def sensitivity_md(r, design: dict) -> list[str]:
     L += ["Per finding, the configurations that flip it relative to the baseline (with the evidence in the "
           "flipped configuration; baseline evidence first):", ""]
     for k in keys:
-        base = sf["table"][sf["baseline"]][k] if sf["baseline"] else (None, "")
+        base = sf["table"][sf["baseline"]][k] if sf["baseline"] else (None, "", None)
         fl = sf["flips"][k]
         state = "holds" if base[0] else ("does not hold" if base[0] is False else "n/a")
-        flipped = "; ".join(f"*{sf['labels'][c]}*: {sf['table'][c][k][1]}" for c in fl) or "no factor flips it"
+        flipped = "; ".join(f"*{sf['labels'][c]}* ({flip_kind(base, sf['table'][c][k])}): {sf['table'][c][k][1]}"
+                            for c in fl) or "no factor flips it"
         L += [f"- **{sf['tests'][k]}** — baseline {state} ({base[1]}). Flipped by: {flipped}."]
     L += [""]
     return L

@@ -96,7 +96,7 @@ def _runs(config_value, single_uav_successes):
                                  "block": f"{cell}|{rep}",
                                  "successes": single_uav_successes if (n == 1 and s == "B") else (1 if s == "B" else 0),
                                  "battery": 40.0 - 10 * w - rep, "distance_km": 5.0 + rep - (0.5 if s == "B" else 0),
-                                 "photos": 10, "collisions": 0, "uav_collided": 0, "zone_collided": 0})
+                                 "photos": 10, "collisions": 0, "uav_collided": 0, "zone_collided": 0, "uav_events": 0})
     return rows
 
 
