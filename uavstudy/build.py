@@ -40,6 +40,7 @@ from master.errors import ScenarioError
 from master.ssp.writer import NS as SSP_NS
 from master.ssp.writer import SspBuilder
 from uavsim.mission_encoding import encode as encode_mission
+from uavsim.params import PREFLIGHT_TIME
 
 from .names import (BATTERY, DYNAMICS, MONITOR_CONNECTORS, MONITOR_TYPE, STRATEGY, UAV_NS, UAV_PARTS, WIND,
                     component, uav_name)
@@ -56,7 +57,6 @@ RECORD_INTERVAL = 1.0      # s, trajectory resolution of the shipped scenarios
 ALTITUDE_THRESHOLD = 0.5   # m, below this height a UAV is on its pad (not checked by the monitor)
 HOME_TOLERANCE = 5.0       # m, "back at base" = landed within this distance of its pad
 SUCCESS_BATTERY = 0.05     # success needs more than 5 % battery left (the paper)
-PREFLIGHT_TIME = 5.0       # s, the vehicle's preflight check (uavsim.params.PREFLIGHT_TIME)
 
 FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "UavStrategy.fmu",
              WIND: "UavWind.fmu"}

@@ -112,8 +112,8 @@ class CampaignSummary:
 def make_task(camp: Campaign, r: RunSpec, out: Path) -> dict:
     """The plain-data task a worker needs (picklable for process pipes and Dask)."""
     return {"campaign": camp.name, "run_id": r.run_id, "index": r.index, "params": r.params, "rep": r.rep,
-            "seed": r.seed, "campaign_seed": camp.seed, "kind": camp.kind, "scenario": str(r.scenario), "options": r.options,
-            "overrides": r.overrides, "inputs": r.inputs, "inputs_sha256": r.inputs_sha256,
+            "seed": r.seed, "campaign_seed": camp.seed, "kind": camp.kind, "scenario": str(r.scenario),
+            "options": r.options, "overrides": r.overrides, "inputs": r.inputs, "inputs_sha256": r.inputs_sha256,
             "out_dir": str(out / "runs" / r.run_id), "campaign_dir": str(out), "keep": camp.keep}
 
 

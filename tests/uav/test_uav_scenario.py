@@ -100,7 +100,7 @@ BAD = [
     (minimal(targets=[[45.001, 7.0], [46.0, 7.0]]), "targets[1]: 111.1 km from the base (max 50 km)"),
     (minimal(wind={"probability": 1.5}), "wind.probability: must be <= 1, got 1.5"),
     (minimal(wind={"speed": 3}), "wind.speed: unknown field (expected one of probability, intensities, "
-                                 "direction_deg, decision_interval, turbulence, gusts)"),
+                                 "direction_deg, decision_interval, turbulence, gusts, shared, effect)"),
     (minimal(wind={"intensities": {"weak": -1}}), "wind.intensities.weak: must be >= 0, got -1"),
     (minimal(wind={"intensities": {"calm": 1}}), "wind.intensities.calm: unknown field (expected one of weak, moderate, strong)"),
     (minimal(wind={"intensities": {"weak": 7}}), "wind.intensities: speeds must satisfy weak <= moderate <= strong, got 7, 6, 9"),
@@ -117,7 +117,9 @@ BAD = [
     (minimal(stop_time=float("nan")), "stop_time: must be finite, got nan"),
     (minimal(colour="red"), "colour: unknown field (expected one of name, base, n_uavs, strategy, targets, "
                             "takeoff_altitude, assignment, zones, wind, seed, step, stop_time, "
-                            "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning)"),
+                            "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning, rules, "
+                            "cruise_speed, max_accel, layout, layout_seed, area_scale, takeoff, takeoff_interval, "
+                            "battery_capacity)"),
     (minimal(zone_planning="late"), "zone_planning: expected true or false, got 'late'"),
     ({k: v for k, v in minimal().items() if k != "strategy"}, "strategy: missing required field"),
     (minimal(zones={"a": 1}), "zones: expected a list of {name, polygon}"),
