@@ -884,9 +884,9 @@ def _wind_colors(winds):
     return {w: cmap(i / n) for i, w in enumerate(winds)}
 
 
-def _note(ax, text: str) -> None:
-    """n of the panel, under its x-axis label."""
-    ax.annotate(text, (0.5, 0.0), xycoords="axes fraction", xytext=(0, -42), textcoords="offset points",
+def _note(ax, text: str, below: float = 42) -> None:
+    """n of the panel, ``below`` points under the axis (clear of its tick labels and x-axis label)."""
+    ax.annotate(text, (0.5, 0.0), xycoords="axes fraction", xytext=(0, -below), textcoords="offset points",
                 ha="center", va="top", fontsize=7, color="dimgray", annotation_clip=False)
 
 
@@ -953,7 +953,7 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
     ax.set_ylabel("successful UAV missions")
     ax.set_title("Fig. 5 - successes per fleet size (95 % stratified interval)")
     ax.legend()
-    _note(ax, n_all)
+    _note(ax, n_all, 56)
     files["fig5"] = _save(fig, out / "fig5_success_per_fleet_size.png")
     # -- Fig. 6
     fig, ax = _fig()
