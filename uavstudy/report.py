@@ -898,6 +898,14 @@ def _headroom_legend(ax, n: int) -> None:
               columnspacing=0.8, handlelength=1.2)
 
 
+def _pairs_note(effects: dict) -> str:
+    n = sorted({e.n_blocks for e in effects.values()})
+    if not n:
+        return "one wind probability: no pairs"
+    shown = f"{n[0]}" if len(n) == 1 else f"{n[0]}-{n[-1]}"
+    return f"n = {shown} pairs per point (a run at w and the run of the same configuration and layout at 0 %)"
+
+
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path)
@@ -987,7 +995,7 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
         bx.legend(fontsize=7)
     bx.set_ylabel("battery at w minus at 0 % [%-points]")
     bx.set_title("Fig. 7b - same configuration and repetition, paired (95 % interval)", fontsize=10)
-    _note(bx, "n per point = runs at that wind probability (each paired with its 0 % run)")
+    _note(bx, _pairs_note(fd["fig7b"]))
     files["fig7"] = _save(fig, out / "fig7_battery_per_wind.png")
     # -- Fig. 8
     fig, (ax, bx) = _fig(12, 4.8, 2)
@@ -1008,7 +1016,7 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
         bx.legend(fontsize=7)
     bx.set_ylabel("distance per run at w minus at 0 % [km]")
     bx.set_title("Fig. 8b - same configuration and repetition, paired (95 % interval)", fontsize=10)
-    _note(bx, "n per point = runs at that wind probability (each paired with its 0 % run)")
+    _note(bx, _pairs_note(fd["fig8b"]))
     files["fig8"] = _save(fig, out / "fig8_distance_per_wind.png")
     # -- Fig. 9, one panel per area
     fig, axes = _fig(5 * len(A), 4.5, len(A))
