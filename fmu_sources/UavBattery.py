@@ -13,7 +13,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import params as P  # noqa: E402
 from uavsim.battery import Battery, BatteryParams, PowerParams  # noqa: E402
-from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.kernels import load as load_kernels  # noqa: E402
 
 _POWER = [  # name, unit, default, description  (PowerParams fields)
@@ -36,7 +36,7 @@ _BATT = [  # BatteryParams fields
 ]
 
 
-class UavBattery(UnitsMixin, Fmi2Slave):
+class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "3S LiPo battery with Zeng et al. (2019) rotary-wing propulsion power"
 

@@ -13,7 +13,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import params as P  # noqa: E402
 from uavsim.dynamics import Dynamics, DynamicsParams  # noqa: E402
-from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.kernels import load as load_kernels  # noqa: E402
 from uavsim.geodesy import EnuFrame  # noqa: E402
 
@@ -54,7 +54,7 @@ _OUT_REAL = [
 ]
 
 
-class UavDynamics(UnitsMixin, Fmi2Slave):
+class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Quadcopter (3DR Iris+ class) point-mass dynamics with ArduPilot-like position control"
 

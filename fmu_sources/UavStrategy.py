@@ -15,7 +15,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import mission_encoding as M  # noqa: E402
 from uavsim import params as P  # noqa: E402
-from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.strategy import Strategy, StrategyParams  # noqa: E402
 
 _REAL = [  # name, unit, default, description
@@ -44,7 +44,7 @@ _INDEXED_DESCRIPTIONS = {  # docs/uav_models.md, "Mission data as indexed parame
 }
 
 
-class UavStrategy(UnitsMixin, Fmi2Slave):
+class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Surveillance mission logic of one UAV (paper's Strategy A / B)"
 

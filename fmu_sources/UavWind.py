@@ -13,7 +13,7 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import params as P  # noqa: E402
-from uavsim.fmi import UnitsMixin  # noqa: E402
+from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.wind import Wind, WindParams  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
@@ -35,7 +35,7 @@ _PARAMS = [  # name, unit, default, description
 ]
 
 
-class UavWind(UnitsMixin, Fmi2Slave):
+class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Paper's stochastic east-to-west wind with optional Dryden turbulence and 1-cosine gusts"
 

@@ -121,7 +121,8 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
             sys.path.insert(0, str(src_dir))
         compile_kernels(pkg, src_dir)
         out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
-                                   project_files=[pkg, stage / HASH_FILE])
+                                   project_files=[pkg, stage / HASH_FILE],
+                                   canGetAndSetFMUstate=True)     # uavsim.fmi.StateMixin
     return Path(out)
 
 

@@ -33,6 +33,20 @@ def _implementations(items) -> dict | None:
     return out or None
 
 
+def _algorithm_option_flags(p) -> None:
+    """One flag per algorithm setting (master.algorithm_options); unset flags leave the SSD's or the default."""
+    from .algorithm_options import ALGORITHM_OPTIONS
+    for opt in ALGORITHM_OPTIONS.values():
+        default = "" if opt.default is None else f" (default: {opt.default})"
+        p.add_argument(opt.flag, dest=opt.name, default=None, metavar=opt.name.split("_")[-1].upper(),
+                       help=f"{opt.help}{default}")
+
+
+def _algorithm_option_values(args) -> dict:
+    from .algorithm_options import ALGORITHM_OPTIONS
+    return {name: getattr(args, name) for name in ALGORITHM_OPTIONS if getattr(args, name, None) is not None}
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
@@ -48,17 +62,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
     r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
     r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
-    r.add_argument("--extrapolation", type=int, choices=[0, 1, 2], default=0, metavar="K",
-                   help="jacobi, gauss-seidel: coupled inputs extrapolated from the last K+1 output samples "
-                        "(0 held, 1 linear, 2 quadratic; docs/coupling.md)")
-    r.add_argument("--coupling-tol", type=float, default=1e-10, metavar="REL",
-                   help="iterative: relative tolerance of the coupled values (default: 1e-10)")
-    r.add_argument("--coupling-atol", type=float, metavar="ABS",
-                   help="iterative: absolute tolerance of the coupled values (default: --coupling-tol)")
-    r.add_argument("--coupling-max-iter", type=int, default=50, metavar="N",
-                   help="iterative: iterations per step at most (default: 50)")
-    r.add_argument("--coupling-update", choices=["fixed-point", "aitken", "iqn-ils"], default="iqn-ils",
-                   help="iterative: how the next iterate is formed (default: iqn-ils)")
+    _algorithm_option_flags(r)
     r.add_argument("--tolerance", type=float, metavar="REL",
                    help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
@@ -126,6 +130,29 @@ def _parser() -> argparse.ArgumentParser:
     rp.add_argument("campaign_dir")
     rp.add_argument("--debug", action="store_true")
 
+    st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
+                                      "reference: study.csv (errors, observed order, FMU calls) and figures",
+                        description="Run every combination of --algorithm, --extrapolation and --step on one "
+                                    "scenario (as a resumable campaign), compare each run with the reference at its "
+                                    "recorded times and write study.csv and PNG figures into --output "
+                                    "(docs/coupling.md).")
+    st.add_argument("scenario")
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A")
+    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K")
+    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H")
+    st.add_argument("--reference", required=True, metavar="REF",
+                    help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
+                         "signals by name), fine:H (the scenario at step H with iterative coupling) or a results "
+                         "file (.parquet, .csv)")
+    st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
+                                                                   "connected output the reference knows)")
+    st.add_argument("--stop-time", type=float, metavar="SECONDS")
+    st.add_argument("--output", "-o", required=True, metavar="DIR")
+    st.add_argument("--workers", type=int, default=None)
+    st.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    st.add_argument("--no-progress", action="store_true")
+    st.add_argument("--debug", action="store_true")
+
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
     b.add_argument("scenario_yaml")
@@ -181,9 +208,7 @@ def _dispatch(args) -> int:
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
                        lenient=args.lenient,
                        implementation=_implementations(args.implementation), inputs=args.input,
-                       extrapolation=args.extrapolation, coupling_tol=args.coupling_tol,
-                       coupling_atol=args.coupling_atol, coupling_max_iter=args.coupling_max_iter,
-                       coupling_update=args.coupling_update)
+                       **_algorithm_option_values(args))
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:
@@ -232,6 +257,14 @@ def _dispatch(args) -> int:
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
         return 0 if summary.ok else 1
+    if args.command == "study":
+        from .study import run_study
+        summary = run_study(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
+                            steps=args.step, reference=args.reference, record=args.record, output=args.output,
+                            workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
+                            progress=not args.no_progress)
+        print(summary.describe())
+        return 0
     if args.command == "report":
         from .campaign.report import build_report
         path = build_report(args.campaign_dir)       # the kind recorded in campaign.json writes it

@@ -77,11 +77,19 @@ class Options:
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
-    extrapolation: int = 0                            # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
-    coupling_tol: float = 1e-10                       # iterative: relative tolerance of the coupled values
+    # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
+    extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
+    coupling_tol: float | None = None                 # iterative: relative tolerance of the coupled values
     coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
-    coupling_max_iter: int = 50                       # iterative: iterations per step at most
-    coupling_update: str = "iqn-ils"                  # iterative: "fixed-point", "aitken", "iqn-ils"
+    coupling_max_iter: int | None = None              # iterative: iterations per step at most
+    coupling_update: str | None = None                # iterative: "fixed-point", "aitken", "iqn-ils"
+    step_rtol: float | None = None                    # adaptive, ecco: relative tolerance of the step's error
+    step_atol: float | None = None                    # adaptive, ecco: absolute tolerance (default: step_rtol)
+    min_step: float | None = None                     # adaptive, ecco: smallest step (s)
+    max_step: float | None = None                     # adaptive, ecco: largest step (s; at most the master step)
+    initial_step: float | None = None                 # adaptive, ecco: first step (s)
+    error_estimate: str | None = None                 # adaptive: "extrapolation" (default) or "doubling"
+    options_source: str = "command line"              # what run.json names as the source of the settings given
 
 
 @dataclass
@@ -179,6 +187,8 @@ class Execution:
             if name not in plan.fmus:
                 raise ScenarioError(f"step multiple given for unknown component {name!r}", file=shown_as,
                                     element="Settings")
+        from .algorithm_options import resolve_algorithm_options
+        st.sources.update(resolve_algorithm_options(o, model.settings.algorithm_options, o.options_source))
         self.algorithm = get_algorithm(st.algorithm)
         self.algorithm.configure(o)
         self.solver = SolverChoice(o.solver, o.solver_step)
@@ -192,6 +202,7 @@ class Execution:
                      "record_interval": st.step * st.record_every, "step_multiples": st.step_multiples,
                      **({"last_step": st.last_step} if st.last_step is not None else {}),
                      "tolerance": st.tolerance, "settings_sources": st.sources,
+                     "algorithm_options": {k: getattr(o, k) for k in _algorithm_option_names()},
                      "parameters_overridden": dict(p.user_params),
                      "fmus": {name: {"source": model.components[name].source, "sha256": f.sha256,
                                      "fmi_version": f.fmi_version,
@@ -389,10 +400,14 @@ class Execution:
                         meta["results_notes"] = self.recording.group.notes
             if self.rt is not None:
                 # before terminate: a model-exchange slave's solver goes with its instance
+                meta["fmu_calls"] = {"do_step": dict(zip(self.rt.names, self.rt.do_step_calls)),
+                                     "do_step_total": sum(self.rt.do_step_calls)}
                 solvers = {s.name: s.stats() for s in self.rt.slaves if s is not None}
                 if any(solvers.values()):
                     meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
+            if self._initialized:
+                meta["algorithm_info"].update(self.algorithm.finish(self.out_dir))
             if self._initialized:
                 for m in [*self.monitors, *self.extra_observers]:
                     try:
@@ -434,6 +449,11 @@ class Execution:
             self.close("interrupted", CosimError("interrupted by the user", time=self.metadata.get("last_time")))
         else:
             self.close("error", exc if isinstance(exc, CosimError) else None)
+
+
+def _algorithm_option_names():
+    from .algorithm_options import ALGORITHM_OPTIONS
+    return list(ALGORITHM_OPTIONS)
 
 
 def _steps_to(start: float, h: float, t: float) -> int:

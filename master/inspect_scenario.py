@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .algorithms import ALGORITHMS
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order, loop_cycles
 from .execution import prepare
 from .settings import resolve_settings
@@ -96,7 +97,5 @@ def _describe_loop(members: list[str], cycle: list[dict], algorithm: str) -> str
         text.append(f"    {', '.join(assumed)} declare{'s' if len(assumed) == 1 else ''} no output dependencies, so "
                     "every output counts as depending on every input; if they do not, there is no loop")
     text.append("    initialization iterates it until the values settle; "
-                + ("jacobi reads every input from the previous step, so the loop only delays values by a step"
-                   if algorithm == "jacobi" else
-                   f"{algorithm} steps it in order and the connections listed as broken read the previous step"))
+                + ALGORITHMS.get(algorithm, element="algorithm").loop_treatment)
     return "\n".join(text)

@@ -71,6 +71,7 @@ class Runtime:
         self.stop_reason = None       # set by a monitor that ends the run early
         self.probe = None             # a supervisor's shared array: [phase code, component index] (supervise.py)
         self.slaves = [None] * n
+        self.do_step_calls = [0] * n  # per component, rolled-back steps included: the work a run cost (run.json)
         self._logging_on = logging_on
         self._inprocess = inprocess
         self._solver = solver

@@ -102,6 +102,9 @@ class CModel:
     # FMI 2.0 get/set/free FMU state work (the framework copies the model data; canGetAndSetFMUstate="true"):
     # what iterative coupling's rollback needs. Off for the others, whose tests expect a refusal.
     saves_state: bool = False
+    # FMI 3.0 event mode and early return (hasEventMode, mightReturnEarlyFromDoStep; fmi3_framework.c built with
+    # FW_EVENT_MODE): the model steps with model_step_to_event and model_update_discrete
+    event_mode: bool = False
 
     @property
     def c_source(self) -> Path:
@@ -220,8 +223,8 @@ C_MODELS: dict[str, CModel] = {
 # providesDirectionalDerivative)
 FMI2_OPTIONAL_FUNCTIONS = ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate", "fmi2SerializedFMUstateSize",
                            "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative")
-# FMUs with deliberate defects, built on request (build_c_fmu) and not among the fixture's keys: the factory's
-# own tests expect complete FMUs
+# FMUs built on request (build_c_fmu) and not among the fixture's keys, which the factory's own tests list and
+# check as complete FMUs without features: FMUs with deliberate defects, and models for one feature's tests
 VARIANT_MODELS: dict[str, CModel] = {}
 VARIANT_MODELS["GainPreRelease"] = CModel(
     name="GainPreRelease",
@@ -233,6 +236,30 @@ VARIANT_MODELS["GainPreRelease"] = CModel(
     source="Gain.c",
     hidden_functions=FMI2_OPTIONAL_FUNCTIONS,
     renamed_functions={"fmi2DeserializeFMUstate": "fmi2DeSerializeFMUstate"},
+)
+
+VARIANT_MODELS["Ball"] = CModel(
+    name="Ball",
+    description="A bouncing ball, its flight integrated exactly: h' = v, v' = -g; at h = 0 falling, v := -e v "
+    "(FMI 3.0 event mode and early return; tests/fmus_c/Ball.c)",
+    variables=[
+        _param("g", 9.81, "gravity"),
+        _param("e", 0.5, "coefficient of restitution"),
+        _param("h0", 1.0, "initial height"),
+        _param("v0", 0.0, "initial speed (upwards)"),
+        _param("v_min", 1e-3, "a slower rebound leaves the ball on the ground"),
+        _param("max_bounces", 0, "the simulation ends at this bounce (0: never)", typ="Integer"),
+        _output("h", "height"),
+        _output("v", "speed (upwards)"),
+        Var("bounces", "Integer", "output", "discrete", "calculated", None, "bounces so far"),
+        Var("t_bounce", "Real", "output", "discrete", "calculated", None, "time of the last bounce (-1: none)"),
+        Var("on_ground", "Boolean", "output", "discrete", "calculated", None, "resting on the ground"),
+        Var("importer_updates", "Integer", "output", "discrete", "calculated", None,
+            "event iteration passes the importer asked for (fmi3UpdateDiscreteStates)"),
+    ],
+    output_deps={"h": [], "v": [], "bounces": [], "t_bounce": [], "on_ground": [], "importer_updates": []},
+    versions_kinds={(3, "cs")},
+    event_mode=True,
 )
 
 PY_MODELS = ("MassA", "MassB", "Integrator", "Gain", "Faulty", "Types")
@@ -430,7 +457,8 @@ def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> st
         f" description={quoteattr(spec.description)} generationTool={quoteattr(GENERATION_TOOL)}"
         ' variableNamingConvention="structured">',
         f'  <CoSimulation modelIdentifier="{spec.name}" canHandleVariableCommunicationStepSize="true"'
-        ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
+        ' canGetAndSetFMUState="false" canSerializeFMUState="false"'
+        f' hasEventMode="{str(spec.event_mode).lower()}" mightReturnEarlyFromDoStep="{str(spec.event_mode).lower()}"'
         ' providesIntermediateUpdate="false" maxOutputDerivativeOrder="0"/>',
         "  <LogCategories>",
         '    <Category name="logStatusWarning"/>',
@@ -600,6 +628,7 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
             f"-I{inc}",
             f"-I{C_DIR}",
             *(["-DFW_CAN_SAVE_STATE"] if spec.saves_state and fmi_version == 2 else []),
+            *(["-DFW_EVENT_MODE"] if spec.event_mode and fmi_version == 3 else []),
             str(C_DIR / f"fmi{fmi_version}_framework.c"),
             str(spec.c_source),
             "-o",

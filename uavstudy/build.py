@@ -261,6 +261,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     b = SspBuilder(scn.name, parameter_set=PARAMETER_SET)
     b.start, b.stop, b.step = 0.0, float(scn.stop_time), float(scn.step)
     b.algorithm = scn.algorithm
+    b.algorithm_options = dict(scn.algorithm_options)
     b.record_interval = _record_interval(float(scn.step))
     b.record = record_patterns(scn.wind.shared)
     if scn.wind.shared:

@@ -112,6 +112,9 @@ class UavScenario:
     # the idle rest up to stop_time is skipped; false = run to stop_time
     end_when_all_landed: bool = True
     zone_planning: bool = True                       # plan legs around zones (false: the paper's late detection)
+    # the co-simulation algorithm's settings (master.algorithm_options: extrapolation, coupling_tol, ...),
+    # written into the SSD's settings annotation
+    algorithm_options: dict = field(default_factory=dict)
     rules: str = "improved"                          # the rule set giving the defaults (RULE_SETS)
     cruise_speed: float = 10.0                       # m/s horizontal waypoint speed (WPNAV_SPEED)
     max_accel: float = 2.5                           # m/s^2 horizontal acceleration (WPNAV_ACCEL)
@@ -377,6 +380,8 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
     if "algorithm" in data:
         from master.algorithms import ALGORITHMS as REGISTERED      # any algorithm the engine knows
         kw["algorithm"] = v.choice("algorithm", data["algorithm"], REGISTERED.names())
+    if "algorithm_options" in data:
+        kw["algorithm_options"] = _algorithm_options(v, data["algorithm_options"])
     if "end_when_all_landed" in data:
         kw["end_when_all_landed"] = v.boolean("end_when_all_landed", data["end_when_all_landed"])
     _rule_fields(v, data, kw)
@@ -410,6 +415,23 @@ def load_scenario_yaml(path) -> UavScenario:
     return scenario_from_dict(data, path)
 
 
+def _algorithm_options(v, given) -> dict:
+    from master.algorithm_options import ALGORITHM_OPTIONS
+    from master.errors import CosimError
+    if not isinstance(given, dict):
+        v.fail("algorithm_options", f"expected a mapping of {', '.join(ALGORITHM_OPTIONS)}")
+    out = {}
+    for name, raw in given.items():
+        if name not in ALGORITHM_OPTIONS:
+            v.fail(f"algorithm_options.{name}", f"unknown algorithm setting (expected one of "
+                                                f"{', '.join(ALGORITHM_OPTIONS)})")
+        try:
+            out[name] = ALGORITHM_OPTIONS[name].parse(raw, name)
+        except CosimError as exc:
+            v.fail(f"algorithm_options.{name}", exc.reason)
+    return out
+
+
 def scenario_to_dict(scn: UavScenario) -> dict:
     """Plain-data form of a scenario (the YAML schema)."""
     return {
@@ -430,6 +452,7 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "impact_diameter": scn.impact_diameter, "lookahead": scn.lookahead,
         "algorithm": scn.algorithm, "end_when_all_landed": scn.end_when_all_landed,
         "zone_planning": scn.zone_planning,
+        **({"algorithm_options": dict(scn.algorithm_options)} if scn.algorithm_options else {}),
         "rules": scn.rules, "cruise_speed": scn.cruise_speed, "max_accel": scn.max_accel,
         "layout": scn.layout, "layout_seed": scn.layout_seed, "area_scale": scn.area_scale,
         "takeoff": scn.takeoff, "takeoff_interval": scn.takeoff_interval,

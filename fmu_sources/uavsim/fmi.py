@@ -2,10 +2,14 @@
 
 pythonfmu 0.7's ``Real`` has no ``unit`` attribute, so ``UnitReal`` adds it to the ``<Real>``
 element, and ``UnitsMixin.to_xml`` inserts the matching ``<UnitDefinitions>`` (with SI base-unit
-exponents) that FMI 2.0 requires for every unit used.
+exponents) that FMI 2.0 requires for every unit used.  ``StateMixin`` gives a shell FMI's get/set FMU
+state (rollback: iterative coupling).
 """
 from __future__ import annotations
 
+import copy
+import ctypes
+import types
 from operator import attrgetter
 from xml.etree.ElementTree import Element, SubElement
 
@@ -255,3 +259,106 @@ class UnitsMixin:
             idx = list(root).index(root.find("CoSimulation")) + 1
             root.insert(idx, ud)
         return root
+
+
+#: slave attributes that are no state: pythonfmu's variable table and log queue, the accessor caches (closures
+#: over this very instance, valid as long as its __dict__ object is), the instance's identity
+_NOT_STATE = frozenset({"vars", "log_queue", "_vr_cache", "_vr_readers", "_vr_writers", "instance_name",
+                        "resources", "visible", "guid"})
+#: kept by reference in a state, never copied: code and loaded libraries (a model's bound kernel closures, the
+#: kernels object holding a ctypes library), which do not change while the FMU runs
+_CODE = (types.FunctionType, types.BuiltinFunctionType, types.MethodType, types.ModuleType, ctypes.CDLL,
+         ctypes._CFuncPtr)
+_IMMUTABLE = frozenset({float, int, bool, str, bytes, complex, type(None)})
+
+
+_PLAIN: dict = {}        # class -> its slots, or None: not a plain record (decided once per class)
+
+
+def _record_slots(t):
+    """The slots of a class defined in Python that copies like a plain record (its attributes, ``__dict__``
+    and slots, are its state: no custom copy or pickle protocol, no built-in base but object), else None."""
+    if t not in _PLAIN:
+        _PLAIN[t] = _slots(t) if _plain(t) else None
+    return _PLAIN[t]
+
+
+def _plain(t) -> bool:
+    return (t.__flags__ & (1 << 9)                # Py_TPFLAGS_HEAPTYPE: defined in Python
+            and all(b is object or b.__flags__ & (1 << 9) for b in t.__mro__)
+            and "__deepcopy__" not in dir(t) and t.__reduce_ex__ is object.__reduce_ex__
+            and t.__reduce__ is object.__reduce__ and getattr(t, "__setstate__", None) is None)
+
+
+def _slots(t) -> tuple:
+    return tuple(n for c in t.__mro__ for n in c.__dict__.get("__slots__", ()) if n not in ("__dict__", "__weakref__"))
+
+
+_MISSING = object()
+try:
+    from numpy import ndarray as _ndarray
+except ImportError:              # a bundle without numpy: no array to copy
+    _ndarray = None
+
+
+def _copy(obj, memo: dict):
+    """A deep copy of a state value: like copy.deepcopy (which it falls back to for random generators,
+    geometry ...), but shares code and libraries and copies plain records, containers and numeric arrays
+    directly, several times faster (a model keeps hundreds of small slotted records, e.g. the wind's drawn
+    intervals; bench/bench_fmu_state.py)."""
+    t = type(obj)
+    if t in _IMMUTABLE:
+        return obj
+    found = memo.get(id(obj))
+    if found is not None:
+        return found
+    imm = _IMMUTABLE
+    if t is list:
+        out = memo[id(obj)] = []
+        out.extend([x if type(x) in imm else _copy(x, memo) for x in obj])
+    elif t is dict:
+        out = memo[id(obj)] = {}
+        out.update({k: v if type(v) in imm else _copy(v, memo) for k, v in obj.items()})
+    elif t is tuple:
+        out = tuple([x if type(x) in imm else _copy(x, memo) for x in obj])
+    elif t is _ndarray and obj.dtype.hasobject is False and obj.base is None:
+        out = obj.copy()         # an array that owns its numbers (a view would need its base shared)
+    elif isinstance(obj, _CODE) or t.__name__ == "Kernels":
+        out = obj
+    elif (slots := _record_slots(t)) is not None:
+        out = memo[id(obj)] = object.__new__(t)
+        setattr_ = object.__setattr__
+        for name in slots:
+            v = getattr(obj, name, _MISSING)
+            if v is not _MISSING:
+                setattr_(out, name, v if type(v) in imm else _copy(v, memo))
+        if hasattr(obj, "__dict__"):
+            out.__dict__.update({k: v if type(v) in imm else _copy(v, memo) for k, v in obj.__dict__.items()})
+    else:
+        out = copy.deepcopy(obj, memo)
+    memo[id(obj)] = out
+    return out
+
+
+class StateMixin:
+    """FMI get/set FMU state for a pythonfmu slave (pythonfmu calls ``_get_fmu_state`` / ``_set_fmu_state``
+    for fmi2GetFMUstate / fmi2SetFMUstate; cosim-master's in-process path calls them too).
+
+    The state is a deep copy of every instance attribute: parameters, inputs, outputs, the model objects with
+    their sub-step state, random generators (numpy's copy their bit generator's state) and caches, so a
+    restore is bit-exact whatever the model keeps. pythonfmu's default saves the registered variables only,
+    which misses all of that. Code and libraries are shared, not copied. Restoring copies the saved values
+    again (a state restores any number of times), updates the instance's own __dict__ in place (the fast
+    accessors hold it) and drops attributes made after the save."""
+
+    def _get_fmu_state(self):
+        memo: dict = {}
+        state = {k: _copy(v, memo) for k, v in self.__dict__.items() if k not in _NOT_STATE}
+        return state
+
+    def _set_fmu_state(self, state):
+        d = self.__dict__
+        for k in [k for k in d if k not in _NOT_STATE and k not in state]:
+            del d[k]
+        memo: dict = {}
+        d.update({k: _copy(v, memo) for k, v in state.items()})

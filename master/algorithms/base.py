@@ -33,6 +33,9 @@ class Algorithm:
     info: dict = {}          # facts for run.json; an algorithm with facts sets its own dict in stepping_order
     extrapolation = 0        # polynomial order of the coupled inputs (extrapolation.py); 0: held, as read
     honours_extrapolation = True    # a fixed-step algorithm whose inputs come from earlier outputs
+    # what an algebraic loop means under this algorithm, completing "initialization iterates it until the values
+    # settle; ..." in ``inspect`` (each algorithm knows best how it treats a loop)
+    loop_treatment = "every input is read from the previous step, so the loop only delays values by a step"
 
     def configure(self, options) -> None:
         """The run's options (execution.Options), before ``prepare``: an algorithm takes the ones it uses."""
@@ -82,3 +85,8 @@ class Algorithm:
         if self.rt.changed:
             self._build()
         self._compile(h)(n, t)
+
+    def finish(self, out_dir) -> dict:
+        """Called once when the run closes (also after a failure): files of its own in ``out_dir`` (None: the
+        run keeps its results in memory); returns facts to add to run.json's ``algorithm_info``."""
+        return {}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     from ctypes import c_double
-    ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double}
+    ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     uses_ct = False
     body: list[str] = []
     tail: list[str] = []
@@ -37,6 +37,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         for j, s in enumerate(setters):
             ns[f"s{i}_{j}"] = s
             lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+        lines.append(f"{ind}_calls[{i}] += 1")
         lines.append(f"{ind}if (st := {call}) > 1: _step_failed({i}, st, t)")
         gets = []
         for j, g in enumerate(getters):

@@ -11,6 +11,8 @@ from .ordering import gauss_seidel_order
 class GaussSeidel(Algorithm):
     name = "gauss-seidel"
     gauss_seidel = True
+    loop_treatment = ("gauss-seidel steps it in order and the connections listed as broken read the previous "
+                      "step")
 
     def stepping_order(self, rt, plan):
         so = gauss_seidel_order(plan, rt.names)

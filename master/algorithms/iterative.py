@@ -27,6 +27,8 @@ from .gauss_seidel import GaussSeidel
 @ALGORITHMS.register("iterative")
 class Iterative(GaussSeidel):
     name = "iterative"
+    loop_treatment = ("iterative repeats each step until the connections listed as broken agree with the values "
+                      "the step produces (within --coupling-tol)")
     honours_extrapolation = False       # the iteration, not a prediction, settles the inputs
 
     def configure(self, options) -> None:

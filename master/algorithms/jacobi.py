@@ -9,3 +9,4 @@ from .base import Algorithm
 class Jacobi(Algorithm):
     name = "jacobi"
     gauss_seidel = False
+    loop_treatment = "jacobi reads every input from the previous step, so the loop only delays values by a step"

@@ -88,8 +88,10 @@ def execute_run(task: dict) -> dict:
             shutil.rmtree(out)
         out.mkdir(parents=True)
         opts = task["options"]
-        kw = {k: opts[k] for k in ("start_time", "record_interval", "record", "log_level", "step_multiples")
-              if k in opts}
+        from .spec import ALGORITHM_RUN_OPTIONS
+        kw = {k: opts[k] for k in ("start_time", "record_interval", "record", "log_level", "step_multiples",
+                                   *ALGORITHM_RUN_OPTIONS) if k in opts}
+        kw["options_source"] = "campaign"
         kw.setdefault("log_level", "error")
         kw["write_csv"] = bool(opts.get("csv", True))
         if task.get("keep", "all") == "summary":
@@ -107,7 +109,8 @@ def execute_run(task: dict) -> dict:
             rec["error"] = meta.get("error") or f"run ended with outcome {oc!r}"
         rec["scenario_sha256"] = meta.get("scenario_sha256")
         rec["fmus"] = {k: v.get("sha256") for k, v in (meta.get("fmus") or {}).items()}
-        for k in ("steps", "step_size", "stop_time", "algorithm", "last_time", "failed_at"):
+        for k in ("steps", "step_size", "stop_time", "algorithm", "last_time", "failed_at", "fmu_calls",
+                  "algorithm_options", "algorithm_info"):
             if k in meta:
                 rec[k] = meta[k]
         if meta.get("monitor_errors"):

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import yamlio
+from ..algorithm_options import ALGORITHM_OPTIONS
 from ..errors import CosimError, ScenarioError
 from ..ssp.archive import file_sha256
 from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
@@ -37,11 +38,13 @@ TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "d
 #: the parts of ``design:`` (configurations, each crossed with the grid)
 DESIGN_KEYS = ("baseline", "one_at_a_time", "factorial")
 #: fixed run options (``run:``), also allowed as grid/runs keys
+#: the algorithms' settings (master.algorithm_options): run options too, and part of a run's results
+ALGORITHM_RUN_OPTIONS = tuple(ALGORITHM_OPTIONS)
 RUN_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record", "csv",
-               "log_level", "timeout", "step_multiples")
+               "log_level", "timeout", "step_multiples") + ALGORITHM_RUN_OPTIONS
 #: the run options that change a run's results (part of its input fingerprint)
 RESULT_OPTIONS = ("stop_time", "start_time", "step", "algorithm", "record_interval", "record",
-                  "step_multiples")
+                  "step_multiples") + ALGORITHM_RUN_OPTIONS
 #: the run options a scenario carries itself (an SSP's default experiment): a run option overrides them
 SCENARIO_OPTIONS = ("stop_time", "step", "algorithm")
 KEEP = ("summary", "all")
@@ -90,7 +93,9 @@ def scenario_sha256(path: Path) -> str:
 #: modules that only read finished records (the report, the table): editing them changes no run's result
 REPORT_ONLY = ("master/campaign/report.py", "master/campaign/stats.py", "master/campaign/table.py",
                "master/campaign/blocked.py",
-               "master/cli.py", "master/inspect_scenario.py")
+               "master/cli.py", "master/inspect_scenario.py", "master/study/__init__.py",
+               "master/study/compare.py", "master/study/figures.py", "master/study/reference.py",
+               "master/study/study.py")
 _code_sha: str | None = None
 
 
@@ -529,6 +534,12 @@ def _check_options(err, where, opts: dict):
         from ..algorithms import ALGORITHMS
         if opts["algorithm"] not in ALGORITHMS:
             err(f"{where}.algorithm", f"must be one of {', '.join(ALGORITHMS.names())}, got {opts['algorithm']!r}")
+    for name in ALGORITHM_RUN_OPTIONS:
+        if name in opts:
+            try:
+                ALGORITHM_OPTIONS[name].parse(opts[name], f"{where}.{name}")
+            except CosimError as exc:
+                err(exc.element, exc.reason)
     if "csv" in opts and not isinstance(opts["csv"], bool):
         err(f"{where}.csv", f"expected true or false, got {opts['csv']!r}")
     if "log_level" in opts and opts["log_level"] not in ("debug", "info", "warning", "error", "none"):

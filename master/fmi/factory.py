@@ -17,6 +17,9 @@ def choose_kind(fmu: LoadedFmu, implementation: str = "any") -> str:
     if implementation not in IMPLEMENTATIONS:
         raise ValueError(f"implementation {implementation!r} is not one of {', '.join(IMPLEMENTATIONS)}")
     if not offered:
+        if getattr(md, "scheduledExecution", None) is not None:
+            raise ValueError("the FMU offers FMI 3.0 scheduled execution only (model partitions activated by "
+                             "Clocks), which is not supported: only co-simulation and model exchange are")
         raise ValueError("the FMU supports neither co-simulation nor model exchange")
     wanted = offered[0] if implementation == "any" else implementation
     if wanted not in offered:

@@ -1,4 +1,23 @@
-"""FMI 3.0 co-simulation instances; variables of one base type may span several concrete FMI 3 types."""
+"""FMI 3.0 co-simulation instances; variables of one base type may span several concrete FMI 3 types.
+
+Event mode and early return (FMI 3.0 sections 4.2.3 and 4.3): an FMU that offers event mode
+(``hasEventMode``) is instantiated with eventModeUsed, and one that may return early from a step
+(``mightReturnEarlyFromDoStep``) with earlyReturnAllowed. The master's grid stays fixed: the events an FMU
+reports are handled within the communication step that contains them, by this component alone.
+
+* fmi3DoStep reports eventHandlingNeeded: Event Mode at lastSuccessfulTime, fmi3UpdateDiscreteStates until
+  the FMU needs no new discrete states, then Step Mode again (an event at the end of the step is handled
+  there before the master reads the outputs).
+* fmi3DoStep returned early (lastSuccessfulTime < t + h, after an event or not): the rest of the step is
+  another fmi3DoStep from lastSuccessfulTime to t + h, so that the component reaches the master's
+  communication point like every other. Its inputs stay those of the step's start throughout (the step's
+  zero-order hold); the other components see what changed at the event at the next communication point.
+* terminateSimulation, from fmi3DoStep or from the event iteration, ends the run after this step (as
+  before). When it comes at an event inside the step, the FMU stays at that time and its outputs read at the
+  step's end are those of the event; the log says so.
+
+Clocks (scheduled execution, clocked co-simulation) are not supported.
+"""
 from __future__ import annotations
 
 import ctypes
@@ -6,9 +25,11 @@ from ctypes import POINTER, byref, c_char_p, c_double, c_size_t, c_uint, c_uint8
 
 import numpy as np
 
+from ..errors import FmuError
+from .events import settle
 from .fmpy_adapter import fmi3_callbacks, load_library
 from .native import NativeSlave
-from .slave import DISCARD, ERROR, OK, Port, array_shape
+from .slave import DISCARD, ERROR, OK, WARNING, Port, array_shape
 
 
 def _ptr(arr: np.ndarray, ctype):
@@ -27,6 +48,8 @@ class Fmi3Slave(NativeSlave):
     """FMI 3.0 co-simulation; variables of one base type may span several concrete FMI 3 types."""
     GET_STATE, SET_STATE, FREE_STATE = "fmi3GetFMUState", "fmi3SetFMUState", "fmi3FreeFMUState"
     TERMINATE, FREE_INSTANCE = "fmi3Terminate", "fmi3FreeInstance"
+    # set from the FMU's capabilities at instantiation (model exchange, which inherits from here, uses neither)
+    event_mode = early_return = False
 
     def __init__(self, name, fmu, log, shown_as, logging_on=False):
         super().__init__(name, fmu, log, shown_as)
@@ -44,9 +67,21 @@ class Fmi3Slave(NativeSlave):
     def instantiate(self):
         self._log_cb, self._iu_cb = fmi3_callbacks(self._logger_fn())
         resources = str(self.fmu.unzip_dir / "resources") + "/"
-        comp = self._f["fmi3InstantiateCoSimulation"](
-            self.name.encode(), self.fmu.md.guid.encode(), resources.encode(), False, self.logging_on,
-            False, False, None, 0, None, self._log_cb, self._iu_cb)
+        cs = self.fmu.md.coSimulation
+        self.event_mode = bool(getattr(cs, "hasEventMode", False))
+        self.early_return = bool(getattr(cs, "mightReturnEarlyFromDoStep", False))
+        self.terminate_requested = False
+        self.counts = dict.fromkeys(("events", "early_returns"), 0)
+        comp = self._instantiate(resources)
+        if not comp and self.event_mode:
+            # some FMUs declare hasEventMode but refuse eventModeUsed (Reference FMU Roberts): without event mode
+            # an FMU handles its events itself, which FMI 3.0 requires of every co-simulation FMU
+            refusal = self.log.pop_error(self.name)
+            self.event_mode = False
+            comp = self._instantiate(resources)
+            if comp:
+                self.log.message(self.name, "warning", "declares hasEventMode but refused eventModeUsed"
+                                 + (f" ({refusal})" if refusal else "") + ": instantiated without event mode")
         if not comp:
             raise self.fail("fmi3InstantiateCoSimulation", ERROR)
         self.c = comp
@@ -54,6 +89,11 @@ class Fmi3Slave(NativeSlave):
         self.instantiated = True
         self._last_successful = c_double()
         self._flags = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool())
+
+    def _instantiate(self, resources: str):
+        return self._f["fmi3InstantiateCoSimulation"](
+            self.name.encode(), self.fmu.md.guid.encode(), resources.encode(), False, self.logging_on,
+            self.event_mode, self.early_return, None, 0, None, self._log_cb, self._iu_cb)
 
     def setup(self, start, stop, tolerance=None):
         self._start, self._stop, self._tol = start, stop, tolerance
@@ -66,6 +106,8 @@ class Fmi3Slave(NativeSlave):
     def exit_init(self, t):
         self.check("fmi3ExitInitializationMode", self._f["fmi3ExitInitializationMode"](self.c), t)
         self.initialized = True
+        if self.event_mode:          # with eventModeUsed the FMU leaves initialization in Event Mode
+            self.terminate_requested = self._event_iteration(t)
 
     _CT = {"Float64": c_double, "Float32": ctypes.c_float, "Int8": ctypes.c_int8, "UInt8": ctypes.c_uint8,
            "Int16": ctypes.c_int16, "UInt16": ctypes.c_uint16, "Int32": ctypes.c_int32, "UInt32": ctypes.c_uint32,
@@ -157,12 +199,69 @@ class Fmi3Slave(NativeSlave):
             worst = max(worst, st)
         return worst
 
+    _may_roll_back = False
+
+    def save_state(self, t=None):
+        self._may_roll_back = True
+        return super().save_state(t)
+
+    def _event_iteration(self, t) -> bool:
+        """In Event Mode at t: update the discrete states until settled, then back to Step Mode; True when the
+        FMU asks to terminate the simulation (it then stays in Event Mode, from which it may terminate)."""
+        terminate, _ = settle(self, self.lib.obj.updateDiscreteStates, "fmi3UpdateDiscreteStates", t)
+        if not terminate:
+            self.check("fmi3EnterStepMode", self._f["fmi3EnterStepMode"](self.c), t)
+        return terminate
+
     def do_step(self, t, h) -> int:
-        a, b, c = self._flags
-        st = self._f["fmi3DoStep"](self.c, t, h, True, byref(a), byref(b), byref(c), byref(self._last_successful))
-        # terminateSimulation comes as Discard, so that the master's step tests one number when all is well
-        return max(st, DISCARD) if b else st
+        if self.terminate_requested:
+            return DISCARD
+        end = t + h
+        event, terminate, early = self._flags
+        last = self._last_successful
+        worst = OK
+        stalled = 0
+        while True:
+            # noSetFMUStatePriorToCurrentPoint: not when the master may roll back to the start of its step, which
+            # lies before the continuation of an early return
+            st = self._f["fmi3DoStep"](self.c, t, h, not self._may_roll_back, byref(event), byref(terminate),
+                                       byref(early), byref(last))
+            worst = max(worst, st)
+            if st > WARNING or terminate:
+                break
+            reached = last.value if early else end
+            if event and self.event_mode:
+                self.counts["events"] += 1
+                self.check("fmi3EnterEventMode", self._f["fmi3EnterEventMode"](self.c), reached)
+                if self._event_iteration(reached):
+                    terminate.value = True
+                    break
+            if not early or end - reached <= 1e-12 * max(1.0, abs(end)):
+                break
+            self.counts["early_returns"] += 1
+            # an FMU that keeps returning early without getting anywhere would hang the run
+            stalled = stalled + 1 if reached <= t else 0
+            if stalled > 100:
+                raise FmuError("fmi3DoStep returned early 100 times without getting past this time",
+                               file=self.shown_as, element=f"component {self.name}", time=reached)
+            t, h = reached, end - reached
+        if terminate:
+            self.terminate_requested = True
+            if early and last.value < end:
+                self.log.message(self.name, "info",
+                                 f"asked to terminate the simulation at t={last.value:.17g}, inside the "
+                                 f"communication step to {end:.17g}: its outputs there are those of "
+                                 f"t={last.value:.17g}")
+            # terminateSimulation comes as Discard, so that the master's step tests one number when all is well
+            return max(worst, DISCARD)
+        return worst
 
     def asks_to_terminate(self, status: int) -> bool:
         """After do_step returned ``status`` above Warning: whether the FMU asked to end the simulation."""
-        return status == DISCARD and bool(self._flags[1])
+        return status == DISCARD and self.terminate_requested
+
+    def stats(self) -> dict:
+        """With event mode or early return in use: which, and how many events and early returns there were."""
+        if not (self.event_mode or self.early_return):
+            return {}
+        return {"event_mode": self.event_mode, "early_return": self.early_return, **self.counts}

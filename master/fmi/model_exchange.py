@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import FmuError
 from .fmi2 import Fmi2Slave
+from .events import settle
 from .ode_solvers import DEFAULT_RTOL, SolverChoice, make_solver
 from .slave import DISCARD, ERROR, OK
 
@@ -57,18 +58,8 @@ class ModelExchange:
     def _event_iteration(self, t) -> bool:
         """Update discrete states until the model has settled; True when it asks to terminate the simulation."""
         method, call = self._UPDATE_DISCRETE
-        update = getattr(self.lib.obj, method)
-        while True:
-            try:
-                (new_needed, terminate, _nominals_changed, _values_changed, next_defined, next_time) = update()
-            except Exception:
-                raise self.fail(call, ERROR, t) from None
-            if terminate:
-                return True
-            if not new_needed:
-                break
-        self.next_event = next_time if next_defined else None
-        return False
+        terminate, self.next_event = settle(self, getattr(self.lib.obj, method), call, t)
+        return terminate
 
     def exit_init(self, t):
         super().exit_init(t)

@@ -83,6 +83,7 @@ class MasterSettings:
     step_multiples: dict[str, int] = field(default_factory=dict)
     record: list[str] = field(default_factory=list)   # record patterns
     source: str | None = None  # which annotation supplied the step size
+    algorithm_options: dict = field(default_factory=dict)   # master.algorithm_options name -> value
 
 
 @dataclass

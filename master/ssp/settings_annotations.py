@@ -3,10 +3,13 @@
 Our annotation (type ``org.cosim-master.settings``, in DefaultExperiment or System annotations)::
 
     <cm:Settings xmlns:cm="https://cosim-master.org/ssp/settings" stepSize="0.1" algorithm="gauss-seidel"
-                 recordInterval="1.0">
+                 recordInterval="1.0" extrapolation="1" couplingTol="1e-8">
       <cm:Component name="wind" stepMultiple="10"/>
       <cm:Record pattern="uav*.x"/>
     </cm:Settings>
+
+Every algorithm setting of ``master.algorithm_options`` is an attribute too, in camelCase (extrapolation,
+couplingTol, couplingAtol, couplingMaxIter, couplingUpdate, and those the algorithms register).
 
 OMSimulator writes ``org.openmodelica`` / ``oms:FixedStepMaster stepSize``; OSP (libcosim) writes
 ``com.opensimulationplatform`` / ``osp:FixedStepAlgorithm baseStepSize``. Only the step size is taken
@@ -43,6 +46,20 @@ def _positive(value, what, shown_as, el):
     return v
 
 
+def _algorithm_options(el, s: MasterSettings, shown_as: str) -> None:
+    from ..algorithm_options import ALGORITHM_OPTIONS
+    from ..errors import CosimError
+    for name, opt in ALGORITHM_OPTIONS.items():
+        raw = el.get(opt.ssd_attribute)
+        if raw is None:
+            continue
+        try:
+            s.algorithm_options[name] = opt.parse(raw, opt.ssd_attribute)
+        except CosimError as exc:
+            raise ScenarioError(f"{opt.ssd_attribute}: {exc.reason}", file=shown_as, element=_local(el),
+                                line=el.sourceline) from None
+
+
 def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
     s = MasterSettings()
     ours = annotations.get(OUR_TYPE)
@@ -60,6 +77,7 @@ def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
                     raise ScenarioError(f"unknown algorithm {alg!r} (known: {', '.join(ALGORITHMS.names())})",
                                         file=shown_as, element="Settings", line=el.sourceline)
                 s.algorithm = alg
+            _algorithm_options(el, s, shown_as)
             for c in _iter_local(el, "Component"):
                 raw = c.get("stepMultiple", "1")
                 try:

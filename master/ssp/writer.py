@@ -62,6 +62,7 @@ class SspBuilder:
     record_interval: float | None = None
     step_multiples: dict = field(default_factory=dict)
     record: list = field(default_factory=list)        # record patterns
+    algorithm_options: dict = field(default_factory=dict)   # master.algorithm_options name -> value
     annotations: list = field(default_factory=list)   # lxml elements with ssc:Annotation root
     # one name for every component's parameter set (Ecos applies only the set named in its init call); None:
     # "<component>-parameters"
@@ -106,6 +107,9 @@ class SspBuilder:
             s.set("algorithm", self.algorithm)
         if self.record_interval is not None:
             s.set("recordInterval", _fmt(float(self.record_interval)))
+        from ..algorithm_options import ALGORITHM_OPTIONS
+        for name, value in self.algorithm_options.items():
+            s.set(ALGORITHM_OPTIONS[name].ssd_attribute, _fmt(value))
         for comp, k in self.step_multiples.items():
             etree.SubElement(s, _q("cm", "Component"), name=comp, stepMultiple=str(k))
         for pattern in self.record:

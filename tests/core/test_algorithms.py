@@ -271,3 +271,6 @@ def test_inspect_shows_one_real_cycle_of_an_algebraic_loop_and_what_it_means(tmp
     assert "algebraic loop between g1, g2 (4 ports), e.g. g1.y -> g2.u => g2.y -> g1.u => g1.y" in text
     assert "jacobi reads every input from the previous step" in text and "sink" not in text.split("algebraic")[1]
     assert "gauss-seidel steps it in order" in format_inspect(inspect(ssp, algorithm="gauss-seidel"))
+    # the iterative and adaptive algorithms do not step in Gauss-Seidel order: each says what it does
+    assert "iterative repeats each step" in format_inspect(inspect(ssp, algorithm="iterative"))
+    assert "adaptive sweeps in Jacobi fashion" in format_inspect(inspect(ssp, algorithm="adaptive"))

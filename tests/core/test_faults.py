@@ -128,7 +128,12 @@ def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmu
         out = tmp_path / f"out{k}"
         args = CLI + ["run", str(ssp), "-o", str(out)] + (["--no-supervise"] if how.startswith("in-process") else [])
         p = subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True, start_new_session=True)
-        time.sleep(rnd.uniform(1.5, 3.5))
+        # the random point is counted from the moment the run owns its folder: on a loaded machine the start-up
+        # (imports, unpacking) alone can take longer than the delay, and an interrupt then finds nothing to keep
+        deadline = time.monotonic() + 60
+        while not out.is_dir() and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(rnd.uniform(0.3, 2.3))
         if how == "sigterm":
             p.send_signal(signal.SIGTERM)
         else:

@@ -6,8 +6,18 @@
  *
  * Written from the FMI 3.0 specification for this project.  Every function
  * declared in fmi3Functions.h is exported; features that are not supported
- * (Model Exchange, Scheduled Execution, FMU state, clocks, derivatives,
- * event mode) log an error and return fmi3Error.
+ * (Model Exchange, Scheduled Execution, FMU state, clocks, derivatives)
+ * log an error and return fmi3Error.
+ *
+ * Event mode and early return: only in models built with FW_EVENT_MODE
+ * (hasEventMode="true", mightReturnEarlyFromDoStep="true"), whose equations
+ * provide model_step_to_event and model_update_discrete (model_api.h).  With
+ * eventModeUsed and earlyReturnAllowed, fmi3DoStep stops at the first event
+ * in the step and reports it (eventHandlingNeeded, earlyReturn,
+ * lastSuccessfulTime); the importer must then handle it in Event Mode before
+ * the next fmi3DoStep, which is checked.  Otherwise the FMU handles its events
+ * itself (FMI 3.0: an FMU used without event mode must), and returns early
+ * after one when earlyReturnAllowed.  Other builds refuse eventModeUsed.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -28,7 +38,8 @@ typedef enum {
     ST_STEP = 3,
     ST_TERMINATED = 4,
     ST_ERROR = 5,
-    ST_FATAL = 6
+    ST_FATAL = 6,
+    ST_EVENT = 7
 } FwState;
 
 typedef struct {
@@ -40,6 +51,9 @@ typedef struct {
     FwState state;
     double stopTime;
     int stopTimeDefined;
+    int eventModeUsed;
+    int earlyReturnAllowed;
+    int eventPending; /* an event was reported to the importer and awaits fmi3UpdateDiscreteStates */
 } Instance;
 
 void fw_log(ModelData *d, int status, const char *category, const char *fmt, ...)
@@ -117,7 +131,6 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     Instance *inst;
     (void)resourcePath;
     (void)visible;
-    (void)earlyReturnAllowed;
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
@@ -133,12 +146,14 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                        "fmi3InstantiateCoSimulation: wrong instantiationToken (expected " MODEL_GUID ")");
         return NULL;
     }
+#ifndef FW_EVENT_MODE
     if (eventModeUsed) {
         if (logMessage)
             logMessage(instanceEnvironment, fmi3Error, "logStatusError",
                        "fmi3InstantiateCoSimulation: event mode is not supported (hasEventMode=false)");
         return NULL;
     }
+#endif
     inst = (Instance *)calloc(1, sizeof(Instance));
     if (inst == NULL) return NULL;
     inst->instanceName = (char *)malloc(strlen(instanceName) + 1);
@@ -150,6 +165,8 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     inst->env = instanceEnvironment;
     inst->logMessage = logMessage;
     inst->loggingOn = loggingOn ? 1 : 0;
+    inst->eventModeUsed = eventModeUsed ? 1 : 0;
+    inst->earlyReturnAllowed = earlyReturnAllowed ? 1 : 0;
     inst->d.fw = inst;
     load_start_values(inst);
     inst->state = ST_INSTANTIATED;
@@ -213,19 +230,31 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     }
     inst->d.initialized = 1;
     refresh(inst);
-    inst->state = ST_STEP;
+    /* FMI 3.0: with eventModeUsed the FMU leaves initialization in Event Mode */
+    inst->state = inst->eventModeUsed ? ST_EVENT : ST_STEP;
     return (fmi3Status)st;
 }
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
+#ifdef FW_EVENT_MODE
+    Instance *inst = (Instance *)instance;
+    if (check(inst, "fmi3EnterEventMode", MASK(ST_STEP)) != fmi3OK) return fmi3Error;
+    if (!inst->eventModeUsed) {
+        LOGE(inst, "fmi3EnterEventMode: the FMU was instantiated without eventModeUsed");
+        return fmi3Error;
+    }
+    inst->state = ST_EVENT;
+    return fmi3OK;
+#else
     return unsupported(instance, "fmi3EnterEventMode (hasEventMode=false)");
+#endif
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
     Instance *inst = (Instance *)instance;
-    if (check(inst, "fmi3Terminate", MASK(ST_STEP) | MASK(ST_ERROR)) != fmi3OK) return fmi3Error;
+    if (check(inst, "fmi3Terminate", MASK(ST_STEP) | MASK(ST_EVENT) | MASK(ST_ERROR)) != fmi3OK) return fmi3Error;
     inst->state = ST_TERMINATED;
     return fmi3OK;
 }
@@ -242,8 +271,8 @@ fmi3Status fmi3Reset(fmi3Instance instance)
 /* ------------------------------------------------------------------------ */
 /* Getters and setters                                                       */
 
-#define GET_STATES (MASK(ST_INIT) | MASK(ST_STEP) | MASK(ST_TERMINATED) | MASK(ST_ERROR))
-#define SET_STATES (MASK(ST_INSTANTIATED) | MASK(ST_INIT) | MASK(ST_STEP))
+#define GET_STATES (MASK(ST_INIT) | MASK(ST_STEP) | MASK(ST_EVENT) | MASK(ST_TERMINATED) | MASK(ST_ERROR))
+#define SET_STATES (MASK(ST_INSTANTIATED) | MASK(ST_INIT) | MASK(ST_STEP) | MASK(ST_EVENT))
 
 static fmi3Status check_access(Instance *inst, const char *fname, const fmi3ValueReference vrs[], size_t nvr,
                                size_t nValues, int type, int setting)
@@ -686,6 +715,25 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
                                     fmi3Float64 *nextEventTime)
 {
+#ifdef FW_EVENT_MODE
+    Instance *inst = (Instance *)instance;
+    int again = 0, terminate = 0, st;
+    if (check(inst, "fmi3UpdateDiscreteStates", MASK(ST_EVENT)) != fmi3OK) return fmi3Error;
+    st = model_update_discrete(&inst->d, 1, &again, &terminate);
+    if (st > M_WARNING) {
+        inst->state = st >= M_FATAL ? ST_FATAL : ST_ERROR;
+        return (fmi3Status)st;
+    }
+    inst->eventPending = 0;
+    refresh(inst);
+    if (discreteStatesNeedUpdate) *discreteStatesNeedUpdate = again ? true : false;
+    if (terminateSimulation) *terminateSimulation = terminate ? true : false;
+    if (nominalsOfContinuousStatesChanged) *nominalsOfContinuousStatesChanged = false;
+    if (valuesOfContinuousStatesChanged) *valuesOfContinuousStatesChanged = false;
+    if (nextEventTimeDefined) *nextEventTimeDefined = false;
+    if (nextEventTime) *nextEventTime = 0.0;
+    return (fmi3Status)st;
+#else
     (void)discreteStatesNeedUpdate;
     (void)terminateSimulation;
     (void)nominalsOfContinuousStatesChanged;
@@ -693,6 +741,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
     (void)nextEventTimeDefined;
     (void)nextEventTime;
     return unsupported(instance, "fmi3UpdateDiscreteStates (hasEventMode=false)");
+#endif
 }
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
@@ -762,8 +811,63 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nConti
 
 fmi3Status fmi3EnterStepMode(fmi3Instance instance)
 {
+#ifdef FW_EVENT_MODE
+    Instance *inst = (Instance *)instance;
+    if (check(inst, "fmi3EnterStepMode", MASK(ST_EVENT)) != fmi3OK) return fmi3Error;
+    if (inst->eventPending) {
+        LOGE(inst, "fmi3EnterStepMode: the event at t=%.17g was not handled (no fmi3UpdateDiscreteStates)",
+             inst->d.time);
+        return fmi3Error;
+    }
+    inst->state = ST_STEP;
+    return fmi3OK;
+#else
     return unsupported(instance, "fmi3EnterStepMode (hasEventMode=false)");
+#endif
 }
+
+#ifdef FW_EVENT_MODE
+/* From t to t + h, or to the first event on the way (see the file's comment); flags as fmi3DoStep's. */
+static int step_with_events(Instance *inst, double t, double h, int *eventHandlingNeeded, int *terminateSimulation,
+                            int *earlyReturn)
+{
+    ModelData *d = &inst->d;
+    const double end = t + h;
+    int st, event, again, terminate, pass;
+    double reached;
+    d->time = t;
+    for (;;) {
+        st = model_step_to_event(d, d->time, end - d->time, &reached, &event);
+        if (st > M_WARNING) return st;
+        d->time = event ? reached : end;
+        if (!event) return st;
+        if (inst->eventModeUsed && (inst->earlyReturnAllowed || !(reached < end))) {
+            /* the importer handles it, at the time reached */
+            *eventHandlingNeeded = 1;
+            *earlyReturn = reached < end;
+            inst->eventPending = 1;
+            return st;
+        }
+        for (pass = 0, again = 1, terminate = 0; again && !terminate; pass++) {
+            if (pass == 1000) {
+                LOGE(inst, "fmi3DoStep: the event iteration at t=%.17g did not settle", d->time);
+                return M_ERROR;
+            }
+            st = model_update_discrete(d, 0, &again, &terminate);
+            if (st > M_WARNING) return st;
+        }
+        if (terminate) {
+            *terminateSimulation = 1;
+            *earlyReturn = inst->earlyReturnAllowed && reached < end;
+            return st;
+        }
+        if (inst->earlyReturnAllowed && reached < end) {
+            *earlyReturn = 1;
+            return st;
+        }
+    }
+}
+#endif
 
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                                     size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
@@ -800,9 +904,24 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
              currentCommunicationPoint, inst->d.time);
         return fmi3Error;
     }
+#ifdef FW_EVENT_MODE
+    if (inst->eventPending) {
+        LOGE(inst, "fmi3DoStep: the event at t=%.17g awaits handling in Event Mode (eventHandlingNeeded was returned)",
+             inst->d.time);
+        return fmi3Error;
+    }
+    {
+        int event = 0, terminate = 0, early = 0;
+        st = step_with_events(inst, currentCommunicationPoint, communicationStepSize, &event, &terminate, &early);
+        if (eventHandlingNeeded) *eventHandlingNeeded = event ? true : false;
+        if (terminateSimulation) *terminateSimulation = terminate ? true : false;
+        if (earlyReturn) *earlyReturn = early ? true : false;
+    }
+#else
     st = model_do_step(&inst->d, currentCommunicationPoint, communicationStepSize);
+    if (st <= M_WARNING) inst->d.time = currentCommunicationPoint + communicationStepSize;
+#endif
     if (st <= M_WARNING) {
-        inst->d.time = currentCommunicationPoint + communicationStepSize;
         inst->d.step_count++;
         refresh(inst);
     } else if (st == M_ERROR) {

@@ -62,4 +62,15 @@ void model_calc(ModelData *d);
  * error).  d->time is updated by the framework on M_OK/M_WARNING. */
 int model_do_step(ModelData *d, double t, double h);
 
+/* FMI 3.0 co-simulation with event mode (built with FW_EVENT_MODE, see fmi3_framework.c), instead of
+ * model_do_step: advance from t towards t + h with the inputs held, stopping at the first event on the way.
+ * Sets *reached to the time reached (t + h when there is no event) and *event to 1 when an event happened
+ * there; the framework sets d->time. */
+int model_step_to_event(ModelData *d, double t, double h, double *reached, int *event);
+
+/* One pass of the event iteration at d->time: sets *again when the model needs another pass and *terminate
+ * when it asks to end the simulation.  by_importer: 1 when the importer called fmi3UpdateDiscreteStates in
+ * Event Mode, 0 when the framework handles the event itself. */
+int model_update_discrete(ModelData *d, int by_importer, int *again, int *terminate);
+
 #endif

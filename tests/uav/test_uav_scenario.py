@@ -117,9 +117,9 @@ BAD = [
     (minimal(stop_time=float("nan")), "stop_time: must be finite, got nan"),
     (minimal(colour="red"), "colour: unknown field (expected one of name, base, n_uavs, strategy, targets, "
                             "takeoff_altitude, assignment, zones, wind, seed, step, stop_time, "
-                            "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning, rules, "
-                            "cruise_speed, max_accel, layout, layout_seed, area_scale, takeoff, takeoff_interval, "
-                            "battery_capacity)"),
+                            "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning, "
+                            "algorithm_options, rules, cruise_speed, max_accel, layout, layout_seed, area_scale, "
+                            "takeoff, takeoff_interval, battery_capacity)"),
     (minimal(zone_planning="late"), "zone_planning: expected true or false, got 'late'"),
     ({k: v for k, v in minimal().items() if k != "strategy"}, "strategy: missing required field"),
     (minimal(zones={"a": 1}), "zones: expected a list of {name, polygon}"),

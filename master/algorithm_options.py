@@ -1,0 +1,107 @@
+"""The algorithms' own settings in one table: name, type, default, and where each may be given.
+
+Every setting here is accepted, under the same name, from the command line (``--extrapolation``,
+``--coupling-tol``: dashes for underscores), the API (``master.run(extrapolation=1)``), a campaign's ``run:``
+keys and grid axes, and the SSD settings annotation (``<cm:Settings extrapolation="1" couplingTol="1e-8">``:
+the camelCase of the name). A new algorithm setting is one row in ``ALGORITHM_OPTIONS`` plus its field in
+``execution.Options`` (here, not registered by the algorithm's module: the command line, the campaign format
+and the SSD reader read the table before any algorithm is imported); run.json records each value and where it
+came from (``settings_sources``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .errors import CosimError
+
+
+@dataclass(frozen=True)
+class AlgorithmOption:
+    name: str                   # Options field, campaign key
+    kind: str                   # "int", "float", "choice"
+    default: object             # None: derived (see help)
+    help: str
+    choices: tuple = ()
+    minimum: float | None = None        # inclusive
+    positive: bool = False
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+    @property
+    def ssd_attribute(self) -> str:
+        head, *rest = self.name.split("_")
+        return head + "".join(w.capitalize() for w in rest)
+
+    def parse(self, raw, element: str):
+        """The value of ``raw`` (text from a file or the command line, or a YAML/Python value), or a one-line
+        CosimError naming ``element``."""
+        if self.kind == "choice":
+            value = str(raw).strip() if raw is not None else raw
+            if value not in self.choices:
+                raise CosimError(f"must be one of {', '.join(map(str, self.choices))}, got {raw!r}", element=element)
+            return value
+        if isinstance(raw, bool):
+            raise CosimError(f"expected a number, got {raw!r}", element=element)
+        try:
+            value = int(str(raw).strip()) if self.kind == "int" else float(raw)
+        except (TypeError, ValueError):
+            what = "an integer" if self.kind == "int" else "a number"
+            raise CosimError(f"expected {what}, got {raw!r}", element=element) from None
+        if self.kind == "int" and isinstance(raw, float) and raw != value:
+            raise CosimError(f"expected an integer, got {raw!r}", element=element)
+        if not math.isfinite(value):
+            raise CosimError(f"expected a finite number, got {raw!r}", element=element)
+        if self.choices and value not in self.choices:
+            raise CosimError(f"must be one of {', '.join(map(str, self.choices))}, got {raw!r}", element=element)
+        if self.positive and not value > 0:
+            raise CosimError(f"must be positive, got {raw!r}", element=element)
+        if self.minimum is not None and value < self.minimum:
+            raise CosimError(f"must be >= {self.minimum:g}, got {raw!r}", element=element)
+        return value
+
+
+ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
+    AlgorithmOption("extrapolation", "int", 0, "jacobi, gauss-seidel: coupled inputs extrapolated from the last "
+                    "K+1 output samples (0 held, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2)),
+    AlgorithmOption("coupling_tol", "float", 1e-10, "iterative: relative tolerance of the coupled values",
+                    minimum=0.0),
+    AlgorithmOption("coupling_atol", "float", None, "iterative: absolute tolerance of the coupled values "
+                    "(default: coupling_tol)", minimum=0.0),
+    AlgorithmOption("coupling_max_iter", "int", 50, "iterative: iterations per step at most", minimum=1),
+    AlgorithmOption("coupling_update", "choice", "iqn-ils", "iterative: how the next iterate is formed",
+                    choices=("fixed-point", "aitken", "iqn-ils")),
+    # adaptive and ecco: the defaults differ per algorithm (algorithms/adaptive.py, ecco.py) and the step limits are
+    # checked against each other and the master step there (step_control.StepLimits), so no default here
+    AlgorithmOption("step_rtol", "float", None, "adaptive: relative tolerance of the step's error estimate "
+                    "(default 1e-4); ecco: of the energy residual (default 1e-4)", minimum=0.0),
+    AlgorithmOption("step_atol", "float", None, "adaptive, ecco: absolute tolerance (default: step_rtol)",
+                    minimum=0.0),
+    AlgorithmOption("min_step", "float", None, "adaptive, ecco: smallest step in seconds", positive=True),
+    AlgorithmOption("max_step", "float", None, "adaptive, ecco: largest step in seconds (default and at most: "
+                    "the master step, which the steps end on)", positive=True),
+    AlgorithmOption("initial_step", "float", None, "adaptive, ecco: first step in seconds", positive=True),
+    AlgorithmOption("error_estimate", "choice", None, "adaptive: local error from the extrapolated vs computed "
+                    "coupled values (default: extrapolation) or from step doubling (docs/coupling.md)",
+                    choices=("extrapolation", "doubling")),
+)}
+
+
+def resolve_algorithm_options(options, from_ssd: dict, caller: str) -> dict:
+    """Fill every algorithm setting of ``options`` (execution.Options) that the caller left at None: from the
+    SSD settings annotation (``from_ssd``: name -> parsed value), else the default. Returns name -> source."""
+    sources = {}
+    for name, opt in ALGORITHM_OPTIONS.items():
+        given = getattr(options, name, None)
+        if given is not None:
+            setattr(options, name, opt.parse(given, opt.flag))
+            sources[name] = caller
+        elif name in from_ssd:
+            setattr(options, name, from_ssd[name])
+            sources[name] = "SSD settings annotation"
+        else:
+            setattr(options, name, opt.default)
+            sources[name] = "default"
+    return sources

@@ -1,0 +1,118 @@
+"""The references a study compares its runs with.
+
+- ``analytic:MODULE:FUNCTION``: a Python function of time (a numpy array) returning the signals, a mapping
+  'component.variable' -> array (or a pandas DataFrame); MODULE is a file (``ssp/coupling/oscillator_exact.py``)
+  or an importable module name;
+- ``fine:H``: the same scenario run at the step H with iterative coupling (a run of the study's campaign);
+- a results file (``.parquet`` or ``.csv`` with a ``time`` column, e.g. another run's results.parquet).
+
+Runs are compared at their own recorded times; a reference given as samples (fine, file) is interpolated
+linearly there (exact where the run's times are among the reference's, as for a fine step dividing the
+run's step).
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CosimError
+
+ELEMENT = "--reference"
+
+
+@dataclass
+class Reference:
+    kind: str                   # "analytic", "fine", "file"
+    text: str                   # as given
+    function: object = None     # analytic: f(t) -> {signal: array}
+    fine_step: float | None = None
+    frame: object = None        # file (and fine, once its run is done): pandas DataFrame with "time"
+
+    def values(self, t: np.ndarray, signals: list[str]) -> dict[str, np.ndarray]:
+        """The reference's value of each of ``signals`` it knows at the times ``t``."""
+        if self.kind == "analytic":
+            try:
+                out = self.function(np.asarray(t, dtype=float))
+            except Exception as exc:   # noqa: BLE001 - the user's function: say which and why, one line
+                raise CosimError(f"{self.text} failed: {type(exc).__name__}: {exc}", element=ELEMENT) from None
+            return {s: np.broadcast_to(np.asarray(out[s], dtype=float), t.shape) for s in signals if s in out}
+        df = self.frame
+        ref_t = df["time"].to_numpy(dtype=float)
+        return {s: np.interp(t, ref_t, df[s].to_numpy(dtype=float)) for s in signals if s in df.columns}
+
+    def covers(self, t: np.ndarray) -> np.ndarray:
+        """Which of the times ``t`` the reference covers (a sampled reference: within its time range)."""
+        if self.kind == "analytic":
+            return np.ones(len(t), dtype=bool)
+        ref_t = self.frame["time"].to_numpy(dtype=float)
+        tol = 1e-9 * max(1.0, abs(ref_t[-1]))
+        return (t >= ref_t[0] - tol) & (t <= ref_t[-1] + tol)
+
+
+def parse_reference(text: str) -> Reference:
+    """A reference from its command-line text; a one-line CosimError when it cannot be used."""
+    text = str(text).strip()
+    if text.startswith("analytic:"):
+        spec = text[len("analytic:"):]
+        module_name, sep, func = spec.rpartition(":")
+        if not sep or not module_name or not func:
+            raise CosimError(f"expected analytic:MODULE:FUNCTION, got {text!r}", element=ELEMENT)
+        module = _load_module(module_name, text)
+        fn = getattr(module, func, None)
+        if not callable(fn):
+            raise CosimError(f"{module_name} has no function {func!r}", element=ELEMENT)
+        return Reference("analytic", text, function=fn)
+    if text.startswith("fine:"):
+        try:
+            h = float(text[len("fine:"):])
+        except ValueError:
+            h = float("nan")
+        if not (math.isfinite(h) and h > 0):
+            raise CosimError(f"expected fine:H with a positive step H in seconds, got {text!r}", element=ELEMENT)
+        return Reference("fine", text, fine_step=h)
+    path = Path(text)
+    if path.suffix.lower() not in (".parquet", ".csv"):
+        raise CosimError(f"expected analytic:MODULE:FUNCTION, fine:H or a results file (.parquet, .csv), "
+                         f"got {text!r}", element=ELEMENT)
+    if not path.is_file():
+        raise CosimError(f"results file not found: {path}", element=ELEMENT)
+    return Reference("file", text, frame=read_samples(path, ELEMENT))
+
+
+def read_samples(path: Path, element: str):
+    """A results file as a DataFrame sorted by time, checked for a numeric ``time`` column."""
+    import pandas as pd
+    try:
+        df = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path)
+    except Exception as exc:   # noqa: BLE001 - any unreadable file is the same one-line error
+        raise CosimError(f"cannot read {path}: {type(exc).__name__}: {exc}", element=element) from None
+    if "time" not in df.columns or len(df) == 0:
+        raise CosimError(f"{path} has no 'time' column or no rows", element=element)
+    return df.sort_values("time", kind="stable").reset_index(drop=True)
+
+
+def _load_module(name: str, text: str):
+    path = Path(name)
+    if name.endswith(".py"):
+        if not path.is_file():
+            raise CosimError(f"module file not found: {path}", element=ELEMENT)
+        module_name = f"cosim_study_reference_{abs(hash(str(path.resolve())))}"
+        spec = importlib.util.spec_from_file_location(module_name, path)
+        module = importlib.util.module_from_spec(spec)
+        try:
+            spec.loader.exec_module(module)
+        except Exception as exc:   # noqa: BLE001
+            raise CosimError(f"cannot load {path}: {type(exc).__name__}: {exc}", element=ELEMENT) from None
+        return module
+    if "" not in sys.path and str(Path.cwd()) not in sys.path:
+        sys.path.insert(0, str(Path.cwd()))
+    try:
+        return importlib.import_module(name)
+    except Exception as exc:   # noqa: BLE001
+        raise CosimError(f"cannot import {name!r} ({text}): {type(exc).__name__}: {exc}", element=ELEMENT) from None
