@@ -1,40 +1,50 @@
-"""The report of a UAV campaign: the paper's Figures 5-10 and Table II, and our numbers next to the published ones.
+"""The report of a UAV campaign: the paper's Figures 5-10 and Table II, our numbers next to the published ones,
+and (for a campaign with a ``design:``) which factors flip each finding.
 
 ``cosim-master report`` calls :func:`uav_report` through the ``uav`` scenario kind (``uavstudy.campaign_kind``)
 for a campaign whose table has per-UAV rows; the markdown helpers are the generic report's
-(``master.campaign.report``).
+(``master.campaign.report``), the blocked statistics ``master.campaign.blocked``.
 
-Statistics (``master.campaign.stats``; 95 % two-sided everywhere):
+Units and statistics (95 % two-sided everywhere):
 
-* success counts: Wilson score interval of the proportion, scaled to counts; A vs B: Fisher's exact test;
-* means (remaining battery per UAV): Student t interval;
-* totals over runs (distance, collisions, photos): n x the t interval of the per-run mean;
-* intervals of quantities that cannot be negative are truncated at 0, of percentages also at 100, and of
-  UAVs removed by collisions at the number of UAVs that flew;
-* A vs B on per-run / per-UAV metrics: two-sided Mann-Whitney U;
-* trends (battery or distance vs wind probability, battery vs fleet size): least-squares slope with
-  its t interval.
-
-Unit of analysis: one UAV mission for success and remaining battery (the paper counts successes out of
-42/84/126/168 = UAV missions per fleet size), one run for distance, photos and collisions (the paper
-sums them).  Only runs that completed are analysed; failed runs are listed.
+* the *run* is the unit: its UAVs share the wind and the layout and can collide with each other, so they are
+  not independent replicates.  Per-run values: successful missions, mean remaining battery of its UAVs,
+  distance, photos, UAVs removed by collisions;
+* a *configuration* (cell) is a parameter set without the repetition; a *block* is a configuration without
+  the strategy plus the repetition: in a campaign ``paired: [strategy]`` the A run and the B run of a block
+  share their seed (wind, layout).  A vs B is the mean over blocks of the B - A difference, with the
+  stratified t interval (strata: configurations; never one variance over unlike configurations), the block
+  bootstrap interval and the sign-flip permutation p-value, and d_z;
+* levels (the bars of Figs. 5, 6, 7, 8, 10) pool configurations: their intervals are stratified the same way
+  (within-configuration variance only), weighted by UAV missions where the paper averages over missions;
+* the effect of wind is measured inside a configuration: the difference between a run at wind probability w
+  and the run of the same configuration and repetition at 0 % (Figs. 7b, 8b), and the within-configuration
+  slope per %-point of wind probability;
+* "agrees" compares values where the paper gives them, with a stated tolerance around our interval, and
+  directions (with the blocked test) where it gives only a direction.
 """
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from master.campaign import blocked as bl
 from master.campaign import stats as st
 from master.campaign.report import campaign_facts, failures_md, md_table
-from master.campaign.spec import canonical_json
+from master.campaign.spec import canonical_json, design_roles
 
 from .names import TOTAL_ROW, UAV_COLLISION, UAV_COLUMN, ZONE_COLLISION
 
-__all__ = ["uav_report", "uav_frames", "figure_data", "table2", "paper_comparison", "pair_keys", "PAPER"]
+__all__ = ["uav_report", "uav_frames", "figure_data", "table2", "paper_comparison", "pair_keys", "PAPER",
+           "paper_consistency", "sensitivity_findings", "run_settings"]
 
 COLORS = {"A": "tab:blue", "B": "tab:red"}
+NO_CI = st.CI(math.nan, math.nan, math.nan, 0)
+#: the grid axes of the paper's study; every other parameter is part of a configuration (rule set, factors)
+STUDY_AXES = ("strategy", "n_uavs", "variant", "wind.probability")
 
 #: the published numbers, quoted from the paper (section V)
 PAPER = {
@@ -69,24 +79,157 @@ PAPER = {
                                             "check (the extracted text shows the symbols as •, ✓, /)."),
 }
 
-#: why a claim can come out differently here (used when ours disagrees)
-WHY = {
-    "geometry": "The paper publishes no coordinates: our 24 targets, base and 4 restricted zones are an assumed "
-                "layout (ssp/scenarios/paper_area*.yaml, docs/paper_config_format.md); every absolute number "
-                "(distances, battery, collision counts) depends on it.",
-    "energy": "Our battery is a physical model (uavsim.battery: rotor power from airspeed and climb, Li-ion pack) "
-              "instead of the paper's Ptolemy Energy actor, whose consumption law is not published.",
-    "wind": "The paper's wind model is not published; ours draws wind in 1 s decision intervals with the given "
-            "probability, weak/moderate/strong 3/6/9 m/s from the east, and the UAV controller corrects the drift.",
-    "collisions_count": "The paper does not say whether a UAV-UAV collision counts once or once per UAV; we count "
-                        "removed UAVs (a UAV-UAV collision removes two).",
-    "collisions_model": "Our collision detection is continuous (swept) over each step; zone detection uses the "
-                        "paper's 2 m look-ahead and the zone polygons of our assumed layout.",
-    "success_def": "Success follows the paper: all assigned targets photographed, back at base with more than 5 % "
-                   "battery; the 80 % return and 95 % forced-landing rules are applied by our strategy FMU.",
-    "stochastic": "With 3 repetitions per cell the per-cell estimates are noisy; differences whose interval "
-                  "contains zero (or p >= 0.05) are not evidence either way.",
+#: the paper's numbers that are values (not only directions): (value, tolerance, unit) -- the tolerance is
+#: what we accept around our 95 % interval: 2 battery points (the paper gives two decimals but not its energy
+#: law), 10 % of a distance or a count (our layout is assumed)
+PAPER_VALUES = {
+    "battery_A": (41.07, 2.0, "%"), "battery_B": (41.83, 2.0, "%"),
+    "distance_A": (270.0, 27.0, "km"), "distance_B": (240.0, 24.0, "km"),
+    "collisions_A": (215.0, 21.5, "UAVs"), "collisions_B": (181.0, 18.1, "UAVs"),
+    "success_1_A": (0.0, 0.0, "missions"), "success_1_B": (0.0, 0.0, "missions"), "success_2_A": (0.0, 0.0, "missions"),
+    "wall_ratio": (3.0, 1.0, "x"),
 }
+#: UAV missions per strategy in the paper's grid: (1 + 2 + 3 + 4) UAVs x 2 areas x 7 wind levels x 3 repetitions
+PAPER_MISSIONS = 420
+
+
+def paper_consistency() -> list[str]:
+    """Which of the paper's numbers cannot all hold together, computed from the numbers themselves."""
+    out = []
+    for s, km, left, coll in (("A", 270.0, 41.07, 215), ("B", 240.0, 41.83, 181)):
+        used = 100.0 - left
+        per = km / PAPER_MISSIONS
+        frac = coll / PAPER_MISSIONS
+        # a surviving mission can use at most 95 % (forced landing): the collided ones must have used the rest
+        c_min = (used - (1 - frac) * 95.0) / frac
+        out.append(f"Strategy {s}: {km:.0f} km over {PAPER_MISSIONS} missions is {per:.3f} km per mission, yet "
+                   f"{used:.2f} % of the battery was used on average: a whole battery would last {per / used * 100:.2f} "
+                   f"km ({per / used * 100 / 5.0 * 1000 / 60:.1f} min at 5 m/s), and the 80 % return would come "
+                   f"after {per / used * 80:.2f} km. With {coll} of {PAPER_MISSIONS} missions ({frac * 100:.0f} %) "
+                   f"ended by a collision (more if a UAV-UAV collision, which ends two missions, counts once) and "
+                   f"no mission using more than 95 %, the collided missions must have "
+                   f"used at least {c_min:.1f} % each on average, which contradicts the paper's \"collisions at the "
+                   f"beginning of the simulation\" (Fig. 6 text).")
+    out.append("Fig. 6 says strategy A kept more battery than B in both areas, while the totals say B kept more "
+               "(41.83 % against 41.07 %). Both strategies fly 210 missions in each area, so each overall mean is "
+               "the average of its two area means: A ahead in both areas forces A ahead overall. The two cannot "
+               "both hold.")
+    out.append("215 and 181 collisions are not multiples of 4, so the wall collisions cannot be exactly three times "
+               "the UAV collisions (z = 3u gives z + u = 4u); \"the triple\" can only be approximate "
+               "(215 = 161 + 54: 2.98x; 181 = 136 + 45: 3.02x).")
+    return out
+
+
+# ============================================================================================ settings
+#: scenario fields that are not settings of the rules (the layout and identity of a run)
+_NOT_SETTINGS = ("name", "base", "targets", "zones", "seed", "description", "n_uavs", "strategy", "layout_seed")
+
+
+def run_settings(campaign_dir: Path, run_ids, df=None) -> dict:
+    """run_id -> the scalar settings of its scenario.yaml (``lookahead``, ``wind.intensities.strong``, ...),
+    overlaid with the settings its summary recorded (``settings.*`` columns of the table: the values the rule
+    set resolved, ``cruise_speed``, ``zone_planning``, ``wind_episode_s``, ...): what the run actually flew
+    with, whatever the campaign varied."""
+    import yaml
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    out = {}
+    for rid in run_ids:
+        p = Path(campaign_dir) / "runs" / str(rid) / "scenario.yaml"
+        try:
+            data = yaml.load(p.read_text(encoding="utf-8"), Loader=loader)
+        except (OSError, yaml.YAMLError):
+            continue
+        flat: dict = {}
+
+        def walk(d, prefix):
+            for k, v in d.items():
+                key = f"{prefix}{k}"
+                if prefix == "" and k in _NOT_SETTINGS:
+                    continue
+                if isinstance(v, dict):
+                    walk(v, key + ".")
+                elif not isinstance(v, list):
+                    flat[key] = v
+        if isinstance(data, dict):
+            walk(data, "")
+        out[rid] = flat
+    if df is not None and UAV_COLUMN in df.columns:
+        cols = [c for c in df.columns if c.startswith("settings.")]
+        tot = df[df[UAV_COLUMN] == TOTAL_ROW]
+        for rid, row in zip(tot["run_id"], tot[cols].itertuples(index=False)):
+            if rid in out or not out:
+                d = out.setdefault(rid, {})
+                d.update({c[len("settings."):]: _plain(v) for c, v in zip(cols, row)
+                          if v is not None and not (isinstance(v, float) and math.isnan(v))})
+    return out
+
+
+def settings_summary(settings: dict) -> tuple[dict, dict]:
+    """(constant, varying): the settings every run shares (name -> value) and the ones that differ
+    (name -> sorted distinct values)."""
+    keys = sorted({k for s in settings.values() for k in s} - {"layout_seed", "layout_id"})
+    const, vary = {}, {}
+    for k in keys:
+        vals = {canonical_json(s.get(k)) for s in settings.values()}
+        if len(vals) == 1:
+            const[k] = next(iter(settings.values())).get(k)
+        else:
+            vary[k] = sorted(json.loads(v) for v in vals if v != "null")
+    return const, vary
+
+
+def causes(settings: dict) -> dict:
+    """Why a claim can come out differently here, from the rule set the runs actually used."""
+    const, vary = settings_summary(settings) if settings else ({}, {})
+
+    def val(key, default="?"):
+        if key in const:
+            return f"{const[key]}"
+        if key in vary:
+            return " / ".join(str(v) for v in vary[key]) + " (varied)"
+        return default
+
+    zp = val("zone_planning", None)
+    planning = ("legs planned around the zones (20 m margin; a rule the paper does not have)" if zp == "True"
+                else "the paper's late detection only (no planning)" if zp == "False"
+                else f"zone_planning = {zp}" if zp else "zone rule not recorded")
+    speed = next((k for k in ("cruise_speed", "speed.cruise", "cruise.speed", "speed") if k in const or k in vary),
+                 None)
+    rules = f" Rule set: {val('rules')}." if ("rules" in const or "rules" in vary) else ""
+    return {
+        "geometry": "The paper publishes no coordinates (its Fig. 4 is a map without scale): "
+                    + ("every repetition of these runs flies its own random layout (24 targets, 4 restricted zones "
+                       "drawn by the rules of docs/paper_config_format.md, uavstudy/layout.py)"
+                       if val("layout", "") == "random" else
+                       "our 24 targets, base and 4 restricted zones are one assumed layout "
+                       "(ssp/scenarios/paper_area*.yaml, docs/paper_config_format.md)")
+                    + f", area scale {val('area_scale', '1')}, take-off {val('takeoff', 'ring')}; every absolute number "
+                    "(distances, battery, collision counts) depends on the geometry.",
+        "energy": "Our battery is a physical model (uavsim.battery: rotor power from airspeed and climb, Li-ion pack) "
+                  "instead of the paper's Ptolemy Energy actor, whose consumption law is not published"
+                  + (f"; cruise speed {val(speed)} m/s" if speed else "") + "." + rules,
+        "wind": f"The paper's wind model is not published; these runs drew wind episodes of "
+                f"{val('wind_episode_s', val('wind.decision_interval'))} s with the given probability, speeds "
+                f"{val('wind.intensities.weak')}/{val('wind.intensities.moderate')}/{val('wind.intensities.strong')}"
+                f" m/s from {val('wind.direction_deg')} degrees, "
+                + ("one draw per UAV" if val("wind_shared", "") == "False" else
+                   "one draw shared by the fleet" if val("wind_shared", "") == "True" else "shared or per UAV: ?")
+                + ("; the wind pushes the UAV (displacement the controller does not cancel)"
+                   if val("wind_effect", "") == "push" else
+                   "; the wind is an air velocity the controller corrects" if val("wind_effect", "") == "drag"
+                   else "") + ".",
+        "collisions_count": "The paper does not say whether a UAV-UAV collision counts once or once per UAV; we count "
+                            "removed UAVs (a UAV-UAV collision removes two).",
+        "collisions_model": f"Collision detection is continuous (swept) over each step; zone detection of these runs: "
+                            f"look-ahead {val('lookahead')} m, {planning}; zones of our assumed layout.",
+        "success_def": "Success follows the paper: all assigned targets photographed, back at base with more than 5 % "
+                       "battery; the 80 % return and 95 % forced-landing rules are applied by our strategy FMU.",
+        "campaign": "This campaign is not the paper's 336-run grid.",
+        "speed": f"Cruise speed of these runs: {val(speed) if speed else 'the strategy FMU default'} m/s. The paper "
+                 "flies ArduCopter's default of its era (WPNAV_SPEED 500 cm/s = 5 m/s); the distance a UAV covers "
+                 "before its 80 % return grows with the speed, so whether one UAV can fly the whole tour depends "
+                 "on it.",
+    }
 
 
 # ============================================================================================ data
@@ -97,9 +240,18 @@ def _col(df, *names):
     return None
 
 
+def param_columns(df) -> list[str]:
+    """The campaign's parameter columns: between run_id and rep in the table (master.campaign.table)."""
+    cols = list(df.columns)
+    return cols[1:cols.index("rep")] if "rep" in cols else []
+
+
 def uav_frames(df):
     """(U, R): one row per UAV mission and one per run, completed runs only, with the analysis columns
-    strategy, n_uavs, area, wind (probability, fraction)."""
+    strategy, n_uavs, area, wind (probability, fraction), rep, ``config`` (the parameters besides the study axes:
+    rule set, design factors), ``cell`` (the configuration without the strategy and repetition) and ``block``
+    (cell + repetition: the A/B pair) and, per run, successes, battery (mean over its UAVs), distance_m, photos,
+    collisions."""
     import pandas as pd
     df = df.copy()
     if UAV_COLUMN not in df.columns:
@@ -113,13 +265,25 @@ def uav_frames(df):
     ncol = _col(tot, "n_uavs", "uavs")
     acol = _col(tot, "variant", "scenario")
     wcol = _col(tot, "wind.probability", "wind_probability")
+    params = param_columns(df)
+    extra = [k for k in params if k not in STUDY_AXES]
     runs = pd.DataFrame({"run_id": tot["run_id"].to_numpy(),
                          "strategy": tot[scol].astype(str).to_numpy() if scol else "?",
                          "n_uavs": pd.to_numeric(tot[ncol]).astype(int).to_numpy() if ncol else 0,
                          "area": tot[acol].astype(str).to_numpy() if acol else "all",
-                         "wind": pd.to_numeric(tot[wcol]).astype(float).to_numpy() if wcol else 0.0})
+                         "wind": pd.to_numeric(tot[wcol]).astype(float).to_numpy() if wcol else 0.0,
+                         "rep": tot["rep"].to_numpy() if "rep" in tot.columns else 0})
+    for k in extra:
+        runs[k] = tot[k].to_numpy()
+    if "settings.layout_id" in tot.columns:          # the layout each run flew (summary.json settings)
+        runs["layout_id"] = tot["settings.layout_id"].astype(str).to_numpy()
+    runs["config"] = [canonical_json({k: _plain(v) for k, v in zip(extra, row)})
+                      for row in tot[extra].itertuples(index=False)] if extra else "{}"
+    runs["cell"] = [f"{c}|{n}|{a}|{w:g}" for c, n, a, w in zip(runs["config"], runs["n_uavs"], runs["area"],
+                                                               runs["wind"])]
+    runs["block"] = runs["cell"] + "|" + runs["rep"].astype(str)
     u = uav.merge(runs, on="run_id", how="inner", suffixes=("_param", ""))
-    for c in ("strategy", "n_uavs", "area", "wind"):
+    for c in runs.columns:
         if c + "_param" in u.columns:
             u = u.drop(columns=[c + "_param"])
     u["success"] = u["success"].astype(bool) if "success" in u.columns else False
@@ -127,23 +291,42 @@ def uav_frames(df):
     u["collision_uav"] = (u["outcome"] == UAV_COLLISION).astype(int)
     u["collision_zone"] = (u["outcome"] == ZONE_COLLISION).astype(int)
     agg = u.groupby("run_id").agg(uav_collided=("collision_uav", "sum"), zone_collided=("collision_zone", "sum"),
-                                  successes=("success", "sum"),
+                                  successes=("success", "sum"), battery=("remaining_battery_pct", "mean"),
                                   first_removal_s=("removed_time", lambda s: pd.to_numeric(s, errors="coerce").min()))
     r = runs.merge(agg, on="run_id", how="left")
     tot_idx = tot.set_index("run_id")
     # the run's totals are sums over its UAVs (summary.json names them *_sum)
     r["distance_m"] = pd.to_numeric(tot_idx.loc[r["run_id"], "distance_m_sum"]).to_numpy()
+    r["distance_km"] = r["distance_m"] / 1000.0
     r["photos"] = (pd.to_numeric(tot_idx.loc[r["run_id"], "photos_sum"]).to_numpy() if "photos_sum" in tot.columns
                    else np.nan)
     r["uav_collision_events"] = (pd.to_numeric(tot_idx.loc[r["run_id"], "uav_collisions"]).to_numpy()
                                  if "uav_collisions" in tot.columns else np.nan)
     r["collisions"] = r["uav_collided"] + r["zone_collided"]
+    # the other reading of the paper's count: a UAV-UAV collision counted once (it removes two UAVs)
+    events = r["uav_collision_events"].fillna(r["uav_collided"] // 2) if "uav_collision_events" in r else \
+        r["uav_collided"] // 2
+    r["collision_events"] = r["zone_collided"] + events
+    r["uav_events"] = events
     return u, r
+
+
+def _plain(v):
+    return v.item() if hasattr(v, "item") else v
 
 
 def _areas(u):
     names = list(dict.fromkeys(u["area"]))
-    return sorted(names, key=lambda a: ("zone" in a.lower() or "restrict" in a.lower(), a))
+    return sorted(names, key=lambda a: (_is_zone(a), a))
+
+
+def _is_zone(area: str) -> bool:
+    return "zone" in area.lower() or "restrict" in area.lower()
+
+
+def area_label(area: str) -> str:
+    """The paper's words: "free" and "restricted" (areas with flight restrictions)."""
+    return "restricted" if _is_zone(area) else ("free" if "free" in area.lower() or area == "all" else area)
 
 
 def battery_ci(values) -> st.CI:
@@ -158,51 +341,124 @@ def ratio_text(num: int, den: int) -> str:
     return "both 0" if num == 0 else "n/a: none in the denominator"
 
 
-def _is_zone(area: str) -> bool:
-    return "zone" in area.lower() or "restrict" in area.lower()
+def n_text(r, u=None) -> str:
+    """n of a panel or table: runs, UAV missions, configurations and layouts."""
+    runs = int(len(r))
+    missions = int(len(u)) if u is not None else int(r["n_uavs"].sum())
+    cells = int(r["cell"].nunique()) if "cell" in r.columns else 0
+    if "layout_id" in r.columns:
+        k = r["layout_id"].nunique()
+        lay = f"{k} layout{'s' if k != 1 else ''}"
+    else:
+        lay = f"1 fixed layout per area ({r['area'].nunique()} area{'s' if r['area'].nunique() != 1 else ''})"
+    return f"n = {runs} runs, {missions} UAV missions, {cells} configurations, {lay}"
+
+
+# ============================================================================================ statistics
+def level_ci(r, value: str, by_missions: bool = False, floor=None, ceiling=None) -> st.CI:
+    """Mean of a per-run value over the runs ``r`` with the stratified interval (strata: configurations);
+    ``by_missions``: weighted by UAVs per run (the mean over UAV missions, as the paper averages)."""
+    return bl.stratified_mean_ci(r[value], r["cell"], floor=floor, ceiling=ceiling,
+                                 weights=r["n_uavs"] if by_missions else None)
+
+
+def total_ci(r, value: str, floor=0.0, ceiling=None) -> st.CI:
+    """Sum of a per-run value over the runs ``r``: n x the stratified interval of the mean."""
+    c = bl.stratified_mean_ci(r[value], r["cell"], floor=floor)
+    n = len(r)
+    if n == 0:
+        return st.CI(0.0, math.nan, math.nan, 0)
+    low, high = c.low * n, c.high * n
+    if ceiling is not None and math.isfinite(high):
+        high = min(ceiling, high)
+    return st.CI(c.estimate * n, low, high, n)
+
+
+def per_layout(r, value: str) -> list[float]:
+    """B - A per run averaged within each repetition (each layout, with ``layout: random``): whether an effect
+    holds in every layout, the unit a claim about layouts in general rests on."""
+    d = bl.paired_differences(r, value, "strategy", "A", "B", ["cell", "block", "rep"])
+    return [float(x) for x in d.groupby("rep")["diff"].mean().to_numpy()] if len(d) else []
+
+
+def ab_effect(r, value: str, agg: str = "mean") -> bl.Effect:
+    """B - A over blocks (same configuration and repetition; same seed in a campaign paired on the strategy),
+    stratified by configuration."""
+    d = bl.paired_differences(r, value, "strategy", "A", "B", ["cell", "block"], agg=agg)
+    return bl.blocked_effect(d["diff"].to_numpy(), strata=d["cell"].to_numpy())
+
+
+def _wind_cell(r):
+    """The configuration without the wind probability (strategy included)."""
+    return r["config"] + "|" + r["strategy"] + "|" + r["n_uavs"].astype(str) + "|" + r["area"]
+
+
+def wind_effect(r, value: str, w: float) -> bl.Effect:
+    """Value at wind probability ``w`` minus value at 0 %, same configuration and repetition, stratified."""
+    d = r.assign(_wcell=_wind_cell(r))
+    d = bl.paired_differences(d, value, "wind", 0.0, w, ["_wcell", "rep"])
+    return bl.blocked_effect(d["diff"].to_numpy(), strata=d["_wcell"].to_numpy())
+
+
+def wind_slope(r, value: str) -> bl.Effect:
+    """Within-configuration slope of a per-run value per %-point of wind probability: one least-squares slope
+    per (configuration, repetition) series over the wind levels, averaged with the stratified interval."""
+    d = r.assign(_wcell=_wind_cell(r))
+    slopes, strata = [], []
+    for (cell, _), g in d.groupby(["_wcell", "rep"], sort=False):
+        x, y = g["wind"].to_numpy(float) * 100.0, g[value].to_numpy(float)
+        ok = np.isfinite(y)
+        if ok.sum() >= 2 and np.ptp(x[ok]) > 0:
+            slopes.append(float(np.polyfit(x[ok], y[ok], 1)[0]))
+            strata.append(cell)
+    return bl.blocked_effect(slopes, strata=strata)
 
 
 def figure_data(u, r) -> dict:
-    """Every number the figures show (estimates and 95 % intervals), keyed by figure."""
-    strategies = sorted(set(u["strategy"]))
-    fleets = sorted(set(int(x) for x in u["n_uavs"]))
-    winds = sorted(set(float(x) for x in u["wind"]))
+    """Every number the figures show (estimates and 95 % stratified intervals), keyed by figure."""
+    strategies = sorted(set(r["strategy"]))
+    fleets = sorted(set(int(x) for x in r["n_uavs"]))
+    winds = sorted(set(float(x) for x in r["wind"]))
     areas = _areas(u)
-    d: dict = {"strategies": strategies, "fleets": fleets, "winds": winds, "areas": areas}
+    d: dict = {"strategies": strategies, "fleets": fleets, "winds": winds, "areas": areas, "n": n_text(r, u)}
     f5 = {}
     for s in strategies:
         for n in fleets:
-            sub = u[(u["strategy"] == s) & (u["n_uavs"] == n)]
-            k, m = int(sub["success"].sum()), len(sub)
-            f5[(s, n)] = (k, m, st.wilson_ci(k, m))
+            sub = r[(r["strategy"] == s) & (r["n_uavs"] == n)]
+            k, m = int(sub["successes"].sum()), int(sub["n_uavs"].sum())
+            f5[(s, n)] = (k, m, total_ci(sub, "successes", ceiling=float(m)))
     d["fig5"] = f5
-    d["fig6"] = {(s, a): battery_ci(u[(u["strategy"] == s) & (u["area"] == a)]["remaining_battery_pct"])
+    d["fig6"] = {(s, a): level_ci(r[(r["strategy"] == s) & (r["area"] == a)], "battery", True, 0.0, 100.0)
                  for s in strategies for a in areas}
-    d["fig7"] = {(s, a, w): battery_ci(u[(u["strategy"] == s) & (u["area"] == a) & (u["wind"] == w)]
-                                       ["remaining_battery_pct"])
+    d["fig7"] = {(s, a, w): level_ci(r[(r["strategy"] == s) & (r["area"] == a) & (r["wind"] == w)], "battery",
+                                     True, 0.0, 100.0)
                  for s in strategies for a in areas for w in winds}
-    d["fig8"] = {(s, w): st.total_ci(r[(r["strategy"] == s) & (r["wind"] == w)]["distance_m"] / 1000.0, floor=0.0)
+    d["fig7b"] = {(s, a, w): wind_effect(r[(r["strategy"] == s) & (r["area"] == a)], "battery", w)
+                  for s in strategies for a in areas for w in winds if w > 0}
+    d["fig8"] = {(s, w): total_ci(r[(r["strategy"] == s) & (r["wind"] == w)], "distance_km")
                  for s in strategies for w in winds}
+    d["fig8b"] = {(s, w): wind_effect(r[r["strategy"] == s], "distance_km", w)
+                  for s in strategies for w in winds if w > 0}
     # no more UAVs can be removed than flew in those runs
-    d["fig9"] = {(s, kind): st.total_ci(r[r["strategy"] == s][col], floor=0.0,
-                                        ceiling=float(r[r["strategy"] == s]["n_uavs"].sum()))
-                 for s in strategies for kind, col in (("uav", "uav_collided"), ("zone", "zone_collided"))}
-    d["fig10"] = {(s, n): battery_ci(u[(u["strategy"] == s) & (u["n_uavs"] == n)]["remaining_battery_pct"])
+    d["fig9"] = {(s, a, kind): total_ci(r[(r["strategy"] == s) & (r["area"] == a)], col,
+                                        ceiling=float(r[(r["strategy"] == s) & (r["area"] == a)]["n_uavs"].sum()))
+                 for s in strategies for a in areas for kind, col in (("uav", "uav_collided"), ("zone", "zone_collided"))}
+    d["fig10"] = {(s, n): level_ci(r[(r["strategy"] == s) & (r["n_uavs"] == n)], "battery", True, 0.0, 100.0)
                   for s in strategies for n in fleets}
     return d
 
 
 # ============================================================================================ table II
 TABLE2 = [
-    # key, label, level (uav | run), column, better, wind only
-    ("success", "Success per number of UAVs", "uav", "success", "higher", False),
-    ("photos", "Number of photos", "run", "photos", "higher", False),
-    ("photos_wind", "Number of photos with wind", "run", "photos", "higher", True),
-    ("energy", "Remaining energy", "uav", "remaining_battery_pct", "higher", False),
-    ("energy_wind", "Remaining energy with wind", "uav", "remaining_battery_pct", "higher", True),
-    ("distance", "Travelled distance", "run", "distance_m", "lower", False),
-    ("distance_wind", "Travelled distance with wind", "run", "distance_m", "lower", True),
-    ("collisions", "Number of collisions", "run", "collisions", "lower", False),
+    # key, label, per-run column, better, wind only, aggregate shown (sum over runs | mean over missions)
+    ("success", "Success per number of UAVs", "successes", "higher", False, "count"),
+    ("photos", "Number of photos", "photos", "higher", False, "sum"),
+    ("photos_wind", "Number of photos with wind", "photos", "higher", True, "sum"),
+    ("energy", "Remaining energy", "battery", "higher", False, "mean"),
+    ("energy_wind", "Remaining energy with wind", "battery", "higher", True, "mean"),
+    ("distance", "Travelled distance", "distance_km", "lower", False, "sum"),
+    ("distance_wind", "Travelled distance with wind", "distance_km", "lower", True, "sum"),
+    ("collisions", "Number of collisions", "collisions", "lower", False, "sum"),
 ]
 
 
@@ -218,75 +474,32 @@ def pair_keys(df, manifest) -> dict | None:
             for rid, row in zip(tot["run_id"], tot[keys].itertuples(index=False))}
 
 
-def _plain(v):
-    return v.item() if hasattr(v, "item") else v
-
-
-def _paired(data, col, level, pairs, success: bool):
-    """(test, p, number of pairs, mean B - A) over the A/B twins of ``data`` (runs, or UAVs by name)."""
-    d = data[data["run_id"].isin(list(pairs))].copy()
-    d["_key"] = d["run_id"].map(pairs)
-    if level == "uav":
-        d["_key"] = d["_key"] + "/" + d[UAV_COLUMN].astype(str)
-    a = d[d["strategy"] == "A"].drop_duplicates("_key").set_index("_key")[col]
-    b = d[d["strategy"] == "B"].drop_duplicates("_key").set_index("_key")[col]
-    common = a.index.intersection(b.index)
-    a, b = a.loc[common], b.loc[common]
-    if success:
-        a, b = a.astype(bool), b.astype(bool)
-        n10, n01 = int((a & ~b).sum()), int((~a & b).sum())
-        return "McNemar exact", st.mcnemar_exact(n10, n01) if len(common) else math.nan, len(common), \
-            float((b.astype(float) - a.astype(float)).mean()) if len(common) else math.nan
-    diff = b.astype(float).to_numpy() - a.astype(float).to_numpy()
-    diff = diff[np.isfinite(diff)]
-    _, p, _ = st.wilcoxon_signed_rank(diff)
-    return "Wilcoxon signed-rank", p, int(diff.size), float(diff.mean()) if diff.size else math.nan
-
-
 def table2(u, r, alpha: float = 0.05, pairs: dict | None = None) -> list[dict]:
-    """Table II: for each metric, A and B, the test, its p-value and which strategy is better.  With
-    ``pairs`` (see :func:`pair_keys`) each row also has the paired test over the A/B twins, which then
-    decides "better" (same wind for both strategies: the more sensitive comparison)."""
+    """Table II: for each metric the totals (or mission means) of A and B and the blocked comparison B - A per
+    run (``ab_effect``), which decides "better".  ``pairs`` is accepted for the caller's information only:
+    the blocks are the same whether or not the campaign shares seeds (it then says whether the twins met the
+    same wind)."""
     rows = []
-    for key, label, level, col, better, wind_only in TABLE2:
-        data = u if level == "uav" else r
-        if wind_only:
-            data = data[data["wind"] > 0]
-        a = data[data["strategy"] == "A"][col]
-        b = data[data["strategy"] == "B"][col]
-        row = {"key": key, "metric": label, "n_A": int(a.notna().sum()), "n_B": int(b.notna().sum())}
-        if key == "success":
-            ka, na, kb, nb = int(a.sum()), len(a), int(b.sum()), len(b)
-            row.update(A=f"{ka}/{na}", B=f"{kb}/{nb}", test="Fisher exact",
-                       p=st.fisher_exact(ka, na - ka, kb, nb - kb) if na and nb else math.nan,
-                       est_A=ka / na if na else math.nan, est_B=kb / nb if nb else math.nan)
+    for key, label, col, better, wind_only, shown in TABLE2:
+        data = r[r["wind"] > 0] if wind_only else r
+        a, b = data[data["strategy"] == "A"], data[data["strategy"] == "B"]
+        row = {"key": key, "metric": label, "n_A": len(a), "n_B": len(b)}
+        if shown == "count":
+            ka, kb = int(a[col].sum()), int(b[col].sum())
+            row.update(A=f"{ka}/{int(a['n_uavs'].sum())}", B=f"{kb}/{int(b['n_uavs'].sum())}")
+        elif shown == "mean":
+            row.update(A=level_ci(a, col, True).fmt(2, " %"), B=level_ci(b, col, True).fmt(2, " %"))
         else:
-            a = a.astype(float)
-            b = b.astype(float)
-            _, p = st.mann_whitney_u(a, b)
-            if level == "run":
-                row.update(A=f"{a.sum():.6g}", B=f"{b.sum():.6g}")
-                est_a, est_b = a.mean(), b.mean()
-            else:
-                row.update(A=f"{a.mean():.2f} %", B=f"{b.mean():.2f} %")
-                est_a, est_b = a.mean(), b.mean()
-            if col == "distance_m":
-                row.update(A=f"{a.sum() / 1000:.1f} km", B=f"{b.sum() / 1000:.1f} km")
-            row.update(test="Mann-Whitney U", p=p, est_A=float(est_a), est_B=float(est_b))
-        ea, eb = row["est_A"], row["est_B"]
-        if not (math.isfinite(ea) and math.isfinite(eb)) or ea == eb:
+            unit = " km" if col == "distance_km" else ""
+            row.update(A=f"{a[col].sum():.6g}{unit}", B=f"{b[col].sum():.6g}{unit}")
+        e = ab_effect(data, col)
+        row.update(effect=e, p=e.p, n_blocks=e.n_blocks, per_layout=per_layout(data, col))
+        if not math.isfinite(e.estimate) or e.estimate == 0:
             lead = "tie"
-        elif (eb > ea) == (better == "higher"):
-            lead = "B"
         else:
-            lead = "A"
+            lead = "B" if (e.estimate > 0) == (better == "higher") else "A"
         row["lead"] = lead
-        p = row["p"]
-        if pairs:
-            test, pp, npairs, mean_diff = _paired(data, col, level, pairs, key == "success")
-            row.update(paired_test=test, paired_p=pp, n_pairs=npairs, paired_mean_diff=mean_diff)
-            p = pp
-        row["better"] = lead if (lead != "tie" and math.isfinite(p) and p < alpha) else "none"
+        row["better"] = lead if (lead != "tie" and e.significant) else "none"
         row["sense"] = better
         rows.append(row)
     return rows
@@ -299,12 +512,8 @@ def _fmt_p(p: float) -> str:
     return f"{p:.2g}" if p >= 0.001 else f"{p:.1e}"
 
 
-def _slope_sig(ci: st.CI):
-    return None if not math.isfinite(ci.low) else (ci.low > 0 or ci.high < 0)
-
-
-def _mwu(x, y):
-    return st.mann_whitney_u(np.asarray(x, float), np.asarray(y, float))[1]
+def _eff(e: bl.Effect, digits=2, unit="") -> str:
+    return f"{e.fmt(digits, unit)}, p = {_fmt_p(e.p)}, {e.n_blocks} blocks"
 
 
 def _facts(u, r, fd) -> dict:
@@ -364,109 +573,157 @@ def _facts(u, r, fd) -> dict:
     return f
 
 
-def paper_comparison(u, r, fd: dict, t2: list[dict]) -> list[dict]:
-    """One row per published claim: the paper's value, ours, whether they agree (direction; ``sig`` says
-    whether our difference or trend is statistically significant), the likely reasons and facts."""
+
+def paper_comparison(u, r, fd: dict, t2: list[dict], why_keys: dict | None = None) -> list[dict]:
+    """One row per published claim: the paper's value, ours, ``value`` (agreement by value where the paper
+    gives a number, with its tolerance), ``agree`` (the value agreement where there is one, else the
+    direction), ``sig`` (our blocked test or within-configuration slope is significant), the likely causes
+    and facts."""
     rows = []
     facts = _facts(u, r, fd)
 
-    def add(key, ours, agree, why=(), note="", sig=None):
+    def add(key, ours, agree, why=(), note="", sig=None, value=None):
         paper, quote = PAPER[key]
+        if value is not None and value.agrees is not None:
+            agree = value.agrees
         agree = None if agree is None else bool(agree)
         sig = None if sig is None else bool(sig)
         rows.append({"key": key, "paper": paper, "quote": quote, "ours": ours, "agree": agree, "sig": sig,
-                     "why": list(why), "note": note, "fact": facts.get(key, "")})
+                     "value": value, "why": list(why), "note": note, "fact": facts.get(key, "")})
+
+    def both(v1, v2):
+        """Agreement of two values (A and B): both must agree."""
+        if v1.agrees is None or v2.agrees is None:
+            return bl.Agreement(None, "")
+        return bl.Agreement(v1.agrees and v2.agrees, f"A: {v1.text}; B: {v2.text}")
 
     n_runs = r["run_id"].nunique()
-    add("runs", f"{n_runs} completed runs", n_runs == 336,
-        () if n_runs == 336 else ("campaign",), "" if n_runs == 336 else "this campaign is not the full paper grid")
+    add("runs", f"{n_runs} completed runs", None, () if n_runs == 336 else ("campaign",),
+        value=bl.agrees_by_value(336.0, float(n_runs), 0.0))
     f5 = fd["fig5"]
     fleets = fd["fleets"]
     maxes = ", ".join(str(f5.get(("A", n), (0, 0))[1]) for n in fleets)
-    add("max_success", maxes, maxes == "42, 84, 126, 168", () if maxes == "42, 84, 126, 168" else ("campaign",))
+    add("max_success", maxes, None, () if maxes == "42, 84, 126, 168" else ("campaign",),
+        value=bl.Agreement(maxes == "42, 84, 126, 168", "the UAV missions per fleet size of the grid"))
 
     def succ(s, n):
-        k, m, _ = f5.get((s, n), (0, 0, None))
-        return k, m
+        k, m, ci = f5.get((s, n), (0, 0, st.CI(math.nan, math.nan, math.nan, 0)))
+        return k, m, ci
     if 1 in fleets:
-        (ka, ma), (kb, mb) = succ("A", 1), succ("B", 1)
-        add("success_1", f"{ka}/{ma} (A), {kb}/{mb} (B)", ka == 0 and kb == 0, ("geometry", "energy", "success_def"))
+        (ka, ma, ca), (kb, mb, cb) = succ("A", 1), succ("B", 1)
+        v = both(bl.agrees_by_value(0.0, ca, 0.0), bl.agrees_by_value(0.0, cb, 0.0))
+        add("success_1", f"{ka}/{ma} (A), {kb}/{mb} (B)", None, ("speed", "geometry", "energy", "success_def"),
+            value=v)
     if 2 in fleets:
-        (ka, ma), (kb, mb) = succ("A", 2), succ("B", 2)
-        add("success_2", f"{ka}/{ma} (A), {kb}/{mb} (B)", ka == 0 and kb > 0, ("geometry", "energy", "success_def"))
+        (ka, ma, ca), (kb, mb, _) = succ("A", 2), succ("B", 2)
+        v = bl.agrees_by_value(0.0, ca, 0.0)
+        add("success_2", f"{ka}/{ma} (A), {kb}/{mb} (B)", kb > 0 and ka == 0,
+            ("speed", "geometry", "energy", "success_def"),
+            value=bl.Agreement(v.agrees and kb > 0, v.text) if v.agrees is not None else None)
     srow = next(x for x in t2 if x["key"] == "success")
-    add("success_dir", f"{srow['A']} (A) vs {srow['B']} (B), Fisher p = {_fmt_p(srow['p'])}",
-        None if srow["lead"] == "tie" else srow["lead"] == "B", ("geometry", "collisions_model", "stochastic"),
-        sig=srow["p"] < 0.05 if math.isfinite(srow["p"]) else None)
-    bm = {s: battery_ci(u[u["strategy"] == s]["remaining_battery_pct"]) for s in ("A", "B")}
+    add("success_dir", f"{srow['A']} (A) vs {srow['B']} (B); B - A per run {_eff(srow['effect'])}",
+        None if srow["lead"] == "tie" else srow["lead"] == "B", ("geometry", "collisions_model", "speed"),
+        sig=srow["effect"].significant)
+    bm = {s: level_ci(r[r["strategy"] == s], "battery", True, 0.0, 100.0) for s in ("A", "B")}
     erow = next(x for x in t2 if x["key"] == "energy")
-    add("battery_total", f"{bm['A'].fmt(2, ' %')} (A), {bm['B'].fmt(2, ' %')} (B); Mann-Whitney p = "
-                         f"{_fmt_p(erow['p'])}",
-        bm["B"].estimate > bm["A"].estimate, ("energy", "geometry", "collisions_model"),
-        "ours: mean remaining battery of all UAV missions, 95 % t interval",
-        sig=erow["p"] < 0.05 if math.isfinite(erow["p"]) else None)
+    v = both(bl.agrees_by_value(PAPER_VALUES["battery_A"][0], bm["A"], PAPER_VALUES["battery_A"][1]),
+             bl.agrees_by_value(PAPER_VALUES["battery_B"][0], bm["B"], PAPER_VALUES["battery_B"][1]))
+    add("battery_total", f"{bm['A'].fmt(2, ' %')} (A), {bm['B'].fmt(2, ' %')} (B); B - A {_eff(erow['effect'])}",
+        bm["B"].estimate > bm["A"].estimate, ("energy", "speed", "geometry", "collisions_model"),
+        "mean over UAV missions; tolerance ±2 points around our interval", sig=erow["effect"].significant, value=v)
     parts, agree, sig = [], True, True
     for a in fd["areas"]:
-        ca, cb = fd["fig6"][("A", a)], fd["fig6"][("B", a)]
-        p = _mwu(u[(u["strategy"] == "A") & (u["area"] == a)]["remaining_battery_pct"],
-                 u[(u["strategy"] == "B") & (u["area"] == a)]["remaining_battery_pct"])
-        parts.append(f"{a}: A {ca.fmt(1)} vs B {cb.fmt(1)} (p = {_fmt_p(p)})")
-        agree &= ca.estimate > cb.estimate
-        sig &= math.isfinite(p) and p < 0.05
+        e = ab_effect(r[r["area"] == a], "battery")
+        parts.append(f"{area_label(a)}: A {fd['fig6'].get(('A', a), NO_CI).fmt(1)} vs B "
+                     f"{fd['fig6'].get(('B', a), NO_CI).fmt(1)}; "
+                     f"B - A {_eff(e, 1)}")
+        agree &= e.estimate < 0
+        sig &= e.significant
     add("battery_area", "; ".join(parts), agree, ("collisions_model", "geometry", "energy"), sig=sig)
-    sl = st.ols_slope(u["wind"] * 100.0, u["remaining_battery_pct"])
-    add("battery_wind", f"slope {sl.fmt(3)} %-points per %-point of wind probability",
-        None if not math.isfinite(sl.estimate) else sl.estimate < 0, ("wind", "stochastic", "collisions_model"),
-        "least-squares slope over all UAV missions, 95 % t interval", sig=_slope_sig(sl))
+    sl = wind_slope(r, "battery")
+    top = max(fd["winds"])
+    e_top = wind_effect(r, "battery", top) if top > 0 else None
+    add("battery_wind", f"within-configuration slope (%-points per %-point of wind probability) {_eff(sl, 3)}"
+                        + (f"; {top * 100:g} % vs 0 %: {_eff(e_top, 2)}" if e_top else ""),
+        None if not math.isfinite(sl.estimate) else sl.estimate < 0, ("wind",),
+        "direction only (the paper gives no value)", sig=sl.significant)
     zones = [a for a in fd["areas"] if _is_zone(a)]
     free = [a for a in fd["areas"] if not _is_zone(a)]
     if zones and free:
-        xz, xf = u[u["area"].isin(zones)]["remaining_battery_pct"], u[u["area"].isin(free)]["remaining_battery_pct"]
-        bz, bf, p = battery_ci(xz), battery_ci(xf), _mwu(xz, xf)
-        add("battery_zones", f"zones {bz.fmt(1, ' %')} vs free {bf.fmt(1, ' %')} (p = {_fmt_p(p)})",
-            bz.estimate > bf.estimate, ("collisions_model", "geometry"), sig=math.isfinite(p) and p < 0.05)
+        d = r.assign(_area=np.where(r["area"].isin(zones), "zones", "free"),
+                     _c=r["config"] + "|" + r["strategy"] + "|" + r["n_uavs"].astype(str) + "|" + r["wind"].astype(str))
+        dd = bl.paired_differences(d, "battery", "_area", "free", "zones", ["_c", "rep"])
+        e = bl.blocked_effect(dd["diff"].to_numpy(), strata=dd["_c"].to_numpy())
+        add("battery_zones", f"restricted - free per run {_eff(e, 1)}", e.estimate > 0,
+            ("collisions_model", "geometry"), "same configuration and repetition in both areas", sig=e.significant)
     drow = next(x for x in t2 if x["key"] == "distance")
-    da, db = r[r["strategy"] == "A"]["distance_m"].sum() / 1000, r[r["strategy"] == "B"]["distance_m"].sum() / 1000
-    add("distance_total", f"{da:.1f} km (A), {db:.1f} km (B); Mann-Whitney p = {_fmt_p(drow['p'])}", db < da,
-        ("geometry", "collisions_model"), "sum of the distance flown by every UAV of every run",
-        sig=drow["p"] < 0.05 if math.isfinite(drow["p"]) else None)
+    da, db = r[r["strategy"] == "A"]["distance_km"].sum(), r[r["strategy"] == "B"]["distance_km"].sum()
+    ca_, cb_ = total_ci(r[r["strategy"] == "A"], "distance_km"), total_ci(r[r["strategy"] == "B"], "distance_km")
+    v = both(bl.agrees_by_value(PAPER_VALUES["distance_A"][0], ca_, PAPER_VALUES["distance_A"][1]),
+             bl.agrees_by_value(PAPER_VALUES["distance_B"][0], cb_, PAPER_VALUES["distance_B"][1]))
+    add("distance_total", f"{da:.1f} km (A), {db:.1f} km (B); B - A per run {_eff(drow['effect'], 3, ' km')}",
+        db < da, ("speed", "geometry", "collisions_model"), "sum over every UAV of every run; tolerance ±10 %",
+        sig=drow["effect"].significant, value=v)
     if zones and free:
-        xz, xf = r[r["area"].isin(zones)]["distance_m"] / 1000, r[r["area"].isin(free)]["distance_m"] / 1000
-        dz, dfr, p = st.total_ci(xz, floor=0.0), st.total_ci(xf, floor=0.0), _mwu(xz, xf)
-        add("distance_zones", f"zones {dz.fmt(1, ' km')} vs free {dfr.fmt(1, ' km')} (p = {_fmt_p(p)})",
-            dz.estimate < dfr.estimate, ("collisions_model", "geometry"), sig=math.isfinite(p) and p < 0.05)
-    sl = st.ols_slope(r["wind"] * 100.0, r["distance_m"] / 1000.0)
-    add("distance_wind", f"slope {sl.fmt(3)} km per run per %-point of wind probability",
-        None if not math.isfinite(sl.estimate) else sl.estimate > 0, ("wind", "stochastic", "collisions_model"),
-        "least-squares slope over runs, 95 % t interval", sig=_slope_sig(sl))
-    ca, cb = int(r[r["strategy"] == "A"]["collisions"].sum()), int(r[r["strategy"] == "B"]["collisions"].sum())
+        d = r.assign(_area=np.where(r["area"].isin(zones), "zones", "free"),
+                     _c=r["config"] + "|" + r["strategy"] + "|" + r["n_uavs"].astype(str) + "|" + r["wind"].astype(str))
+        dd = bl.paired_differences(d, "distance_km", "_area", "free", "zones", ["_c", "rep"])
+        e = bl.blocked_effect(dd["diff"].to_numpy(), strata=dd["_c"].to_numpy())
+        add("distance_zones", f"restricted - free per run {_eff(e, 3, ' km')}", e.estimate < 0,
+            ("collisions_model", "geometry"), sig=e.significant)
+    sl = wind_slope(r, "distance_km")
+    add("distance_wind", f"within-configuration slope (km per run per %-point of wind probability) {_eff(sl, 4)}",
+        None if not math.isfinite(sl.estimate) else sl.estimate > 0, ("wind",),
+        "direction only", sig=sl.significant)
     crow = next(x for x in t2 if x["key"] == "collisions")
-    add("collisions", f"{ca} (A), {cb} (B) UAVs removed; Mann-Whitney p = {_fmt_p(crow['p'])}", ca > cb,
-        ("collisions_count", "collisions_model", "geometry"),
-        sig=crow["p"] < 0.05 if math.isfinite(crow["p"]) else None)
-    parts, agree = [], True
+
+    def counts(col):
+        ra, rb = r[r["strategy"] == "A"], r[r["strategy"] == "B"]
+        v = both(bl.agrees_by_value(PAPER_VALUES["collisions_A"][0], total_ci(ra, col), PAPER_VALUES["collisions_A"][1]),
+                 bl.agrees_by_value(PAPER_VALUES["collisions_B"][0], total_ci(rb, col), PAPER_VALUES["collisions_B"][1]))
+        return int(ra[col].sum()), int(rb[col].sum()), v
+    ca, cb, v_uav = counts("collisions")
+    ea, eb, v_evt = counts("collision_events")
+    v = v_evt if v_evt.agrees else v_uav
+    add("collisions", f"{ca} (A), {cb} (B) UAVs removed; counting a UAV-UAV collision once: {ea} (A), {eb} (B); "
+                      f"B - A UAVs removed per run {_eff(crow['effect'])}", ca > cb,
+        ("collisions_model", "collisions_count", "geometry"),
+        f"tolerance ±10 %; UAVs removed {'agree' if v_uav.agrees else 'do not agree'}, collisions counted once per "
+        f"event {'agree' if v_evt.agrees else 'do not agree'}", sig=crow["effect"].significant,
+        value=bl.Agreement(v.agrees, f"UAVs removed: {v_uav.text}; events: {v_evt.text}"))
+    parts, agree_uav, agree_evt = [], True, True
     for s in ("A", "B"):
         sub = r[r["strategy"] == s]
-        nu, nz = int(sub["uav_collided"].sum()), int(sub["zone_collided"].sum())
-        parts.append(f"{s}: {nz} zone vs {nu} UAV ({ratio_text(nz, nu)})")
-        agree &= nu > 0 and 2.0 <= nz / nu <= 4.0
-    add("wall_ratio", "; ".join(parts), agree, ("collisions_model", "geometry", "collisions_count"),
-        "agreement = ratio between 2 and 4 in both strategies")
+        nu, nz, ne = int(sub["uav_collided"].sum()), int(sub["zone_collided"].sum()), int(sub["uav_events"].sum())
+        parts.append(f"{s}: {nz} zone vs {nu} UAVs removed by each other ({ratio_text(nz, nu)}), vs {ne} UAV-UAV "
+                     f"collisions ({ratio_text(nz, ne)})")
+        agree_uav &= nu > 0 and abs(nz / nu - PAPER_VALUES["wall_ratio"][0]) <= PAPER_VALUES["wall_ratio"][1]
+        agree_evt &= ne > 0 and abs(nz / ne - PAPER_VALUES["wall_ratio"][0]) <= PAPER_VALUES["wall_ratio"][1]
+    add("wall_ratio", "; ".join(parts), None, ("collisions_model", "geometry", "collisions_count", "wind"),
+        value=bl.Agreement(agree_uav or agree_evt,
+                           f"ratio within 3 ± 1 in both strategies: counting removed UAVs {'yes' if agree_uav else 'no'}"
+                           f", counting collisions {'yes' if agree_evt else 'no'}"))
     parts, agree, sig = [], True, True
     for s in ("A", "B"):
-        sub = u[u["strategy"] == s]
-        sl = st.ols_slope(sub["n_uavs"], sub["remaining_battery_pct"])
+        sub = r[r["strategy"] == s]
+        d = sub.assign(_c=sub["config"] + "|" + sub["area"] + "|" + sub["wind"].astype(str))
+        slopes, strata = [], []
+        for (c, _), g in d.groupby(["_c", "rep"], sort=False):
+            if g["n_uavs"].nunique() >= 2:
+                slopes.append(float(np.polyfit(g["n_uavs"].to_numpy(float), g["battery"].to_numpy(float), 1)[0]))
+                strata.append(c)
+        e = bl.blocked_effect(slopes, strata=strata)
         means = ", ".join(f"{n}: {fd['fig10'][(s, n)].estimate:.1f}" for n in fd["fleets"] if (s, n) in fd["fig10"])
-        parts.append(f"{s}: slope {sl.fmt(2)} %/UAV (means {means})")
-        agree = agree and math.isfinite(sl.estimate) and sl.estimate > 0
-        sig = sig and bool(_slope_sig(sl))
-    add("battery_fleet", "; ".join(parts), agree, ("energy", "geometry", "collisions_model"), sig=sig)
+        parts.append(f"{s}: within-configuration slope (%-points per UAV) {_eff(e, 2)} (means {means})")
+        agree = agree and math.isfinite(e.estimate) and e.estimate > 0
+        sig = sig and e.significant
+    add("battery_fleet", "; ".join(parts), agree, ("speed", "energy", "geometry", "collisions_model"), sig=sig)
     nb = sum(1 for x in t2 if x["better"] == "B")
     na = sum(1 for x in t2 if x["better"] == "A")
     lb = sum(1 for x in t2 if x["lead"] == "B")
     add("table2", f"B significantly better on {nb}, A on {na}, no significant difference on {len(t2) - nb - na} "
                   f"(B ahead, significant or not, on {lb} of {len(t2)})", nb == len(t2),
-        ("stochastic", "geometry", "collisions_model"))
+        ("geometry", "collisions_model", "speed"))
     return rows
 
 
@@ -474,21 +731,147 @@ def _verdict(c: dict) -> str:
     if c["agree"] is None:
         return "n/a"
     text = "yes" if c["agree"] else "**no**"
+    text += " (value)" if c.get("value") is not None and c["value"].agrees is not None else " (direction)"
     if c["sig"] is False:
-        text += " (not significant)"
+        text += ", not significant"
     return text
 
 
+# ============================================================================================ sensitivity
+#: the paper's findings a sensitivity campaign checks per configuration: key -> (label, test on the runs of one
+#: configuration returning (holds: bool | None, evidence text))
+def _finding_tests():
+    def success_1(r):
+        s = r[r["n_uavs"] == 1]
+        if s.empty:
+            return None, "no 1-UAV runs", None
+        k = int(s["successes"].sum())
+        return k == 0, f"{k}/{int(s['n_uavs'].sum())} single-UAV missions succeed", None
+
+    def success_2(r):
+        s = r[r["n_uavs"] == 2]
+        if s.empty:
+            return None, "no 2-UAV runs", None
+        ka, kb = int(s[s["strategy"] == "A"]["successes"].sum()), int(s[s["strategy"] == "B"]["successes"].sum())
+        return ka == 0 and kb > 0, f"2 UAVs: A {ka}, B {kb} successes", None
+
+    def b_more(r):
+        e = ab_effect(r, "successes")
+        return _holds(e, +1), f"B - A successes per run {_eff(e)}", e.estimate
+
+    def wind_battery(r):
+        e = wind_slope(r, "battery")
+        return _holds(e, -1), f"slope {_eff(e, 3)} %/%-pt", e.estimate
+
+    def wind_distance(r):
+        e = wind_slope(r, "distance_km")
+        return _holds(e, +1), f"slope {_eff(e, 4)} km/%-pt", e.estimate
+
+    def b_shorter(r):
+        e = ab_effect(r, "distance_km")
+        return _holds(e, -1), f"B - A km per run {_eff(e, 3)}", e.estimate
+
+    def wall_ratio(r):
+        ne, nz = int(r["uav_events"].sum()), int(r["zone_collided"].sum())
+        return (ne > 0 and 2.0 <= nz / ne <= 4.0), f"zone {nz} vs UAV-UAV {ne} ({ratio_text(nz, ne)})", None
+
+    def b_fewer_collisions(r):
+        e = ab_effect(r, "collisions")
+        return _holds(e, -1), f"B - A collisions per run {_eff(e)}", e.estimate
+
+    return {"success_1": ("1 UAV never succeeds", success_1),
+            "success_2": ("2 UAVs: only B succeeds", success_2),
+            "success_dir": ("B more successes than A", b_more),
+            "battery_wind": ("wind lowers the remaining battery", wind_battery),
+            "distance_wind": ("wind lengthens the distance", wind_distance),
+            "distance_total": ("B flies less than A", b_shorter),
+            "collisions": ("B has fewer collisions than A", b_fewer_collisions),
+            "wall_ratio": ("zone collisions ≈ 3 × UAV-UAV collisions (counted once)", wall_ratio)}
+
+
+def _holds(e: bl.Effect, sign: int):
+    """The paper's direction (sign) and significant (blocked sign-flip test)."""
+    return (e.estimate * sign > 0 and e.significant) if math.isfinite(e.estimate) else None
+
+
+def flip_kind(base: tuple, other: tuple) -> str:
+    """How a configuration changes a finding: the statistic changes sign ("reversed"), or keeps the baseline's
+    sign but loses (or gains) significance ("weakened" / "strengthened"); counts simply "changed"."""
+    b, o = base[2], other[2]
+    if b is None or o is None or not (math.isfinite(b) and math.isfinite(o)):
+        return "changed"
+    if (b > 0) != (o > 0):
+        return "reversed"
+    return "strengthened" if other[0] else "weakened"
+
+
+def _config_label(config: str, baseline: dict) -> str:
+    vals = json.loads(config)
+    diff = {k: v for k, v in vals.items() if k in baseline and canonical_json(baseline[k]) != canonical_json(v)}
+    return "baseline" if not diff else ", ".join(f"{k} = {v}" for k, v in diff.items())
+
+
+def sensitivity_findings(r, design: dict) -> dict:
+    """For a campaign with a design: per configuration (baseline, each one-at-a-time value, each factorial
+    point), whether each of the paper's findings holds in it, with its evidence, and per finding the
+    configurations that flip it relative to the baseline."""
+    tests = _finding_tests()
+    base = design["baseline"]
+    configs = list(dict.fromkeys(r["config"]))
+    table = {}
+    for c in configs:
+        sub = r[r["config"] == c]
+        table[c] = {k: fn(sub) for k, (_, fn) in tests.items()}
+    base_c = next((c for c in configs if "baseline" in design_roles(json.loads(c), design)), None)
+    flips = {}
+    for k in tests:
+        b = table[base_c][k][0] if base_c else None
+        flips[k] = [c for c in configs if c != base_c and table[c][k][0] is not None and b is not None
+                    and table[c][k][0] != b]
+    return {"tests": {k: lbl for k, (lbl, _) in tests.items()}, "table": table, "baseline": base_c,
+            "flips": flips, "labels": {c: _config_label(c, base) for c in configs},
+            "roles": {c: design_roles(json.loads(c), design) for c in configs}}
+
+
+def sensitivity_md(r, design: dict) -> list[str]:
+    sf = sensitivity_findings(r, design)
+    L = ["## Sensitivity: which assumptions flip which finding", "",
+         f"One factor at a time around the baseline ({', '.join(f'{k} = {v}' for k, v in design['baseline'].items())})"
+         + (f", plus the factorial {' x '.join(f'{k} {v}' for k, v in design['factorial'].items())}"
+            if design.get("factorial") else "")
+         + f". Each configuration runs the whole grid ({n_text(r[r['config'] == (sf['baseline'] or r['config'].iloc[0])])} "
+           "per configuration). A finding *holds* when its statistic has the paper's sign and is significant "
+           "(blocked sign-flip test, α = 0.05) or, for counts the paper gives, equals it.", ""]
+    keys = list(sf["tests"])
+    rows = []
+    for c, res in sf["table"].items():
+        rows.append([sf["labels"][c], ", ".join(x.split(":")[0] for x in sf["roles"][c]) or "-",
+                     *["✓" if res[k][0] else ("✗" if res[k][0] is False else "n/a") for k in keys]])
+    L += [md_table(["configuration", "design", *[sf["tests"][k] for k in keys]], rows), ""]
+    L += ["Per finding, the configurations that flip it relative to the baseline (with the evidence in the "
+          "flipped configuration; baseline evidence first):", ""]
+    for k in keys:
+        base = sf["table"][sf["baseline"]][k] if sf["baseline"] else (None, "", None)
+        fl = sf["flips"][k]
+        state = "holds" if base[0] else ("does not hold" if base[0] is False else "n/a")
+        flipped = "; ".join(f"*{sf['labels'][c]}* ({flip_kind(base, sf['table'][c][k])}): {sf['table'][c][k][1]}"
+                            for c in fl) or "no factor flips it"
+        L += [f"- **{sf['tests'][k]}** — baseline {state} ({base[1]}). Flipped by: {flipped}."]
+    L += [""]
+    return L
+
+
 # ============================================================================================ figures
-def _fig(w=7.5, h=4.5):
+def _fig(w=7.5, h=4.5, ncols=1):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    fig = Figure(figsize=(w, h), dpi=110)
+    fig = Figure(figsize=(w, h), dpi=90)
     FigureCanvasAgg(fig)
-    return fig, fig.add_subplot(1, 1, 1)
+    axes = [fig.add_subplot(1, ncols, i + 1) for i in range(ncols)]
+    return fig, (axes[0] if ncols == 1 else axes)
 
 
-def _err(ci: st.CI, scale: float = 1.0):
+def _err(ci, scale: float = 1.0):
     if not math.isfinite(ci.low):
         return [[0.0], [0.0]]
     return [[max(0.0, (ci.estimate - ci.low) * scale)], [max(0.0, (ci.high - ci.estimate) * scale)]]
@@ -501,6 +884,28 @@ def _wind_colors(winds):
     return {w: cmap(i / n) for i, w in enumerate(winds)}
 
 
+def _note(ax, text: str, below: float = 42) -> None:
+    """n of the panel, ``below`` points under the axis (clear of its tick labels and x-axis label)."""
+    ax.annotate(text, (0.5, 0.0), xycoords="axes fraction", xytext=(0, -below), textcoords="offset points",
+                ha="center", va="top", fontsize=7, color="dimgray", annotation_clip=False)
+
+
+def _headroom_legend(ax, n: int) -> None:
+    """The wind-probability legend in one row above the bars (room made for it), never over them."""
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, high + 0.22 * (high - low))
+    ax.legend(title="wind probability", fontsize=7, title_fontsize=7, ncol=n, loc="upper center",
+              columnspacing=0.8, handlelength=1.2)
+
+
+def _pairs_note(effects: dict) -> str:
+    n = sorted({e.n_blocks for e in effects.values()})
+    if not n:
+        return "one wind probability: no pairs"
+    shown = f"{n[0]}" if len(n) == 1 else f"{n[0]}-{n[-1]}"
+    return f"n = {shown} pairs per point (a run at w and the run of the same configuration and layout at 0 %)"
+
+
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path)
@@ -508,48 +913,68 @@ def _save(fig, path: Path) -> Path:
 
 
 def _strategy_bars(ax, cis: dict, strategies, groups, width: float) -> None:
-    """Side by side in each group, one bar per strategy with its interval (Figs. 6 and 10)."""
+    """Side by side in each group, one bar per strategy with its interval (Figs. 6, 9 and 10)."""
     for i, s in enumerate(strategies):
         for j, g in enumerate(groups):
             ci = cis[(s, g)]
             x = j + (i - (len(strategies) - 1) / 2) * width
-            ax.bar(x, ci.estimate, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
-            ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
+            ax.bar(x, ci.estimate if ci.n else 0, width, color=COLORS.get(s, f"C{i}"),
+                   label=f"Strategy {s}" if j == 0 else None)
+            if ci.n:
+                ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
 
 
-def draw_figures(fd: dict, out: Path) -> dict:
+def _effect_lines(ax, effects: dict, series, winds, label) -> None:
+    """Within-configuration differences (vs 0 % wind) per wind probability, one line per series."""
+    xs = [w for w in winds if w > 0]
+    for i, key in enumerate(series):
+        es = [effects[(*key, w) if isinstance(key, tuple) else (key, w)] for w in xs]
+        y = [e.estimate for e in es]
+        lo = [e.estimate - e.low if math.isfinite(e.low) else 0.0 for e in es]
+        hi = [e.high - e.estimate if math.isfinite(e.high) else 0.0 for e in es]
+        off = (i - (len(series) - 1) / 2) * 0.15
+        ax.errorbar([x * 100 + off for x in xs], y, yerr=[lo, hi], marker="o", ms=4, capsize=2, lw=1,
+                    label=label(key), color=COLORS.get(key[0] if isinstance(key, tuple) else key, f"C{i}"),
+                    ls="-" if not isinstance(key, tuple) or not _is_zone(key[1]) else "--")
+    ax.axhline(0.0, color="gray", lw=0.8)
+    ax.set_xlabel("wind probability [%]")
+
+
+def draw_figures(fd: dict, out: Path, r=None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     S, N, W, A = fd["strategies"], fd["fleets"], fd["winds"], fd["areas"]
+    n_all = fd["n"]
     files = {}
     width = 0.8 / max(1, len(S))
+    colors = _wind_colors(W)
     # -- Fig. 5
     fig, ax = _fig()
     for i, s in enumerate(S):
-        xs = np.arange(len(N)) + (i - (len(S) - 1) / 2) * width
-        for x, n in zip(xs, N):
+        for j, n in enumerate(N):
             k, m, ci = fd["fig5"][(s, n)]
-            ax.bar(x, k, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if n == N[0] else None)
+            x = j + (i - (len(S) - 1) / 2) * width
+            ax.bar(x, k, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
             if m:
-                ax.errorbar(x, k, yerr=[[max(0.0, k - ci.low * m)], [max(0.0, ci.high * m - k)]], fmt="none",
-                            ecolor="black", capsize=3)
-            ax.annotate(f"{k}/{m}", (x, k), xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7)
-    ax.set_xticks(np.arange(len(N)), [str(n) for n in N])
-    ax.set_xlabel("UAVs in the fleet")
+                ax.errorbar(x, k, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
+    ax.set_xticks(np.arange(len(N)), [f"{n}\n(of {fd['fig5'][(S[0], n)][1]})" for n in N])
+    ax.set_xlabel("UAVs in the fleet (maximum successes)")
     ax.set_ylabel("successful UAV missions")
-    ax.set_title("Fig. 5 - successes per fleet size (95 % Wilson interval)")
+    ax.set_title("Fig. 5 - successes per fleet size (95 % stratified interval)")
     ax.legend()
+    _note(ax, n_all, 56)
     files["fig5"] = _save(fig, out / "fig5_success_per_fleet_size.png")
     # -- Fig. 6
     fig, ax = _fig()
     _strategy_bars(ax, fd["fig6"], S, A, width)
-    ax.set_xticks(np.arange(len(A)), A)
+    ax.set_xticks(np.arange(len(A)), [area_label(a) for a in A])
+    ax.set_xlabel("area")
     ax.set_ylabel("mean remaining battery per UAV [%]")
-    ax.set_title("Fig. 6 - remaining battery per area (95 % t interval)")
+    ax.set_title("Fig. 6 - remaining battery per area (95 % stratified interval)")
     ax.legend()
+    _note(ax, n_all)
     files["fig6"] = _save(fig, out / "fig6_battery_per_area.png")
-    # -- Fig. 7
-    fig, ax = _fig(9, 4.8)
-    colors = _wind_colors(W)
+    # -- Fig. 7: levels, and the within-configuration differences to 0 % wind
+    fig, (ax, bx) = _fig(12, 4.8, 2)
     groups = [(s, a) for s in S for a in A]
     bw = 0.85 / max(1, len(W))
     for g, (s, a) in enumerate(groups):
@@ -559,14 +984,21 @@ def draw_figures(fd: dict, out: Path) -> dict:
             ax.bar(x, ci.estimate if ci.n else 0, bw, color=colors[w], label=f"{w * 100:g} %" if g == 0 else None)
             if ci.n:
                 ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=1.5, lw=0.8)
-    ax.set_xticks(np.arange(len(groups)), [f"{s} / {a}" for s, a in groups])
+    ax.set_xticks(np.arange(len(groups)), [f"{s} / {area_label(a)}" for s, a in groups])
     ax.set_xlabel("strategy / area")
     ax.set_ylabel("mean remaining battery per UAV [%]")
-    ax.set_title("Fig. 7 - remaining battery per wind probability (95 % t interval)")
-    ax.legend(title="wind", fontsize=7, ncol=min(7, len(W)), loc="upper center", bbox_to_anchor=(0.5, -0.15))
+    ax.set_title("Fig. 7a - remaining battery per wind probability", fontsize=10)
+    _headroom_legend(ax, len(W))
+    _note(ax, n_all)
+    if fd["fig7b"]:
+        _effect_lines(bx, fd["fig7b"], groups, W, lambda k: f"{k[0]} / {area_label(k[1])}")
+        bx.legend(fontsize=7)
+    bx.set_ylabel("battery at w minus at 0 % [%-points]")
+    bx.set_title("Fig. 7b - same configuration and repetition, paired (95 % interval)", fontsize=10)
+    _note(bx, _pairs_note(fd["fig7b"]))
     files["fig7"] = _save(fig, out / "fig7_battery_per_wind.png")
     # -- Fig. 8
-    fig, ax = _fig(8, 4.8)
+    fig, (ax, bx) = _fig(12, 4.8, 2)
     for g, s in enumerate(S):
         for k, w in enumerate(W):
             ci = fd["fig8"][(s, w)]
@@ -574,27 +1006,32 @@ def draw_figures(fd: dict, out: Path) -> dict:
             ax.bar(x, ci.estimate, bw, color=colors[w], label=f"{w * 100:g} %" if g == 0 else None)
             ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=1.5, lw=0.8)
     ax.set_xticks(np.arange(len(S)), [f"Strategy {s}" for s in S])
+    ax.set_xlabel("strategy")
     ax.set_ylabel("total distance flown [km]")
-    ax.set_title("Fig. 8 - total distance per wind probability (95 % interval: n x t interval of the run mean)",
-                 fontsize=9)
-    ax.legend(title="wind", fontsize=7, ncol=min(7, len(W)), loc="upper center", bbox_to_anchor=(0.5, -0.1))
+    ax.set_title("Fig. 8a - total distance per wind probability", fontsize=10)
+    _headroom_legend(ax, len(W))
+    _note(ax, n_all)
+    if fd["fig8b"]:
+        _effect_lines(bx, fd["fig8b"], S, W, lambda k: f"Strategy {k}")
+        bx.legend(fontsize=7)
+    bx.set_ylabel("distance per run at w minus at 0 % [km]")
+    bx.set_title("Fig. 8b - same configuration and repetition, paired (95 % interval)", fontsize=10)
+    _note(bx, _pairs_note(fd["fig8b"]))
     files["fig8"] = _save(fig, out / "fig8_distance_per_wind.png")
-    # -- Fig. 9
-    fig, ax = _fig()
-    kinds = [("uav", "UAV"), ("zone", "restricted zone (wall)")]
-    for i, s in enumerate(S):
-        for j, (kind, label) in enumerate(kinds):
-            ci = fd["fig9"][(s, kind)]
-            x = j + (i - (len(S) - 1) / 2) * width
-            ax.bar(x, ci.estimate, width, color=COLORS.get(s, f"C{i}"), label=f"Strategy {s}" if j == 0 else None)
-            ax.errorbar(x, ci.estimate, yerr=_err(ci), fmt="none", ecolor="black", capsize=3)
-            ax.annotate(f"{ci.estimate:.0f}", (x, ci.estimate), xytext=(0, 3), textcoords="offset points",
-                        ha="center", fontsize=7)
-    ax.set_xticks(np.arange(len(kinds)), [label for _, label in kinds])
-    ax.set_xlabel("impact point")
-    ax.set_ylabel("UAVs removed by a collision")
-    ax.set_title("Fig. 9 - collisions per impact point (95 % interval: n x t interval of the run mean)", fontsize=9)
-    ax.legend()
+    # -- Fig. 9, one panel per area
+    fig, axes = _fig(5 * len(A), 4.5, len(A))
+    axes = axes if isinstance(axes, list) else [axes]
+    kinds = [("uav", "UAV"), ("zone", "restricted area (wall)")]
+    for ax, a in zip(axes, A):
+        _strategy_bars(ax, {(s, kind): fd["fig9"][(s, a, kind)] for s in S for kind, _ in kinds}, S,
+                       [kind for kind, _ in kinds], width)
+        ax.set_xticks(np.arange(len(kinds)), [label for _, label in kinds])
+        ax.set_xlabel("impact point")
+        ax.set_ylabel("UAVs removed by a collision")
+        ax.set_title(f"Fig. 9 - {area_label(a)} area (95 % interval)", fontsize=10)
+        ax.legend()
+        if r is not None:
+            _note(ax, n_text(r[r["area"] == a]))
     files["fig9"] = _save(fig, out / "fig9_collisions_per_impact.png")
     # -- Fig. 10
     fig, ax = _fig()
@@ -602,8 +1039,9 @@ def draw_figures(fd: dict, out: Path) -> dict:
     ax.set_xticks(np.arange(len(N)), [str(n) for n in N])
     ax.set_xlabel("UAVs in the fleet")
     ax.set_ylabel("mean remaining battery per UAV [%]")
-    ax.set_title("Fig. 10 - remaining battery per fleet size (95 % t interval)")
+    ax.set_title("Fig. 10 - remaining battery per fleet size (95 % stratified interval)")
     ax.legend()
+    _note(ax, n_all)
     files["fig10"] = _save(fig, out / "fig10_battery_per_fleet_size.png")
     return files
 
@@ -614,108 +1052,126 @@ def uav_report(manifest, df, out: Path) -> str | None:
     u, r = uav_frames(df)
     if u is None:
         return None
-    fd = figure_data(u, r)
-    files = draw_figures(fd, out)
-    pairs = pair_keys(df, manifest)
-    t2 = table2(u, r, pairs=pairs)
-    cmp_rows = paper_comparison(u, r, fd, t2)
+    design = manifest.get("design") or {}
+    settings = run_settings(Path(out).parent, r["run_id"], df)
+    why_text = causes(settings)
     L = [f"# Campaign report: {manifest['name']}", ""]
     L += [f"- {x}" for x in campaign_facts(manifest, df)]
-    L += ["", "Statistics: success counts with 95 % Wilson score intervals and Fisher's exact test (two-sided); "
-              "means with 95 % Student t intervals; totals over runs with n x the t interval of the per-run mean; "
-              "A vs B on per-run and per-UAV metrics with the two-sided Mann-Whitney U test (exact for small "
-              "samples without ties, normal approximation with tie and continuity corrections otherwise); trends "
-              "as least-squares slopes with t intervals. Unit of analysis: the UAV mission for success and "
-              "remaining battery (as the paper's 42/84/126/168), the run for distance, photos and collisions. "
-              "Only completed runs are analysed. Intervals of quantities that cannot be negative are truncated at 0, "
-              "of percentages also at 100, of UAVs removed at the number of UAVs that flew. "
-              "Caveat: the UAV missions of one run are not independent (they share the wind and can collide with "
-              "each other), so intervals and tests that treat missions as independent are indicative."
-              + (" The campaign is paired on the strategy (same seed, i.e. same wind, for A and B): Table II also "
-                 "compares each A run with its B twin, with Wilcoxon's signed-rank test (zeros dropped; exact "
-                 "without ties, else the normal approximation with tie correction) and McNemar's exact test for "
-                 "successes, and the paired test decides which strategy is better." if pairs else ""), ""]
-    # comparison
-    L += ["## Our numbers next to the paper's", ""]
+    L += [f"- Analysed: {n_text(r, u)}."]
+    const, vary = settings_summary(settings) if settings else ({}, {})
+    if const:
+        L += ["- Settings every run flew with (its scenario.yaml and the settings its summary recorded): "
+              + ", ".join(f"`{k}` = {v}" for k, v in const.items()) + "."]
+    if vary:
+        L += ["- Settings that differ between runs: " + ", ".join(f"`{k}` in {v}" for k, v in vary.items()) + "."]
+    paired = "strategy" in (manifest.get("paired") or [])
+    L += ["", "Statistics: the run is the unit (its UAVs share wind and layout). A vs B is compared inside blocks "
+              "(same configuration and repetition" + (", same seed: same wind and layout" if paired else
+                                                       "; the campaign is not paired, so the seeds differ")
+              + "): the mean B - A difference per run with a t interval stratified by configuration, the block "
+              "bootstrap interval and the sign-flip permutation p-value. Levels pooled over configurations "
+              "carry stratified intervals (within-configuration variance only). Wind effects are differences "
+              "inside a configuration and repetition against its 0 % run. Every figure and table states n "
+              "(runs, UAV missions, configurations, layouts).", ""]
+    if design:
+        L += sensitivity_md(r, design)
+        base = r[r["config"] == next((c for c in dict.fromkeys(r["config"])
+                                      if "baseline" in design_roles(json.loads(c), design)), r["config"].iloc[0])]
+        L += ["The figures and tables below are the baseline configuration's.", ""]
+        u = u[u["run_id"].isin(set(base["run_id"]))]
+        r = base
+    fd = figure_data(u, r)
+    files = draw_figures(fd, out, r)
+    t2 = table2(u, r)
+    cmp_rows = paper_comparison(u, r, fd, t2)
+    L += ["## Our numbers next to the paper's", "", f"{fd['n']}.", ""]
     rows = [[c["key"], c["paper"], c["ours"], _verdict(c)] for c in cmp_rows]
     L += [md_table(["quantity", "paper", "ours", "agrees"], rows), ""]
-    L += ["\"agrees\" compares directions (and the exact values where the paper gives them); \"not significant\" "
-          "means our own difference or trend is not significant at α = 0.05 (its p-value or interval is in the row).",
-          "", "Quotes (paper, section V):", ""]
-    L += [f"- *{c['key']}*: {c['quote']}" + (f" — {c['note']}" if c["note"] else "") for c in cmp_rows]
+    L += ["\"agrees (value)\": the paper's number lies within our 95 % interval widened by the stated tolerance "
+          "(2 battery points; 10 % of a distance or a collision count; exact for the paper's zero success counts; "
+          "wall/UAV ratio 3 ± 1). \"agrees (direction)\": the paper gives only a direction. \"not significant\": "
+          "our blocked test or within-configuration slope has p >= 0.05.", "", "Quotes (paper, section V):", ""]
+    L += [f"- *{c['key']}*: {c['quote']}" + (f" — {c['note']}" if c["note"] else "")
+          + (f" — {c['value'].text}" if c.get("value") is not None and c["value"].text else "") for c in cmp_rows]
+    L += ["", "## The paper's numbers that cannot all hold together", ""]
+    L += [f"- {x}" for x in paper_consistency()]
     L += ["", "## Where and why we differ", ""]
     diff = [c for c in cmp_rows if c["agree"] is False or c["sig"] is False]
     if not diff:
-        L += ["Every published claim is reproduced in direction.", ""]
+        L += ["Every published claim is reproduced.", ""]
     used: list[str] = []
     for c in diff:
         refs = []
         for w in c["why"]:
-            if w in WHY and w not in used:
+            if w in why_text and w not in used:
                 used.append(w)
-            if w in WHY:
+            if w in why_text:
                 refs.append(f"[{used.index(w) + 1}]")
-        lead = "This campaign does not cover the paper's full 336-run grid. " if "campaign" in c["why"] else ""
         verdict = "differs" if c["agree"] is False else "same direction, not significant here"
-        L += [f"- **{c['key']}** ({verdict}) — paper: {c['paper']}; ours: {c['ours']}. {lead}{c['fact']} "
-              f"Likely causes: {' '.join(refs) or '-'}"]
+        L += [f"- **{c['key']}** ({verdict}) — paper: {c['paper']}; ours: {c['ours']}. {c['fact']} "
+              f"Possible causes: {' '.join(refs) or '-'}"]
     if used:
-        L += ["", "Causes:", ""]
-        L += [f"{i + 1}. {WHY[w]}" for i, w in enumerate(used)]
+        L += ["", "Causes (stated from the settings these runs used):", ""]
+        L += [f"{i + 1}. {why_text[w]}" for i, w in enumerate(used)]
     L += ["", _diagnostics(u, r), ""]
-    # figures
     L += ["## Figures", ""]
     captions = {"fig5": "Fig. 5: successful UAV missions per fleet size and strategy",
                 "fig6": "Fig. 6: mean remaining battery per area",
-                "fig7": "Fig. 7: mean remaining battery per wind probability, by strategy and area",
-                "fig8": "Fig. 8: total distance flown per wind probability",
-                "fig9": "Fig. 9: collisions per impact point",
+                "fig7": "Fig. 7: mean remaining battery per wind probability, by strategy and area; right: the "
+                        "paired difference to the same configuration at 0 %",
+                "fig8": "Fig. 8: total distance flown per wind probability; right: the paired difference per run",
+                "fig9": "Fig. 9: collisions per impact point, per area",
                 "fig10": "Fig. 10: mean remaining battery per fleet size"}
     for k, p in files.items():
-        L += [f"![{captions[k]}]({p.name})", "", f"*{captions[k]}.*", ""]
-    # fig 5 table
+        L += [f"![{captions[k]}]({p.name})", "", f"*{captions[k]}. {fd['n']}.*", ""]
     L += ["### Successes per fleet size (Fig. 5)", ""]
     rows = []
     for n in fd["fleets"]:
         row = [n]
         for s in fd["strategies"]:
             k, m, ci = fd["fig5"][(s, n)]
-            row.append(f"{k}/{m} [{ci.low * m:.1f}, {ci.high * m:.1f}]" if m else "n/a")
+            row.append(f"{k}/{m} [{ci.low:.1f}, {ci.high:.1f}]" if m and math.isfinite(ci.low) else f"{k}/{m}")
         if {"A", "B"} <= set(fd["strategies"]):
-            (ka, ma, _), (kb, mb, _) = fd["fig5"][("A", n)], fd["fig5"][("B", n)]
-            row.append(_fmt_p(st.fisher_exact(ka, ma - ka, kb, mb - kb)) if ma and mb else "n/a")
+            e = ab_effect(r[r["n_uavs"] == n], "successes")
+            row.append(_eff(e))
         rows.append(row)
-    L += [md_table(["UAVs", *[f"Strategy {s}" for s in fd["strategies"]], "Fisher p (A vs B)"], rows), ""]
-    L += ["### Remaining battery (Figs. 6, 7, 10), mean % [95 % t interval]", ""]
-    rows = [[s, a, fd["fig6"][(s, a)].fmt(1)] for s in fd["strategies"] for a in fd["areas"]]
+    L += [md_table(["UAVs", *[f"Strategy {s}" for s in fd["strategies"]], "B - A successes per run"], rows), ""]
+    L += [f"### Remaining battery (Figs. 6, 7, 10), mean % over UAV missions [95 % stratified interval]", ""]
+    rows = [[s, area_label(a), fd["fig6"][(s, a)].fmt(1)] for s in fd["strategies"] for a in fd["areas"]]
     L += [md_table(["strategy", "area", "remaining battery"], rows), ""]
-    rows = [[s, a] + [fd["fig7"][(s, a, w)].fmt(1) for w in fd["winds"]] for s in fd["strategies"]
+    rows = [[s, area_label(a)] + [fd["fig7"][(s, a, w)].fmt(1) for w in fd["winds"]] for s in fd["strategies"]
             for a in fd["areas"]]
-    L += [md_table(["strategy", "area", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
+    L += [md_table(["strategy", "area", *[f"wind probability {w * 100:g} %" for w in fd["winds"]]], rows), ""]
+    if fd["fig7b"]:
+        rows = [[s, area_label(a)] + [_eff(fd["fig7b"][(s, a, w)]) for w in fd["winds"] if w > 0]
+                for s in fd["strategies"] for a in fd["areas"]]
+        L += ["Paired difference to 0 % wind (same configuration and repetition), %-points:", "",
+              md_table(["strategy", "area", *[f"{w * 100:g} %" for w in fd["winds"] if w > 0]], rows), ""]
     rows = [[s] + [fd["fig10"][(s, n)].fmt(1) for n in fd["fleets"]] for s in fd["strategies"]]
     L += [md_table(["strategy", *[f"{n} UAV" for n in fd["fleets"]]], rows), ""]
-    L += ["### Total distance (Fig. 8), km [95 % interval]", ""]
+    L += ["### Total distance (Fig. 8), km [95 % stratified interval]", ""]
     rows = [[s] + [fd["fig8"][(s, w)].fmt(1) for w in fd["winds"]] for s in fd["strategies"]]
-    L += [md_table(["strategy", *[f"wind {w * 100:g} %" for w in fd["winds"]]], rows), ""]
+    L += [md_table(["strategy", *[f"wind probability {w * 100:g} %" for w in fd["winds"]]], rows), ""]
     L += ["### Collisions per impact point (Fig. 9), UAVs removed [95 % interval]", ""]
-    rows = [[s, fd["fig9"][(s, "uav")].fmt(0), fd["fig9"][(s, "zone")].fmt(0)] for s in fd["strategies"]]
-    L += [md_table(["strategy", "UAV-UAV", "zone (wall)"], rows), ""]
-    # table II
-    L += ["## Table II - which strategy is better (α = 0.05)", ""]
+    rows = [[s, area_label(a), fd["fig9"][(s, a, "uav")].fmt(0), fd["fig9"][(s, a, "zone")].fmt(0)]
+            for s in fd["strategies"] for a in fd["areas"]]
+    L += [md_table(["strategy", "area", "UAV-UAV", "restricted area (wall)"], rows), ""]
+    L += ["## Table II - which strategy is better (α = 0.05)", "", f"{fd['n']}.", ""]
     verdict = [x["better"] if x["better"] != "none" else f"no significant difference ({x['lead']} ahead)"
                for x in t2]
-    if pairs:
-        rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]),
-                 f"{x['paired_test']}, {x['n_pairs']} pairs", _fmt_p(x["paired_p"]), v, "B"]
-                for x, v in zip(t2, verdict)]
-        L += [md_table(["metric", "Strategy A", "Strategy B", "unpaired test", "p", "paired test", "paired p",
-                         "better (ours, paired)", "paper"], rows), ""]
-        L += ["The campaign is paired on the strategy (`paired: [strategy]`): each strategy-A run has a strategy-B "
-              "twin with the same parameters, repetition and seed, i.e. the same wind. The paired tests compare the "
-              "twins (per run, or per UAV of the same index) and decide \"better\".", ""]
-    else:
-        rows = [[x["metric"], x["A"], x["B"], x["test"], _fmt_p(x["p"]), v, "B"] for x, v in zip(t2, verdict)]
-        L += [md_table(["metric", "Strategy A", "Strategy B", "test", "p", "better (ours)", "paper"], rows), ""]
+    rows = [[x["metric"], x["A"], x["B"], x["effect"].fmt(3),
+             f"[{x['effect'].boot_low:.3g}, {x['effect'].boot_high:.3g}]" if x["n_blocks"] else "n/a",
+             f"{x['effect'].d_z:.2f}" if math.isfinite(x["effect"].d_z) else "n/a", _fmt_p(x["p"]), x["n_blocks"],
+             ", ".join(f"{x:+.3g}" for x in x["per_layout"]) or "n/a", v, "B"] for x, v in zip(t2, verdict)]
+    L += [md_table(["metric", "Strategy A", "Strategy B", "B - A per run [t interval]", "bootstrap interval",
+                    "d_z", "sign-flip p", "blocks", "B - A per repetition (layout)", "better (ours)", "paper"],
+                   rows), ""]
+    n_rep = r["rep"].nunique()
+    L += [f"The blocks are {r['cell'].nunique()} configurations x {n_rep} "
+          f"repetitions; the repetitions are the layouts, shared by every configuration, so the p-values are "
+          f"conditional on these {n_rep} layouts. A claim about layouts in general rests on the per-layout column: "
+          f"with {n_rep} layouts, a sign-flip test over layouts cannot go below p = {2 / 2 ** n_rep:.2g}, so it "
+          "needs the same sign in every layout at least.", ""]
     L += ["Direction: more successes, photos and remaining energy are better; less distance and fewer collisions "
           "are better (the paper's reading). \"with wind\" rows use the runs with a wind probability above 0.", ""]
     L += ["## Failed runs", "", failures_md(df)]

@@ -30,9 +30,13 @@ from ..ssp.archive import file_sha256
 from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
 
 __all__ = ["Campaign", "RunSpec", "load_campaign", "is_campaign_document", "canonical", "canonical_json",
-           "run_id_for", "seed_for", "RUN_OPTIONS", "RESULT_OPTIONS", "SCENARIO_OPTIONS"]
+           "run_id_for", "seed_for", "RUN_OPTIONS", "RESULT_OPTIONS", "SCENARIO_OPTIONS", "design_points",
+           "design_roles"]
 
-TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "runs", "run", "keep", "paired")
+TOP_KEYS = ("name", "description", "seed", "repetitions", "scenario", "grid", "design", "runs", "run", "keep",
+            "paired")
+#: the parts of ``design:`` (configurations, each crossed with the grid)
+DESIGN_KEYS = ("baseline", "one_at_a_time", "factorial")
 #: fixed run options (``run:``), also allowed as grid/runs keys
 #: the algorithms' settings (master.algorithm_options): run options too, and part of a run's results
 ALGORITHM_RUN_OPTIONS = tuple(ALGORITHM_OPTIONS)
@@ -88,6 +92,7 @@ def scenario_sha256(path: Path) -> str:
 
 #: modules that only read finished records (the report, the table): editing them changes no run's result
 REPORT_ONLY = ("master/campaign/report.py", "master/campaign/stats.py", "master/campaign/table.py",
+               "master/campaign/blocked.py",
                "master/cli.py", "master/inspect_scenario.py", "master/study/__init__.py",
                "master/study/compare.py", "master/study/figures.py", "master/study/reference.py",
                "master/study/study.py")
@@ -149,12 +154,14 @@ class Campaign:
     runs: list                  # [RunSpec] in run order
     text: str                   # the campaign file as read
     paired: list = field(default_factory=list)   # parameters left out of the seeds (common random numbers)
+    design: dict = field(default_factory=dict)   # design: (baseline, one_at_a_time, factorial), canonical
 
     def manifest(self) -> dict:
         """What ``campaign.json`` holds: the resolved campaign, enough to rebuild the table and report."""
         return {"format": 1, "name": self.name, "description": self.description, "campaign_file": str(self.path),
                 "seed": self.seed, "repetitions": self.repetitions, "kind": self.kind,
                 "param_keys": list(self.param_keys), "paired": list(self.paired), "keep": self.keep,
+                "design": self.design,
                 "options": self.options,
                 "runs": [{"run_id": r.run_id, "params": r.params, "rep": r.rep, "seed": r.seed,
                           "scenario": r.scenario_label, "inputs_sha256": r.inputs_sha256} for r in self.runs]}
@@ -299,12 +306,16 @@ def load_campaign(path) -> Campaign:
         key = _check_param_key(err, "grid", k, kind)
         axes.append((key, _values(err, f"grid.{key}", v)))
     param_keys = [k for k, _ in axes]
+    design = _read_design(err, data.get("design"), kind, param_keys)
+    points = design_points(design) if design else [{}]
+    param_keys += list(design.get("baseline", {}))
     psets: list[dict] = []
     origins: list[str] = []         # where each parameter set comes from, for errors: grid or runs[i]
-    if axes:
-        for combo in itertools.product(*[vals for _, vals in axes]):
-            psets.append(dict(zip(param_keys, combo)))
-            origins.append("grid")
+    if axes or design:
+        for point in points:
+            for combo in itertools.product(*[vals for _, vals in axes]):
+                psets.append({**dict(zip([k for k, _ in axes], combo)), **point})
+                origins.append("design" if design else "grid")
     for i, entry in enumerate(runs_list):
         if not isinstance(entry, dict):
             err(f"runs[{i}]", "expected a mapping of parameter -> value")
@@ -379,12 +390,90 @@ def load_campaign(path) -> Campaign:
     if len(set(ids)) != len(ids):  # pragma: no cover - a 48-bit collision
         err("grid", "two runs got the same run id; change the campaign seed or a parameter spelling")
     return Campaign(path.resolve(), name, str(description), seed, reps, kind.name, param_keys, keep, options, runs, text,
-                    list(paired))
+                    list(paired), design)
+
+
+# ---------------------------------------------------------------------------------------------- design
+def _read_design(err, raw, kind: ScenarioKind, grid_keys: list) -> dict:
+    """``design:`` checked and canonical: baseline (parameter -> one value), one_at_a_time and factorial
+    (parameter -> list of values); every varied parameter has a baseline value, none is a grid axis."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        err("design", "expected a mapping with baseline, one_at_a_time and/or factorial")
+    for k in raw:
+        if k not in DESIGN_KEYS:
+            err(f"design.{k}", f"unknown field (expected one of {', '.join(DESIGN_KEYS)})")
+    baseline = raw.get("baseline") or {}
+    if not isinstance(baseline, dict) or not baseline:
+        err("design.baseline", "expected a mapping parameter -> value (the configuration every factor varies "
+                               "around)")
+    out: dict = {"baseline": {}, "one_at_a_time": {}, "factorial": {}}
+    for k, v in baseline.items():
+        key = _check_param_key(err, "design.baseline", k, kind)
+        if key in grid_keys or key == "variant":
+            err(f"design.baseline.{key}", "is a grid axis already; a parameter is either in grid: or in design:")
+        if isinstance(v, list) and key != "record":
+            err(f"design.baseline.{key}", "one value per parameter (the values to try go in one_at_a_time or "
+                                          "factorial)")
+        try:
+            out["baseline"][key] = canonical(v)
+        except ValueError as exc:
+            err(f"design.baseline.{key}", str(exc))
+    for part in ("one_at_a_time", "factorial"):
+        spec = raw.get(part) or {}
+        if not isinstance(spec, dict):
+            err(f"design.{part}", "expected a mapping parameter -> list of values")
+        for k, v in spec.items():
+            key = str(k).strip()
+            if key not in out["baseline"]:
+                err(f"design.{part}.{key}", "has no baseline value: add it to design.baseline")
+            out[part][key] = _values(err, f"design.{part}.{key}", v)
+    if not out["one_at_a_time"] and not out["factorial"]:
+        err("design", "nothing to vary: give one_at_a_time and/or factorial")
+    return out
+
+
+def design_points(design: dict) -> list[dict]:
+    """The configurations of a design, each a full parameter set (every design parameter set): the baseline,
+    then each one_at_a_time value in turn with every other parameter at its baseline, then the factorial
+    product (first key slowest) around the baseline.  A configuration that an earlier part already has (the
+    baseline value of a factor, a factorial corner on a one-at-a-time line) is the same runs and appears once."""
+    base = dict(design["baseline"])
+    points = [base]
+    for key, vals in design.get("one_at_a_time", {}).items():
+        points += [{**base, key: v} for v in vals]
+    fac = design.get("factorial", {})
+    if fac:
+        points += [{**base, **dict(zip(fac, combo))} for combo in itertools.product(*fac.values())]
+    unique: dict[str, dict] = {}
+    for p in points:
+        unique.setdefault(canonical_json(p), p)
+    return list(unique.values())
+
+
+def design_roles(params: dict, design: dict) -> list[str]:
+    """What a run's configuration is in its campaign's design: ``baseline``, ``one_at_a_time:KEY`` (only KEY
+    differs from the baseline) and/or ``factorial`` (a point of the factorial product); [] without a design."""
+    if not design:
+        return []
+    base = design["baseline"]
+    differ = [k for k in base if canonical_json(params.get(k)) != canonical_json(base[k])]
+    roles = []
+    if not differ:
+        roles.append("baseline")
+    elif len(differ) == 1 and differ[0] in design.get("one_at_a_time", {}):
+        roles.append(f"one_at_a_time:{differ[0]}")
+    fac = design.get("factorial", {})
+    if fac and all(k in fac for k in differ) and all(
+            any(canonical_json(params.get(k)) == canonical_json(v) for v in fac[k]) for k in fac):
+        roles.append("factorial")
+    return roles
 
 
 def is_campaign_document(data) -> bool:
     """Does ``data`` (a YAML document as read) look like a campaign (a scenario never has these fields)?"""
-    return isinstance(data, dict) and any(k in data for k in ("scenario", "grid", "runs", "repetitions"))
+    return isinstance(data, dict) and any(k in data for k in ("scenario", "grid", "design", "runs", "repetitions"))
 
 
 def _refuse_scenario_document(err, path: Path, data: dict):

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from master.campaign import blocked as bl
 from master.campaign import stats as st
 from master.campaign.report import build_report
 from uavstudy.report import figure_data, table2, uav_frames
@@ -88,53 +89,50 @@ def test_table_has_a_row_per_uav_and_a_total_per_run(hand):
     assert len(u) == 24 and len(r) == 16                  # the failed run is not analysed
 
 
-def test_success_counts_wilson_and_fisher_by_hand(hand):
+def test_success_counts_and_stratified_intervals_by_hand(hand):
+    """One run per configuration here: every stratum has one value, so the t interval uses the pooled
+    within-stratum variance of none -> no interval; the counts are plain sums."""
     _, _, _, u, r = hand
     fd = figure_data(u, r)
     k, m, ci = fd["fig5"][("A", 1)]
-    assert (k, m) == (1, 4)
-    z = 1.959963984540054
-    p = 0.25
-    centre = (p + z * z / 8) / (1 + z * z / 4)
-    half = z * math.sqrt(p * (1 - p) / 4 + z * z / 64) / (1 + z * z / 4)
-    assert ci.low == pytest.approx(centre - half, abs=1e-12) and ci.high == pytest.approx(centre + half, abs=1e-12)
+    assert (k, m) == (1, 4) and ci.estimate == 1.0
     assert fd["fig5"][("B", 1)][:2] == (3, 4)
-    # Fisher exact for [[1, 3], [3, 1]]: hypergeometric weights 1, 16, 36, 16, 1 (of 70); p = (1+16+16+1)/70
-    assert st.fisher_exact(1, 3, 3, 1) == pytest.approx(34 / 70, abs=1e-12)
     t2 = {x["key"]: x for x in table2(u, r)}
     ka, kb = int(u[u.strategy == "A"]["success"].sum()), int(u[u.strategy == "B"]["success"].sum())
     assert t2["success"]["A"] == f"{ka}/12" and t2["success"]["B"] == f"{kb}/12"
-    assert t2["success"]["p"] == pytest.approx(scipy_stats.fisher_exact([[ka, 12 - ka], [kb, 12 - kb]]).pvalue)
+    # blocks: the 8 (n, area, wind) configurations; B - A successes per run, by hand from _mission
+    diffs = [sum(_mission("B", n, a, w, k)["success"] - _mission("A", n, a, w, k)["success"] for k in range(n))
+             for n in FLEETS for a in AREAS for w in WINDS]
+    e = t2["success"]["effect"]
+    assert e.n_blocks == 8 and e.estimate == pytest.approx(np.mean(diffs))
+    assert e.p == pytest.approx(bl.sign_flip_p(diffs))
 
 
-def test_means_totals_and_tests_against_hand_computation(hand):
+def test_means_totals_and_blocked_tests_against_hand_computation(hand):
     _, _, _, u, r = hand
     fd = figure_data(u, r)
+    # mean over UAV missions of strategy A in the free area (weights: UAVs per run)
     vals = np.array([_mission("A", n, "free", w, k)["remaining_battery_pct"]
                      for n in FLEETS for w in WINDS for k in range(n)])
     ci = fd["fig6"][("A", "free")]
-    half = scipy_stats.t.ppf(0.975, len(vals) - 1) * vals.std(ddof=1) / math.sqrt(len(vals))
-    assert ci.n == 6 and ci.estimate == pytest.approx(vals.mean())
-    assert (ci.low, ci.high) == (pytest.approx(vals.mean() - half), pytest.approx(vals.mean() + half))
-    # totals: n x (t interval of the run mean)
+    assert ci.n == 4 and ci.estimate == pytest.approx(vals.mean())
     d = np.array([sum(_mission("B", n, a, 0.1, k)["distance_m"] for k in range(n)) / 1000
                   for n in FLEETS for a in AREAS])
-    tot = fd["fig8"][("B", 0.1)]
-    h = scipy_stats.t.ppf(0.975, 3) * d.std(ddof=1) / 2
-    assert tot.estimate == pytest.approx(d.sum()) and tot.high == pytest.approx(d.sum() + 4 * h)
-    # collisions per impact point: removed UAVs
-    assert fd["fig9"][("A", "uav")].estimate == 2 and fd["fig9"][("B", "uav")].estimate == 0
-    assert fd["fig9"][("A", "zone")].estimate == 2 and fd["fig9"][("B", "zone")].estimate == 2
-    assert fd["fig9"][("A", "zone")].low == 0.0          # intervals of counts are truncated at 0
+    assert fd["fig8"][("B", 0.1)].estimate == pytest.approx(d.sum())
+    # collisions per impact point and area: removed UAVs
+    assert fd["fig9"][("A", "free", "uav")].estimate == 2 and fd["fig9"][("B", "free", "uav")].estimate == 0
+    assert fd["fig9"][("A", "zones", "zone")].estimate == 2 and fd["fig9"][("B", "zones", "zone")].estimate == 2
     t2 = {x["key"]: x for x in table2(u, r)}
-    da, db = r[r.strategy == "A"]["distance_m"], r[r.strategy == "B"]["distance_m"]
-    assert t2["distance"]["p"] == pytest.approx(scipy_stats.mannwhitneyu(da, db, alternative="two-sided").pvalue)
-    assert t2["distance"]["lead"] == "A"          # A flew less: lower distance is better
-    ea, eb = u[u.strategy == "A"]["remaining_battery_pct"], u[u.strategy == "B"]["remaining_battery_pct"]
-    assert t2["energy"]["p"] == pytest.approx(scipy_stats.mannwhitneyu(ea, eb, alternative="two-sided").pvalue)
-    assert t2["energy"]["lead"] == "B" and t2["energy"]["better"] == ("B" if t2["energy"]["p"] < 0.05 else "none")
-    wind = u[u.wind > 0]
-    assert t2["energy_wind"]["n_A"] == len(wind[wind.strategy == "A"]) == 6
+    dist = [sum(_mission("B", n, a, w, k)["distance_m"] - _mission("A", n, a, w, k)["distance_m"]
+                for k in range(n)) / 1000 for n in FLEETS for a in AREAS for w in WINDS]
+    assert t2["distance"]["effect"].estimate == pytest.approx(np.mean(dist))
+    assert t2["distance"]["lead"] == ("A" if np.mean(dist) > 0 else "B")      # lower distance is better
+    # B keeps 7 points more battery in every UAV of every block: mean difference 7, sd 0 -> interval [7, 7],
+    # and all 8 differences positive: sign-flip p = 2 / 2^8
+    e = t2["energy"]["effect"]
+    assert e.estimate == pytest.approx(7.0) and e.p == pytest.approx(2 / 256)
+    assert t2["energy"]["better"] == "B"
+    assert t2["energy_wind"]["n_blocks"] == 4
 
 
 def test_build_report_writes_figures_and_markdown(hand):
@@ -147,12 +145,21 @@ def test_build_report_writes_figures_and_markdown(hand):
         assert (folder / "report" / f"{k}.png").stat().st_size > 5000
         assert f"({k}.png)" in text
     assert "41.83%" in text and "215 total collisions" in text           # the paper's numbers, quoted
-    assert "| success_1 | 0 (A), 0 (B) | 1/4 (A), 3/4 (B) | **no** |" in text
-    assert "Fisher exact" in text and "Mann-Whitney U" in text
+    assert "| success_1 | 0 (A), 0 (B) | 1/4 (A), 3/4 (B) | **no** (value) |" in text
+    assert "sign-flip p" in text and "n = 16 runs, 24 UAV missions, 8 configurations" in text
+    assert "wind probability 10 %" in text and "restricted" in text
+    assert "cannot all hold together" in text and "0.571 km per mission" in text
+    # n under every figure (its caption) and above the comparison table and Table II
+    captions = [line for line in text.splitlines() if line.startswith("*Fig. ")]
+    assert len(captions) == 6 and all("n = 16 runs, 24 UAV missions" in c for c in captions)
+    assert text.count("n = 16 runs, 24 UAV missions, 8 configurations") >= 6 + 3
     assert "worker process died with signal 11 (SIGSEGV)" in text
     assert "## Where and why we differ" in text
     # B has 2 zone collisions and no UAV-UAV collision: no ratio, and no "∞"
-    assert "B: 2 zone vs 0 UAV (n/a: none in the denominator)" in text and "∞" not in text
+    assert "B: 2 zone vs 0 UAVs removed by each other (n/a: none in the denominator)" in text and "∞" not in text
+    # both readings of the paper's collision count: A's one UAV-UAV collision removed two UAVs
+    assert "A: 2 zone vs 2 UAVs removed by each other (1.00×), vs 1 UAV-UAV collisions (2.00×)" in text
+    assert "4 (A), 2 (B) UAVs removed; counting a UAV-UAV collision once: 3 (A), 2 (B)" in text
     # 16 runs of 1.0 s and the failed one of 0.5 s: 16.5 s, not "0.3 min"
     assert "sum 16.5 s." in text
 
@@ -171,18 +178,6 @@ def test_intervals_stop_where_the_quantity_does():
     assert (tot.estimate, tot.low, tot.high) == (3.0, 0.0, 4.0)
     assert st.total_ci([0, 1, 2], floor=0.0).high == pytest.approx(3 * (1 + 4.302653 / math.sqrt(3)), abs=1e-5)
     assert st.mean_ci([5.0, 7.0], floor=0.0, ceiling=100.0).low == 0.0     # 6 - 12.7: cut at 0 as well
-
-
-def test_removed_uav_intervals_stop_at_the_uavs_that_flew():
-    """Three 1-UAV runs, one UAV removed by a zone: total 1, t interval of the run mean 1/3 +- 4.3027 *
-    0.57735 / sqrt(3) = [-1.10, 1.77] -> total [0, 5.30], cut at the 3 UAVs that flew: [0, 3]."""
-    import pandas as pd
-    u = pd.DataFrame({"run_id": ["a", "b", "c"], "strategy": "A", "n_uavs": 1, "area": "free", "wind": 0.0,
-                      "success": [True, True, False], "remaining_battery_pct": [40.0, 42.0, 30.0]})
-    r = pd.DataFrame({"run_id": ["a", "b", "c"], "strategy": "A", "n_uavs": 1, "area": "free", "wind": 0.0,
-                      "uav_collided": [0, 0, 0], "zone_collided": [0, 0, 1], "distance_m": [1.0, 2.0, 3.0]})
-    ci = figure_data(u, r)["fig9"][("A", "zone")]
-    assert (ci.estimate, ci.low, ci.high) == (1.0, 0.0, 3.0)
 
 
 def test_ratio_and_duration_texts():
@@ -239,34 +234,3 @@ def test_paired_tests_agree_with_scipy_and_hand_computation():
     assert st.mcnemar_exact(0, 5) == pytest.approx(0.0625)
 
 
-def test_paired_campaign_compares_twins(hand):
-    # with paired: [strategy] each A run has a B twin (same n, area, wind, rep); the paired tests run on the
-    # twins' differences, derived here from _mission by hand
-    from uavstudy.report import pair_keys
-    folder, _, df, u, r = hand
-    manifest = json.loads((folder / "campaign.json").read_text())
-    assert pair_keys(df, manifest) is None                       # not paired: no twins
-    manifest["paired"] = ["strategy"]
-    pairs = pair_keys(df, manifest)
-    t2 = {x["key"]: x for x in table2(u, r, pairs=pairs)}
-    twins = [(n, a, w, k) for n in FLEETS for a in AREAS for w in WINDS for k in range(n)]
-    energy = [_mission("B", *c)["remaining_battery_pct"] - _mission("A", *c)["remaining_battery_pct"] for c in twins]
-    assert t2["energy"]["n_pairs"] == 12 and t2["energy"]["paired_test"] == "Wilcoxon signed-rank"
-    # every twin differs by the same 7 points: 12 ties, so the normal approximation with tie correction
-    assert t2["energy"]["paired_p"] == pytest.approx(
-        scipy_stats.wilcoxon(energy, correction=False, method="approx").pvalue)
-    runs = [(n, a, w) for n in FLEETS for a in AREAS for w in WINDS]
-    dist = [sum(_mission("B", n, a, w, k)["distance_m"] - _mission("A", n, a, w, k)["distance_m"] for k in range(n))
-            for n, a, w in runs]
-    assert t2["distance"]["n_pairs"] == 8
-    assert t2["distance"]["paired_p"] == pytest.approx(
-        scipy_stats.wilcoxon(dist, correction=False, method="approx").pvalue)
-    a_only = sum(_mission("A", *c)["success"] and not _mission("B", *c)["success"] for c in twins)
-    b_only = sum(_mission("B", *c)["success"] and not _mission("A", *c)["success"] for c in twins)
-    assert t2["success"]["paired_test"] == "McNemar exact"
-    assert t2["success"]["paired_p"] == pytest.approx(scipy_stats.binomtest(min(a_only, b_only), a_only + b_only).pvalue)
-    # the paired p decides "better": B has 7 points more battery in every twin
-    assert t2["energy"]["better"] == ("B" if t2["energy"]["paired_p"] < 0.05 else "none")
-    (folder / "campaign.json").write_text(json.dumps(manifest))
-    text = build_report(folder).read_text()
-    assert "paired test" in text and "Wilcoxon signed-rank, 12 pairs" in text
