@@ -1,0 +1,121 @@
+"""What each vehicle says about itself: its telemetry messages, encoded from one read of the fleet's values.
+
+Units and frames as MAVLink defines them (common.xml): positions in 1e-7 degrees and millimetres, NED
+velocities in cm/s, headings in centidegrees, time stamps the simulated time since the start
+(``time_boot_ms``).  The UAVs are point masses: the attitude shown is the course as yaw and the lean angle
+of the thrust demand (``tilt``) as nose-down pitch, with no roll.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pymavlink.dialects.v20 import common as m
+
+from ..names import FINAL_STATES, FORCED_LANDING_STATES, STATE_RETURN_LOW
+from uavsim.dynamics import FLY, LAND, LANDED, PREFLIGHT, TAKEOFF
+
+LANDED_STATE = {PREFLIGHT: m.MAV_LANDED_STATE_ON_GROUND, TAKEOFF: m.MAV_LANDED_STATE_TAKEOFF,
+                FLY: m.MAV_LANDED_STATE_IN_AIR, LAND: m.MAV_LANDED_STATE_LANDING,
+                LANDED: m.MAV_LANDED_STATE_ON_GROUND}
+AIRBORNE = (TAKEOFF, FLY, LAND)
+UNKNOWN_U16 = 65535
+
+
+def _i(v, default=0) -> int:
+    return int(v) if v == v else default
+
+
+class Telemetry:
+    """Encoders (one per vehicle: its system id and sequence numbers) and the messages of one tick."""
+
+    def __init__(self, fleet):
+        self.fleet = fleet
+        self.enc = [m.MAVLink(None, srcSystem=v.sysid, srcComponent=1) for v in fleet.vehicles]
+        self.heading = [0.0] * len(fleet.vehicles)     # kept while a vehicle hovers (no course)
+
+    def fast(self, t_ms: int, cols, removed) -> list[bytes]:
+        """GLOBAL_POSITION_INT and ATTITUDE of every vehicle."""
+        x, y, z = cols["x"], cols["y"], cols["z"]
+        lat, lon, alt = self.fleet.geodetic(x, y, z)
+        lat7 = np.rint(lat * 1e7).tolist()
+        lon7 = np.rint(lon * 1e7).tolist()
+        alt_mm = np.rint(alt * 1000.0).tolist()
+        rel_mm = np.rint(z * 1000.0).tolist()
+        ve, vn, vu = cols["vx"].tolist(), cols["vy"].tolist(), cols["vz"].tolist()
+        tilt = cols["tilt"].tolist()
+        out = []
+        heading = self.heading
+        for k, enc in enumerate(self.enc):
+            e, n_, u = ve[k], vn[k], vu[k]
+            if removed[k] or not e == e:
+                e = n_ = u = 0.0
+            if e * e + n_ * n_ > 0.25:
+                heading[k] = math.atan2(e, n_)
+            hdg = heading[k]
+            cdeg = int(round(math.degrees(hdg) % 360.0 * 100)) % 36000
+            out.append(enc.global_position_int_encode(
+                t_ms, int(lat7[k]), int(lon7[k]), int(alt_mm[k]), int(rel_mm[k]),
+                int(round(n_ * 100)), int(round(e * 100)), int(round(-u * 100)), cdeg).pack(enc))
+            pitch = -math.radians(tilt[k]) if tilt[k] == tilt[k] and not removed[k] else 0.0
+            out.append(enc.attitude_encode(t_ms, 0.0, pitch, hdg, 0.0, 0.0, 0.0).pack(enc))
+        return out
+
+    def slow(self, t_ms: int, cols, removed, mission_seq) -> list[bytes]:
+        """HEARTBEAT, VFR_HUD, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE and MISSION_CURRENT."""
+        out = []
+        cap = self.fleet.capacity_ah
+        for k, enc in enumerate(self.enc):
+            phase, state = _i(cols["phase"][k], PREFLIGHT), _i(cols["state"][k], 0)
+            armed = phase in AIRBORNE and not removed[k]
+            if removed[k]:
+                status = m.MAV_STATE_FLIGHT_TERMINATION
+            elif state in FORCED_LANDING_STATES and state not in FINAL_STATES:
+                status = m.MAV_STATE_EMERGENCY
+            elif state == STATE_RETURN_LOW:
+                status = m.MAV_STATE_CRITICAL
+            else:
+                status = m.MAV_STATE_ACTIVE if armed else m.MAV_STATE_STANDBY
+            base = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | m.MAV_MODE_FLAG_AUTO_ENABLED
+            if armed:
+                base |= m.MAV_MODE_FLAG_SAFETY_ARMED
+            out.append(enc.heartbeat_encode(m.MAV_TYPE_QUADROTOR, m.MAV_AUTOPILOT_GENERIC, base, state, status,
+                                             3).pack(enc))
+            soc, volt, cur = cols["soc"][k], cols["voltage"][k], cols["current"][k]
+            pct = max(0, min(100, int(round(soc * 100)))) if soc == soc else -1
+            mv = _i(round(volt * 1000), UNKNOWN_U16) if volt == volt else UNKNOWN_U16
+            ca = _i(round(cur * 100), -1) if cur == cur else -1
+            gs, air, z, vz = cols["groundspeed"][k], cols["airspeed"][k], cols["z"][k], cols["vz"][k]
+            hdg = int(round(math.degrees(self.heading[k]))) % 360
+            out.append(enc.vfr_hud_encode(_f(air), _f(gs), hdg, 0, _f(z), _f(vz)).pack(enc))
+            out.append(enc.sys_status_encode(0, 0, 0, 0, min(mv, UNKNOWN_U16), ca, pct, 0, 0, 0, 0, 0, 0).pack(enc))
+            consumed = cols["consumed"][k]
+            mah = _i(round(consumed * cap[k] * 1000), -1) if consumed == consumed else -1
+            energy = cols["energy"][k]
+            hj = _i(round(energy / 100.0), -1) if energy == energy else -1
+            voltages = [min(mv, UNKNOWN_U16 - 1)] + [UNKNOWN_U16] * 9
+            out.append(enc.battery_status_encode(0, m.MAV_BATTERY_FUNCTION_ALL, m.MAV_BATTERY_TYPE_LIPO, 32767,
+                                                 voltages, ca, mah, hj, pct).pack(enc))
+            landed = LANDED_STATE.get(phase, m.MAV_LANDED_STATE_UNDEFINED)
+            out.append(enc.extended_sys_state_encode(m.MAV_VTOL_STATE_UNDEFINED, landed).pack(enc))
+            out.append(enc.mission_current_encode(mission_seq[k], len(self.fleet.vehicles[k].mission)).pack(enc))
+        return out
+
+    def home(self, k: int, t_ms: int) -> bytes:
+        v, enc = self.fleet.vehicles[k], self.enc[k]
+        lat, lon, alt = v.home_geo
+        return enc.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                                        float(v.home[1]), float(v.home[0]), 0.0, [1.0, 0.0, 0.0, 0.0],
+                                        0.0, 0.0, 0.0, t_ms * 1000).pack(enc)
+
+    def text(self, k: int, severity: int, text: str) -> bytes:
+        enc = self.enc[k]
+        return enc.statustext_encode(severity, text[:50].encode("ascii", "replace")).pack(enc)
+
+    def reached(self, k: int, seq: int) -> bytes:
+        enc = self.enc[k]
+        return enc.mission_item_reached_encode(seq).pack(enc)
+
+
+def _f(v) -> float:
+    return float(v) if v == v else 0.0
