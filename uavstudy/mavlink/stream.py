@@ -155,11 +155,11 @@ class VehicleStream(Observer):
         t_ms = hub.protocol.t_ms = int(round(t1 * 1000))
         fast = _ticks(t0, t1, hub.rate)
         slow = _ticks(t0, t1, SLOW_HZ)
-        texts = self._texts(t1) if len(self.ctx.events) > self.events_seen else []
-        if not (fast or slow or texts or hub.applied):
+        events = len(self.ctx.events) > self.events_seen
+        if not (fast or slow or events or hub.applied):
             return
         cols = hub.fleet.read()
-        texts += self._photos(cols)
+        texts = self._photos(cols) + (self._texts() if events else [])     # a photo comes before what it ends
         if hub.applied:
             texts += self._acknowledge(cols, t0)
         if slow:
@@ -171,7 +171,7 @@ class VehicleStream(Observer):
         hub.broadcast(texts)
 
     # ----------------------------------------------------------------------------------------- events
-    def _texts(self, t1) -> list[bytes]:
+    def _texts(self) -> list[bytes]:
         """A STATUSTEXT for each event the monitor emitted since the last step."""
         events = self.ctx.events
         new, self.events_seen = events[self.events_seen:], len(events)
