@@ -11,11 +11,14 @@ import numpy as np
 from master.errors import CosimError
 from uavsim import params as P
 
-from ..geodetic import to_geodetic
+from ..geodetic import frame, to_geodetic
 from ..names import BATTERY, DYNAMICS, STRATEGY, component
 
 #: MAVLink system ids a vehicle may have: 0 is the broadcast address, 255 the ground station's by custom
 MAX_VEHICLES = 254
+#: up to this many vehicles positions are converted one by one on floats (numpy's fixed cost per call is
+#: more than the arithmetic of a few points), above as vectors
+SMALL_FLEET = 32
 #: the strategy's ground-station input (fmu_sources/UavStrategy.py)
 COMMAND_INPUT = "command"
 
@@ -68,6 +71,7 @@ class Fleet:
     def __init__(self, monitor, plan, first_sysid: int = 1):
         cfg = monitor.cfg
         self.monitor, self.origin = monitor, cfg.origin
+        self.frame = frame(cfg.origin) if len(cfg.uavs) <= SMALL_FLEET else None
         if len(cfg.uavs) > MAX_VEHICLES - first_sysid + 1:
             raise CosimError(f"{len(cfg.uavs)} UAVs: one MAVLink network addresses at most {MAX_VEHICLES} vehicles "
                              "(system ids 1-254; 255 is the ground station's)", element="--mavlink")
@@ -143,5 +147,10 @@ class Fleet:
             flat[dst] = buf[src]
         return self.columns
 
-    def geodetic(self, x, y, z):
-        return _geo(self.origin, x, y, z)
+    def geodetic(self, x, y, z) -> list[tuple[float, float, float]]:
+        """(lat, lon, alt) of each vehicle from ENU position arrays."""
+        if self.frame is None:
+            lat, lon, alt = _geo(self.origin, x, y, z)
+            return list(zip(lat.tolist(), lon.tolist(), alt.tolist()))
+        to = self.frame.to_geodetic
+        return [to(a, b, c) for a, b, c in zip(x.tolist(), y.tolist(), z.tolist())]

@@ -229,7 +229,7 @@ class VehicleStream(Observer):
             detail = (MISSION_DETAIL.get(state_taken, "") if taken
                       else f"refused by the strategy in state {now}")
             x, y, z = (float(cols[a][c.vehicle]) for a in ("x", "y", "z"))
-            lat, lon, alt = (float(a[0]) for a in hub.fleet.geodetic(x, y, z))
+            lat, lon, alt = hub.fleet.geodetic(*(cols[a][c.vehicle:c.vehicle + 1] for a in ("x", "y", "z")))[0]
             event = {"time": round(float(t0), 9), "type": "command", "event": what, "uav": v.name,
                      "other": f"gcs {c.requester[0]}/{c.requester[1]} via {c.link.url}", "x": x, "y": y, "z": z,
                      "lat": lat, "lon": lon, "alt": alt, "distance": None,

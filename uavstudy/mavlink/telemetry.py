@@ -12,14 +12,20 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import common as m
 
-from ..names import FINAL_STATES, FORCED_LANDING_STATES, STATE_RETURN_LOW
 from uavsim.dynamics import FLY, LAND, LANDED, PREFLIGHT, TAKEOFF
+
+from ..names import FINAL_STATES, FORCED_LANDING_STATES, STATE_RETURN_LOW
+from .frames import Frame
 
 LANDED_STATE = {PREFLIGHT: m.MAV_LANDED_STATE_ON_GROUND, TAKEOFF: m.MAV_LANDED_STATE_TAKEOFF,
                 FLY: m.MAV_LANDED_STATE_IN_AIR, LAND: m.MAV_LANDED_STATE_LANDING,
                 LANDED: m.MAV_LANDED_STATE_ON_GROUND}
 AIRBORNE = (TAKEOFF, FLY, LAND)
 UNKNOWN_U16 = 65535
+POSITION, ATTITUDE = Frame(m.MAVLink_global_position_int_message), Frame(m.MAVLink_attitude_message)
+HEARTBEAT, HUD = Frame(m.MAVLink_heartbeat_message), Frame(m.MAVLink_vfr_hud_message)
+SYS_STATUS, BATTERY = Frame(m.MAVLink_sys_status_message), Frame(m.MAVLink_battery_status_message)
+EXT_STATE, CURRENT = Frame(m.MAVLink_extended_sys_state_message), Frame(m.MAVLink_mission_current_message)
 
 
 def _i(v, default=0) -> int:
@@ -36,29 +42,26 @@ class Telemetry:
 
     def fast(self, t_ms: int, cols, removed) -> list[bytes]:
         """GLOBAL_POSITION_INT and ATTITUDE of every vehicle."""
-        x, y, z = cols["x"], cols["y"], cols["z"]
-        lat, lon, alt = self.fleet.geodetic(x, y, z)
-        lat7 = np.rint(lat * 1e7).tolist()
-        lon7 = np.rint(lon * 1e7).tolist()
-        alt_mm = np.rint(alt * 1000.0).tolist()
-        rel_mm = np.rint(z * 1000.0).tolist()
+        geo = self.fleet.geodetic(cols["x"], cols["y"], cols["z"])
+        rel = cols["z"].tolist()
         ve, vn, vu = cols["vx"].tolist(), cols["vy"].tolist(), cols["vz"].tolist()
         tilt = cols["tilt"].tolist()
         out = []
         heading = self.heading
+        atan2, degrees, radians = math.atan2, math.degrees, math.radians
         for k, enc in enumerate(self.enc):
             e, n_, u = ve[k], vn[k], vu[k]
             if removed[k] or not e == e:
                 e = n_ = u = 0.0
             if e * e + n_ * n_ > 0.25:
-                heading[k] = math.atan2(e, n_)
+                heading[k] = atan2(e, n_)
             hdg = heading[k]
-            cdeg = int(round(math.degrees(hdg) % 360.0 * 100)) % 36000
-            out.append(enc.global_position_int_encode(
-                t_ms, int(lat7[k]), int(lon7[k]), int(alt_mm[k]), int(rel_mm[k]),
-                int(round(n_ * 100)), int(round(e * 100)), int(round(-u * 100)), cdeg).pack(enc))
-            pitch = -math.radians(tilt[k]) if tilt[k] == tilt[k] and not removed[k] else 0.0
-            out.append(enc.attitude_encode(t_ms, 0.0, pitch, hdg, 0.0, 0.0, 0.0).pack(enc))
+            lat, lon, alt = geo[k]
+            out.append(POSITION.pack(enc, t_ms, round(lat * 1e7), round(lon * 1e7), round(alt * 1000.0),
+                                     round(rel[k] * 1000.0), round(n_ * 100), round(e * 100), round(-u * 100),
+                                     round(degrees(hdg) % 360.0 * 100) % 36000))
+            pitch = -radians(tilt[k]) if tilt[k] == tilt[k] and not removed[k] else 0.0
+            out.append(ATTITUDE.pack(enc, t_ms, 0.0, pitch, hdg, 0.0, 0.0, 0.0))
         return out
 
     def slow(self, t_ms: int, cols, removed, mission_seq) -> list[bytes]:
@@ -79,26 +82,25 @@ class Telemetry:
             base = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | m.MAV_MODE_FLAG_AUTO_ENABLED
             if armed:
                 base |= m.MAV_MODE_FLAG_SAFETY_ARMED
-            out.append(enc.heartbeat_encode(m.MAV_TYPE_QUADROTOR, m.MAV_AUTOPILOT_GENERIC, base, state, status,
-                                             3).pack(enc))
+            out.append(HEARTBEAT.pack(enc, m.MAV_TYPE_QUADROTOR, m.MAV_AUTOPILOT_GENERIC, base, state, status, 3))
             soc, volt, cur = cols["soc"][k], cols["voltage"][k], cols["current"][k]
             pct = max(0, min(100, int(round(soc * 100)))) if soc == soc else -1
             mv = _i(round(volt * 1000), UNKNOWN_U16) if volt == volt else UNKNOWN_U16
             ca = _i(round(cur * 100), -1) if cur == cur else -1
             gs, air, z, vz = cols["groundspeed"][k], cols["airspeed"][k], cols["z"][k], cols["vz"][k]
             hdg = int(round(math.degrees(self.heading[k]))) % 360
-            out.append(enc.vfr_hud_encode(_f(air), _f(gs), hdg, 0, _f(z), _f(vz)).pack(enc))
-            out.append(enc.sys_status_encode(0, 0, 0, 0, min(mv, UNKNOWN_U16), ca, pct, 0, 0, 0, 0, 0, 0).pack(enc))
+            out.append(HUD.pack(enc, _f(air), _f(gs), hdg, 0, _f(z), _f(vz)))
+            out.append(SYS_STATUS.pack(enc, 0, 0, 0, 0, min(mv, UNKNOWN_U16), ca, pct, 0, 0, 0, 0, 0, 0))
             consumed = cols["consumed"][k]
             mah = _i(round(consumed * cap[k] * 1000), -1) if consumed == consumed else -1
             energy = cols["energy"][k]
             hj = _i(round(energy / 100.0), -1) if energy == energy else -1
             voltages = [min(mv, UNKNOWN_U16 - 1)] + [UNKNOWN_U16] * 9
-            out.append(enc.battery_status_encode(0, m.MAV_BATTERY_FUNCTION_ALL, m.MAV_BATTERY_TYPE_LIPO, 32767,
-                                                 voltages, ca, mah, hj, pct).pack(enc))
+            out.append(BATTERY.pack(enc, 0, m.MAV_BATTERY_FUNCTION_ALL, m.MAV_BATTERY_TYPE_LIPO, 32767, voltages, ca,
+                                    mah, hj, pct))
             landed = LANDED_STATE.get(phase, m.MAV_LANDED_STATE_UNDEFINED)
-            out.append(enc.extended_sys_state_encode(m.MAV_VTOL_STATE_UNDEFINED, landed).pack(enc))
-            out.append(enc.mission_current_encode(mission_seq[k], len(self.fleet.vehicles[k].mission)).pack(enc))
+            out.append(EXT_STATE.pack(enc, m.MAV_VTOL_STATE_UNDEFINED, landed))
+            out.append(CURRENT.pack(enc, mission_seq[k], len(self.fleet.vehicles[k].mission)))
         return out
 
     def home(self, k: int, t_ms: int) -> bytes:

@@ -1,0 +1,132 @@
+"""What streaming the fleet to a ground station costs (``--mavlink``, uavstudy/mavlink).
+
+Usage: python bench/bench_mavlink.py [--repeats 3] [--fleets 16,64,128,254] [--fleet-sim 60] [--check-sim 30]
+
+1. Slowdown: the shipped 4-UAV mission with zones (ssp/paper_zones_4uav_B.ssp, 461.5 s simulated, step
+   0.1 s), unpaced, run in process by ``master.runner.run`` with and without ``--mavlink`` (udpout to a
+   listening UDP socket that nobody reads, 10 Hz positions), best of ``--repeats``; the step loop alone
+   (run.json's wall time minus the same run's set-up is not split out, so the whole run is timed).
+2. Fleet: for each fleet size, the scaling study's scenario (bench/bench_uav_scaling.py ``make_scenario``,
+   step 0.1 s) streamed at 10 Hz without pacing for ``--fleet-sim`` simulated seconds: real-time factor of
+   the step loop (the ``Execution`` stepping timed alone) = simulated s / wall s.  A fleet streams in real time
+   when that factor is above 1; the largest such fleet is then run paced (``--realtime 1``) for
+   ``--check-sim`` s and run.json's pacing facts (steps behind the wall clock, largest lag) are shown.
+   MAVLink addresses at most 254 vehicles on one network (system ids 1-254, 255 is the ground station's), so
+   254 is the largest fleet a stream can carry.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from master.execution import Execution  # noqa: E402
+from master.runner import run  # noqa: E402
+
+SSP = ROOT / "ssp" / "paper_zones_4uav_B.ssp"
+
+
+def sink():
+    """A UDP port that takes the datagrams (as a ground station's would) and is never read."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    return s, f"udpout:127.0.0.1:{s.getsockname()[1]}"
+
+
+def timed_loop(ssp, out, **options) -> tuple[float, dict]:
+    """Wall time of the step loop alone (initialize and close excluded) and the run's metadata."""
+    ex = Execution(ssp, output=out, **options)
+    ex.initialize()
+    t0 = time.perf_counter()
+    ex.simulate_until()
+    loop = time.perf_counter() - t0
+    ex.close("completed")
+    return loop, ex.metadata
+
+
+def slowdown(tmp: Path, repeats: int) -> list[tuple]:
+    rows = []
+    s, url = sink()
+    try:
+        for label, extra in (("plain", {}), ("--mavlink", {"mavlink": [url]})):
+            best_run = best_loop = None
+            for r in range(repeats):
+                out = tmp / f"slow_{label.strip('-')}_{r}"
+                t0 = time.perf_counter()
+                run(SSP, output=out, **extra)
+                wall = time.perf_counter() - t0
+                loop, meta = timed_loop(SSP, tmp / f"loop_{label.strip('-')}_{r}", **extra)
+                best_run = wall if best_run is None else min(best_run, wall)
+                best_loop = loop if best_loop is None else min(best_loop, loop)
+            rows.append((label, meta["steps_done"], best_run, best_loop,
+                         meta.get("observers", {}).get("mavlink", {}).get("messages_sent", 0)))
+    finally:
+        s.close()
+    return rows
+
+
+def fleet(tmp: Path, sizes: list[int], sim: float, check: float) -> tuple[list[tuple], tuple | None]:
+    from bench_uav_scaling import make_scenario
+    from uavstudy.build import build_ssp
+    rows = []
+    s, url = sink()
+    try:
+        for n in sizes:
+            ssp = build_ssp(make_scenario(n, step=0.1, stop_time=sim), tmp / f"fleet{n}.ssp")
+            loop, meta = timed_loop(ssp, tmp / f"fleet{n}", mavlink=[url], write_csv=False)
+            sent = meta["observers"]["mavlink"]["messages_sent"]
+            rows.append((n, meta["steps_done"], sim, loop, sim / loop, sent / loop))
+        fits = [r for r in rows if r[4] > 1.0]
+        paced = None
+        if fits and check > 0:
+            n = max(r[0] for r in fits)
+            ssp = build_ssp(make_scenario(n, step=0.1, stop_time=check), tmp / f"paced{n}.ssp")
+            loop, meta = timed_loop(ssp, tmp / f"paced{n}", mavlink=[url], realtime=1.0, write_csv=False)
+            p = meta["observers"]["pacing"]
+            paced = (n, check, loop, p["steps_behind"], meta["steps_done"], p["max_lag_s"])
+    finally:
+        s.close()
+    return rows, paced
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--fleets", default="16,64,128,254")
+    ap.add_argument("--fleet-sim", type=float, default=60.0)
+    ap.add_argument("--check-sim", type=float, default=30.0)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="bench_mavlink_") as tmp:
+        tmp = Path(tmp)
+        rows = slowdown(tmp, args.repeats)
+        print("4-UAV mission with zones (paper_zones_4uav_B.ssp), unpaced, best of", args.repeats)
+        print(f"{'run':<12}{'steps':>7}{'run wall s':>12}{'loop s':>9}{'messages':>10}{'loop slowdown':>15}")
+        base = rows[0][3]
+        for label, steps, wall, loop, sent in rows:
+            print(f"{label:<12}{steps:>7}{wall:>12.2f}{loop:>9.2f}{sent:>10}{100 * (loop / base - 1):>14.1f}%")
+        sizes = [int(x) for x in args.fleets.split(",") if x.strip()]
+        frows, paced = fleet(tmp, sizes, args.fleet_sim, args.check_sim)
+        print(f"\nfleets streamed at 10 Hz, unpaced, {args.fleet_sim:g} s simulated, step 0.1 s")
+        print(f"{'UAVs':>5}{'steps':>7}{'loop s':>9}{'RTF':>8}{'msg/s':>10}  real time?")
+        for n, steps, sim, loop, rtf, rate in frows:
+            print(f"{n:>5}{steps:>7}{loop:>9.2f}{rtf:>8.2f}{rate:>10.0f}  {'yes' if rtf > 1 else 'no'}")
+        if paced:
+            n, sim, loop, behind, steps, lag = paced
+            print(f"\npaced check: {n} UAVs, --realtime 1, {sim:g} s simulated in {loop:.2f} s wall; "
+                  f"{behind}/{steps} steps behind the wall clock, largest lag {lag:.3f} s")
+    print(f"(python {sys.version.split()[0]}, {os.cpu_count()} CPUs, load average "
+          f"{' '.join(f'{x:.1f}' for x in os.getloadavg())})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
