@@ -199,3 +199,14 @@ def test_return_to_launch_is_applied_acknowledged_and_recorded(streamed):
     assert summary.loc["uav2", "outcome"] == "commanded_return"
     assert summary.loc["uav2", "targets_visited"] < 6
     assert set(summary.loc[["uav1", "uav3", "uav4"], "outcome"]) == {"timeout"}
+
+
+def test_each_vehicle_counts_its_sequence_without_gaps(streamed):
+    """A ground station measures link loss from each system's sequence numbers (MAVLink serialization)."""
+    last = {}
+    for msg in streamed["gcs"].got:
+        sysid, seq = msg.get_srcSystem(), msg.get_seq()
+        if sysid in last:
+            assert seq == (last[sysid] + 1) % 256, (sysid, last[sysid], seq)
+        last[sysid] = seq
+    assert sorted(last) == [1, 2, 3, 4]

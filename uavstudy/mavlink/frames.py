@@ -57,3 +57,11 @@ class Frame:
             acc.accumulate(self.extra)
             crc = acc.crc
         return frame + crc.to_bytes(2, "little")
+
+
+def packed(enc, message) -> bytes:
+    """A pymavlink message packed by the vehicle's encoder, counting its sequence on (pymavlink counts in
+    ``MAVLink.send``, which a stream to several links does not use)."""
+    data = message.pack(enc)
+    enc.seq = (enc.seq + 1) & 255
+    return data

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import common as m
 
+from .frames import packed
+
 APPLIED = (m.MAV_CMD_NAV_RETURN_TO_LAUNCH, m.MAV_CMD_NAV_LAND)
 CAPABILITIES = (m.MAV_PROTOCOL_CAPABILITY_MISSION_INT | m.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
                 | m.MAV_PROTOCOL_CAPABILITY_COMMAND_INT | m.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
@@ -78,7 +80,7 @@ class Protocol:
         enc = self.tm.enc[k]
 
         def reply(message):
-            link.send([message.pack(enc)])
+            link.send([packed(enc, message)])
         if typ == "MISSION_REQUEST_LIST":
             items = self._items(k, msg.mission_type)
             key = (id(link), src, k, msg.mission_type)

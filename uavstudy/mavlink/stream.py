@@ -24,6 +24,7 @@ from master.observers import Observer
 from uavsim.strategy import COMMAND_LAND, COMMAND_NONE, COMMAND_RETURN, LAND_CMD, RETURN_CMD, STATE_NAMES
 
 from ..names import MISSION_DETAIL
+from .frames import packed
 from .protocol import Protocol
 from .telemetry import Telemetry
 
@@ -167,8 +168,8 @@ class VehicleStream(Observer):
             if self.slow_ticks % 60 == 0:
                 for link in hub.links:
                     link.check_silence()
+        hub.broadcast(texts)            # packed first: sent first, so each vehicle's sequence numbers run on
         self._send(t_ms, cols, fast, slow, slow and self.slow_ticks % HOME_EVERY == 0)
-        hub.broadcast(texts)
 
     # ----------------------------------------------------------------------------------------- events
     def _texts(self) -> list[bytes]:
@@ -223,8 +224,8 @@ class VehicleStream(Observer):
             taken = state == state and int(state) == state_taken
             result = m.MAV_RESULT_ACCEPTED if taken else m.MAV_RESULT_DENIED
             enc = hub.tm.enc[c.vehicle]
-            c.link.send([enc.command_ack_encode(c.command, result, 0, 0, c.requester[0], c.requester[1])
-                         .pack(enc)])
+            # with the step's other messages (in the order they were packed); its target fields say for whom
+            out.append(packed(enc, enc.command_ack_encode(c.command, result, 0, 0, *c.requester)))
             now = STATE_NAMES[int(state)] if state == state else "unknown"
             detail = (MISSION_DETAIL.get(state_taken, "") if taken
                       else f"refused by the strategy in state {now}")

@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import common as m
 from uavsim.dynamics import FLY, LAND, LANDED, PREFLIGHT, TAKEOFF
 
 from ..names import FINAL_STATES, FORCED_LANDING_STATES, STATE_RETURN_LOW
-from .frames import Frame
+from .frames import Frame, packed
 
 LANDED_STATE = {PREFLIGHT: m.MAV_LANDED_STATE_ON_GROUND, TAKEOFF: m.MAV_LANDED_STATE_TAKEOFF,
                 FLY: m.MAV_LANDED_STATE_IN_AIR, LAND: m.MAV_LANDED_STATE_LANDING,
@@ -106,17 +106,17 @@ class Telemetry:
     def home(self, k: int, t_ms: int) -> bytes:
         v, enc = self.fleet.vehicles[k], self.enc[k]
         lat, lon, alt = v.home_geo
-        return enc.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
-                                        float(v.home[1]), float(v.home[0]), 0.0, [1.0, 0.0, 0.0, 0.0],
-                                        0.0, 0.0, 0.0, t_ms * 1000).pack(enc)
+        return packed(enc, enc.home_position_encode(round(lat * 1e7), round(lon * 1e7), round(alt * 1000),
+                                                    float(v.home[1]), float(v.home[0]), 0.0, [1.0, 0.0, 0.0, 0.0],
+                                                    0.0, 0.0, 0.0, t_ms * 1000))
 
     def text(self, k: int, severity: int, text: str) -> bytes:
         enc = self.enc[k]
-        return enc.statustext_encode(severity, text[:50].encode("ascii", "replace")).pack(enc)
+        return packed(enc, enc.statustext_encode(severity, text[:50].encode("ascii", "replace")))
 
     def reached(self, k: int, seq: int) -> bytes:
         enc = self.enc[k]
-        return enc.mission_item_reached_encode(seq).pack(enc)
+        return packed(enc, enc.mission_item_reached_encode(seq))
 
 
 def _f(v) -> float:
