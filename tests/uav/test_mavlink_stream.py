@@ -57,10 +57,12 @@ class Gcs:
                 self.got.append(msg)
 
     def expect(self, ex, typ, sysid, **fields):
-        """Step the run until the vehicle ``sysid`` answers with a ``typ`` message matching ``fields``."""
+        """Step the run until the vehicle ``sysid`` answers with a ``typ`` message matching ``fields`` (the
+        streaming process answers requests at once; a command reaches the run before its next step)."""
         for _ in range(20):
-            ex.step()
             start = len(self.got)
+            self.drain(0.05)
+            ex.step()
             self.drain(0.02)
             for msg in self.got[start:]:
                 if msg.get_type() == typ and msg.get_srcSystem() == sysid and \
@@ -189,11 +191,13 @@ def test_return_to_launch_is_applied_acknowledged_and_recorded(streamed):
     assert streamed["other_ack"].result == m.MAV_RESULT_UNSUPPORTED
     events = pd.read_csv(streamed["out"] / "events.csv")
     cmd = events[events.type == "command"]
-    assert list(zip(cmd.uav, cmd.event, cmd.time)) == [("uav2", "return_to_launch", RTL_AT)]
+    assert list(zip(cmd.uav, cmd.event)) == [("uav2", "return_to_launch")]
+    applied = cmd.time.iloc[0]
+    assert RTL_AT <= applied < RTL_AT + 1.0           # the step after the ground station sent it
     assert cmd.detail.iloc[0].startswith("accepted")
     uav2 = events[(events.uav == "uav2") & (events.type == "mission")]
     assert list(uav2.event)[-3:] == ["return_commanded", "landing", "landed_base"]
-    assert uav2[uav2.event == "return_commanded"].time.iloc[0] == RTL_AT
+    assert uav2[uav2.event == "return_commanded"].time.iloc[0] == applied     # taken in that very step
     summary = pd.read_csv(streamed["out"] / "summary.csv").set_index("uav")
     # sent home with targets left: a commanded return, not a success; the others fly on to the stop time
     assert summary.loc["uav2", "outcome"] == "commanded_return"

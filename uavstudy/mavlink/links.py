@@ -100,6 +100,10 @@ class Link:
     def send(self, messages: list[bytes]) -> None:
         raise NotImplementedError
 
+    def filenos(self) -> list[int]:
+        """The sockets to wait on for input."""
+        raise NotImplementedError
+
     def receive(self) -> list[tuple[object, bytes]]:
         raise NotImplementedError
 
@@ -143,6 +147,9 @@ class _Udp(Link):
 
     def _learn(self, peer):
         pass
+
+    def filenos(self):
+        return [self.sock.fileno()]
 
     def close(self):
         self.sock.close()
@@ -201,6 +208,9 @@ class _Tcp(Link):
             if len(pending) > TCP_BACKLOG:
                 self._drop(sock, f"cannot keep up ({len(pending)} bytes waiting): disconnected")
 
+    def filenos(self):
+        return [sock.fileno() for sock in self.clients]
+
     def receive(self):
         got = []
         for sock, (peer, _) in list(self.clients.items()):
@@ -245,6 +255,9 @@ class TcpIn(_Tcp):
                 break
             self._add(sock, peer)
         return super().receive()
+
+    def filenos(self):
+        return [self.server.fileno(), *super().filenos()]
 
     def close(self):
         super().close()

@@ -1,22 +1,30 @@
 """The UAV fleet as live MAVLink vehicles: an observer that streams, a manipulator that takes commands.
 
-``VehicleStream`` (observer, after the UAV monitor): after every master step it sends each vehicle's
-GLOBAL_POSITION_INT and ATTITUDE at ``rate`` per simulated second, HEARTBEAT, VFR_HUD, SYS_STATUS,
-BATTERY_STATUS, EXTENDED_SYS_STATE and MISSION_CURRENT once a simulated second, HOME_POSITION every 5 s,
-a STATUSTEXT for every event the monitor emitted in the step (and for every photo, with
-MISSION_ITEM_REACHED), and the COMMAND_ACK of the commands applied in the step.
+What each vehicle sends (encoded in the streaming process, :mod:`uavstudy.mavlink.server`):
+GLOBAL_POSITION_INT and ATTITUDE at ``rate`` per simulated second; HEARTBEAT, VFR_HUD, SYS_STATUS,
+BATTERY_STATUS, EXTENDED_SYS_STATE and MISSION_CURRENT once a simulated second; HOME_POSITION every 5 s; a
+STATUSTEXT for every event the UAV monitor emitted (and every removal), for every photo (with
+MISSION_ITEM_REACHED) and for every command; COMMAND_ACK of the commands applied.
 
-``CommandInput`` (manipulator): before every step it reads what the ground stations sent (answering
-mission downloads and requests at once) and writes a return or land command into the UAV strategy's
-``command`` input, which the strategy takes in this step; the input goes back to 0 before the next one,
-so that a repeated command is a change again.  Applied commands are events (type ``command``) in
-events.csv, with the result the ground station was told.
+``VehicleStream`` (observer, after the UAV monitor): after a step that is a tick of the stream, or that has
+new events or applied commands, it reads the fleet's values (one ``np.take`` per buffer type) and hands them
+to the streaming process, which it starts when the run starts and stops when the run ends.
+
+``CommandInput`` (manipulator): before every step it takes the commands the streaming process passed on
+and writes a return or land command into the UAV strategy's ``command`` input, which the strategy takes in
+this step; the input goes back to 0 before the next one, so that a repeated command is a change again.
+After the step the observer tells from the strategy's mission state whether it was taken (COMMAND_ACK
+accepted or denied) and records it as an event (type ``command``) in events.csv.
 """
 from __future__ import annotations
 
-import math
+import fcntl
+import logging
+import multiprocessing as mp
+import os
+import select
+import time
 
-import numpy as np
 from pymavlink.dialects.v20 import common as m
 
 from master.manipulators import Manipulator
@@ -24,55 +32,122 @@ from master.observers import Observer
 from uavsim.strategy import COMMAND_LAND, COMMAND_NONE, COMMAND_RETURN, LAND_CMD, RETURN_CMD, STATE_NAMES
 
 from ..names import MISSION_DETAIL
-from .frames import packed
-from .protocol import Protocol
-from .telemetry import Telemetry
+from .server import SLOW_HZ, StreamServer, serve, ticks
 
-SLOW_HZ = 1.0
-HOME_EVERY = 5                     # slow ticks between two HOME_POSITION
+log = logging.getLogger("cosim_master")
 #: MAVLink command -> (value of the strategy's command input, mission state that shows it taken, event name)
 COMMANDS = {m.MAV_CMD_NAV_RETURN_TO_LAUNCH: (COMMAND_RETURN, RETURN_CMD, "return_to_launch"),
             m.MAV_CMD_NAV_LAND: (COMMAND_LAND, LAND_CMD, "land")}
-#: the monitor's mission events -> (severity, short text); others are INFO with their name
-SEVERITY = {"return_low": m.MAV_SEVERITY_WARNING, "forced_landing": m.MAV_SEVERITY_CRITICAL,
-            "landed_away": m.MAV_SEVERITY_WARNING, "return_commanded": m.MAV_SEVERITY_NOTICE,
-            "landing_commanded": m.MAV_SEVERITY_NOTICE}
-SHORT = {"takeoff": "taking off", "transit": "flying to its targets",
-         "return_started": "all targets done, returning", "return_low": "battery 80% used, returning",
-         "landing": "landing at the base", "forced_landing": "battery 95% used, landing here",
-         "landed_base": "landed at the base", "landed_away": "landed away from the base",
-         "return_commanded": "returning (ground station)", "landing_commanded": "landing (ground station)"}
-
-
-def _ticks(t0: float, t1: float, hz: float) -> bool:
-    """Does (t0, t1] hold a multiple of 1/hz (simulated time)?"""
-    return math.floor(t1 * hz + 1e-9) > math.floor(t0 * hz + 1e-9)
+STREAMED_EVENTS = ("mission", "uav", "zone")
+#: the pipe to the streaming process holds this many bytes (Linux F_SETPIPE_SZ; the default is 64 kB): ~1600
+#: ticks of a 4-UAV fleet, ~25 of a 254-UAV one
+PIPE_BYTES = 1 << 20
+F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
+#: ticks go to the streaming process in batches, at most this many and this old (wall clock): each hand-over
+#: wakes that process, which costs the simulation more than the bytes
+BATCH, BATCH_S = 16, 0.02
 
 
 class Hub:
-    """What the observer and the manipulator share: the links, the fleet, the encoders, the protocol."""
+    """What the observer and the manipulator share: the fleet, the links, the streaming process."""
 
     def __init__(self, fleet, links, rate: float):
         self.fleet, self.links, self.rate = fleet, links, float(rate)
-        self.tm = Telemetry(fleet)
-        self.protocol = Protocol(fleet, self.tm)
-        self.sent = 0
-        self.applied: list = []              # commands written into the inputs before this step
+        self.conn = None
+        self.pid = None
+        self.broken = False
+        self.stats: dict = {}
+        self.applied: list = []              # (vehicle, command, requester, link index, time) of this step
 
-    def poll(self) -> None:
-        for link in self.links:
-            for _peer, data in link.receive():
-                self.protocol.feed(link, data)
-
-    def broadcast(self, messages: list[bytes]) -> None:
-        if messages:
-            self.sent += len(messages)
-            for link in self.links:
-                link.send(messages)
-
-    def close(self) -> None:
+    def start(self) -> None:
+        """Fork the streaming process; from then on it alone holds the links."""
+        ours, theirs = mp.Pipe(duplex=True)
+        pid = os.fork()
+        if pid == 0:                          # the streaming process
+            status = 0
+            try:
+                ours.close()
+                server = StreamServer(self.fleet, self.links, self.rate,
+                                      lambda *c: theirs.send(("cmd", *c)))
+                serve(server, theirs)
+            except BaseException:  # noqa: BLE001 - nothing of this process may run the simulation's exit code
+                status = 1
+            finally:
+                os._exit(status)
+        theirs.close()
         for link in self.links:
             link.close()
+        self.conn, self.pid = ours, pid
+        self.dropped = 0
+        self.batch, self.batch_at = [], time.monotonic()
+        try:
+            fcntl.fcntl(ours.fileno(), F_SETPIPE_SZ, PIPE_BYTES)
+        except OSError:
+            pass                              # a smaller pipe only drops more ticks when the process lags
+
+    def offer(self, record, urgent: bool) -> None:
+        """Queue a tick; hand the batch over when it is full, old, or holds events or command results (those
+        at once).  When the streaming process lags (the pipe is full), the ticks that carry only telemetry are
+        dropped: the simulation never waits for the stream."""
+        self.batch.append((record, urgent))
+        now = time.monotonic()
+        if not (urgent or len(self.batch) >= BATCH or now - self.batch_at >= BATCH_S):
+            return
+        self.batch_at = now
+        batch, self.batch = self.batch, []
+        if self.conn is not None and not select.select([], [self.conn.fileno()], [], 0)[1]:
+            self.dropped += sum(1 for _, u in batch if not u)
+            batch = [(r, u) for r, u in batch if u]
+            if not batch:
+                return
+        self.send(("ticks", [r for r, _ in batch]))
+
+    def send(self, record) -> None:
+        if self.broken or self.conn is None:
+            return
+        try:
+            self.conn.send(record)
+        except OSError as exc:
+            self.broken = True
+            log.warning("--mavlink: the streaming process is gone (%s); the run goes on without it", exc)
+
+    def commands(self) -> list:
+        out = []
+        if self.conn is None or self.broken:
+            return out
+        fd = self.conn.fileno()
+        try:
+            # select, not Connection.poll: this runs before every step, and poll costs ~50 times more
+            while select.select([fd], [], [], 0)[0]:
+                msg = self.conn.recv()
+                if msg[0] == "cmd":
+                    out.append(msg[1:])
+        except (EOFError, OSError):
+            self.broken = True
+        return out
+
+    def stop(self) -> None:
+        if self.conn is None:
+            for link in self.links:
+                link.close()
+            return
+        if getattr(self, "batch", None):
+            self.send(("ticks", [r for r, _ in self.batch]))
+        self.send(("stop",))
+        try:
+            while not self.broken and self.conn.poll(5.0):
+                msg = self.conn.recv()
+                if msg[0] == "stats":
+                    self.stats = msg[1]
+                    break
+        except (EOFError, OSError):
+            pass
+        self.conn.close()
+        self.conn = None
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
 
 
 class CommandInput(Manipulator):
@@ -83,22 +158,16 @@ class CommandInput(Manipulator):
         self.to_reset: list[str] = []
 
     def before_step(self, n: int, t: float) -> None:
-        hub = self.hub
-        hub.poll()
         for q in self.to_reset:
             self.ctx.set_value(q, COMMAND_NONE)
         self.to_reset = []
-        waiting = hub.protocol.commands
-        if not waiting:
-            return
-        hub.protocol.commands = []
-        for c in waiting:
-            q = hub.fleet.vehicles[c.vehicle].command_input
-            self.ctx.set_value(q, COMMANDS[c.command][0])
-            c.applied_at = t
+        hub = self.hub
+        for vehicle, command, requester, link in hub.commands():
+            q = hub.fleet.vehicles[vehicle].command_input
+            self.ctx.set_value(q, COMMANDS[command][0])
             if q not in self.to_reset:
                 self.to_reset.append(q)
-            hub.applied.append(c)
+            hub.applied.append((vehicle, command, tuple(requester), link, t))
 
 
 class VehicleStream(Observer):
@@ -106,10 +175,7 @@ class VehicleStream(Observer):
 
     def __init__(self, hub: Hub, monitor):
         self.hub, self.monitor = hub, monitor
-        self.events_seen = 0
-        self.slow_ticks = 0
         self.commands: list[dict] = []
-        self.attached = False
 
     def required_variables(self) -> list[str]:
         return self.hub.fleet.required_variables()
@@ -118,138 +184,52 @@ class VehicleStream(Observer):
         super().attach(ctx, start)
         fleet = self.hub.fleet
         fleet.attach(ctx)
-        n = len(fleet.vehicles)
-        self.removed = np.zeros(n, dtype=bool)
-        self.hub.protocol.removed = self.removed
-        cols = fleet.read()
-        self.photos = np.nan_to_num(cols["photos"]).astype(int).tolist()
         self.events_seen = len(ctx.events)
-        self.attached = True
-        t_ms = int(round(start * 1000))
-        self._send(t_ms, cols, fast=True, slow=True, home=True)
-
-    def _mission_seq(self, cols) -> list[int]:
-        """MISSION_CURRENT: the waypoint of the target being flown to; the return item once going home."""
-        seq = []
-        for k, v in enumerate(self.hub.fleet.vehicles):
-            target, state = cols["target"][k], cols["state"][k]
-            if target == target and target >= 0 and int(target) in v.assigned:
-                seq.append(1 + v.assigned.index(int(target)))
-            elif state == state and STATE_NAMES[int(state)].startswith(("RETURN", "LAND")):
-                seq.append(len(v.mission) - 1)
-            else:
-                seq.append(0)
-        return seq
-
-    def _send(self, t_ms, cols, fast, slow, home) -> None:
-        tm, out = self.hub.tm, []
-        if fast:
-            out += tm.fast(t_ms, cols, self.removed)
-        if slow:
-            out += tm.slow(t_ms, cols, self.removed, self._mission_seq(cols))
-        if home:
-            out += [tm.home(k, t_ms) for k in range(len(self.hub.fleet.vehicles))]
-        self.hub.broadcast(out)
+        self.hub.start()
+        fleet.read()
+        self.hub.send(("start", start, fleet.table.tobytes()))
 
     def after_step(self, n: int, t0: float, t1: float) -> None:
         hub = self.hub
-        t_ms = hub.protocol.t_ms = int(round(t1 * 1000))
-        fast = _ticks(t0, t1, hub.rate)
-        slow = _ticks(t0, t1, SLOW_HZ)
-        events = len(self.ctx.events) > self.events_seen
-        if not (fast or slow or events or hub.applied):
-            return
-        cols = hub.fleet.read()
-        texts = self._photos(cols) + (self._texts() if events else [])     # a photo comes before what it ends
-        if hub.applied:
-            texts += self._acknowledge(cols, t0)
-        if slow:
-            self.slow_ticks += 1
-            if self.slow_ticks % 60 == 0:
-                for link in hub.links:
-                    link.check_silence()
-        hub.broadcast(texts)            # packed first: sent first, so each vehicle's sequence numbers run on
-        self._send(t_ms, cols, fast, slow, slow and self.slow_ticks % HOME_EVERY == 0)
-
-    # ----------------------------------------------------------------------------------------- events
-    def _texts(self) -> list[bytes]:
-        """A STATUSTEXT for each event the monitor emitted since the last step."""
         events = self.ctx.events
-        new, self.events_seen = events[self.events_seen:], len(events)
-        index = {v.name: v.index for v in self.hub.fleet.vehicles}
-        tm, out = self.hub.tm, []
-        for e in new:
-            typ, name = e.get("type"), e.get("event")
-            k = index.get(e.get("uav"))
-            if k is None or typ == "command":
-                continue
-            if typ == "mission":
-                out.append(tm.text(k, SEVERITY.get(name, m.MAV_SEVERITY_INFO), f"{name}: {SHORT.get(name, '')}"))
-            elif typ == "uav":
-                other = e.get("other")
-                for a, b in ((k, other), (index.get(other), e.get("uav"))):
-                    if a is not None:
-                        out.append(tm.text(a, m.MAV_SEVERITY_EMERGENCY, f"collision: with {b}"))
-                        out.append(self._removal(a, "UAV-UAV collision"))
-            elif typ == "zone":
-                out.append(tm.text(k, m.MAV_SEVERITY_EMERGENCY, f"zone_incursion: entered {e.get('other')}"))
-                out.append(self._removal(k, "zone incursion"))
-        return out
+        new = len(events) > self.events_seen
+        if not (new or hub.applied or ticks(t0, t1, hub.rate) or ticks(t0, t1, SLOW_HZ)):
+            return
+        fleet = hub.fleet
+        fleet.read()
+        streamed = []
+        if new:
+            streamed = [(e.get("type"), e.get("event"), e.get("uav"), e.get("other"))
+                        for e in events[self.events_seen:] if e.get("type") in STREAMED_EVENTS]
+        acks = self._taken(fleet.columns) if hub.applied else []
+        self.events_seen = len(events)       # our own command events are not sent back as monitor events
+        hub.offer((t0, t1, fleet.table.tobytes(), streamed, acks), bool(streamed or acks))
 
-    def _removal(self, k, why) -> bytes:
-        self.removed[k] = True
-        return self.hub.tm.text(k, m.MAV_SEVERITY_ALERT, f"removed: {why}")
-
-    def _photos(self, cols) -> list[bytes]:
-        out = []
-        photos, last = cols["photos"], cols["photo_target"]
-        for k, v in enumerate(self.hub.fleet.vehicles):
-            now = int(photos[k]) if photos[k] == photos[k] else 0
-            if now > self.photos[k]:
-                self.photos[k] = now
-                target = int(last[k]) if last[k] == last[k] else -1
-                out.append(self.hub.tm.text(k, m.MAV_SEVERITY_INFO,
-                                            f"photo: target {target} ({now}/{len(v.assigned)})"))
-                if target in v.assigned:
-                    out.append(self.hub.tm.reached(k, 1 + v.assigned.index(target)))
-        return out
-
-    def _acknowledge(self, cols, t0) -> list[bytes]:
-        """COMMAND_ACK of the commands the strategy got in this step: accepted if it shows them taken."""
-        hub, out = self.hub, []
-        for c in hub.applied:
-            code, state_taken, what = COMMANDS[c.command]
-            v = hub.fleet.vehicles[c.vehicle]
-            state = cols["state"][c.vehicle]
+    def _taken(self, cols) -> list:
+        """Did the strategy take the commands of this step?  Each becomes an event; the acks go out."""
+        hub, acks = self.hub, []
+        for k, command, requester, link, t in hub.applied:
+            _code, state_taken, what = COMMANDS[command]
+            v = hub.fleet.vehicles[k]
+            state = cols["state"][k]
             taken = state == state and int(state) == state_taken
-            result = m.MAV_RESULT_ACCEPTED if taken else m.MAV_RESULT_DENIED
-            enc = hub.tm.enc[c.vehicle]
-            # with the step's other messages (in the order they were packed); its target fields say for whom
-            out.append(packed(enc, enc.command_ack_encode(c.command, result, 0, 0, *c.requester)))
             now = STATE_NAMES[int(state)] if state == state else "unknown"
-            detail = (MISSION_DETAIL.get(state_taken, "") if taken
-                      else f"refused by the strategy in state {now}")
-            x, y, z = (float(cols[a][c.vehicle]) for a in ("x", "y", "z"))
-            lat, lon, alt = hub.fleet.geodetic(*(cols[a][c.vehicle:c.vehicle + 1] for a in ("x", "y", "z")))[0]
-            event = {"time": round(float(t0), 9), "type": "command", "event": what, "uav": v.name,
-                     "other": f"gcs {c.requester[0]}/{c.requester[1]} via {c.link.url}", "x": x, "y": y, "z": z,
-                     "lat": lat, "lon": lon, "alt": alt, "distance": None,
-                     "consumed": float(cols["consumed"][c.vehicle]),
-                     "detail": ("accepted: " if taken else "denied: ") + detail}
-            self.ctx.emit(event)
-            self.events_seen += 1           # our own event: no STATUSTEXT of the monitor's kind
-            self.commands.append({"time": event["time"], "uav": v.name, "command": what,
+            x, y, z = (float(cols[a][k]) for a in ("x", "y", "z"))
+            lat, lon, alt = hub.fleet.geodetic(*(cols[a][k:k + 1] for a in ("x", "y", "z")))[0]
+            self.ctx.emit({"time": round(float(t), 9), "type": "command", "event": what, "uav": v.name,
+                           "other": f"gcs {requester[0]}/{requester[1]} via {hub.links[link].url}",
+                           "x": x, "y": y, "z": z, "lat": lat, "lon": lon, "alt": alt, "distance": None,
+                           "consumed": float(cols["consumed"][k]),
+                           "detail": ("accepted: " + MISSION_DETAIL.get(state_taken, "")) if taken
+                           else f"denied: refused by the strategy in state {now}"})
+            self.commands.append({"time": round(float(t), 9), "uav": v.name, "command": what,
                                   "result": "accepted" if taken else "denied"})
-            out.append(hub.tm.text(c.vehicle, m.MAV_SEVERITY_NOTICE,
-                                   f"command: {what} {'accepted' if taken else 'denied'}"))
+            acks.append((k, command, requester, what, taken))
         hub.applied = []
-        return out
+        return acks
 
     def finish(self, out_dir, outcome) -> dict:
         hub = self.hub
-        hub.close()
-        p = hub.protocol
-        return {"vehicles": len(hub.fleet.vehicles), "links": [ln.url for ln in hub.links],
-                "messages_sent": hub.sent, "datagrams_dropped": sum(ln.dropped for ln in hub.links),
-                "downloads": p.downloads(), "commands": self.commands,
-                **({"unsupported": p.unsupported} if p.unsupported else {})}
+        hub.stop()
+        return {"vehicles": len(hub.fleet.vehicles), "links": [ln.url for ln in hub.links], **hub.stats,
+                "ticks_dropped": getattr(hub, "dropped", 0), "commands": self.commands}
