@@ -9,6 +9,7 @@ from master.live import LiveParts, LiveStream
 
 from ..names import MONITOR_TYPE
 from .fleet import Fleet
+from .forward import forwarded_vehicles
 from .links import open_link, parse_url
 from .stream import CommandInput, Hub, VehicleStream
 
@@ -27,16 +28,18 @@ class MavlinkStream(LiveStream):
         if not rate > 0:
             raise CosimError(f"must be a positive number of messages per simulated second, got {rate}",
                              element="--mavlink-rate")
-        fleet = Fleet(monitor, plan)
-        links = []
+        fleet = Fleet(monitor, plan, forwarded_vehicles(monitor, plan))
+        links, relays = [], []
         try:
             for url in urls:
                 links.append(open_link(url))
+            for f in fleet.forwarded:
+                relays.append(open_link(f.url))
         except BaseException:
-            for link in links:
+            for link in links + relays:
                 link.close()
             raise
-        hub = Hub(fleet, links, rate)
+        hub = Hub(fleet, links, rate, relays)
         return LiveParts([VehicleStream(hub, monitor)], [CommandInput(hub)])
 
 

@@ -68,19 +68,24 @@ def _e7(deg) -> int:
 class Fleet:
     """The vehicles of a UAV monitor's configuration and the buffer positions of their values."""
 
-    def __init__(self, monitor, plan, first_sysid: int = 1):
+    def __init__(self, monitor, plan, forwarded=()):
         cfg = monitor.cfg
         self.monitor, self.origin = monitor, cfg.origin
-        self.frame = frame(cfg.origin) if len(cfg.uavs) <= SMALL_FLEET else None
-        if len(cfg.uavs) > MAX_VEHICLES - first_sysid + 1:
+        self.forwarded = list(forwarded)
+        own = {f.uav for f in self.forwarded}
+        taken = {f.sysid for f in self.forwarded}
+        uavs = [u for u in cfg.uavs if u.name not in own]
+        sysids = [s for s in range(1, MAX_VEHICLES + 1) if s not in taken][:len(uavs)]
+        if len(uavs) > len(sysids):
             raise CosimError(f"{len(cfg.uavs)} UAVs: one MAVLink network addresses at most {MAX_VEHICLES} vehicles "
                              "(system ids 1-254; 255 is the ground station's)", element="--mavlink")
+        self.frame = frame(cfg.origin) if len(cfg.uavs) <= SMALL_FLEET else None
         variables = getattr(plan, "variables", {})
         self.vehicles: list[Vehicle] = []
         self.qualified: dict[str, list[str | None]] = {c: [] for c in COLUMNS}
         targets = np.asarray(cfg.targets, float).reshape(-1, 2)
         tlat, tlon, _ = _geo(self.origin, targets[:, 0], targets[:, 1], np.zeros(len(targets)))
-        for k, u in enumerate(cfg.uavs):
+        for k, (u, sysid) in enumerate(zip(uavs, sysids)):
             for col, (part, var) in COLUMNS.items():
                 comp = component(u.name, part)
                 self.qualified[col].append(f"{comp}.{var}" if var in variables.get(comp, {}) else None)
@@ -90,12 +95,12 @@ class Fleet:
             assigned = list(u.assigned or [])
             hlat, hlon, halt = _geo(self.origin, u.home[0], u.home[1], 0.0)
             self.vehicles.append(Vehicle(
-                k, u.name, first_sysid + k, f"{strat}.{COMMAND_INPUT}" if has_input else None, u.home,
+                k, u.name, sysid, f"{strat}.{COMMAND_INPUT}" if has_input else None, u.home,
                 (float(hlat[0]), float(hlon[0]), float(halt[0])),
                 self._mission(u.home, (hlat[0], hlon[0]), cruise, assigned, tlat, tlon), assigned))
         self.fence = self._fence(cfg.zones)
         self.capacity_ah = [_param(plan, f"{component(u.name, BATTERY)}.capacity_ah", P.CAPACITY_AH)
-                            for u in cfg.uavs]
+                            for u in uavs]
 
     @staticmethod
     def _mission(home, home_geo, cruise, assigned, tlat, tlon) -> list[dict]:

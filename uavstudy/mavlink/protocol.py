@@ -54,6 +54,7 @@ class Protocol:
         self.unsupported: dict[str, int] = {}
         self.parsers: dict[int, m.MAVLink] = {}
         self.removed = None                        # set by the stream: which vehicles were taken out
+        self.relay = lambda sysid, data: False     # a forwarded vehicle's messages go to it (forward.py)
         self.t_ms = 0
 
     # ------------------------------------------------------------------------------------- input
@@ -70,6 +71,8 @@ class Protocol:
             if msg.get_type() == "BAD_DATA":
                 continue
             target = getattr(msg, "target_system", None)
+            if target and self.relay(target, msg.get_msgbuf()):
+                continue
             k = self.by_sysid.get(target)
             if k is not None:
                 self._handle(link, k, msg)

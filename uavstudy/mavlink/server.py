@@ -48,11 +48,13 @@ def ticks(t0: float, t1: float, hz: float) -> bool:
 
 
 class StreamServer:
-    def __init__(self, fleet, links, rate: float, commands):
+    def __init__(self, fleet, links, rate: float, commands, relays=()):
         self.fleet, self.links, self.rate = fleet, links, float(rate)
+        self.relays = {f.sysid: link for f, link in zip(fleet.forwarded, relays)}
         self.commands = commands           # callable(vehicle, command, requester, link index)
         self.tm = Telemetry(fleet)
         self.protocol = Protocol(fleet, self.tm)
+        self.protocol.relay = self._to_vehicle
         n = len(fleet.vehicles)
         self.removed = np.zeros(n, dtype=bool)
         self.protocol.removed = self.removed
@@ -157,7 +159,18 @@ class StreamServer:
         return out
 
     # ------------------------------------------------------------------------------------- the links
+    def _to_vehicle(self, sysid, data: bytes) -> bool:
+        """A ground station's message for a forwarded vehicle goes to it as it is."""
+        link = self.relays.get(sysid)
+        if link is None:
+            return False
+        link.send([data])
+        return True
+
     def poll(self) -> None:
+        for link in self.relays.values():     # a forwarded vehicle's own stream, to every ground station
+            for _peer, data in link.receive():
+                self.broadcast([data])
         for link in self.links:
             for _peer, data in link.receive():
                 self.protocol.feed(link, data)
@@ -171,7 +184,7 @@ class StreamServer:
                 "downloads": p.downloads(), **({"unsupported": p.unsupported} if p.unsupported else {})}
 
     def close(self) -> None:
-        for link in self.links:
+        for link in self.links + list(self.relays.values()):
             link.close()
 
 
@@ -182,7 +195,8 @@ def serve(server: StreamServer, conn) -> None:
     checked = time.monotonic()
     try:
         while True:
-            ready = wait([conn] + [fd for ln in server.links for fd in ln.filenos()], timeout=SILENCE_CHECK_S)
+            links = server.links + list(server.relays.values())
+            ready = wait([conn] + [fd for ln in links for fd in ln.filenos()], timeout=SILENCE_CHECK_S)
             if conn in ready:
                 while conn.poll():
                     record = conn.recv()

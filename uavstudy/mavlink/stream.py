@@ -51,8 +51,9 @@ BATCH, BATCH_S = 16, 0.02
 class Hub:
     """What the observer and the manipulator share: the fleet, the links, the streaming process."""
 
-    def __init__(self, fleet, links, rate: float):
+    def __init__(self, fleet, links, rate: float, relays=()):
         self.fleet, self.links, self.rate = fleet, links, float(rate)
+        self.relays = list(relays)            # the forwarded vehicles' own streams (forward.py)
         self.conn = None
         self.pid = None
         self.broken = False
@@ -68,14 +69,14 @@ class Hub:
             try:
                 ours.close()
                 server = StreamServer(self.fleet, self.links, self.rate,
-                                      lambda *c: theirs.send(("cmd", *c)))
+                                      lambda *c: theirs.send(("cmd", *c)), self.relays)
                 serve(server, theirs)
             except BaseException:  # noqa: BLE001 - nothing of this process may run the simulation's exit code
                 status = 1
             finally:
                 os._exit(status)
         theirs.close()
-        for link in self.links:
+        for link in self.links + self.relays:
             link.close()
         self.conn, self.pid = ours, pid
         self.dropped = 0
@@ -128,7 +129,7 @@ class Hub:
 
     def stop(self) -> None:
         if self.conn is None:
-            for link in self.links:
+            for link in self.links + self.relays:
                 link.close()
             return
         if getattr(self, "batch", None):
