@@ -4,10 +4,12 @@ Usage: python bench/bench_mavlink.py [--repeats 3] [--fleets 16,64,128,254] [--f
 
 1. Slowdown: the shipped 4-UAV mission with zones (ssp/paper_zones_4uav_B.ssp, 461.5 s simulated, step
    0.1 s), unpaced, run in process by ``master.runner.run`` with and without ``--mavlink`` (udpout to a
-   listening UDP socket that nobody reads, 10 Hz positions), best of ``--repeats``; the step loop alone
-   (run.json's wall time minus the same run's set-up is not split out, so the whole run is timed).
+   listening UDP socket that nobody reads, 10 Hz positions), best of ``--repeats``, interleaved: the whole
+   run's wall time, and of the step loop alone (``Execution.simulate_until``) the wall time, the CPU time of
+   the simulation's process and that of the streaming process.  On a loaded machine the wall times are
+   noise; the CPU times say what the stream costs the simulation.
 2. Fleet: for each fleet size, the scaling study's scenario (bench/bench_uav_scaling.py ``make_scenario``,
-   step 0.1 s) streamed at 10 Hz without pacing for ``--fleet-sim`` simulated seconds: real-time factor of
+   step 0.1 s, its targets cut to the strategy FMU's 64) streamed at 10 Hz without pacing for ``--fleet-sim`` simulated seconds: real-time factor of
    the step loop (the ``Execution`` stepping timed alone) = simulated s / wall s.  A fleet streams in real time
    when that factor is above 1; the largest such fleet is then run paced (``--realtime 1``) for
    ``--check-sim`` s and run.json's pacing facts (steps behind the wall clock, largest lag) are shown.
@@ -81,22 +83,33 @@ def slowdown(tmp: Path, repeats: int) -> list[tuple]:
     return rows
 
 
-def fleet(tmp: Path, sizes: list[int], sim: float, check: float) -> tuple[list[tuple], tuple | None]:
+def fleet_scenario(n: int, sim: float):
+    """The scaling study's scenario for n UAVs, its targets cut to what the strategy FMU takes (64): in a
+    large fleet most UAVs then take off and land again, which streams like any other flight."""
+    import dataclasses
+
     from bench_uav_scaling import make_scenario
+    from uavsim.mission_encoding import MAX_TARGETS
+    scn = make_scenario(n, step=0.1, stop_time=sim)
+    return dataclasses.replace(scn, targets=scn.targets[:MAX_TARGETS])
+
+
+def fleet(tmp: Path, sizes: list[int], sim: float, check: float) -> tuple[list[tuple], tuple | None]:
     from uavstudy.build import build_ssp
     rows = []
     s, url = sink()
     try:
         for n in sizes:
-            ssp = build_ssp(make_scenario(n, step=0.1, stop_time=sim), tmp / f"fleet{n}.ssp")
+            ssp = build_ssp(fleet_scenario(n, sim), tmp / f"fleet{n}.ssp")
             loop, meta = timed_loop(ssp, tmp / f"fleet{n}", mavlink=[url], write_csv=False)
             sent = meta["observers"]["mavlink"]["messages_sent"]
-            rows.append((n, meta["steps_done"], sim, loop, sim / loop, sent / loop))
+            rows.append((n, meta["steps_done"], sim, loop, sim / loop, sent / loop, meta["cpu"], meta["stream_cpu"],
+                         meta["observers"]["mavlink"].get("ticks_dropped", 0)))
         fits = [r for r in rows if r[4] > 1.0]
         paced = None
         if fits and check > 0:
             n = max(r[0] for r in fits)
-            ssp = build_ssp(make_scenario(n, step=0.1, stop_time=check), tmp / f"paced{n}.ssp")
+            ssp = build_ssp(fleet_scenario(n, check), tmp / f"paced{n}.ssp")
             loop, meta = timed_loop(ssp, tmp / f"paced{n}", mavlink=[url], realtime=1.0, write_csv=False)
             p = meta["observers"]["pacing"]
             paced = (n, check, loop, p["steps_behind"], meta["steps_done"], p["max_lag_s"])
@@ -126,9 +139,11 @@ def main(argv=None) -> int:
         sizes = [int(x) for x in args.fleets.split(",") if x.strip()]
         frows, paced = fleet(tmp, sizes, args.fleet_sim, args.check_sim)
         print(f"\nfleets streamed at 10 Hz, unpaced, {args.fleet_sim:g} s simulated, step 0.1 s")
-        print(f"{'UAVs':>5}{'steps':>7}{'loop s':>9}{'RTF':>8}{'msg/s':>10}  real time?")
-        for n, steps, sim, loop, rtf, rate in frows:
-            print(f"{n:>5}{steps:>7}{loop:>9.2f}{rtf:>8.2f}{rate:>10.0f}  {'yes' if rtf > 1 else 'no'}")
+        print(f"{'UAVs':>5}{'steps':>7}{'loop s':>9}{'RTF':>8}{'msg/s':>10}{'loop CPU s':>12}{'stream CPU s':>14}"
+              f"{'ticks dropped':>15}  real time?")
+        for n, steps, sim, loop, rtf, rate, cpu, scpu, dropped in frows:
+            print(f"{n:>5}{steps:>7}{loop:>9.2f}{rtf:>8.2f}{rate:>10.0f}{cpu:>12.2f}{scpu:>14.2f}{dropped:>15}  "
+                  f"{'yes' if rtf > 1 else 'no'}")
         if paced:
             n, sim, loop, behind, steps, lag = paced
             print(f"\npaced check: {n} UAVs, --realtime 1, {sim:g} s simulated in {loop:.2f} s wall; "

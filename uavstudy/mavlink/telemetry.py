@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from pymavlink.dialects.v20 import common as m
 
 from uavsim.dynamics import FLY, LAND, LANDED, PREFLIGHT, TAKEOFF
