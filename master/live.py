@@ -40,7 +40,12 @@ LIVE: Registry[LiveStream] = Registry("live stream", "cosim_master.live")
 
 def requested(options) -> dict[str, list[str]]:
     """Live option name -> addresses, for the live options given."""
-    return {name: list(getattr(options, name)) for name in LIVE_OPTIONS if getattr(options, name, None)}
+    out = {}
+    for name in LIVE_OPTIONS:
+        value = getattr(options, name, None)
+        if value:
+            out[name] = [value] if isinstance(value, str) else list(value)     # one address or several
+    return out
 
 
 def check_options(options) -> None:

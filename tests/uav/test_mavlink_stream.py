@@ -214,3 +214,21 @@ def test_each_vehicle_counts_its_sequence_without_gaps(streamed):
             assert seq == (last[sysid] + 1) % 256, (sysid, last[sysid], seq)
         last[sysid] = seq
     assert sorted(last) == [1, 2, 3, 4]
+
+
+def test_a_replay_of_the_commands_is_the_same_run(streamed, tmp_path):
+    """events.csv holds what the ground station did: replayed without one, the run is bit-identical."""
+    import pyarrow.parquet as pq
+
+    from master.runner import run
+    from uavstudy.mavlink.replay import CommandReplay
+    replay = run(SSP, output=tmp_path / "replay", stop_time=STOP,
+                 manipulators=[CommandReplay(streamed["out"] / "events.csv")])
+    assert pq.read_table(tmp_path / "replay" / "results.parquet").equals(
+        pq.read_table(streamed["out"] / "results.parquet"))
+    for name in ("summary.csv", "trajectory.csv", "photos.csv"):
+        assert (tmp_path / "replay" / name).read_bytes() == (streamed["out"] / name).read_bytes(), name
+    mission = pd.read_csv(tmp_path / "replay" / "events.csv")
+    live = pd.read_csv(streamed["out"] / "events.csv")
+    cols = ["time", "type", "event", "uav", "x", "y", "z", "consumed", "detail"]
+    assert mission[cols].equals(live[live.type != "command"].reset_index(drop=True)[cols])
