@@ -45,7 +45,7 @@ PIPE_BYTES = 1 << 20
 F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
 #: ticks go to the streaming process in batches, at most this many and this old (wall clock): each hand-over
 #: wakes that process, which costs the simulation more than the bytes
-BATCH, BATCH_S = 16, 0.02
+BATCH, BATCH_S = 64, 0.05
 
 
 class Hub:
