@@ -71,6 +71,9 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
             self.in_real(name, unit, desc)
         self.phase = 0
         self.in_int("phase", "vehicle phase")
+        self.command = 0
+        self.in_int("command", "ground-station command, taken when it changes: 0 none, 1 return to base, 2 land")
+        self._command_taken = 0
         self.cmd = 1
         self.out_int("cmd", "0 idle/hold, 1 takeoff, 2 goto setpoint, 3 land")
         for name, desc in [("sp_x", "setpoint east"), ("sp_y", "setpoint north"), ("sp_z", "setpoint up")]:
@@ -141,6 +144,9 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
     def do_step(self, current_time, step_size):
         if self._model is None:
             self._build()
+        if self.command != self._command_taken:
+            self._command_taken = self.command
+            self._model.command(int(self.command), self.x, self.y, self.z)
         self._model.step(current_time, self.x, self.y, self.z, self.vx, self.vy,
                          int(self.phase), self.consumed)
         self._publish()

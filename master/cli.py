@@ -104,6 +104,15 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-supervise", action="store_true",
                    help="simulate in this process (default: a child process, so that a crashing or hanging FMU "
                         "cannot take the results with it)")
+    r.add_argument("--mavlink", action="append", metavar="URL", default=[],
+                   help="stream the run live to a ground station at this pymavlink address (udpout:HOST:PORT, "
+                        "udpin:HOST:PORT, tcpin:HOST:PORT, tcp:HOST:PORT) and take its commands; repeatable "
+                        "(docs/ground_station.md)")
+    r.add_argument("--mavlink-rate", type=float, default=10.0, metavar="HZ",
+                   help="position and attitude messages per vehicle and simulated second (default: 10)")
+    r.add_argument("--realtime", type=float, metavar="FACTOR",
+                   help="pace the run to the wall clock: FACTOR simulated seconds per second (1: real time, "
+                        "10: ten times faster); results are the same as unpaced")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
@@ -208,7 +217,8 @@ def _dispatch(args) -> int:
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
                        lenient=args.lenient,
                        implementation=_implementations(args.implementation), inputs=args.input,
-                       **_algorithm_option_values(args))
+                       mavlink=args.mavlink or None, mavlink_rate=args.mavlink_rate,
+                       realtime=args.realtime, **_algorithm_option_values(args))
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

@@ -34,8 +34,10 @@ from .algorithms.ordering import algebraic_loops, gauss_seidel_order
 from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
 from .fmi.ode_solvers import SolverChoice
+from .live import check_options, open_streams, requested
 from .monitors import monitors_for
 from .observers.base import ObserverContext
+from .observers.pacing import Pacer
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
 from .results import claim_output_folder, products
@@ -90,6 +92,9 @@ class Options:
     initial_step: float | None = None                 # adaptive, ecco: first step (s)
     error_estimate: str | None = None                 # adaptive: "extrapolation" (default) or "doubling"
     options_source: str = "command line"              # what run.json names as the source of the settings given
+    mavlink: list[str] | None = None                  # live stream to these MAVLink addresses (master/live.py)
+    mavlink_rate: float = 10.0                        # position and attitude messages per simulated second
+    realtime: float | None = None                     # simulated s per wall s (None: as fast as it goes)
 
 
 @dataclass
@@ -156,6 +161,7 @@ class Execution:
         self.monitors: list = []
         self.observers: list = []
         self.recording: Recording | None = None
+        self.live_observers: list = []   # live streams and pacing: finished with the monitors
         self.rt: Runtime | None = None
         self.log: LogSink | None = None
         self.prepared: Prepared | None = None
@@ -169,6 +175,7 @@ class Execution:
         if self._set_up:
             return
         o, meta = self.options, self.metadata
+        check_options(o)
         if self.out_dir is not None and self.write_run_json:    # a supervised child's parent claimed it
             if o.output_prepared:
                 self.out_dir.mkdir(parents=True, exist_ok=True)
@@ -225,8 +232,14 @@ class Execution:
                                  else ["memory"])
         self.sinks = [SINKS.get(name, element="sinks")() for name in sink_names]
         self.recording = Recording(recorded, self.sinks, self.out_dir, every=st.record_every, steps=st.steps)
-        # monitors first: they may take components out or end the run, which the recording's sample reflects
-        self.observers = [*self.monitors, *self.extra_observers, self.recording]
+        live = open_streams(o, self.monitors, plan, st) if requested(o) else None
+        pacer = [Pacer(o.realtime)] if o.realtime is not None else []
+        self.live_observers = [*(live.observers if live else []), *pacer]
+        self.manipulators += live.manipulators if live else []
+        # monitors first: they may take components out or end the run, which the recording's sample reflects;
+        # live streams then see the step's events; pacing last, when the step's work is done
+        self.observers = [*self.monitors, *(live.observers if live else []), *self.extra_observers,
+                          self.recording, *pacer]
         self._set_up = True
 
     # -- initialization -----------------------------------------------------------------------------------
@@ -411,10 +424,12 @@ class Execution:
                 if any(solvers.values()):
                     meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
+            for m in self.live_observers if not self._initialized else ():
+                m.finish(self.out_dir, meta["outcome"])     # a stream opened before a failed start lets go
             if self._initialized:
                 meta["algorithm_info"].update(self.algorithm.finish(self.out_dir))
             if self._initialized:
-                for m in [*self.monitors, *self.extra_observers]:
+                for m in [*self.monitors, *self.extra_observers, *self.live_observers]:
                     try:
                         info = m.finish(self.out_dir, meta["outcome"])
                     except CosimError as exc:  # a monitor's report must not hide the run's own outcome

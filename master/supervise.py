@@ -427,6 +427,8 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
     """``run`` with the simulation in a child process (see the module docstring); needs an output folder."""
     from .runner import Result
     opts = Options(**options)
+    from .live import check_options
+    check_options(opts)
     if opts.output is None:
         raise CosimError("a supervised run needs an output folder", element="--output")
     out_dir = Path(opts.output)

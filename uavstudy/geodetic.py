@@ -10,3 +10,10 @@ def to_geodetic(origin, x, y, z):
     from uavsim.geodesy import geodetic_from_enu
     lat, lon, alt = geodetic_from_enu(x, y, z, *origin)
     return lat, lon, alt
+
+
+def frame(origin):
+    """The same conversion for one point at a time on Python floats (``uavsim.geodesy.EnuFrame``: agrees
+    with ``to_geodetic`` to float64 rounding), for hot loops over a few points."""
+    from uavsim.geodesy import EnuFrame
+    return EnuFrame(*origin)

@@ -47,7 +47,7 @@ from master.values import parse_boolean
 from .geodetic import to_geodetic
 from .geometry import CollisionDetector, ZoneDetector
 from .names import (AIRBORNE_PHASES, FINAL_STATES, FORCED_LANDING_STATES, MISSION_DETAIL, MISSION_EVENTS,
-                    MONITOR_TYPE, OPTIONAL_ROLES, PHASE_LANDED, PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_LOW,
+                    MONITOR_TYPE, OPTIONAL_ROLES, PHASE_LANDED, PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_CMD, STATE_RETURN_LOW,
                     UAV_COLLISION, WIND, ZONE_COLLISION)
 from .outputs import write_outputs
 
@@ -102,6 +102,7 @@ class UavRecord:
     mission_states: list = field(default_factory=list)   # (time, state)
     forced_landing: bool = False
     return_low: bool = False
+    return_commanded: bool = False        # a ground station sent it home (uavstudy.mavlink)
     last: dict = field(default_factory=dict)              # role -> last value read
 
 
@@ -643,6 +644,8 @@ class UavMonitor(Monitor):
             rec.forced_landing = True
         if state == STATE_RETURN_LOW:
             rec.return_low = True
+        if state == STATE_RETURN_CMD:
+            rec.return_commanded = True
         name = MISSION_EVENTS.get(state, f"state_{state}")
         self._event(t, "mission", name, self.cfg.uavs[k].name, None, pos, None,
                     MISSION_DETAIL.get(state, ""), consumed)

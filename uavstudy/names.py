@@ -11,6 +11,7 @@ from uavsim.dynamics import FLY, LAND, LANDED, PREFLIGHT, TAKEOFF
 from uavsim.strategy import (LAND_BASE, LAND_NOW, LANDED_AWAY, LANDED_BASE, RETURN_DONE, RETURN_LOW, TRANSIT)
 from uavsim.strategy import PREFLIGHT as STATE_PREFLIGHT
 from uavsim.strategy import TAKEOFF as STATE_TAKEOFF
+from uavsim.strategy import LAND_CMD, RETURN_CMD
 
 # ------------------------------------------------------------------------------------- the SSD annotation
 MONITOR_TYPE = "org.cosim-master.uav-monitor"
@@ -66,17 +67,21 @@ PHASE_NAMES = {PREFLIGHT: "preflight", TAKEOFF: "takeoff", FLY: "fly", LAND: "la
 #: RETURN_DONE ("targets done, return") starts the flight home, hence ``return_started``.
 MISSION_EVENTS = {STATE_PREFLIGHT: "preflight", STATE_TAKEOFF: "takeoff", TRANSIT: "transit",
                   RETURN_DONE: "return_started", RETURN_LOW: "return_low", LAND_BASE: "landing",
-                  LAND_NOW: "forced_landing", LANDED_BASE: "landed_base", LANDED_AWAY: "landed_away"}
+                  LAND_NOW: "forced_landing", LANDED_BASE: "landed_base", LANDED_AWAY: "landed_away",
+                  RETURN_CMD: "return_commanded", LAND_CMD: "landing_commanded"}
 MISSION_DETAIL = {RETURN_DONE: "all targets visited, returning to base",
                   RETURN_LOW: "battery 80 % consumed: mission abandoned, returning to base",
                   LAND_BASE: "over the base, landing",
                   LAND_NOW: "battery 95 % consumed away from the base: landing where it is",
-                  LANDED_BASE: "landed at the base", LANDED_AWAY: "landed away from the base"}
+                  LANDED_BASE: "landed at the base", LANDED_AWAY: "landed away from the base",
+                  RETURN_CMD: "the ground station commanded the return to base",
+                  LAND_CMD: "the ground station commanded a landing where the UAV is"}
 #: states after which the strategy has registered the landing for good
 FINAL_STATES = (LANDED_BASE, LANDED_AWAY)
 #: states that mean a landing away from the base
 FORCED_LANDING_STATES = (LAND_NOW, LANDED_AWAY)
 STATE_RETURN_LOW = RETURN_LOW
+STATE_RETURN_CMD = RETURN_CMD
 
 # ------------------------------------------------------------------------------------- mission outcomes
 UAV_COLLISION, ZONE_COLLISION = "uav_collision", "zone_collision"

@@ -29,6 +29,8 @@ Outcome of a UAV (first that applies):
     ``successBattery`` (5 %) of the battery left -- the paper's definition;
 ``battery_return``
     landed at its pad after abandoning the mission at 80 % consumed (targets left);
+``commanded_return``
+    landed at its pad with targets left after a ground station sent it home (uavstudy.mavlink);
 ``incomplete`` / ``low_battery``
     landed at its pad with targets left (other causes) / with 5 % battery or less;
 ``timeout``
@@ -96,7 +98,9 @@ def uav_outcome(*, attached: bool, run_outcome: str, rec, landed: bool, at_home:
         if all_visited and battery_ok:
             return "success"
         if not all_visited:
-            return "battery_return" if rec.return_low else "incomplete"
+            if rec.return_low:
+                return "battery_return"
+            return "commanded_return" if rec.return_commanded else "incomplete"
         return "low_battery"
     if run_outcome == "completed":
         return "timeout"

@@ -56,6 +56,13 @@ mission_state codes:
   6 LAND_NOW       consumed >= land_threshold away from base: immediate landing, cmd = 3
   7 LANDED_BASE    on the ground at the base (final)
   8 LANDED_AWAY    on the ground away from the base (final; forced landing)
+  9 RETURN_CMD     a ground station commanded the return to base (``command``), cmd = 2
+ 10 LAND_CMD       a ground station commanded a landing where the UAV is (``command``), cmd = 3
+
+Ground-station commands (``Strategy.command``; the FMU's Integer input ``command``: 0 none, 1 return to
+base, 2 land) are taken when the input changes; the strategy stays the one owner of the mission logic:
+a return is accepted while flying a mission leg (TRANSIT, RETURN_DONE), a landing while airborne and
+not landing yet; otherwise the command is ignored (the ground station sees the state unchanged).
 """
 from __future__ import annotations
 
@@ -66,8 +73,11 @@ from dataclasses import dataclass, field
 from . import params as P
 
 PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW, LANDED_BASE, LANDED_AWAY = range(9)
+RETURN_CMD, LAND_CMD = 9, 10
 STATE_NAMES = ["PREFLIGHT", "TAKEOFF", "TRANSIT", "RETURN_DONE", "RETURN_LOW", "LAND_BASE",
-               "LAND_NOW", "LANDED_BASE", "LANDED_AWAY"]
+               "LAND_NOW", "LANDED_BASE", "LANDED_AWAY", "RETURN_CMD", "LAND_CMD"]
+#: values of the ``command`` input
+COMMAND_NONE, COMMAND_RETURN, COMMAND_LAND = 0, 1, 2
 
 
 def parse_points(text: str) -> list[tuple[float, float]]:
@@ -608,23 +618,34 @@ class Strategy:
             self.detour = list(path)
             self.avoid_count += 1
 
+    # -------------------------------------------------------------- ground-station commands
+    def command(self, code: int, x: float, y: float, z: float) -> bool:
+        """A command from outside (see the module docstring); True when it changed the mission state."""
+        if code == COMMAND_RETURN and self.state in (TRANSIT, RETURN_DONE):
+            self.state, self.current_target, self.detour = RETURN_CMD, -1, []
+            return True
+        if code == COMMAND_LAND and self.state in (TRANSIT, RETURN_DONE, RETURN_LOW, RETURN_CMD):
+            self.state, self.detour, self.cmd, self.sp = LAND_CMD, [], 3, (x, y, z)
+            return True
+        return False
+
     # -------------------------------------------------------------- main step
     def step(self, t: float, x: float, y: float, z: float, vx: float, vy: float,
              phase: int, consumed: float) -> None:
         """Evaluate the mission logic on the inputs sampled at time t and set the outputs."""
         p = self.p
         phase = int(phase)
-        airborne_states = (TRANSIT, RETURN_DONE, RETURN_LOW)
+        airborne_states = (TRANSIT, RETURN_DONE, RETURN_LOW, RETURN_CMD)
         at_base = math.hypot(x - self.home[0], y - self.home[1]) <= p.arrival_radius
 
         # ---- terminal / landing states
-        if self.state in (LAND_BASE, LAND_NOW):
+        if self.state in (LAND_BASE, LAND_NOW, LAND_CMD):
             if phase == 4:
                 self.state = LANDED_BASE if at_base else LANDED_AWAY
         if self.state in (LANDED_BASE, LANDED_AWAY):
             self.cmd = 3
             return
-        if self.state in (LAND_BASE, LAND_NOW):
+        if self.state in (LAND_BASE, LAND_NOW, LAND_CMD):
             self.cmd = 3
             return
 
@@ -681,7 +702,7 @@ class Strategy:
                     self._start_leg(x, y)
 
         # ---- return to base
-        if self.state in (RETURN_DONE, RETURN_LOW) and at_base:
+        if self.state in (RETURN_DONE, RETURN_LOW, RETURN_CMD) and at_base:
             self.state = LAND_BASE
             self.detour = []
             self.cmd = 3

@@ -1,0 +1,46 @@
+"""The UAV study's live MAVLink stream (``--mavlink URL``): every UAV of a run as a vehicle that a ground
+station (QGroundControl, MAVProxy) shows and commands.  Published to the engine under the entry point group
+``cosim_master.live`` as ``mavlink`` (master/live.py); docs/ground_station.md says what it sends and takes.
+"""
+from __future__ import annotations
+
+from master.errors import CosimError
+from master.live import LiveParts, LiveStream
+
+from ..names import MONITOR_TYPE
+from .fleet import Fleet
+from .forward import forwarded_vehicles
+from .links import open_link, parse_url
+from .stream import CommandInput, Hub, VehicleStream
+
+
+class MavlinkStream(LiveStream):
+    def check(self, urls):
+        for url in urls:
+            parse_url(url)
+
+    def open(self, urls, *, monitors, plan, settings, options) -> LiveParts:
+        monitor = next((mo for mo in monitors if getattr(mo, "annotation_type", None) == MONITOR_TYPE), None)
+        if monitor is None:
+            raise CosimError(f"this scenario has no UAV monitor (annotation {MONITOR_TYPE}): no vehicle to stream",
+                             element="--mavlink")
+        rate = float(getattr(options, "mavlink_rate", 10.0))
+        if not rate > 0:
+            raise CosimError(f"must be a positive number of messages per simulated second, got {rate}",
+                             element="--mavlink-rate")
+        fleet = Fleet(monitor, plan, forwarded_vehicles(monitor, plan))
+        links, relays = [], []
+        try:
+            for url in urls:
+                links.append(open_link(url))
+            for f in fleet.forwarded:
+                relays.append(open_link(f.url))
+        except BaseException:
+            for link in links + relays:
+                link.close()
+            raise
+        hub = Hub(fleet, links, rate, relays)
+        return LiveParts([VehicleStream(hub, monitor)], [CommandInput(hub)])
+
+
+MAVLINK = MavlinkStream()
