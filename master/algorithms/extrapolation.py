@@ -44,11 +44,17 @@ from .ordering import gauss_seidel_order
 @lru_cache(maxsize=None)
 def step_mean_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
     """Weights w_j of y_{n-j}, j < samples, giving the mean over [t_n, t_n + ratio h] of the polynomial
-    through the samples at t_n - j h (the Lagrange basis integrated exactly)."""
+    through the samples at t_n - j h."""
+    return interval_mean_weights(tuple(-np.arange(samples, dtype=float)), ratio)
+
+
+def interval_mean_weights(nodes: tuple, ratio: float) -> tuple[float, ...]:
+    """Weights of the samples at ``nodes`` (in steps from t_n) giving the mean over [t_n, t_n + ratio h] of
+    the polynomial through them (the Lagrange basis integrated exactly)."""
     from numpy.polynomial import polynomial as P
-    nodes = -np.arange(samples, dtype=float)
+    nodes = np.array(nodes, dtype=float)
     weights = []
-    for j in range(samples):
+    for j in range(len(nodes)):
         others = np.delete(nodes, j)
         basis = P.polyfromroots(others) / np.prod(nodes[j] - others)
         antiderivative = P.polyint(basis)

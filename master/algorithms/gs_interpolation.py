@@ -24,22 +24,14 @@ import numpy as np
 
 from ..fmi.slave import WARNING
 from .compiled import _failer, _step_failer
+from .extrapolation import interval_mean_weights
 
 
 @lru_cache(maxsize=None)
 def interpolation_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
-    """Weights of y_{n+1}, y_n, ..., y_{n+2-samples} (at t = ratio h, 0, -h, ...; ``ratio`` < 1 for a shorter
-    last step) giving the mean over [0, ratio h] of the polynomial through them (the Lagrange basis
-    integrated exactly)."""
-    from numpy.polynomial import polynomial as P
-    nodes = np.array([ratio, *(-np.arange(samples - 1, dtype=float))])
-    weights = []
-    for j in range(samples):
-        others = np.delete(nodes, j)
-        basis = P.polyfromroots(others) / np.prod(nodes[j] - others)
-        antiderivative = P.polyint(basis)
-        weights.append(float(P.polyval(ratio, antiderivative) - P.polyval(0.0, antiderivative)) / ratio)
-    return tuple(weights)
+    """Weights of y_{n+1}, y_n, ..., y_{n+2-samples} (at t_n + ratio h, t_n, t_n - h, ...; ``ratio`` < 1 for
+    a shorter last step) giving the mean over [t_n, t_n + ratio h] of the polynomial through them."""
+    return interval_mean_weights((ratio, *(-np.arange(samples - 1, dtype=float))), ratio)
 
 
 def interpolating_sweep(rt, order: list[int], h: float, ratio: float, extrapolator, samples_back: int):
