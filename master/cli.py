@@ -39,7 +39,7 @@ def _orders(items) -> dict | None:
         try:
             out[name] = int(k)
         except ValueError:
-            raise CosimError(f"{name}: the order must be 0, 1 or 2, got {k!r}", element="--extrapolate") from None
+            raise CosimError(f"the order must be 0, 1 or 2, got {k!r}", element=f"--extrapolate {name}") from None
     return out or None
 
 

@@ -57,7 +57,7 @@ class Algorithm:
                              "gauss-seidel; adaptive takes the global --extrapolation only)", element="--extrapolate")
         self.interpolation = int(getattr(options, "gs_interpolation", 0) or 0)
         if self.interpolation and not self.honours_interpolation:
-            raise CosimError(f"--gs-interpolation applies to gauss-seidel only, not to {self.name}",
+            raise CosimError(f"applies to gauss-seidel only, not to {self.name}",
                              element="--gs-interpolation")
 
     @property

@@ -92,13 +92,20 @@ def test_ssd_annotation_cli_and_api_give_the_same_run(tmp_path, masses):
     ({"extrapolation_for": {"A.x": 3}}, r"--extrapolate A.x: the order must be 0, 1 or 2, not 3"),
     ({"extrapolation_for": {"A.x": 1}, "algorithm": "iterative"}, r"do not apply to the iterative algorithm"),
     ({"extrapolation_for": {"A.x": 1}, "algorithm": "adaptive"}, r"adaptive takes the global --extrapolation"),
-    ({"gs_interpolation": 1, "algorithm": "jacobi"}, r"--gs-interpolation applies to gauss-seidel only"),
+    ({"gs_interpolation": 1, "algorithm": "jacobi"}, r"--gs-interpolation: applies to gauss-seidel only, not to jacobi"),
     ({"gs_interpolation": 3, "algorithm": "gauss-seidel"}, r"--gs-interpolation: must be one of 0, 1, 2"),
 ])
 def test_bad_per_output_settings_are_one_line_errors(tmp_path, masses, options, message):
     with pytest.raises(master.CosimError, match=message) as e:
         master.run(_osc(tmp_path, masses, 0.1), output=None, **options)
     assert "\n" not in str(e.value)
+
+
+def test_bad_order_on_the_command_line_is_one_line(tmp_path, masses):
+    p = subprocess.run([sys.executable, "-m", "master.cli", "run", str(_osc(tmp_path, masses, 0.1)), "--output",
+                        str(tmp_path / "out"), "--extrapolate", "A.x=one"], capture_output=True, text=True)
+    assert p.returncode != 0 and "Traceback" not in p.stderr
+    assert p.stderr.strip() == "cosim-master: error: --extrapolate A.x: the order must be 0, 1 or 2, got 'one'"
 
 
 def test_bad_ssd_annotations_name_the_connection(tmp_path, masses):
@@ -139,3 +146,13 @@ def test_gauss_seidel_interpolation_is_recorded(tmp_path, masses):
     info = r.metadata["algorithm_info"]
     assert info["interpolation"]["interpolated"] == ["A.x"] and info["interpolation"]["weights"] == [0.5, 0.5]
     assert info["loops_broken_at"] == ["B.F -> A.F"]
+
+
+def test_interpolating_sweep_with_nothing_to_interpolate_is_the_compiled_step(tmp_path, masses):
+    # A on a step multiple: its outputs are staged and held, so no value is interpolated, and the sweep (a loop
+    # over the bound operations, publishing at its end) must be the compiled Gauss-Seidel step bit for bit
+    ssp = _osc(tmp_path, masses, 0.1)
+    runs = [master.run(ssp, output=None, record=["*"], algorithm="gauss-seidel", extrapolation=1, stop_time=2.0,
+                       step_multiples={"A": 2}, gs_interpolation=m) for m in (1, 0)]
+    assert runs[0].metadata["algorithm_info"]["interpolation"]["interpolated"] == []
+    assert runs[0].frame.equals(runs[1].frame)
