@@ -66,6 +66,9 @@ class AlgorithmOption:
 ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
     AlgorithmOption("extrapolation", "int", 0, "jacobi, gauss-seidel: coupled inputs extrapolated from the last "
                     "K+1 output samples (0 held, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2)),
+    AlgorithmOption("gs_interpolation", "int", 0, "gauss-seidel: inputs already computed in the step get the "
+                    "mean over the step of the polynomial through the new value and M earlier samples (0 held as "
+                    "computed, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2)),
     AlgorithmOption("coupling_tol", "float", 1e-10, "iterative: relative tolerance of the coupled values",
                     minimum=0.0),
     AlgorithmOption("coupling_atol", "float", None, "iterative: absolute tolerance of the coupled values "

@@ -33,6 +33,16 @@ def _implementations(items) -> dict | None:
     return out or None
 
 
+def _orders(items) -> dict | None:
+    out = {}
+    for name, k in _kv(items, "--extrapolate").items():
+        try:
+            out[name] = int(k)
+        except ValueError:
+            raise CosimError(f"the order must be 0, 1 or 2, got {k!r}", element=f"--extrapolate {name}") from None
+    return out or None
+
+
 def _algorithm_option_flags(p) -> None:
     """One flag per algorithm setting (master.algorithm_options); unset flags leave the SSD's or the default."""
     from .algorithm_options import ALGORITHM_OPTIONS
@@ -63,6 +73,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
     r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
     _algorithm_option_flags(r)
+    r.add_argument("--extrapolate", action="append", metavar="COMPONENT.VARIABLE=K", default=[],
+                   help="extrapolation order K (0, 1, 2) of one coupled output, overriding --extrapolation for it "
+                        "(jacobi, gauss-seidel); repeatable")
     r.add_argument("--tolerance", type=float, metavar="REL",
                    help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
@@ -217,8 +230,8 @@ def _dispatch(args) -> int:
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
                        lenient=args.lenient,
                        implementation=_implementations(args.implementation), inputs=args.input,
-                       mavlink=args.mavlink or None, mavlink_rate=args.mavlink_rate,
-                       realtime=args.realtime, **_algorithm_option_values(args))
+                       mavlink=args.mavlink or None, mavlink_rate=args.mavlink_rate, realtime=args.realtime,
+                       extrapolation_for=_orders(args.extrapolate), **_algorithm_option_values(args))
         if args.timeout is not None and not (args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:

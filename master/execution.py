@@ -81,6 +81,7 @@ class Options:
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
     # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
     extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
+    gs_interpolation: int | None = None               # gauss-seidel: known inputs interpolated (0 off, 1, 2)
     coupling_tol: float | None = None                 # iterative: relative tolerance of the coupled values
     coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
     coupling_max_iter: int | None = None              # iterative: iterations per step at most
@@ -91,6 +92,7 @@ class Options:
     max_step: float | None = None                     # adaptive, ecco: largest step (s; at most the master step)
     initial_step: float | None = None                 # adaptive, ecco: first step (s)
     error_estimate: str | None = None                 # adaptive: "extrapolation" (default) or "doubling"
+    extrapolation_for: dict | None = None             # "component.output" -> its own order (jacobi, gauss-seidel)
     options_source: str = "command line"              # what run.json names as the source of the settings given
     mavlink: list[str] | None = None                  # live stream to these MAVLink addresses (master/live.py)
     mavlink_rate: float = 10.0                        # position and attitude messages per simulated second
@@ -196,6 +198,10 @@ class Execution:
                                     element="Settings")
         from .algorithm_options import resolve_algorithm_options
         st.sources.update(resolve_algorithm_options(o, model.settings.algorithm_options, o.options_source))
+        from .algorithms.extrapolation import per_output_orders
+        o.extrapolation_for, per_output_sources = per_output_orders(plan, o.extrapolation_for, o.options_source)
+        if per_output_sources:
+            st.sources["extrapolation_for"] = per_output_sources
         self.algorithm = get_algorithm(st.algorithm)
         self.algorithm.configure(o)
         self.solver = SolverChoice(o.solver, o.solver_step)

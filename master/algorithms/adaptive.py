@@ -74,6 +74,7 @@ class Adaptive(Algorithm):
     loop_treatment = ("adaptive sweeps in Jacobi fashion inside each of its steps, so the loop delays values by "
                       "one adaptive step")
     rejects = True                   # a step above the tolerance is rolled back and retried
+    honours_per_output_extrapolation = False     # its predictor takes one order for all outputs (docs/coupling.md)
     defaults = {"step_rtol": 1e-4, "min_step_ratio": 1e-6, "initial_ratio": 1.0}
 
     def configure(self, options) -> None:

@@ -33,6 +33,10 @@ class Algorithm:
     info: dict = {}          # facts for run.json; an algorithm with facts sets its own dict in stepping_order
     extrapolation = 0        # polynomial order of the coupled inputs (extrapolation.py); 0: held, as read
     honours_extrapolation = True    # a fixed-step algorithm whose inputs come from earlier outputs
+    honours_per_output_extrapolation = True     # ... with an order per coupled output (extrapolation_for)
+    honours_interpolation = False   # inputs produced earlier in the same step interpolated (gs_interpolation.py)
+    extrapolation_for: dict = {}    # output name -> order, overriding ``extrapolation`` (per_output_orders)
+    interpolation = 0               # Gauss-Seidel: samples besides the new one that known inputs are interpolated with
     # what an algebraic loop means under this algorithm, completing "initialization iterates it until the values
     # settle; ..." in ``inspect`` (each algorithm knows best how it treats a loop)
     loop_treatment = "every input is read from the previous step, so the loop only delays values by a step"
@@ -47,15 +51,30 @@ class Algorithm:
         if k not in (0, 1, 2):
             raise CosimError(f"--extrapolation must be 0, 1 or 2, not {k}", element="--extrapolation")
         self.extrapolation = k
+        self.extrapolation_for = dict(getattr(options, "extrapolation_for", None) or {})
+        if self.extrapolation_for and not (self.honours_extrapolation and self.honours_per_output_extrapolation):
+            raise CosimError(f"per-output extrapolation orders do not apply to the {self.name} algorithm (jacobi, "
+                             "gauss-seidel; adaptive takes the global --extrapolation only)", element="--extrapolate")
+        self.interpolation = int(getattr(options, "gs_interpolation", 0) or 0)
+        if self.interpolation and not self.honours_interpolation:
+            raise CosimError(f"applies to gauss-seidel only, not to {self.name}",
+                             element="--gs-interpolation")
+
+    @property
+    def feeds_inputs(self) -> bool:
+        """Whether the step needs the extrapolation wrapper (never for default runs: they stay the compiled
+        step itself, bit for bit)."""
+        return bool(self.extrapolation or any(self.extrapolation_for.values()) or self.interpolation)
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
         self.rt = rt
         self.h = h
         self.order = self.stepping_order(rt, plan)
-        if self.extrapolation:
+        if self.feeds_inputs:
             from .extrapolation import InputExtrapolation
-            self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation)
+            self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation, self.extrapolation_for,
+                                                    keep=self.interpolation)
             self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         self._build()
         return self.info
@@ -68,11 +87,14 @@ class Algorithm:
         self.rt.changed = False
 
     def _compile(self, h: float):
-        from .compiled import compile_step
-        step = compile_step(self.rt, self.order, h, self.gauss_seidel)
-        if self.extrapolation:      # only then: the default step stays the compiled function itself
+        step = self._sweep(h)
+        if self.feeds_inputs:      # only then: the default step stays the compiled function itself
             step = self._extrapolator.around(step, h / self.h)
         return step
+
+    def _sweep(self, h: float):
+        from .compiled import compile_step
+        return compile_step(self.rt, self.order, h, self.gauss_seidel)
 
     def step(self, n: int, t: float) -> None:
         if self.rt.changed:      # a monitor took a component out: step the others only

@@ -20,6 +20,13 @@ The step's inputs are then set from the extrapolated values as usual.
 
 Outputs of components on a step multiple (k > 1) and of components taken out are held, as without
 extrapolation. The first steps use the samples there are (order 0, then 1, ...).
+
+Per output (``extrapolation_for``, ``--extrapolate A.x=1``, the SSD connection annotation read by
+ssp/connection_extrapolation.py): the order belongs to the coupled *output*, not to each connection, because the
+value extrapolated is the output's sample history and every connection from it reads the same buffer entry;
+two receivers of one output cannot be given different constants for the same step without a buffer per
+connection. Outputs not named take the global order. Gauss-Seidel interpolation (``--gs-interpolation M``) is
+in gs_interpolation.py; it uses the same history.
 """
 from __future__ import annotations
 
@@ -28,6 +35,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..errors import CosimError, ScenarioError
 from ..fmi.slave import WARNING
 from .base import coupled_outputs
 from .ordering import gauss_seidel_order
@@ -36,11 +44,17 @@ from .ordering import gauss_seidel_order
 @lru_cache(maxsize=None)
 def step_mean_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
     """Weights w_j of y_{n-j}, j < samples, giving the mean over [t_n, t_n + ratio h] of the polynomial
-    through the samples at t_n - j h (the Lagrange basis integrated exactly)."""
+    through the samples at t_n - j h."""
+    return interval_mean_weights(tuple(-np.arange(samples, dtype=float)), ratio)
+
+
+def interval_mean_weights(nodes: tuple, ratio: float) -> tuple[float, ...]:
+    """Weights of the samples at ``nodes`` (in steps from t_n) giving the mean over [t_n, t_n + ratio h] of
+    the polynomial through them (the Lagrange basis integrated exactly)."""
     from numpy.polynomial import polynomial as P
-    nodes = -np.arange(samples, dtype=float)
+    nodes = np.array(nodes, dtype=float)
     weights = []
-    for j in range(samples):
+    for j in range(len(nodes)):
         others = np.delete(nodes, j)
         basis = P.polyfromroots(others) / np.prod(nodes[j] - others)
         antiderivative = P.polyint(basis)
@@ -52,29 +66,50 @@ class InputExtrapolation:
     """Wraps a compiled fixed-step step: coupled outputs replaced by their extrapolation while the inputs are
     set, consistent samples taken after it."""
 
-    def __init__(self, rt, plan, order: int):
+    def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0):
+        """``per_output``: output name -> its order (the others: ``order``); ``keep``: samples kept at least
+        (Gauss-Seidel interpolation reads some of its own)."""
         self.rt, self.plan, self.order = rt, plan, order
+        self.per_output = dict(per_output or {})
         self.refresh_order = gauss_seidel_order(plan, rt.names).order
         self.positions = np.zeros(0, dtype=np.intp)
-        self.history: deque = deque(maxlen=order + 1)
+        self.history: deque = deque(maxlen=max([order, keep - 1, *self.per_output.values()]) + 1)
 
     def describe(self) -> dict:
-        return {"order": self.order, "to": "mean over the step (K = 1: its midpoint)",
+        info = {"order": self.order, "to": "mean over the step (K = 1: its midpoint)",
                 "weights": list(step_mean_weights(self.order + 1))}
+        if self.per_output:
+            info["per_output"] = dict(sorted(self.per_output.items()))
+        return info
 
     def around(self, step, ratio: float = 1.0):
         """The step with extrapolated inputs (``ratio``: its length in master steps)."""
         self._select()
-        weights = [np.array(step_mean_weights(m, ratio)) for m in range(1, self.order + 2)]
         out, pos, history = self.rt.out["Real"], self.positions, self.history
+        groups = []         # (indices into pos or None for all of them, weights by number of samples)
+        for k, idx in self._order_groups():
+            groups.append((idx, [np.array(step_mean_weights(m, ratio)) for m in range(1, k + 2)]))
 
         def extrapolated_step(n, t):
-            w = weights[len(history) - 1]
-            out[pos] = w @ np.array(history)[:len(w)] if len(w) > 1 else history[0]
+            for idx, weights in groups:
+                w = weights[min(len(history), len(weights)) - 1]
+                if idx is None:
+                    out[pos] = w @ np.array(history)[:len(w)] if len(w) > 1 else history[0]
+                elif len(w) > 1:
+                    out[pos[idx]] = w @ np.array(history)[:len(w), idx]
             step(n, t)
             self._refresh(t)
             history.appendleft(out[pos].copy())
         return extrapolated_step
+
+    def _order_groups(self) -> list[tuple[int, np.ndarray | None]]:
+        """The coupled outputs by order: one group (None: every position) when they share one, as with the
+        global order alone, so that the arithmetic is the same as without per-output orders."""
+        name_at = {p: q for q, p in self.rt.out_pos.items()}
+        orders = np.array([self.per_output.get(name_at.get(int(p)), self.order) for p in self.positions], dtype=int)
+        if len(set(orders.tolist())) <= 1:
+            return [(int(orders[0]) if len(orders) else self.order, None)]
+        return [(int(k), np.flatnonzero(orders == k)) for k in sorted(set(orders.tolist()))]
 
     # -- which values, which components ------------------------------------------------------------------
     def _select(self) -> None:
@@ -82,6 +117,7 @@ class InputExtrapolation:
         components whose coupled outputs have direct feedthrough; history restarts when they change."""
         rt = self.rt
         positions, owner = coupled_outputs(rt)
+        self.owner = owner
         feeds = {rt.names[owner[p]] for p in positions}
         through = {ln.src.component for ln in self.plan.links
                    if ln.src.component in feeds and ln.dst.causality == "input" and self._feeds_through(ln.src)}
@@ -103,3 +139,41 @@ class InputExtrapolation:
             for op, what in [(s, "setting inputs") for s in setters] + [(g, "getting outputs") for g in getters]:
                 if (st := op()) > WARNING:
                     raise self.rt.slaves[i].fail(what, st, t)
+
+
+def per_output_orders(plan, given: dict | None, caller: str) -> tuple[dict, dict]:
+    """The per-output extrapolation orders of a run: those of the SSD's connection annotations, replaced per
+    output by ``given`` (the API's ``extrapolation_for`` or ``--extrapolate``). Returns name -> order and
+    name -> where it came from; a one-line error for an unknown name, an output that feeds no Real input, an
+    order outside 0..2, or two connections from one output with different orders."""
+    orders, sources = {}, {}
+    for conn in plan.model.connections:
+        k = getattr(conn, "extrapolation", None)
+        if k is None:
+            continue
+        where = f"Connection {conn.src} -> {conn.dst}"
+        if conn.src in orders and orders[conn.src] != k:
+            raise ScenarioError(f"the connections from {conn.src} ask for extrapolation orders {orders[conn.src]} "
+                                f"and {k}; the order belongs to the output (docs/coupling.md)",
+                                file=plan.shown_as, element=where, line=conn.line)
+        _check_coupled_real_output(plan, conn.src, lambda reason: ScenarioError(
+            reason, file=plan.shown_as, element=where, line=conn.line))
+        orders[conn.src], sources[conn.src] = k, f"SSD {where}"
+    for name, k in (given or {}).items():
+        element = f"--extrapolate {name}"
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k not in (0, 1, 2):
+            raise CosimError(f"the order must be 0, 1 or 2, not {k!r}", element=element)
+        _check_coupled_real_output(plan, str(name), lambda reason: CosimError(reason, element=element))
+        orders[str(name)], sources[str(name)] = int(k), caller
+    return orders, sources
+
+
+def _check_coupled_real_output(plan, name: str, error) -> None:
+    try:
+        var = plan.var(name)
+    except (KeyError, ValueError, CosimError):
+        raise error(f"unknown variable {name!r}") from None
+    if var.causality != "output" or var.type != "Real" or not any(
+            ln.src is not None and ln.src.qualified == var.qualified for ln in plan.links):
+        raise error(f"{name} is not a coupled Real output (only a Real output connected to an input is "
+                    "extrapolated)")

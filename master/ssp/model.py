@@ -55,6 +55,7 @@ class Connection:
     transformation: Transformation | None = None
     suppress_unit_conversion: bool = False
     line: int | None = None
+    extrapolation: int | None = None     # order for the source output (connection_extrapolation.py); None: global
 
     @property
     def src(self) -> str:

@@ -12,6 +12,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
+from .connection_extrapolation import read_connection_order
 from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
                     SystemModel, Transformation, Unit)
 from .settings_annotations import read_master_settings
@@ -196,6 +197,7 @@ class _Reader:
                 trans = Transformation("map", mapping=mapping)
         conn = Connection(src[0].rstrip("."), src[1], dst[0].rstrip("."), dst[1], trans,
                           _bool(c.get("suppressUnitConversion")), c.sourceline)
+        conn.extrapolation = read_connection_order(c, shown_as, f"Connection {conn.src} -> {conn.dst}")
         self.edges.append((src, dst, conn, shown_as))
 
     # -- parameters ----------------------------------------------------------------------
@@ -328,14 +330,14 @@ class _Reader:
             if skey[0] not in self.components or skey in walked:
                 continue
             walked.add(skey)
-            self._walk(skey, skey, None, False, outgoing, flat, found, set())
+            self._walk(skey, skey, None, False, outgoing, flat, found, set(), None)
         return flat
 
     @staticmethod
     def _key(node):
         return (node[0].rstrip("."), node[1])
 
-    def _walk(self, origin, node, trans, suppress, outgoing, flat, found, seen):
+    def _walk(self, origin, node, trans, suppress, outgoing, flat, found, seen, order):
         """Depth-first from a component output through system connectors to component inputs."""
         if node in seen:
             return
@@ -343,12 +345,13 @@ class _Reader:
         for nxt, conn in outgoing.get(node, []):
             t = _compose(trans, conn.transformation)
             sup = suppress or conn.suppress_unit_conversion
+            k = order if order is not None else conn.extrapolation      # the first annotated piece of the path
             if nxt[0] in self.components:
                 if (origin, nxt) not in found:
                     found.add((origin, nxt))
-                    flat.append(Connection(origin[0], origin[1], nxt[0], nxt[1], t, sup, conn.line))
+                    flat.append(Connection(origin[0], origin[1], nxt[0], nxt[1], t, sup, conn.line, k))
             else:
-                self._walk(origin, nxt, t, sup, outgoing, flat, found, seen)
+                self._walk(origin, nxt, t, sup, outgoing, flat, found, seen, k)
 
 
 def _compose(first: Transformation | None, second: Transformation | None) -> Transformation | None:

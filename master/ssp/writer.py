@@ -14,6 +14,7 @@ from pathlib import Path
 from lxml import etree
 
 from . import xsd
+from .connection_extrapolation import write_connection_order
 from .settings_annotations import OUR_NS, OUR_TYPE
 
 NS = {
@@ -53,7 +54,7 @@ class _Comp:
 class SspBuilder:
     name: str
     components: list = field(default_factory=list)
-    connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress)
+    connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress, extrapolation)
     units: dict = field(default_factory=dict)         # name -> dict(base exponents, factor, offset)
     start: float = 0.0
     stop: float | None = None
@@ -92,8 +93,9 @@ class SspBuilder:
         self.components.append(_Comp(name, fmu_path, list(connectors), typed, f"{name}.ssv" if ssv else None))
         return self
 
-    def connect(self, a, x, b, y, factor=None, offset=None, suppress_unit_conversion=False):
-        self.connections.append((a, x, b, y, factor, offset, suppress_unit_conversion))
+    def connect(self, a, x, b, y, factor=None, offset=None, suppress_unit_conversion=False, extrapolation=None):
+        """``extrapolation``: the order for a's output x (an annotation on the connection)."""
+        self.connections.append((a, x, b, y, factor, offset, suppress_unit_conversion, extrapolation))
         return self
 
     # -- XML ------------------------------------------------------------------------------
@@ -159,7 +161,7 @@ class SspBuilder:
                     self._params(pv, comp)
         if self.connections:
             cs = etree.SubElement(system, _q("ssd", "Connections"))
-            for a, x, b, y, factor, offset, sup in self.connections:
+            for a, x, b, y, factor, offset, sup, order in self.connections:
                 c = etree.SubElement(cs, _q("ssd", "Connection"), startElement=a, startConnector=x, endElement=b,
                                      endConnector=y)
                 if sup:
@@ -167,6 +169,8 @@ class SspBuilder:
                 if factor is not None or offset is not None:
                     etree.SubElement(c, _q("ssc", "LinearTransformation"), factor=_fmt(float(factor or 1.0)),
                                      offset=_fmt(float(offset or 0.0)))
+                if order is not None:
+                    write_connection_order(c, order, _q)
         if self.units:
             us = etree.SubElement(root, _q("ssd", "Units"))
             for name, spec in self.units.items():
