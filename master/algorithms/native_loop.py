@@ -252,6 +252,7 @@ class NativeLoop:
             return self.lib.cm_run(ctypes.byref(L), n0, n1, op0, int(rest_only))
         finally:
             rec.fill = L.fill
+            self.steps_run += L.n - n0
             done = self.counts.nonzero()[0]
             for i in done:
                 self.ex.rt.do_step_calls[i] += int(self.counts[i])
@@ -269,7 +270,6 @@ class NativeLoop:
             n1 = min(stop, n + CHUNK)
             code = self._call(n, n1)
             done = self.L.n
-            self.steps_run += done - n
             if bar is not None:
                 bar.update(done - n)
             n = ex.n = done
@@ -294,7 +294,6 @@ class NativeLoop:
             for ob in ex.observers:
                 ob.after_step(n, start + n * h, t1)
             n = ex.n = n + 1
-            self.steps_run += 1
             if self.L.check and rt.out["Real"].dot(rt.real_zeros) != 0.0:
                 raise rt.nonfinite_error(t1)
             meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
