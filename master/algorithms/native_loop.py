@@ -133,7 +133,9 @@ def why_not(ex) -> str | None:
                         for ob in others})
         return f"observers look at every step: {', '.join(names)}"
     rec = ex.recording
-    if type(rec) is not Recording or rec.str_ or rec.block.dtype != np.float64:
+    if type(rec) is not Recording:      # a supervised child's: it reports its progress after every step
+        return f"the recording ({type(rec).__name__}) looks at every step"
+    if rec.str_ or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
     alg = type(ex.algorithm)
     if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.extrapolation:

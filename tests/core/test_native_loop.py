@@ -159,3 +159,23 @@ def test_python_path_where_needed(tmp_path, test_fmus):
                                                                          "co-simulation FMU"}
     it = master.run(_masses(tmp_path, test_fmus), output=None, algorithm="iterative")
     assert not it.metadata["native_loop"]["used"] and "iterative" in it.metadata["native_loop"]["reason"]
+
+
+def test_cli_switch_recorded(tmp_path, test_fmus):
+    """--no-native-loop turns it off; a supervised run (the CLI's default) keeps the Python path, whose
+    compiled step names the component a crash happened in."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+    ssp = _chain(tmp_path, test_fmus, n=2, stop=0.5)
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+    cases = ((["--no-supervise"], {"used": True, "steps": 5}),
+             (["--no-supervise", "--no-native-loop"], {"used": False, "reason": "switched off"}),
+             ([], {"used": False, "reason": "the recording (_ChildRecording) looks at every step"}))
+    for k, (flags, expected) in enumerate(cases):
+        out = tmp_path / f"out{k}"
+        subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), *flags], check=True,
+                       env=env, capture_output=True)
+        assert json.loads((out / "run.json").read_text())["native_loop"] == expected
