@@ -6,18 +6,22 @@
  * path (t = start + n*h; a transfer is a copy, then a multiply, then an add, as np.take and the in-place
  * numpy operations do; build with -ffp-contract=off so that no multiply-add is fused), so results are
  * bit-identical. It returns to Python at every point where Python must look: an FMI status above Warning,
- * a full recording block, a non-finite output.
+ * an FMI 3.0 doStep that returned early or asks to terminate, a full recording block, a non-finite output.
  */
 #include <math.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <string.h>
 
-enum { OP_XFER_REAL = 1, OP_XFER_INT32 = 2, OP_SET = 3, OP_STEP = 4, OP_GET = 5, OP_PUBLISH = 6 };
+enum { OP_XFER_REAL = 1, OP_XFER_INT32 = 2, OP_SET = 3, OP_STEP = 4, OP_GET = 5, OP_PUBLISH = 6, OP_SET3 = 7,
+       OP_GET3 = 8, OP_STEP3 = 9 };
 enum { GATHER_F64 = 1, GATHER_I32 = 2, GATHER_BITS64 = 3 };
-enum { DONE = 0, OP_FAILED = 1, SAMPLE_FAILED = 2, BLOCK_FULL = 3, NONFINITE = 4 };
+enum { DONE = 0, OP_FAILED = 1, SAMPLE_FAILED = 2, BLOCK_FULL = 3, NONFINITE = 4, STEP3_LOOK = 5 };
 
 typedef int (*fmi2_io)(void *, const unsigned int *, size_t, void *);
 typedef int (*fmi2_do_step)(void *, double, double, int);
+typedef int (*fmi3_io)(void *, const unsigned int *, size_t, void *, size_t);
+typedef int (*fmi3_do_step)(void *, double, double, bool, bool *, bool *, bool *, double *);
 
 /* every field 8 bytes wide: the ctypes mirror in native_loop.py is then trivially laid out */
 typedef struct {
@@ -30,6 +34,10 @@ typedef struct {
     const long long *idx;                /* transfers: positions in src */
     const double *factor, *offset;       /* Real transfers with a linear transformation, else NULL */
     double h;                            /* the component's step (master step times its multiple) */
+    long long nvalues;                   /* FMI 3.0 get/set: values (an array variable has several) */
+    long long no_set_prior;              /* FMI 3.0 doStep: noSetFMUStatePriorToCurrentPoint */
+    bool *event, *terminate, *early;     /* FMI 3.0 doStep: the slave's own flags ... */
+    double *last;                        /* ... and lastSuccessfulTime, which Fmi3Slave.after_do_step reads */
 } cm_op;
 
 typedef struct {
@@ -85,6 +93,17 @@ static int run_op(cm_loop *L, const cm_op *o, double t) {
     case OP_STEP:
         L->counts[o->comp]++;
         return ((fmi2_do_step)o->fn)(o->inst, t, o->h, 1);
+    case OP_SET3:
+    case OP_GET3:
+        return ((fmi3_io)o->fn)(o->inst, o->vr, (size_t)o->n, o->dst, (size_t)o->nvalues);
+    case OP_STEP3: {
+        int st;
+        L->counts[o->comp]++;
+        st = ((fmi3_do_step)o->fn)(o->inst, t, o->h, o->no_set_prior != 0, o->event, o->terminate, o->early,
+                                   o->last);
+        /* all but a plain step (an error, a request to terminate, an early return) is Python's to finish */
+        return (st > 1 || *o->terminate || *o->early) ? -1 - st : st;
+    }
     case OP_PUBLISH:
         memcpy(o->dst, o->src, (size_t)o->n);
         return 0;
@@ -135,6 +154,10 @@ int cm_run(cm_loop *L, long long n0, long long n1, long long op0, int rest_only)
             if (st > 1) {
                 L->n = n; L->code = OP_FAILED; L->op = k; L->status = st;
                 return OP_FAILED;
+            }
+            if (st < 0) {
+                L->n = n; L->code = STEP3_LOOK; L->op = k; L->status = -1 - st;
+                return STEP3_LOOK;
             }
         }
         op0 = 0;

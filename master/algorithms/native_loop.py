@@ -34,19 +34,23 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fmi.slave import WARNING
+
 SOURCE = Path(__file__).with_name("native_loop.c")
 CHUNK = 1 << 16        # steps per call at most: Ctrl-C and the progress bar are served between calls
 SUPPORTED_TYPES = ("Real", "Integer", "Boolean")
 
-OP_XFER_REAL, OP_XFER_INT32, OP_SET, OP_STEP, OP_GET, OP_PUBLISH = 1, 2, 3, 4, 5, 6
+OP_XFER_REAL, OP_XFER_INT32, OP_SET, OP_STEP, OP_GET, OP_PUBLISH, OP_SET3, OP_GET3, OP_STEP3 = range(1, 10)
 GATHER_F64, GATHER_I32, GATHER_BITS64 = 1, 2, 3
-DONE, OP_FAILED, SAMPLE_FAILED, BLOCK_FULL, NONFINITE = 0, 1, 2, 3, 4
+DONE, OP_FAILED, SAMPLE_FAILED, BLOCK_FULL, NONFINITE, STEP3_LOOK = range(6)
 
 
 class _Op(Structure):
     _fields_ = [("kind", c_longlong), ("comp", c_longlong), ("every", c_longlong), ("phase", c_longlong),
                 ("fn", c_void_p), ("inst", c_void_p), ("vr", c_void_p), ("n", c_longlong), ("dst", c_void_p),
-                ("src", c_void_p), ("idx", c_void_p), ("factor", c_void_p), ("offset", c_void_p), ("h", c_double)]
+                ("src", c_void_p), ("idx", c_void_p), ("factor", c_void_p), ("offset", c_void_p), ("h", c_double),
+                ("nvalues", c_longlong), ("no_set_prior", c_longlong), ("event", c_void_p), ("terminate", c_void_p),
+                ("early", c_void_p), ("last", c_void_p)]
 
 
 class _Gather(Structure):
@@ -106,14 +110,26 @@ def _addr(x) -> int | None:
     return ctypes.cast(x, c_void_p).value
 
 
+def _fmi3(slave) -> bool:
+    from ..fmi.fmi3 import Fmi3Slave
+    return isinstance(slave, Fmi3Slave)
+
+
 def _why_not_component(slave, rt, i) -> str | None:
     from ..fmi.fmi2 import Fmi2Slave
-    if type(slave) is not Fmi2Slave or slave.raw_step is None:
-        return f"component {slave.name} is not a native FMI 2.0 co-simulation FMU"
+    from ..fmi.fmi3 import Fmi3Slave
     ports = rt.write_ports[i] + rt.read_ports[i] + rt.sample_ports[i]
-    bad = sorted({t for t, _ in ports} - set(SUPPORTED_TYPES))
-    if bad:
-        return f"component {slave.name} exchanges {', '.join(bad)} values"
+    if type(slave) is Fmi2Slave and slave.raw_step is not None:
+        bad = sorted({t for t, _ in ports} - set(SUPPORTED_TYPES))
+        if bad:
+            return f"component {slave.name} exchanges {', '.join(bad)} values"
+    elif type(slave) is Fmi3Slave:
+        if slave.event_mode or slave.early_return or slave.terminate_requested:
+            return f"component {slave.name} uses FMI 3.0 event mode or early return"
+        if any(t != "Real" or port.extra is not None for t, port in ports):
+            return f"component {slave.name} exchanges FMI 3.0 values other than Float64"
+    else:
+        return f"component {slave.name} is not a native FMI 2.0 or 3.0 co-simulation FMU"
     if any(maps for *_, maps in rt.xfer[i]):
         return f"component {slave.name} has inputs with value maps"
     return None
@@ -171,15 +187,12 @@ class _Program:
                                     factor=f, offset=o if f is not None else None))
                 what.append(None)
             for t, port in rt.write_ports[i]:
-                ops.append(self._op(OP_SET, i, k, 0, fn=slave._raw(f"fmi2Set{t}"), inst=inst, vr=port.vrs,
-                                    n=port.n, dst=port.buf))
+                ops.append(self._port_op("Set", slave, i, k, t, port))
                 what.append(("setting inputs", 0.0))
-            ops.append(self._op(OP_STEP, i, k, 0, fn=slave._raw("fmi2DoStep"), inst=inst, h=alg.h * k))
+            ops.append(self._step_op(slave, i, k, alg.h * k))
             what.append(("doStep", 0.0))
-            gets = []
-            for t, port in rt.read_ports[i]:
-                gets.append((self._op(OP_GET, i, k, 0, fn=slave._raw(f"fmi2Get{t}"), inst=inst, vr=port.vrs,
-                                      n=port.n, dst=port.buf), ("getting outputs", alg.h * k)))
+            gets = [(self._port_op("Get", slave, i, k, t, port), ("getting outputs", alg.h * k))
+                    for t, port in rt.read_ports[i]]
             if gs:
                 ops += [g for g, _ in gets]
                 what += [w for _, w in gets]
@@ -194,20 +207,38 @@ class _Program:
         for i, slave in enumerate(rt.slaves):
             if rt.active[i]:
                 for t, port in rt.sample_ports[i]:
-                    samples.append(self._op(OP_GET, i, 1, 0, fn=slave._raw(f"fmi2Get{t}"), inst=slave.c,
-                                            vr=port.vrs, n=port.n, dst=port.buf))
+                    samples.append(self._port_op("Get", slave, i, 1, t, port))
                     self.sample_what.append((i, f"getting recorded outputs ({t})"))
         self.ops = (_Op * max(1, len(ops)))(*ops)
         self.samples = (_Op * max(1, len(samples)))(*samples)
         self.n_ops, self.n_samples = len(ops), len(samples)
 
+    def _port_op(self, op, slave, i, every, typ, port):
+        """A getter or setter of one port (``op`` "Get" or "Set")."""
+        if _fmi3(slave):
+            return self._op(OP_GET3 if op == "Get" else OP_SET3, i, every, 0, fn=slave.lib.raw(f"fmi3{op}Float64"),
+                            inst=slave.c, vr=port.vrs, n=port.n, dst=port.buf, nvalues=len(port.buf))
+        return self._op(OP_GET if op == "Get" else OP_SET, i, every, 0, fn=slave._raw(f"fmi2{op}{typ}"),
+                        inst=slave.c, vr=port.vrs, n=port.n, dst=port.buf)
+
+    def _step_op(self, slave, i, k, h):
+        if not _fmi3(slave):
+            return self._op(OP_STEP, i, k, 0, fn=slave._raw("fmi2DoStep"), inst=slave.c, h=h)
+        event, terminate, early = slave._flags
+        self.keep.append(slave._flags)
+        return self._op(OP_STEP3, i, k, 0, fn=slave.lib.raw("fmi3DoStep"), inst=slave.c, h=h,
+                        no_set_prior=int(not slave._may_roll_back), event=ctypes.addressof(event),
+                        terminate=ctypes.addressof(terminate), early=ctypes.addressof(early),
+                        last=ctypes.addressof(slave._last_successful))
+
     def _op(self, kind, comp, every, phase, fn=None, inst=None, vr=None, n=0, dst=None, src=None, idx=None,
-            factor=None, offset=None, h=0.0):
+            factor=None, offset=None, h=0.0, nvalues=0, no_set_prior=0, event=None, terminate=None, early=None,
+            last=None):
         for x in (fn, vr, dst, src, idx, factor, offset):
             if x is not None:
                 self.keep.append(x)
         return _Op(kind, comp, every, phase, _addr(fn), inst, _addr(vr), n, _addr(dst), _addr(src), _addr(idx),
-                   _addr(factor), _addr(offset), h)
+                   _addr(factor), _addr(offset), h, nvalues, no_set_prior, event, terminate, early, last)
 
 
 class NativeLoop:
@@ -238,7 +269,8 @@ class NativeLoop:
 
     def _bind(self):
         rt = self.ex.rt
-        active = tuple(rt.active)
+        # FMI 3.0's noSetFMUStatePriorToCurrentPoint changes once someone saves a state (Execution.save_state)
+        active = (tuple(rt.active), tuple(getattr(s, "_may_roll_back", False) for s in rt.slaves))
         if self._program is None or active != self._active:
             self._program = _Program(self.ex)
             self._active = active
@@ -268,12 +300,19 @@ class NativeLoop:
         rt, meta, st = ex.rt, ex.metadata, ex.settings
         start, h = st.start, st.step
         p = self._bind()
+        op0, ending = 0, False      # ending: an FMU asked to terminate in step n; its rest runs, then Python looks
         while n < stop:
-            n1 = min(stop, n + CHUNK)
-            code = self._call(n, n1)
-            done = self.L.n
+            if ending:
+                code = self._call(n, n + 1, op0, rest_only=True)
+            else:
+                code = self._call(n, min(stop, n + CHUNK), op0)
+            op0 = 0
+            done = self.L.n          # steps completed, or the step in progress after a failure
             if bar is not None:
                 bar.update(done - n)
+            if ending and code == DONE:
+                self._after_terminating_step(n)
+                return
             n = ex.n = done
             if n > 0:
                 meta["last_time"] = start + n * h
@@ -290,30 +329,31 @@ class NativeLoop:
                 i, what = p.sample_what[self.L.op]
                 meta["last_time"] = start + (n + 1) * h
                 raise rt.slaves[i].fail(what, self.L.status, start + (n + 1) * h)
-            self._failed_op(p, n)            # an FMU asked to end the run: the step is finished, Python looks
-            t1 = start + (n + 1) * h
-            meta["last_time"] = t1
-            for ob in ex.observers:
-                ob.after_step(n, start + n * h, t1)
-            n = ex.n = n + 1
-            if self.L.check and rt.out["Real"].dot(rt.real_zeros) != 0.0:
-                raise rt.nonfinite_error(t1)
-            meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
-            return
-
-    def _failed_op(self, p, n):
-        """Operation L.op of step n returned a status above Warning: raise as the compiled step does, unless it
-        is a doStep whose FMU asks to terminate the simulation; then finish the step (statuses of the rest
-        are treated alike) and return."""
-        rt, t = self.ex.rt, self.L.start + n * self.L.h
-        while True:
+            # OP_FAILED or STEP3_LOOK: operation k of step n; the step goes on from k + 1 unless this raises
             k, status = self.L.op, self.L.status
-            op = p.ops[k]
+            op, t = p.ops[k], start + n * h
+            slave = rt.slaves[op.comp]
+            if code == STEP3_LOOK:
+                status = slave.after_do_step(t, op.h, status)
             call, dt = p.what[k]
-            if call != "doStep" or not rt.ends_run_on_request(op.comp, status):
-                raise rt.slaves[op.comp].fail(call, status, t + dt if dt else t)
-            if self._call(n, n + 1, k + 1, rest_only=True) == DONE:
-                return
+            if status > WARNING:
+                if call != "doStep" or not rt.ends_run_on_request(op.comp, status):
+                    raise slave.fail(call, status, t + dt if dt else t)
+                ending = True
+            op0 = k + 1
+
+    def _after_terminating_step(self, n: int) -> None:
+        """What the Python path does after step n when an FMU asked to terminate in it."""
+        ex, rt, meta = self.ex, self.ex.rt, self.ex.metadata
+        start, h = ex.settings.start, ex.settings.step
+        t1 = start + (n + 1) * h
+        meta["last_time"] = t1
+        for ob in ex.observers:
+            ob.after_step(n, start + n * h, t1)
+        ex.n = n + 1
+        if self.L.check and rt.out["Real"].dot(rt.real_zeros) != 0.0:
+            raise rt.nonfinite_error(t1)
+        meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
 
 
 def native_loop_for(ex) -> NativeLoop | None:

@@ -155,7 +155,7 @@ def test_python_path_where_needed(tmp_path, test_fmus):
     b.add_component("P", test_fmus["py:Integrator"])
     b.connect("I", "y", "P", "u")
     mixed = master.run(b.write(tmp_path / "mixed.ssp"), output=None)
-    assert mixed.metadata["native_loop"] == {"used": False, "reason": "component P is not a native FMI 2.0 "
+    assert mixed.metadata["native_loop"] == {"used": False, "reason": "component P is not a native FMI 2.0 or 3.0 "
                                                                          "co-simulation FMU"}
     it = master.run(_masses(tmp_path, test_fmus), output=None, algorithm="iterative")
     assert not it.metadata["native_loop"]["used"] and "iterative" in it.metadata["native_loop"]["reason"]
@@ -179,3 +179,19 @@ def test_cli_switch_recorded(tmp_path, test_fmus):
         subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), *flags], check=True,
                        env=env, capture_output=True)
         assert json.loads((out / "run.json").read_text())["native_loop"] == expected
+
+
+@pytest.mark.parametrize("algorithm", ["jacobi", "gauss-seidel"])
+def test_fmi3_and_fmi2_together(tmp_path, test_fmus, algorithm):
+    """FMI 3.0 integrators (fmi3DoStep with its flags) in a loop with FMI 2.0 ones, one on a step multiple."""
+    b = SspBuilder("fmi3", stop=2.0, step=0.1)
+    b.add_component("A", test_fmus["c3:Integrator"], params={"a": -0.5, "x0": 1.0})
+    b.add_component("B", test_fmus["c2:Integrator"], params={"a": -0.25, "x0": 2.0})
+    b.add_component("C", test_fmus["c3:Integrator"], params={"a": -1.0, "x0": 3.0})
+    b.connect("A", "y", "B", "u", factor=2.0, offset=0.5)
+    b.connect("B", "y", "C", "u")
+    b.connect("C", "y", "A", "u")
+    on, off = _both(b.write(tmp_path / "fmi3.ssp"), algorithm=algorithm, step_multiples={"C": 2},
+                    record_interval=0.3)
+    assert on.metadata["native_loop"] == {"used": True, "steps": 20}
+    _same(on, off)
