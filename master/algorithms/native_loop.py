@@ -1,19 +1,21 @@
-"""The master step loop in C for systems of native FMI 2.0 co-simulation FMUs.
+"""The master step loop in C for systems of native FMI 2.0 and 3.0 co-simulation FMUs.
 
 From Python, each FMI call costs ~0.4 µs of ctypes overhead, three calls per FMU step, several times what a
 cheap FMU itself costs. Here the compiled step (compiled.py) is described once as a list of operations on
 the master's own buffers (transfers with their factor/offset, setters, doStep, getters, staging of
 components on a step multiple) and ``native_loop.c`` runs many master steps of it per call, recording the
 samples into the recording's block itself. It returns to Python at every point where Python must look (a
-status above Warning, a full block, a non-finite output, the end of the chunk), and Python then does exactly
-what the Python path does there, so results, errors and rows kept are the same, bit for bit.
+status above Warning, an FMI 3.0 doStep that returned early or asks to terminate, a full block, a non-finite
+output, the end of the chunk), and Python then does exactly what the Python path does there, so results,
+errors and rows kept are the same, bit for bit.
 
 It applies only when nothing else needs Python between steps: a fixed-step algorithm whose step is the
 compiled one (jacobi, gauss-seidel; no extrapolation, no rollback), no monitors, observers or manipulators
-besides the recording, every active component a native FMI 2.0 co-simulation FMU (pythonfmu FMUs in process,
-model exchange, FMI 1.0/3.0 keep the Python path) with Real/Integer/Boolean connections without value maps,
-and numeric recorded values. Otherwise the Python path runs, unchanged; run.json's ``native_loop`` says
-which ran and why.
+besides the recording (a supervised child's recording reports after every step, so supervised runs keep the
+Python path too), every active component a native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports
+or an FMI 3.0 one with Float64 ports and neither event mode nor early return (pythonfmu FMUs in process, model
+exchange and FMI 1.0 keep the Python path), no value maps on inputs, and numeric recorded values. Otherwise
+the Python path runs, unchanged; run.json's ``native_loop`` says which ran and why.
 
 The C source is compiled on first use with the system's C compiler (``$CC`` or ``cc``) into the per-user
 cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would be one, and
@@ -172,7 +174,6 @@ class _Program:
 
     def __init__(self, ex):
         rt, alg = ex.rt, ex.algorithm
-        self.rt, self.h, self.start = rt, alg.h, ex.settings.start
         self.keep = []               # every array and ctypes object the C side points into
         ops, what, tail = [], [], []
         gs = alg.gauss_seidel
@@ -260,7 +261,7 @@ class NativeLoop:
         for out, pos, a, b in rec.gather:
             kind = GATHER_F64 if out.dtype == np.float64 else GATHER_BITS64 if out.dtype.itemsize == 8 else GATHER_I32
             gathers.append(_Gather(kind, out.ctypes.data, pos.ctypes.data, len(pos), a))
-        self._gather_arrays = [(out, pos) for out, pos, _, _ in rec.gather]
+        self._gather_arrays = [(out, pos) for out, pos, _, _ in rec.gather]     # kept alive for the C side
         self._gathers = (_Gather * max(1, len(gathers)))(*gathers)
         L.gathers, L.n_gathers = self._gathers, len(gathers)
         if not ex.options.allow_nonfinite and len(rt.out["Real"]):
@@ -281,7 +282,7 @@ class NativeLoop:
 
     def _call(self, n0, n1, op0=0, rest_only=False):
         rec, L = self.ex.recording, self.L
-        L.block, L.fill = rec.block.ctypes.data, rec.fill      # the block is replaced after each flush
+        L.block, L.fill = rec.block.ctypes.data, rec.fill      # the recording's own: flushing resets its fill
         try:
             return self.lib.cm_run(ctypes.byref(L), n0, n1, op0, int(rest_only))
         finally:
