@@ -91,7 +91,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--no-native-loop", action="store_true",
-                   help="step native FMI 2.0 FMUs from Python instead of the loop in C (same results, slower)")
+                   help="step native FMUs from Python instead of the loop in C (same results, slower)")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
