@@ -15,7 +15,7 @@ from pathlib import Path
 
 VOLATILE = {"wall_time_s", "finished_at", "worker", "scenario", "platform", "python", "package_version",
             "code_sha256", "inputs_sha256", "inputs", "used", "campaign_file", "runs_per_min", "elapsed_s",
-            "traceback", "timing", "supervised", "products"}   # how the run was executed and filed, not results
+            "traceback", "timing", "supervised", "products", "native_loop"}   # how the run was executed and filed, not results
 SKIP_FILES = {"fmu.log", "map.png", "report.md", "progress.json", "invocations.jsonl"}
 
 

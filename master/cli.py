@@ -103,6 +103,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="euler's internal step (default: each communication step whole)")
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
+    r.add_argument("--no-native-loop", action="store_true",
+                   help="step native FMUs from Python instead of the loop in C (same results, slower)")
     r.add_argument("--progress", action="store_true", help="show a progress bar")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
@@ -227,6 +229,7 @@ def _dispatch(args) -> int:
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
                        seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
+                       native_loop=not args.no_native_loop,
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
                        lenient=args.lenient,
                        implementation=_implementations(args.implementation), inputs=args.input,

@@ -79,6 +79,7 @@ class Options:
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
+    native_loop: bool = True                          # native FMUs stepped in C (algorithms/native_loop.py)
     # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
     extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
     gs_interpolation: int | None = None               # gauss-seidel: known inputs interpolated (0 off, 1, 2)
@@ -339,10 +340,20 @@ class Execution:
             from tqdm import tqdm
             bar = tqdm(total=target - self.n, unit="step", mininterval=0.5, leave=False)
         n = self.n
+        from .algorithms.native_loop import native_loop_for
+        native = native_loop_for(self) if target - n > 1 else None
         quiet = np.errstate(invalid="ignore", over="ignore")     # the finiteness check meets NaN on purpose
         quiet.__enter__()
         try:
             while n < target:
+                if native is not None and n != last_n:
+                    try:       # in C up to the shorter final step, if any; the run's end as below
+                        native.advance(n, target if last_n < n else min(target, last_n), bar)
+                    finally:
+                        n = self.n
+                    if rt.stop_reason is not None:
+                        break
+                    continue
                 t = start + n * h          # integer step counting: no drift from accumulated additions
                 for mp in manipulators:
                     mp.before_step(n, t)

@@ -150,6 +150,7 @@ def build_python_fmu(out_dir) -> Path:
 
 
 def build_chain_ssp(fmu, n: int, path, step: float, stop: float) -> Path:
+    """``fmu``: one FMU for every instance, or a list cycled over them (the mixed flavour)."""
     sys.path.insert(0, str(HERE.parent.parent))
     from master.ssp.writer import SspBuilder
 
@@ -158,7 +159,8 @@ def build_chain_ssp(fmu, n: int, path, step: float, stop: float) -> Path:
     for i in range(n):
         # lag0's input is unconnected and not declared as a connector at all: fmpy's SSP runner requires
         # every declared input to be connected, and so no master writes to it (it keeps its start value 0)
-        b.add_component(f"lag{i}", fmu, connectors=conns if i else conns[1:])
+        b.add_component(f"lag{i}", fmu[i % len(fmu)] if isinstance(fmu, list) else fmu,
+                        connectors=conns if i else conns[1:])
     for i in range(1, n):
         b.connect(f"lag{i - 1}", "y", f"lag{i}", "u")
     return b.write(path)
@@ -175,6 +177,13 @@ def build_all(build_dir, n: int, steps: int, step: float) -> dict:
             out[flavour] = {"fmu": fmu, "ssp": ssp}
         except Exception as exc:  # reported in the table, the other flavour still runs
             out[flavour] = {"error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
+    # mixed: C and pythonfmu instances alternate along the chain (the same trajectory: the models are twins)
+    if "error" in out["c"] or "error" in out["py"]:
+        out["mix"] = {"error": "needs both flavours"}
+    else:
+        fmus = [out["c"]["fmu"], out["py"]["fmu"]]
+        out["mix"] = {"fmu": fmus[0], "ssp": build_chain_ssp(fmus, n, build_dir / f"chain_mix_{n}.ssp", step,
+                                                             steps * step)}
     return out
 
 

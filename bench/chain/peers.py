@@ -143,12 +143,13 @@ def peer_cosim_master(a: dict) -> dict:
     n, steps, h, every, last = a["n"], a["steps"], a["step"], a["every"], a["last"]
     kw = dict(algorithm=a.get("algorithm", "jacobi"), step=h, output=None, record=[f"{last}.y"])
     extra = {"cosim_master_version": getattr(master, "__version__", "?")}
-    if "inprocess" in a:
-        params = inspect.signature(runner.run).parameters
-        if "inprocess" in params or any(p.kind == p.VAR_KEYWORD for p in params.values()):
-            kw["inprocess"] = a["inprocess"]
-        else:
-            raise RuntimeError("this cosim-master has no 'inprocess' option")
+    for opt in ("inprocess", "native_loop"):
+        if opt in a:
+            params = inspect.signature(runner.run).parameters
+            if opt in params or any(p.kind == p.VAR_KEYWORD for p in params.values()):
+                kw[opt] = a[opt]
+            else:
+                raise RuntimeError(f"this cosim-master has no '{opt}' option")
     marks = []
     try:
         from master.execution import Execution
@@ -174,7 +175,8 @@ def peer_cosim_master(a: dict) -> dict:
     diff = (meta["wall_time_s"] - one.metadata["wall_time_s"]) / (steps - 1)
     extra["difference_method_us_per_fmu_step"] = diff / n * 1e6
     extra["metadata"] = {k: meta.get(k) for k in ("wall_time_s", "outcome", "algorithm", "steps", "step_size",
-                                                  "algorithm_info", "rows_recorded", "package_version")}
+                                                  "algorithm_info", "rows_recorded", "package_version",
+                                                  "native_loop")}
     extra["kwargs"] = {k: v for k, v in kw.items() if k != "record"}
     frame = res.frame
     col = f"{last}.y"

@@ -51,6 +51,9 @@ ROWS = [
      "same loop through ctypes.PyDLL, which does not release the GIL around each call"),
     ("cosim-master (defaults)", "cosim_master", {}, True,
      "master.run(..., algorithm='jacobi', output=None, record=[last.y]) with its default options"),
+    ("cosim-master (native_loop=False)", "cosim_master", {"native_loop": False}, True,
+     "the step loop in Python (the path before the native loop, and still the path of every system the "
+     "native loop does not apply to), as --no-native-loop"),
     ("cosim-master (inprocess=False)", "cosim_master", {"inprocess": False}, True,
      "pythonfmu FMUs through their binary (FMI C API) instead of in-process; no effect on C FMUs"),
     ("ecospy pinned (taskset -c 0)", "ecospy", {}, True,
@@ -68,6 +71,9 @@ ROWS = [
 # packages each peer needs, and what 'pip install' gives them (ecospy's wheel needs libtbb.so.12 from tbb)
 REQUIRES = {"ecospy": ["ecospy", "tbb"], "libcosimpy": ["libcosimpy"], "fmpy_ssp": ["fmpy"],
             "cosim_master": [], "bare_ctypes": []}
+# flavour -> name in the tables; the mixed chain (C and pythonfmu instances alternating) only for cosim-master
+FLAVOURS = {"c": "native C", "py": "pythonfmu", "mix": "mixed C + pythonfmu"}
+MIX_PEERS = {"cosim_master"}
 IMPORT_NAME = {"ecospy": "ecospy", "tbb": None, "libcosimpy": "libcosimpy", "fmpy": "fmpy"}
 
 
@@ -271,7 +277,7 @@ def main(argv=None):
 
     print(f"building the chain: {a.fmus} FMUs, {a.steps} steps of {a.step:g} s ...", flush=True)
     built = build.build_all(HERE / "build", a.fmus, a.steps, a.step)
-    flavours = ("c", "py")
+    flavours = tuple(FLAVOURS)
     last = f"lag{a.fmus - 1}"
     common = {"n": a.fmus, "steps": a.steps, "step": a.step, "every": a.every, "last": last}
 
@@ -284,6 +290,9 @@ def main(argv=None):
                 key = (ri, fl)
                 if peer in problems:
                     runs.setdefault(key, []).append({"ok": False, "error": problems[peer]})
+                    continue
+                if fl == "mix" and peer not in MIX_PEERS:
+                    runs.setdefault(key, []).append({"ok": False, "error": "not measured"})
                     continue
                 if "error" in built[fl]:
                     runs.setdefault(key, []).append({"ok": False, "error": "build failed: " + built[fl]["error"]})
@@ -371,23 +380,22 @@ def main(argv=None):
 
 
 def render(a, table, machine, ref_final, sensitivity, problems, elapsed) -> dict:
-    head = ["master", "native C µs/FMU-step", "pythonfmu µs/FMU-step", "ratio to bare ctypes (C / py)",
-            "ratio to ecospy pinned (C / py)"]
+    fls = list(FLAVOURS)
+    head = (["master"] + [f"{FLAVOURS[fl]} µs/FMU-step" for fl in fls]
+            + [f"ratio to bare ctypes ({' / '.join(fls)})", f"ratio to ecospy pinned ({' / '.join(fls)})"])
     lines = []
     for e in table:
-        c, p = e["c"], e["py"]
-
         def val(cell):
             if cell.get("us_per_fmu_step") is None:
-                return "n/a: " + cell.get("error", "?")
+                return "—" if cell.get("error") == "not measured" else "n/a: " + cell.get("error", "?")
             return fmt(cell["us_per_fmu_step"], ".3f")
 
         def ratio(key):
-            rc, rp = c.get(key), p.get(key)
-            if rc is None and rp is None:
+            rs = [e[fl].get(key) for fl in fls]
+            if all(r is None for r in rs):
                 return "—"
-            return f"{fmt(rc)} / {fmt(rp)}"
-        lines.append([e["label"], val(c), val(p), ratio("ratio_bare"), ratio("ratio_ecos")])
+            return " / ".join(fmt(r) for r in rs)
+        lines.append([e["label"], *(val(e[fl]) for fl in fls), ratio("ratio_bare"), ratio("ratio_ecos")])
 
     def md_table(hdr, rows):
         out = ["| " + " | ".join(hdr) + " |", "|" + "|".join("---" for _ in hdr) + "|"]
@@ -397,14 +405,16 @@ def render(a, table, machine, ref_final, sensitivity, problems, elapsed) -> dict
     main_table = md_table(head, lines)
     traj = []
     for e in table:
-        for fl, name in (("c", "C"), ("py", "pythonfmu")):
+        for fl, name in FLAVOURS.items():
             cell = e[fl]
+            if cell.get("error") == "not measured":
+                continue
             traj.append([e["label"], name, fmt(cell.get("final"), ".15g"),
                          cell.get("trajectory") or ("n/a: " + cell.get("error", "?"))])
     traj_table = md_table(["master", "flavour", f"final y of lag{a.fmus - 1}", "trajectory check"], traj)
     det = []
     for e in table:
-        for fl, name in (("c", "C"), ("py", "pythonfmu")):
+        for fl, name in FLAVOURS.items():
             cell = e[fl]
             if cell.get("us_per_fmu_step") is None:
                 continue
@@ -416,6 +426,9 @@ def render(a, table, machine, ref_final, sensitivity, problems, elapsed) -> dict
                 info = (x.get("metadata") or {}).get("algorithm_info")
                 if info:
                     more += f"; algorithm_info: {json.dumps(info, default=str)[:160]}"
+                native = (x.get("metadata") or {}).get("native_loop")
+                if native:
+                    more += f"; native_loop: {json.dumps(native)}"
             if cell.get("note"):
                 more = (more + "; " if more else "") + cell["note"]
             det.append([e["label"], name, runs, f"{cell['total_s']:.3f}", cell["timing"], more])

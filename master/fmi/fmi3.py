@@ -216,16 +216,24 @@ class Fmi3Slave(NativeSlave):
     def do_step(self, t, h) -> int:
         if self.terminate_requested:
             return DISCARD
+        return self.after_do_step(t, h, self._call_do_step(t, h))
+
+    def _call_do_step(self, t, h) -> int:
+        event, terminate, early = self._flags
+        # noSetFMUStatePriorToCurrentPoint: not when the master may roll back to the start of its step, which
+        # lies before the continuation of an early return
+        return self._f["fmi3DoStep"](self.c, t, h, not self._may_roll_back, byref(event), byref(terminate),
+                                     byref(early), byref(self._last_successful))
+
+    def after_do_step(self, t, h, st) -> int:
+        """The rest of ``do_step`` once its first fmi3DoStep (t, h) returned ``st``, with its flags in
+        ``self._flags`` and ``self._last_successful`` (the native loop makes that first call itself)."""
         end = t + h
         event, terminate, early = self._flags
         last = self._last_successful
         worst = OK
         stalled = 0
         while True:
-            # noSetFMUStatePriorToCurrentPoint: not when the master may roll back to the start of its step, which
-            # lies before the continuation of an early return
-            st = self._f["fmi3DoStep"](self.c, t, h, not self._may_roll_back, byref(event), byref(terminate),
-                                       byref(early), byref(last))
             worst = max(worst, st)
             if st > WARNING or terminate:
                 break
@@ -245,6 +253,7 @@ class Fmi3Slave(NativeSlave):
                 raise FmuError("fmi3DoStep returned early 100 times without getting past this time",
                                file=self.shown_as, element=f"component {self.name}", time=reached)
             t, h = reached, end - reached
+            st = self._call_do_step(t, h)
         if terminate:
             self.terminate_requested = True
             if early and last.value < end:
