@@ -156,7 +156,8 @@ def why_not(ex) -> str | None:
     if rec.str_ or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
     alg = type(ex.algorithm)
-    if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.extrapolation:
+    # feeds_inputs: extrapolated (globally or per output) or interpolated inputs, a step the C loop does not know
+    if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.feeds_inputs:
         return f"the {ex.algorithm.name} algorithm's step is not a fixed sequence of FMI calls"
     rt = ex.rt
     for i, slave in enumerate(rt.slaves):

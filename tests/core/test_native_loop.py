@@ -159,6 +159,11 @@ def test_python_path_where_needed(tmp_path, test_fmus):
                                                                          "co-simulation FMU"}
     it = master.run(_masses(tmp_path, test_fmus), output=None, algorithm="iterative")
     assert not it.metadata["native_loop"]["used"] and "iterative" in it.metadata["native_loop"]["reason"]
+    # extrapolated inputs, also when only one output has an order of its own (the loop would silently hold them)
+    for kw in ({"extrapolation": 1}, {"extrapolation_for": {"A.x": 1}}, {"algorithm": "gauss-seidel",
+                                                                          "gs_interpolation": 1}):
+        ex = master.run(_masses(tmp_path, test_fmus), output=None, **kw)
+        assert not ex.metadata["native_loop"]["used"] and "not a fixed sequence" in ex.metadata["native_loop"]["reason"]
 
 
 def test_cli_switch_recorded(tmp_path, test_fmus):
