@@ -138,7 +138,8 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
                                    project_files=[*(stage / p for p in packages), stage / HASH_FILE],
                                    # uavsim.fmi.StateMixin; a SITL process cannot be saved and restored
                                    canGetAndSetFMUstate=name not in NO_STATE)
-    return Path(out)
+    from reproducible import make_reproducible
+    return make_reproducible(out)
 
 
 def build_all(dest: Path | str = REPO / "fmus", src_dir: Path | str = HERE) -> list[Path]:

@@ -77,7 +77,8 @@ def _with_dependencies(built: Path, source: Path, fmu: Path, ff) -> Path:
             if item.filename == "modelDescription.xml" and deps is not None:
                 data = ff._patch_python_model_description(data.decode("utf-8"), deps).encode("utf-8")
             zout.writestr(item, data)
-    return fmu
+    from fmu_sources.reproducible import make_reproducible
+    return make_reproducible(fmu)
 
 
 def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
