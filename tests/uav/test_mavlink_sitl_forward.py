@@ -31,6 +31,7 @@ from test_mavlink_stream import Gcs, free_port
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "sitl"))
 from sitlveh_helpers import real_binary  # noqa: E402
+from test_sitl_vehicle import sitl_pids  # noqa: E402
 
 BASE = (-7.275, -35.965, 540.0)
 BINARY, WHY = real_binary()
@@ -120,10 +121,11 @@ def test_the_ground_station_sees_and_commands_the_real_firmware(tmp_path, monkey
                                   m.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 200_000, 0, 0, 0, 0, 0)
             mav.command_long_send(sysid, 1, m.MAV_CMD_REQUEST_MESSAGE, 0, m.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
                                   0, 0, 0, 0, 0, 0)
-        if {"GLOBAL_POSITION_INT", "AUTOPILOT_VERSION"} <= types and len(acks) == 2:
+        texts = [g for g in gcs.of("STATUSTEXT") if (g.get_srcSystem(), g.get_srcComponent()) == (sysid, COMPANION)]
+        if {"GLOBAL_POSITION_INT", "AUTOPILOT_VERSION"} <= types and len(acks) == 2 and texts:
             break
     t = ex.time
-    ex.close("completed")
+    meta = ex.close("completed")
     gcs.drain(0.1)
     gcs.conn.close()
     types, acks = seen()
@@ -135,3 +137,18 @@ def test_the_ground_station_sees_and_commands_the_real_firmware(tmp_path, monkey
     pos = [p for p in gcs.of("GLOBAL_POSITION_INT") if p.get_srcSystem() == sysid]
     assert pos and abs(pos[-1].lat / 1e7 - BASE[0]) < 1e-3 and abs(pos[-1].lon / 1e7 - BASE[1]) < 1e-3
     assert "AUTOPILOT_VERSION" in types
+    takeoff = [e["time"] for e in ex.events if e.get("event") == "takeoff"]
+    assert takeoff and [x.text for x in texts][:1] == ["takeoff: taking off"], (t, takeoff)   # the monitor's event
+    assert meta["observers"]["mavlink"]["forwarded"] == [{"uav": "uav1", "sysid": 1, "from": ANY_SERIAL1}]
+    assert sitl_pids(tmp_path) == []
+
+
+class _Serial1:
+    """Equal to the address of some SITL instance's SERIAL1 on 127.0.0.1 (5762 + 10 N)."""
+
+    def __eq__(self, url):
+        port = int(url.rsplit(":", 1)[1])
+        return url.startswith("tcp:127.0.0.1:") and port >= 5762 and (port - 5762) % 10 == 0
+
+
+ANY_SERIAL1 = _Serial1()

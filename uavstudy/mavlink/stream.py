@@ -248,5 +248,7 @@ class VehicleStream(Observer):
     def finish(self, out_dir, outcome) -> dict:
         hub = self.hub
         hub.stop()
+        forwarded = [{"uav": f.uav, "sysid": f.sysid, "from": ln.url} for f, ln in zip(hub.fleet.forwarded, hub.relays)]
         return {"vehicles": len(hub.fleet.vehicles), "links": [ln.url for ln in hub.links], **hub.stats,
+                **({"forwarded": forwarded} if forwarded else {}),
                 "ticks_dropped": getattr(hub, "dropped", 0), "commands": self.commands}
