@@ -66,6 +66,7 @@ class Hub:
         try:
             for f in self.fleet.forwarded:
                 self.relays.append(open_link(f.address(read)))
+                self.relays[-1].quiet = True
         except BaseException:
             for link in self.links + self.relays:
                 link.close()
