@@ -12,6 +12,7 @@ from .fleet import Fleet
 from .forward import forwarded_vehicles
 from .links import open_link, parse_url
 from .stream import CommandInput, Hub, VehicleStream
+from . import sitl_source  # noqa: F401,E402 - registers the SITL-backed UAVs as forwarded vehicles
 
 
 class MavlinkStream(LiveStream):
@@ -29,17 +30,15 @@ class MavlinkStream(LiveStream):
             raise CosimError(f"must be a positive number of messages per simulated second, got {rate}",
                              element="--mavlink-rate")
         fleet = Fleet(monitor, plan, forwarded_vehicles(monitor, plan))
-        links, relays = [], []
+        links = []
         try:
             for url in urls:
                 links.append(open_link(url))
-            for f in fleet.forwarded:
-                relays.append(open_link(f.url))
         except BaseException:
-            for link in links + relays:
+            for link in links:
                 link.close()
             raise
-        hub = Hub(fleet, links, rate, relays)
+        hub = Hub(fleet, links, rate)          # the forwarded vehicles' streams open once they run (attach)
         return LiveParts([VehicleStream(hub, monitor)], [CommandInput(hub)])
 
 

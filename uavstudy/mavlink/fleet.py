@@ -125,7 +125,8 @@ class Fleet:
         return items
 
     def required_variables(self) -> list[str]:
-        return [q for col in COLUMNS for q in self.qualified[col] if q is not None]
+        own = [q for f in self.forwarded for q in f.variables]
+        return [q for col in COLUMNS for q in self.qualified[col] if q is not None] + own
 
     def attach(self, ctx) -> None:
         """Index arrays per buffer type: one ``np.take`` per type reads every column of every vehicle into a

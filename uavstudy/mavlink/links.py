@@ -63,6 +63,9 @@ class Link:
         self.sent = self.dropped = 0
         self.heard_at: dict = {}           # peer -> wall time of its last bytes
         self.gone: set = set()
+        # a forwarded firmware's stream (forward.py): its end is the end of its vehicle, which the run reports
+        # itself (a SITL is stopped before the stream is), so no ground-station warning for it
+        self.quiet = False
 
     def _fail(self, exc: OSError, doing: str):
         why = exc.strerror or str(exc)
@@ -189,7 +192,8 @@ class _Tcp(Link):
         peer = self.clients.pop(sock)[0]
         self.heard_at.pop(peer, None)
         sock.close()
-        log.warning("--mavlink %s: ground station %s %s; the run goes on", self.url, _show(peer), why)
+        if not self.quiet:
+            log.warning("--mavlink %s: ground station %s %s; the run goes on", self.url, _show(peer), why)
 
     def send(self, messages):
         data = b"".join(messages)

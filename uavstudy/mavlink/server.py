@@ -26,11 +26,13 @@ from uavsim.strategy import STATE_NAMES
 from .fleet import COLUMNS
 from .frames import packed
 from .protocol import Protocol
-from .telemetry import Telemetry
+from .telemetry import Telemetry, statustext
 
 SLOW_HZ = 1.0
 HOME_EVERY = 5                     # slow ticks between two HOME_POSITION
 SILENCE_CHECK_S = 1.0
+#: the component id of a forwarded UAV's mission events (see StreamServer.companions)
+MISSION_COMPONENT = m.MAV_COMP_ID_ONBOARD_COMPUTER
 #: the monitor's mission events -> severity; others are INFO
 SEVERITY = {"return_low": m.MAV_SEVERITY_WARNING, "forced_landing": m.MAV_SEVERITY_CRITICAL,
             "landed_away": m.MAV_SEVERITY_WARNING, "return_commanded": m.MAV_SEVERITY_NOTICE,
@@ -62,6 +64,10 @@ class StreamServer:
         self.slow_ticks = 0
         self.sent = 0
         self.names = {v.name: v.index for v in fleet.vehicles}
+        # a forwarded UAV's mission events: its firmware speaks for the vehicle, so they come from another
+        # component of the same system, as from the companion computer that flies the mission (the strategy)
+        self.companions = {f.uav: m.MAVLink(None, srcSystem=f.sysid, srcComponent=MISSION_COMPONENT)
+                           for f in fleet.forwarded}
 
     def columns(self, table: bytes) -> dict:
         rows = np.frombuffer(table, dtype=np.float64).reshape(len(COLUMNS), -1)
@@ -114,26 +120,32 @@ class StreamServer:
 
     def _texts(self, events) -> list[bytes]:
         """A STATUSTEXT for each event the monitor emitted (and one for each removal it made)."""
-        tm, out = self.tm, []
+        out = []
         for typ, name, uav, other in events:
-            k = self.names.get(uav)
-            if k is None:
+            if uav not in self.names and uav not in self.companions:
                 continue
             if typ == "mission":
-                out.append(tm.text(k, SEVERITY.get(name, m.MAV_SEVERITY_INFO), f"{name}: {SHORT.get(name, '')}"))
+                out.append(self._text(uav, SEVERITY.get(name, m.MAV_SEVERITY_INFO), f"{name}: {SHORT.get(name, '')}"))
             elif typ == "uav":
-                for a, b in ((k, other), (self.names.get(other), uav)):
-                    if a is not None:
-                        out.append(tm.text(a, m.MAV_SEVERITY_EMERGENCY, f"collision: with {b}"))
+                for a, b in ((uav, other), (other, uav)):
+                    if a in self.names or a in self.companions:
+                        out.append(self._text(a, m.MAV_SEVERITY_EMERGENCY, f"collision: with {b}"))
                         out.append(self._removal(a, "UAV-UAV collision"))
             elif typ == "zone":
-                out.append(tm.text(k, m.MAV_SEVERITY_EMERGENCY, f"zone_incursion: entered {other}"))
-                out.append(self._removal(k, "zone incursion"))
+                out.append(self._text(uav, m.MAV_SEVERITY_EMERGENCY, f"zone_incursion: entered {other}"))
+                out.append(self._removal(uav, "zone incursion"))
         return out
 
-    def _removal(self, k, why) -> bytes:
-        self.removed[k] = True
-        return self.tm.text(k, m.MAV_SEVERITY_ALERT, f"removed: {why}")
+    def _text(self, uav: str, severity: int, text: str) -> bytes:
+        k = self.names.get(uav)
+        if k is not None:
+            return self.tm.text(k, severity, text)
+        return statustext(self.companions[uav], severity, text)
+
+    def _removal(self, uav, why) -> bytes:
+        if uav in self.names:
+            self.removed[self.names[uav]] = True
+        return self._text(uav, m.MAV_SEVERITY_ALERT, f"removed: {why}")
 
     def _photos(self, cols) -> list[bytes]:
         out = []

@@ -32,6 +32,7 @@ from master.observers import Observer
 from uavsim.strategy import COMMAND_LAND, COMMAND_NONE, COMMAND_RETURN, LAND_CMD, RETURN_CMD, STATE_NAMES
 
 from ..names import MISSION_DETAIL
+from .links import open_link
 from .server import SLOW_HZ, StreamServer, serve, ticks
 
 log = logging.getLogger("cosim_master")
@@ -51,14 +52,25 @@ BATCH, BATCH_S = 64, 0.05
 class Hub:
     """What the observer and the manipulator share: the fleet, the links, the streaming process."""
 
-    def __init__(self, fleet, links, rate: float, relays=()):
+    def __init__(self, fleet, links, rate: float):
         self.fleet, self.links, self.rate = fleet, links, float(rate)
-        self.relays = list(relays)            # the forwarded vehicles' own streams (forward.py)
+        self.relays: list = []                # the forwarded vehicles' own streams (forward.py)
         self.conn = None
         self.pid = None
         self.broken = False
         self.stats: dict = {}
         self.applied: list = []              # (vehicle, command, requester, link index, time) of this step
+
+    def open_relays(self, read) -> None:
+        """Connect to the forwarded vehicles' own streams: after initialisation, when their firmware runs."""
+        try:
+            for f in self.fleet.forwarded:
+                self.relays.append(open_link(f.address(read)))
+                self.relays[-1].quiet = True
+        except BaseException:
+            for link in self.links + self.relays:
+                link.close()
+            raise
 
     def start(self) -> None:
         """Fork the streaming process; from then on it alone holds the links."""
@@ -186,6 +198,11 @@ class VehicleStream(Observer):
         fleet = self.hub.fleet
         fleet.attach(ctx)
         self.events_seen = len(ctx.events)
+
+        def read(qualified):
+            typ, pos = ctx.position(qualified)
+            return ctx.buffer(typ)[pos]
+        self.hub.open_relays(read)
         self.hub.start()
         fleet.read()
         self.hub.send(("start", start, fleet.table.tobytes()))
@@ -232,5 +249,7 @@ class VehicleStream(Observer):
     def finish(self, out_dir, outcome) -> dict:
         hub = self.hub
         hub.stop()
+        forwarded = [{"uav": f.uav, "sysid": f.sysid, "from": ln.url} for f, ln in zip(hub.fleet.forwarded, hub.relays)]
         return {"vehicles": len(hub.fleet.vehicles), "links": [ln.url for ln in hub.links], **hub.stats,
+                **({"forwarded": forwarded} if forwarded else {}),
                 "ticks_dropped": getattr(hub, "dropped", 0), "commands": self.commands}

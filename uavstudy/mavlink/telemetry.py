@@ -110,8 +110,7 @@ class Telemetry:
                                                     0.0, 0.0, 0.0, t_ms * 1000))
 
     def text(self, k: int, severity: int, text: str) -> bytes:
-        enc = self.enc[k]
-        return packed(enc, enc.statustext_encode(severity, text[:50].encode("ascii", "replace")))
+        return statustext(self.enc[k], severity, text)
 
     def reached(self, k: int, seq: int) -> bytes:
         enc = self.enc[k]
@@ -120,3 +119,8 @@ class Telemetry:
 
 def _f(v) -> float:
     return float(v) if v == v else 0.0
+
+
+def statustext(enc, severity: int, text: str) -> bytes:
+    """A STATUSTEXT from ``enc``'s system and component (50 characters at most, as the message holds)."""
+    return packed(enc, enc.statustext_encode(severity, text[:50].encode("ascii", "replace")))
