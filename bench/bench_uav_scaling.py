@@ -129,10 +129,109 @@ def _status_kb(field: str) -> int | None:
     return None
 
 
+def _string_form_beyond_limits() -> None:
+    """Large fleets have more targets than the strategy FMU's indexed parameters hold (64 since the indexed
+    mission encoding): give those the String form (``targets``), which the FMU still reads when
+    ``n_targets`` is not given; the zones stay indexed.  Missions that fit are built as before."""
+    import uavstudy.build as build
+    from uavsim import mission_encoding as M
+    indexed = build._mission_parameters
+
+    def mission(scn, targets, zones):
+        if len(targets) <= M.MAX_TARGETS:
+            return indexed(scn, targets, zones)
+        values = indexed(scn, [], zones)
+        del values["n_targets"]          # not given: the String form is read
+        values["targets"] = build._pts(targets)
+        return values
+    build._mission_parameters = mission
+
+
+class Phases:
+    """Peak RSS per phase of a run: VmHWM is reset (``/proc/self/clear_refs`` 5) when a phase starts and
+    read when it ends; a nested phase folds the peak so far into the phases around it first."""
+
+    def __init__(self):
+        self.open: list[str] = []
+        self.peak: dict[str, int] = {}
+        self.rss_in: dict[str, int] = {}
+        self.rss_out: dict[str, int] = {}
+        self.calls: dict[str, int] = {}
+        self.can_reset = True
+
+    def _fold(self) -> None:
+        h = _status_kb("VmHWM") or 0
+        for name in self.open:
+            self.peak[name] = max(self.peak.get(name, 0), h)
+
+    def _reset(self) -> None:
+        if self.can_reset:
+            try:
+                Path("/proc/self/clear_refs").write_text("5")
+            except OSError:
+                self.can_reset = False
+
+    def enter(self, name: str) -> None:
+        self._fold()
+        self.rss_in.setdefault(name, _status_kb("VmRSS") or 0)
+        self._reset()
+        self.open.append(name)
+
+    def leave(self, name: str) -> None:
+        self._fold()
+        self.open.remove(name)
+        self.rss_out[name] = _status_kb("VmRSS") or 0
+        self.calls[name] = self.calls.get(name, 0) + 1
+
+    def wrap(self, owner, attr: str, name: str) -> None:
+        fn = getattr(owner, attr)
+
+        def wrapped(*a, **kw):
+            self.enter(name)
+            try:
+                return fn(*a, **kw)
+            finally:
+                self.leave(name)
+        setattr(owner, attr, wrapped)
+
+    def table(self) -> list[dict]:
+        return [{"phase": k, "calls": self.calls.get(k, 0), "rss_before_mb": self.rss_in[k] / 1024,
+                 "peak_mb": self.peak.get(k, 0) / 1024, "rss_after_mb": self.rss_out.get(k, 0) / 1024}
+                for k in self.rss_in]
+
+
+# the phases measured (owner module, class, method, name), in the order a run goes through them
+PHASES = (("master.execution", "Execution", "setup", "setup (SSP, plan)"),
+          ("master.runtime", "Runtime", "instantiate", "instantiate FMUs"),
+          ("master.runtime", "Runtime", "initialize", "initialize FMUs"),
+          ("master.execution", "Execution", "_steps", "step loop"),
+          ("master.observers.recording", "Recording", "flush", "recording blocks (flush)"),
+          ("master.sinks.parquet", "ParquetSink", "write", "parquet write"),
+          ("master.sinks.parquet", "ParquetSink", "close", "parquet close"),
+          ("master.observers.recording", "Recording", "finish", "recording finish"),
+          ("uavstudy.outputs", None, "write_outputs", "UAV outputs"),
+          ("master.runtime", "Runtime", "terminate", "terminate FMUs"))
+
+
+def _install_phases(phases: Phases) -> None:
+    import importlib
+    for mod, cls, attr, name in PHASES:
+        m = importlib.import_module(mod)
+        owner = getattr(m, cls) if cls else m
+        phases.wrap(owner, attr, name)
+    import uavstudy.monitor as mon_mod        # imported the function by name
+    import uavstudy.outputs as out_mod
+    mon_mod.write_outputs = out_mod.write_outputs
+
+
 def child(n: int, step: float, stop: float, zones: bool, profile: int, block_rows: int = 0) -> dict:
     """One (N, step) run in this process; returns the measurements (printed as SCALING-RESULT json)."""
     import master.runner as runner
     from master.execution import Execution
+    _string_form_beyond_limits()
+    phases = Phases()
+    phases.enter("whole process")       # the process's peak over everything below (phases reset VmHWM)
+    _install_phases(phases)
     if block_rows:      # experiment: the recording's block length (rows held in memory before a flush)
         from master.observers.recording import Recording
         init = Recording.__init__
@@ -177,7 +276,6 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
             finally:
                 loop["s"] = time.perf_counter() - c
                 loop["rss_end_kb"] = _status_kb("VmRSS")
-                loop["hwm_loop_kb"] = _status_kb("VmHWM")
         Execution._steps = timed_loop
 
     prof = None
@@ -186,6 +284,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         prof = cProfile.Profile()
         prof.enable()
     t = time.perf_counter()
+    rss_run0 = _status_kb("VmRSS")
     res = runner.run(ssp, output=tmp / "out", write_csv=False, raise_on_error=False)
     wall = time.perf_counter() - t
     if prof is not None:
@@ -195,6 +294,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         s = io.StringIO()
         pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(profile)
         print(s.getvalue(), file=sys.stderr)
+    phases.leave("whole process")
     meta = res.metadata
     track_mb = None
     if monitors:        # the monitor's map track: distinct arrays only (idle steps share one)
@@ -205,12 +305,13 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
     out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": 3 * n + 1, "steps": meta.get("steps"),
            "sim_s": meta.get("stop_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
            "loop_s": loop.get("s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
-           "hwm_kb": _status_kb("VmHWM"), "rss_start_kb": loop.get("rss_start_kb"),
-           "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"), "track_mb": track_mb,
+           "hwm_kb": int(phases.peak["whole process"]), "rss_start_kb": loop.get("rss_start_kb"),
+           "rss_end_kb": loop.get("rss_end_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
            "successes": tot.get("uavs_successful"), "uav_collisions": tot.get("uav_collisions"),
            "zone_collisions": tot.get("zone_collisions"), "targets": tot.get("targets_total"),
-           "targets_visited": tot.get("targets_visited")}
+           "targets_visited": tot.get("targets_visited"), "rss_before_run_kb": rss_run0,
+           "phases": phases.table()}
     import shutil
     shutil.rmtree(tmp, ignore_errors=True)
     return out
