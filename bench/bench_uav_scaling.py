@@ -380,6 +380,17 @@ def _row(r: dict, mission: float) -> str:
             f"{mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
 
 
+def phase_table(r: dict) -> str:
+    """Memory per phase of one run (``Phases``): RSS when the phase began, its peak, RSS when it ended."""
+    lines = [f"Memory by phase, N={r['n']}, step {r['step']:g} s (MB; a phase's peak includes what earlier "
+             "phases left):", "", "| phase | calls | RSS before | peak | RSS after | peak - RSS before |",
+             "|---|---|---|---|---|---|"]
+    for p in r["phases"]:
+        lines.append(f"| {p['phase']} | {p['calls']} | {p['rss_before_mb']:.0f} | {p['peak_mb']:.0f} | "
+                     f"{p['rss_after_mb']:.0f} | {p['peak_mb'] - p['rss_before_mb']:+.0f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default=",".join(map(str, SIZES)), help="comma-separated fleet sizes")
@@ -421,6 +432,10 @@ def main(argv=None) -> int:
     total = time.perf_counter() - t_all
     table = "\n".join([HEADER, "|" + "---|" * (HEADER.count("|") - 1)] + rows)
     print(table)
+    largest = max((r for r in results if r.get("phases")), key=lambda r: (r["n"], -r["step"]), default=None)
+    if largest is not None:
+        table += "\n\n" + phase_table(largest)
+        print("\n" + phase_table(largest))
     print(f"(benchmark wall {total:.0f} s; RTF = simulated s / wall s)")
     if not args.no_write:
         _write(table, results, total, zones, args.stop)
