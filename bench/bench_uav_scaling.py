@@ -24,6 +24,15 @@ wrapped), time in the monitor's ``after_step`` (perf_counter around each call), 
 the mission outcome.  The parent prints one table and writes it with the machine description and the raw
 numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
 
+Memory: the child resets its peak RSS (VmHWM, ``/proc/self/clear_refs``) at the start of each phase of
+``PHASES`` (setup, FMU instantiation and initialization, the step loop, each recording flush and Parquet
+write, the recording's finish, the UAV outputs, ...) and reads it at the end, so the table of the largest
+fleet (printed and written after the main table) says which phase reaches the peak and how much each adds.
+
+Fleets with more targets than the strategy FMU's indexed parameters hold (64; 64 UAVs and more here) give
+their strategies the String form of the targets (``_string_form_beyond_limits``), which the FMU reads when
+``n_targets`` is not given; ``uavstudy.build`` refuses such missions since the indexed encoding.
+
 ``--stop-256 S`` runs fleets of 256 and more for S s only and extrapolates their loop time linearly to
 ``--stop`` (start-up and outputs as measured); the table says so.  This is pessimistic: the first part of
 the mission, with the whole fleet airborne, costs the most per step.  ``--block-rows R`` is an experiment
