@@ -311,8 +311,11 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         arrays = {id(a): a.nbytes for a in list(m.track_p) + list(m.track_phase)}
         track_mb = (sum(arrays.values()) + 8 * 3 * len(m.track_t)) / 2 ** 20
     tot = meta.get("monitors", {}).get("org.cosim-master.uav-monitor", {}).get("total", {})
-    out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": 3 * n + 1, "steps": meta.get("steps"),
-           "sim_s": meta.get("stop_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
+    out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": len(meta.get("fmus") or {}) or None,
+           "steps": meta.get("steps_done", meta.get("steps")),
+           # the time simulated: the monitor ends the run once every UAV is down (endWhenAllLanded)
+           "sim_s": meta.get("last_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
+           "ended_early": (meta.get("ended_early") or {}).get("time"),
            "loop_s": loop.get("s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
            "hwm_kb": int(phases.peak["whole process"]), "rss_start_kb": loop.get("rss_start_kb"),
            "rss_end_kb": loop.get("rss_end_kb"), "track_mb": track_mb,
@@ -365,12 +368,13 @@ HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loo
 def _row(r: dict, mission: float) -> str:
     if r.get("error") and r.get("wall_s") is None:
         return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | | {r['error']} |"
-    scale = mission / r["sim_s"] if r["sim_s"] < mission - 1e-9 else 1.0
+    # a run shortened by --stop-256 is extrapolated; one the monitor ended early (fleet down) is not
+    scale = mission / r["stop"] if r["stop"] < mission - 1e-9 and not r.get("ended_early") else 1.0
     wall, loop = r["wall_s"], r["loop_s"]
     ext = ""
     if scale != 1.0:
         # extrapolate the loop linearly to the one-hour mission; start-up and outputs stay as measured
-        ext = f" (measured {r['sim_s']:g} s, extrapolated to {mission:g} s)"
+        ext = f" (measured {r['sim_s']:g} s, extrapolated to {r['sim_s'] * scale:g} s)"
         wall = wall - loop + loop * scale if loop is not None else wall * scale
         loop = loop * scale if loop is not None else None
     sim = r["sim_s"] * scale
