@@ -24,6 +24,15 @@ wrapped), time in the monitor's ``after_step`` (perf_counter around each call), 
 the mission outcome.  The parent prints one table and writes it with the machine description and the raw
 numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
 
+Memory: the child resets its peak RSS (VmHWM, ``/proc/self/clear_refs``) at the start of each phase of
+``PHASES`` (setup, FMU instantiation and initialization, the step loop, each recording flush and Parquet
+write, the recording's finish, the UAV outputs, ...) and reads it at the end, so the table of the largest
+fleet (printed and written after the main table) says which phase reaches the peak and how much each adds.
+
+Fleets with more targets than the strategy FMU's indexed parameters hold (64; 64 UAVs and more here) give
+their strategies the String form of the targets (``_string_form_beyond_limits``), which the FMU reads when
+``n_targets`` is not given; ``uavstudy.build`` refuses such missions since the indexed encoding.
+
 ``--stop-256 S`` runs fleets of 256 and more for S s only and extrapolates their loop time linearly to
 ``--stop`` (start-up and outputs as measured); the table says so.  This is pessimistic: the first part of
 the mission, with the whole fleet airborne, costs the most per step.  ``--block-rows R`` is an experiment
@@ -129,10 +138,109 @@ def _status_kb(field: str) -> int | None:
     return None
 
 
+def _string_form_beyond_limits() -> None:
+    """Large fleets have more targets than the strategy FMU's indexed parameters hold (64 since the indexed
+    mission encoding): give those the String form (``targets``), which the FMU still reads when
+    ``n_targets`` is not given; the zones stay indexed.  Missions that fit are built as before."""
+    import uavstudy.build as build
+    from uavsim import mission_encoding as M
+    indexed = build._mission_parameters
+
+    def mission(scn, targets, zones):
+        if len(targets) <= M.MAX_TARGETS:
+            return indexed(scn, targets, zones)
+        values = indexed(scn, [], zones)
+        del values["n_targets"]          # not given: the String form is read
+        values["targets"] = build._pts(targets)
+        return values
+    build._mission_parameters = mission
+
+
+class Phases:
+    """Peak RSS per phase of a run: VmHWM is reset (``/proc/self/clear_refs`` 5) when a phase starts and
+    read when it ends; a nested phase folds the peak so far into the phases around it first."""
+
+    def __init__(self):
+        self.open: list[str] = []
+        self.peak: dict[str, int] = {}
+        self.rss_in: dict[str, int] = {}
+        self.rss_out: dict[str, int] = {}
+        self.calls: dict[str, int] = {}
+        self.can_reset = True
+
+    def _fold(self) -> None:
+        h = _status_kb("VmHWM") or 0
+        for name in self.open:
+            self.peak[name] = max(self.peak.get(name, 0), h)
+
+    def _reset(self) -> None:
+        if self.can_reset:
+            try:
+                Path("/proc/self/clear_refs").write_text("5")
+            except OSError:
+                self.can_reset = False
+
+    def enter(self, name: str) -> None:
+        self._fold()
+        self.rss_in.setdefault(name, _status_kb("VmRSS") or 0)
+        self._reset()
+        self.open.append(name)
+
+    def leave(self, name: str) -> None:
+        self._fold()
+        self.open.remove(name)
+        self.rss_out[name] = _status_kb("VmRSS") or 0
+        self.calls[name] = self.calls.get(name, 0) + 1
+
+    def wrap(self, owner, attr: str, name: str) -> None:
+        fn = getattr(owner, attr)
+
+        def wrapped(*a, **kw):
+            self.enter(name)
+            try:
+                return fn(*a, **kw)
+            finally:
+                self.leave(name)
+        setattr(owner, attr, wrapped)
+
+    def table(self) -> list[dict]:
+        return [{"phase": k, "calls": self.calls.get(k, 0), "rss_before_mb": self.rss_in[k] / 1024,
+                 "peak_mb": self.peak.get(k, 0) / 1024, "rss_after_mb": self.rss_out.get(k, 0) / 1024}
+                for k in self.rss_in]
+
+
+# the phases measured (owner module, class, method, name), in the order a run goes through them
+PHASES = (("master.execution", "Execution", "setup", "setup (SSP, plan)"),
+          ("master.runtime", "Runtime", "instantiate", "instantiate FMUs"),
+          ("master.runtime", "Runtime", "initialize", "initialize FMUs"),
+          ("master.execution", "Execution", "_steps", "step loop"),
+          ("master.observers.recording", "Recording", "flush", "recording blocks (flush)"),
+          ("master.sinks.parquet", "ParquetSink", "write", "parquet write"),
+          ("master.sinks.parquet", "ParquetSink", "close", "parquet close"),
+          ("master.observers.recording", "Recording", "finish", "recording finish"),
+          ("uavstudy.outputs", None, "write_outputs", "UAV outputs"),
+          ("master.runtime", "Runtime", "terminate", "terminate FMUs"))
+
+
+def _install_phases(phases: Phases) -> None:
+    import importlib
+    for mod, cls, attr, name in PHASES:
+        m = importlib.import_module(mod)
+        owner = getattr(m, cls) if cls else m
+        phases.wrap(owner, attr, name)
+    import uavstudy.monitor as mon_mod        # imported the function by name
+    import uavstudy.outputs as out_mod
+    mon_mod.write_outputs = out_mod.write_outputs
+
+
 def child(n: int, step: float, stop: float, zones: bool, profile: int, block_rows: int = 0) -> dict:
     """One (N, step) run in this process; returns the measurements (printed as SCALING-RESULT json)."""
     import master.runner as runner
     from master.execution import Execution
+    _string_form_beyond_limits()
+    phases = Phases()
+    phases.enter("whole process")       # the process's peak over everything below (phases reset VmHWM)
+    _install_phases(phases)
     if block_rows:      # experiment: the recording's block length (rows held in memory before a flush)
         from master.observers.recording import Recording
         init = Recording.__init__
@@ -177,7 +285,6 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
             finally:
                 loop["s"] = time.perf_counter() - c
                 loop["rss_end_kb"] = _status_kb("VmRSS")
-                loop["hwm_loop_kb"] = _status_kb("VmHWM")
         Execution._steps = timed_loop
 
     prof = None
@@ -186,6 +293,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         prof = cProfile.Profile()
         prof.enable()
     t = time.perf_counter()
+    rss_run0 = _status_kb("VmRSS")
     res = runner.run(ssp, output=tmp / "out", write_csv=False, raise_on_error=False)
     wall = time.perf_counter() - t
     if prof is not None:
@@ -195,6 +303,7 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         s = io.StringIO()
         pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(profile)
         print(s.getvalue(), file=sys.stderr)
+    phases.leave("whole process")
     meta = res.metadata
     track_mb = None
     if monitors:        # the monitor's map track: distinct arrays only (idle steps share one)
@@ -202,15 +311,19 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         arrays = {id(a): a.nbytes for a in list(m.track_p) + list(m.track_phase)}
         track_mb = (sum(arrays.values()) + 8 * 3 * len(m.track_t)) / 2 ** 20
     tot = meta.get("monitors", {}).get("org.cosim-master.uav-monitor", {}).get("total", {})
-    out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": 3 * n + 1, "steps": meta.get("steps"),
-           "sim_s": meta.get("stop_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
+    out = {"n": n, "step": step, "stop": stop, "zones": zones, "fmus": len(meta.get("fmus") or {}) or None,
+           "steps": meta.get("steps_done", meta.get("steps")),
+           # the time simulated: the monitor ends the run once every UAV is down (endWhenAllLanded)
+           "sim_s": meta.get("last_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
+           "ended_early": (meta.get("ended_early") or {}).get("time"),
            "loop_s": loop.get("s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
-           "hwm_kb": _status_kb("VmHWM"), "rss_start_kb": loop.get("rss_start_kb"),
-           "rss_end_kb": loop.get("rss_end_kb"), "hwm_loop_kb": loop.get("hwm_loop_kb"), "track_mb": track_mb,
+           "hwm_kb": int(phases.peak["whole process"]), "rss_start_kb": loop.get("rss_start_kb"),
+           "rss_end_kb": loop.get("rss_end_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
            "successes": tot.get("uavs_successful"), "uav_collisions": tot.get("uav_collisions"),
            "zone_collisions": tot.get("zone_collisions"), "targets": tot.get("targets_total"),
-           "targets_visited": tot.get("targets_visited")}
+           "targets_visited": tot.get("targets_visited"), "rss_before_run_kb": rss_run0,
+           "phases": phases.table()}
     import shutil
     shutil.rmtree(tmp, ignore_errors=True)
     return out
@@ -255,12 +368,13 @@ HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loo
 def _row(r: dict, mission: float) -> str:
     if r.get("error") and r.get("wall_s") is None:
         return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | | {r['error']} |"
-    scale = mission / r["sim_s"] if r["sim_s"] < mission - 1e-9 else 1.0
+    # a run shortened by --stop-256 is extrapolated; one the monitor ended early (fleet down) is not
+    scale = mission / r["stop"] if r["stop"] < mission - 1e-9 and not r.get("ended_early") else 1.0
     wall, loop = r["wall_s"], r["loop_s"]
     ext = ""
     if scale != 1.0:
         # extrapolate the loop linearly to the one-hour mission; start-up and outputs stay as measured
-        ext = f" (measured {r['sim_s']:g} s, extrapolated to {mission:g} s)"
+        ext = f" (measured {r['sim_s']:g} s, extrapolated to {r['sim_s'] * scale:g} s)"
         wall = wall - loop + loop * scale if loop is not None else wall * scale
         loop = loop * scale if loop is not None else None
     sim = r["sim_s"] * scale
@@ -277,6 +391,17 @@ def _row(r: dict, mission: float) -> str:
             f"{sim / wall:.0f}x | {loop:.1f} | {sim / loop:.0f}x | {r['hwm_kb'] / 1024:.0f} | "
             f"{'' if growth is None else f'{growth:.0f}'} | {track} | "
             f"{mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
+
+
+def phase_table(r: dict) -> str:
+    """Memory per phase of one run (``Phases``): RSS when the phase began, its peak, RSS when it ended."""
+    lines = [f"Memory by phase, N={r['n']}, step {r['step']:g} s (MB; a phase's peak includes what earlier "
+             "phases left):", "", "| phase | calls | RSS before | peak | RSS after | peak - RSS before |",
+             "|---|---|---|---|---|---|"]
+    for p in r["phases"]:
+        lines.append(f"| {p['phase']} | {p['calls']} | {p['rss_before_mb']:.0f} | {p['peak_mb']:.0f} | "
+                     f"{p['rss_after_mb']:.0f} | {p['peak_mb'] - p['rss_before_mb']:+.0f} |")
+    return "\n".join(lines)
 
 
 def main(argv=None) -> int:
@@ -320,6 +445,10 @@ def main(argv=None) -> int:
     total = time.perf_counter() - t_all
     table = "\n".join([HEADER, "|" + "---|" * (HEADER.count("|") - 1)] + rows)
     print(table)
+    largest = max((r for r in results if r.get("phases")), key=lambda r: (r["n"], -r["step"]), default=None)
+    if largest is not None:
+        table += "\n\n" + phase_table(largest)
+        print("\n" + phase_table(largest))
     print(f"(benchmark wall {total:.0f} s; RTF = simulated s / wall s)")
     if not args.no_write:
         _write(table, results, total, zones, args.stop)

@@ -65,8 +65,61 @@ def result_columns(out_dir) -> list[str]:
 
 def read_results(out_dir, columns: list[str] | None = None):
     """The recorded series of a run folder as a pandas DataFrame (all columns, or those named)."""
+    return read_parquet_frame(Path(out_dir) / PARQUET, columns)
+
+
+READ_COLUMNS = 256
+
+
+def read_parquet_frame(path, columns: list[str] | None = None):
+    """A Parquet file as a pandas DataFrame, equal to ``pandas.read_parquet``'s, in a fraction of its memory
+    for wide files: the fixed-width columns (numbers, booleans) without nulls are copied row group by row
+    group into one preallocated array per type, which the frame then holds as it is; pyarrow's own
+    conversion of a whole table needs several times the frame (measured, 3601 rows x 8000 doubles = 230 MB:
+    0.9 GB in one row group, 2.7 GB in 512-row groups; this way 0.4 GB either way)."""
+    import numpy as np
     import pandas as pd
-    return pd.read_parquet(Path(out_dir) / PARQUET, columns=columns)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    pf = pq.ParquetFile(str(path))
+    schema = pf.schema_arrow
+    names = list(schema.names) if columns is None else list(columns)
+    meta = pf.metadata
+    plain = (meta.num_rows > 0 and names and not (schema.metadata and b"pandas" in schema.metadata)
+             and len(set(schema.names)) == len(schema.names) and len(set(names)) == len(names)
+             and set(names) <= set(schema.names))
+    if not plain:       # pandas' index metadata, duplicate or unknown names (its own error), nothing to read
+        return pd.read_parquet(path, columns=columns)
+    by_dtype: dict = {}
+    rest = []
+    for n in names:
+        typ = schema.field(n).type
+        if pa.types.is_integer(typ) or pa.types.is_boolean(typ) or typ in (pa.float32(), pa.float64()):
+            by_dtype.setdefault(np.dtype(typ.to_pandas_dtype()), []).append(n)
+        else:
+            rest.append(n)
+    rows = meta.num_rows
+    arrays = {dt: np.empty((rows, len(cols)), dtype=dt, order="F") for dt, cols in by_dtype.items()}
+    r = 0
+    # a few hundred columns of one row group at a time: the reader's buffers grow with both
+    where = [(arrays[dt], j, n) for dt, cols in by_dtype.items() for j, n in enumerate(cols)]
+    for g in range(meta.num_row_groups):
+        m = meta.row_group(g).num_rows
+        for a in range(0, len(where), READ_COLUMNS):
+            part = where[a:a + READ_COLUMNS]
+            t = pf.read_row_group(g, columns=[n for _, _, n in part], use_threads=False)
+            for (out, j, n), col in zip(part, t.columns):
+                if col.null_count:      # pandas would make it float or object: leave the file to pyarrow
+                    return pd.read_parquet(path, columns=columns)
+                out[r:r + m, j] = col.to_numpy()
+            del t
+        r += m
+    # copy=False: the frame holds the filled arrays (pandas copies a 2D array by default)
+    parts = [pd.DataFrame(arrays[dt], columns=cols, copy=False) for dt, cols in by_dtype.items()]
+    if rest:
+        parts.append(pq.read_table(str(path), columns=rest, use_threads=False).to_pandas())
+    frame = pd.concat(parts, axis=1) if len(parts) != 1 else parts[0]
+    return frame[names]
 
 
 def final_values(out_dir) -> dict:

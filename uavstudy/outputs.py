@@ -295,6 +295,7 @@ def trajectory_frame(mon, df):
     if not parts:
         return pd.DataFrame(columns=cols)
     out = pd.concat(parts, ignore_index=True)
+    parts.clear()       # a large fleet's pieces are as large as the table: gone before the sort copies it
     if not out["photo_count"].isna().all():
         out["photo_count"] = out["photo_count"].astype("Int64")
     # names, as events.csv and summary.json give them, rather than the FMUs' integer codes
@@ -635,6 +636,7 @@ def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict
         photos_frame(mon, df).to_csv(out_dir / "photos.csv", index=False)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"photos.csv: {type(exc).__name__}: {exc}")
+    df = None       # the recorded columns are not needed further (a large fleet's are tens of MB)
     try:
         summary_frame(uavs, total).to_csv(out_dir / "summary.csv", index=False)
     except Exception as exc:   # noqa: BLE001

@@ -88,6 +88,23 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
+# A block (and so a Parquet row group) holds at most MAX_BLOCK_ROWS rows and about BLOCK_BYTES of cells: a
+# narrow table gets long row groups (few, cheap to read), a wide one short blocks, so that the block, its
+# Arrow copy and the writer's buffers stay a few tens of MB whatever the fleet (a fixed 4096 rows of a 256-UAV
+# fleet's ~5700 columns was 190 MB, held three times over at a flush).  Reading many short row groups back
+# is no dearer with ``master.results.read_results``, which fills one array per type group by group.
+BLOCK_BYTES = 16 << 20
+MAX_BLOCK_ROWS = 4096
+MIN_BLOCK_ROWS = 16
+
+
+def block_rows_for(columns: int, budget: int | None = None) -> int:
+    """Rows per block for a table of ``columns`` 8-byte cells (time included) within ``budget`` bytes
+    (default ``BLOCK_BYTES``)."""
+    budget = BLOCK_BYTES if budget is None else budget
+    return max(MIN_BLOCK_ROWS, min(MAX_BLOCK_ROWS, budget // (8 * max(1, columns))))
+
+
 class Recording(Observer):
     """Samples at the start, every ``every`` steps, at the last step and when the run ends early."""
     name = "recording"
@@ -99,10 +116,7 @@ class Recording(Observer):
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self.every = every
         self.steps = steps
-        # Blocks of 4096 rows whatever the width: a wide table (a 256-UAV fleet records ~8000 columns) cut
-        # into short row groups costs far more memory when read back (measured: 128-row groups of 8000
-        # columns, 9 GB to read one hour) than the block itself (4096 x 8000 x 8 B = 260 MB).
-        self.block_rows = block_rows or 4096
+        self.block_rows = block_rows or block_rows_for(1 + len(variables))
         self.group = SinkGroup(sinks, self.out_dir)
         self.schema = pa.schema([pa.field("time", pa.float64())] +
                                 [pa.field(v.qualified, arrow_type(v)) for v in variables])
@@ -184,6 +198,8 @@ class Recording(Observer):
             self.flush()
         finally:
             self.group.close()
+            # the block is not needed any more; monitors read the results back after this (UAV outputs)
+            self.block = None
         info = {"rows": self.rows_written}
         if self.group.notes:
             info["notes"] = self.group.notes

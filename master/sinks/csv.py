@@ -14,6 +14,22 @@ def csv_quote(s: str) -> str:
     return s
 
 
+CSV_CELLS = 1 << 16         # cells turned into text at a time
+
+
+def _format(typ):
+    """The function that turns a column's values into CSV text."""
+    if pa.types.is_floating(typ):
+        return lambda vals: [repr(float(x)) for x in vals]
+    if pa.types.is_boolean(typ):
+        return lambda vals: ["true" if x else "false" for x in vals]
+    if pa.types.is_string(typ):
+        return lambda vals: [csv_quote(str(x)) for x in vals]
+    if pa.types.is_binary(typ):
+        return lambda vals: [x.hex() for x in vals]
+    return lambda vals: [str(int(x)) for x in vals]
+
+
 @SINKS.register("csv")
 class CsvSink(Sink):
     file_name = "results.csv"
@@ -25,21 +41,13 @@ class CsvSink(Sink):
         self._fh.write(",".join(csv_quote(c) for c in schema.names) + "\n")
 
     def write(self, block):
-        cols = []
-        for col in block.columns:
-            typ = col.type
-            vals = col.to_numpy(zero_copy_only=False)
-            if pa.types.is_floating(typ):
-                cols.append([repr(float(x)) for x in vals])
-            elif pa.types.is_boolean(typ):
-                cols.append(["true" if x else "false" for x in vals])
-            elif pa.types.is_string(typ):
-                cols.append([csv_quote(str(x)) for x in vals])
-            elif pa.types.is_binary(typ):
-                cols.append([x.hex() for x in vals])
-            else:
-                cols.append([str(int(x)) for x in vals])
-        self._fh.write("".join(",".join(r) + "\n" for r in zip(*cols)))
+        formats = [(_format(col.type), col.to_numpy(zero_copy_only=False)) for col in block.columns]
+        # a slice of rows at a time: every cell becomes a Python string first, ~60 bytes each, so a whole
+        # block of a wide table (thousands of columns) at once would cost many times the block
+        step = max(1, CSV_CELLS // max(1, len(formats)))
+        for start in range(0, block.num_rows, step):
+            cols = [fmt(vals[start:start + step]) for fmt, vals in formats]
+            self._fh.write("".join(",".join(r) + "\n" for r in zip(*cols)))
         self._fh.flush()
 
     def mark(self):
