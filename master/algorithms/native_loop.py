@@ -159,6 +159,8 @@ def why_not(ex) -> str | None:
     # feeds_inputs: extrapolated (globally or per output) or interpolated inputs, a step the C loop does not know
     if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.feeds_inputs:
         return f"the {ex.algorithm.name} algorithm's step is not a fixed sequence of FMI calls"
+    if ex.algorithm.threads > 1:
+        return "threads: the doSteps run concurrently in Python threads"
     rt = ex.rt
     for i, slave in enumerate(rt.slaves):
         if rt.active[i]:
