@@ -20,7 +20,7 @@ The pool is made on the first step, in the process that steps (after a superviso
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 
 class StepPool:
@@ -40,6 +40,10 @@ class StepPool:
             first = (tasks[0](t), None)
         except Exception as exc:        # reported after the join, in component order
             first = (None, exc)
+        finally:
+            # also on Ctrl-C in this thread's own task: the others finish their doStep before the run closes
+            # the instances they are using
+            wait(futures)
         out = [first]
         for f in futures:
             exc = f.exception()         # waits
