@@ -103,8 +103,8 @@ def main(argv=None) -> int:
         share = {"firmware": fw, "physics": t["physics"], "adapter": t["step"] - fw - t["physics"],
                  "master": loop - t["step"]}
         print(f"| {r['n']} | {r['threads']} | {r['ready_sim_s']:.1f} / {r['init_s']:.1f} / {r['rtf_ready']:.1f}x | "
-              f"{r['sim_s']:.0f} | {loop:.1f} | {r['rtf']:.1f}x | " + " | ".join(f"{100 * share[k] / loop:.0f} %" for k in
-                                                             ("firmware", "physics", "adapter")) + " | "
+              f"{r['sim_s']:.0f} | {loop:.1f} | {r['rtf']:.1f}x | "
+              + " | ".join(f"{100 * share[k] / loop:.0f} %" for k in ("firmware", "physics", "adapter")) + " | "
               # concurrent steps: the UAVs' times overlap, so the loop minus their sum means nothing
               + (f"{100 * share['master'] / loop:.0f} %" if r["threads"] == 1 else "-") + " |")
     return 0
