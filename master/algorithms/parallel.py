@@ -2,7 +2,7 @@
 
 Under Jacobi no component reads a value produced in the same step, so the components' doSteps are independent:
 each component's transfers, input setters and doStep run as one task, ``threads`` at a time (the stepping
-thread takes the first task itself), and the step joins all tasks before it reads any output. The outputs are
+thread runs its share of the tasks itself), and the step joins all tasks before it reads any output. The outputs are
 then read, and staged outputs published, in component order on the stepping thread, exactly as the sequential
 step does, so the results are bit-identical to ``threads=1``.
 
@@ -31,29 +31,36 @@ class StepPool:
         self._pool = None
 
     def map_ordered(self, tasks, t):
-        """Run ``task(t)`` for every task, the first on this thread; returns each one's (result, exception),
-        in task order, once all have finished."""
+        """Run ``task(t)`` for every task; returns each one's (result, exception), in task order, once all
+        have finished. Task k runs on thread k mod ``threads`` (thread 0 is this one), so that every thread
+        has its share when there are more tasks than threads."""
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=self.threads - 1, thread_name_prefix="cosim-step")
-        futures = [self._pool.submit(task, t) for task in tasks[1:]]
+        n = self.threads
+        futures = [self._pool.submit(_run_all, tasks[g::n], t) for g in range(1, min(n, len(tasks)))]
         try:
-            first = (tasks[0](t), None)
-        except Exception as exc:        # reported after the join, in component order
-            first = (None, exc)
+            mine = _run_all(tasks[0::n], t)
         finally:
-            # also on Ctrl-C in this thread's own task: the others finish their doStep before the run closes
+            # also on Ctrl-C in this thread's own tasks: the others finish their doSteps before the run closes
             # the instances they are using
             wait(futures)
-        out = [first]
-        for f in futures:
-            exc = f.exception()         # waits
-            out.append((None, exc) if exc is not None else (f.result(), None))
-        return out
+        groups = [mine] + [f.result() for f in futures]
+        return [groups[k % n][k // n] for k in range(len(tasks))]
 
     def close(self):
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None
+
+
+def _run_all(tasks, t):
+    out = []
+    for task in tasks:
+        try:
+            out.append((task(t), None))
+        except Exception as exc:        # reported after the join, in component order
+            out.append((None, exc))
+    return out
 
 
 def compile_parallel_step(rt, order: list[int], h: float, pool: StepPool):
