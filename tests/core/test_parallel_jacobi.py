@@ -166,3 +166,18 @@ def test_bad_threads_on_the_command_line_is_one_line(tmp_path, test_fmus):
                               "0"], capture_output=True, text=True, timeout=120)
     lines = [ln for ln in r.stderr.strip().splitlines() if ln.startswith("cosim-master:")]
     assert r.returncode != 0 and len(lines) == 1 and "--threads" in lines[0] and "Traceback" not in r.stderr
+
+
+def test_threads_from_the_ssd_settings_annotation(tmp_path, test_fmus):
+    b = SspBuilder("osc", stop=0.5, step=0.05, algorithm_options={"threads": 2})
+    b.add_component("A", test_fmus["c2:MassA"], params={"x0": 1.0})
+    b.add_component("B", test_fmus["c2:MassB"])
+    b.connect("A", "x", "B", "x_in")
+    b.connect("B", "F", "A", "F")
+    res = master.run(b.write(tmp_path / "osc_ssd.ssp"), output=tmp_path / "o")
+    meta = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert meta["settings_sources"]["threads"] == "SSD settings annotation"
+    assert meta["algorithm_options"]["threads"] == 2 and res.metadata["algorithm_info"]["threads"] == 2
+    # the command line wins over the SSD
+    seq = master.run(tmp_path / "osc_ssd.ssp", output=None, threads=1)
+    assert "threads" not in seq.metadata["algorithm_info"] and seq.frame.equals(res.frame)
