@@ -4,6 +4,10 @@ Usage::
 
     ARDUPILOT_SITL=../shared/sitl/arducopter python bench/bench_sitl.py            # 1 and 4 UAVs
     python bench/bench_sitl.py --sizes 1 --stop 60 --kernel python                 # the physics' Python twin
+    python bench/bench_sitl.py --sizes 1,4 --threads 1,4                            # concurrent doSteps
+
+Each size runs with each ``--threads`` value (the master's ``threads`` setting, capped at the number of UAVs:
+the doSteps of one master step run concurrently, docs/coupling.md).
 
 For N UAVs: a scenario of N SITL UAVs (lock-step, strategy B), each with one target 60 m out in its own
 direction and a 10 m takeoff, run in this process with ``master.execution.Execution`` (results written to a
@@ -11,7 +15,9 @@ temporary folder).  Measured with perf_counter: the initialisation (SITL start a
 time each, before t = 0), the step loop, and per UAV inside its FMU: time waiting for the firmware's next servo
 frame (``LockstepPhysics.timing['wait']``: the firmware runs), the physics kernel and its socket calls
 (``physics`` + ``io``), and the rest of the adapter (MAVLink, set-points: ``step`` minus those).  The master's
-share is the loop time minus the FMUs' steps.  RTF = simulated seconds / wall seconds.  One table is printed.
+share is the loop time minus the FMUs' steps (not shown with threads > 1: the UAVs' steps overlap, and the
+firmware/physics/adapter shares, summed over the UAVs, may then exceed 100 %).  RTF = simulated seconds / wall
+seconds.  One table is printed.
 """
 from __future__ import annotations
 
@@ -40,11 +46,11 @@ def scenario(n: int, stop: float, out: Path) -> Path:
     return build_ssp(scn, out / f"bench_sitl_{n}.ssp")
 
 
-def measure(n: int, stop: float) -> dict:
+def measure(n: int, stop: float, threads: int = 1) -> dict:
     from master.execution import Execution
     with tempfile.TemporaryDirectory(prefix="bench_sitl_") as tmp:
         ssp = scenario(n, stop, Path(tmp))
-        ex = Execution(ssp, output=Path(tmp) / "out", write_csv=False)
+        ex = Execution(ssp, output=Path(tmp) / "out", write_csv=False, threads=threads)
         w0 = time.perf_counter()
         ex.initialize()
         w1 = time.perf_counter()
@@ -66,8 +72,8 @@ def measure(n: int, stop: float) -> dict:
             ex.close("completed")
     loop = w2 - w1
     # the get-ready part of the firmware/physics timings happened in initialize(): only the loop's are shown
-    return {"n": n, "init_s": w1 - w0, "ready_sim_s": sum(ready) / len(ready), "loop_s": loop, "sim_s": sim,
-            "rtf": sim / loop, "rtf_ready": (sum(ready) / len(ready)) / (w1 - w0), "tot": tot}
+    return {"n": n, "threads": threads, "init_s": w1 - w0, "ready_sim_s": sum(ready) / len(ready), "loop_s": loop,
+            "sim_s": sim, "rtf": sim / loop, "rtf_ready": (sum(ready) / len(ready)) / (w1 - w0), "tot": tot}
 
 
 def main(argv=None) -> int:
@@ -75,26 +81,32 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="1,4")
     ap.add_argument("--stop", type=float, default=60.0, help="mission seconds simulated after get-ready")
     ap.add_argument("--kernel", choices=("compiled", "python"), default="compiled")
+    ap.add_argument("--threads", default="1", help="comma-separated thread counts (each capped at the UAVs)")
     a = ap.parse_args(argv)
     if a.kernel == "python":
         os.environ["SITLSIM_PURE_PYTHON"] = "1"
     if not os.environ.get("ARDUPILOT_SITL"):
         os.environ["ARDUPILOT_SITL"] = str(REPO.parent / "shared" / "sitl" / "arducopter")
     sys.path.insert(0, str(REPO / "fmu_sources"))
-    rows = [measure(int(n), a.stop) for n in a.sizes.split(",")]
+    rows = []
+    for n in map(int, a.sizes.split(",")):
+        for th in sorted({min(int(x), n) for x in a.threads.split(",")}):
+            rows.append(measure(n, a.stop, th))
     print(f"# SITL lock-step, {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"load {os.getloadavg()[0]:.1f}, kernel {a.kernel}")
-    print("| UAVs | get-ready (sim s / wall s / RTF) | mission sim s | loop wall s | RTF | firmware | physics | "
-          "adapter | master |")
-    print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| UAVs | threads | get-ready (sim s / wall s / RTF) | mission sim s | loop wall s | RTF | firmware | "
+          "physics | adapter | master |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         t, loop = r["tot"], r["loop_s"]
         fw = t["wait"]
         share = {"firmware": fw, "physics": t["physics"], "adapter": t["step"] - fw - t["physics"],
                  "master": loop - t["step"]}
-        print(f"| {r['n']} | {r['ready_sim_s']:.1f} / {r['init_s']:.1f} / {r['rtf_ready']:.1f}x | {r['sim_s']:.0f} | "
-              f"{loop:.1f} | {r['rtf']:.1f}x | " + " | ".join(f"{100 * share[k] / loop:.0f} %" for k in
-                                                             ("firmware", "physics", "adapter", "master")) + " |")
+        print(f"| {r['n']} | {r['threads']} | {r['ready_sim_s']:.1f} / {r['init_s']:.1f} / {r['rtf_ready']:.1f}x | "
+              f"{r['sim_s']:.0f} | {loop:.1f} | {r['rtf']:.1f}x | "
+              + " | ".join(f"{100 * share[k] / loop:.0f} %" for k in ("firmware", "physics", "adapter")) + " | "
+              # concurrent steps: the UAVs' times overlap, so the loop minus their sum means nothing
+              + (f"{100 * share['master'] / loop:.0f} %" if r["threads"] == 1 else "-") + " |")
     return 0
 
 

@@ -89,6 +89,9 @@ ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
     AlgorithmOption("error_estimate", "choice", None, "adaptive: local error from the extrapolated vs computed "
                     "coupled values (default: extrapolation) or from step doubling (docs/coupling.md)",
                     choices=("extrapolation", "doubling")),
+    AlgorithmOption("threads", "int", 1, "jacobi: threads that run the doSteps of a master step concurrently "
+                    "(1: one after another; only doSteps that release the GIL overlap: native FMUs, the SITL "
+                    "vehicle; results bit-identical; docs/coupling.md)", minimum=1),
 )}
 
 

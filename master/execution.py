@@ -93,6 +93,7 @@ class Options:
     max_step: float | None = None                     # adaptive, ecco: largest step (s; at most the master step)
     initial_step: float | None = None                 # adaptive, ecco: first step (s)
     error_estimate: str | None = None                 # adaptive: "extrapolation" (default) or "doubling"
+    threads: int | None = None                        # jacobi: doSteps of a step run concurrently (parallel.py)
     extrapolation_for: dict | None = None             # "component.output" -> its own order (jacobi, gauss-seidel)
     options_source: str = "command line"              # what run.json names as the source of the settings given
     mavlink: list[str] | None = None                  # live stream to these MAVLink addresses (master/live.py)

@@ -208,10 +208,11 @@ C_MODELS: dict[str, CModel] = {
     "Faulty": CModel(
         name="Faulty",
         description="y = time; the first doStep with t + h > fail_time fails according to mode "
-        "(0 none, 1 error, 2 discard, 3 abort())",
+        "(0 none, 1 error, 2 discard, 3 abort(), 4 segfault, 5 hang, 6 sleep 20 ms and log when)",
         variables=[
             _param("fail_time", 0.5, "the first step ending after this time fails"),
-            _param("mode", 1, "0 no failure, 1 error, 2 discard, 3 crash (abort)", typ="Integer"),
+            _param("mode", 1, "0 no failure, 1 error, 2 discard, 3 crash (abort), 4 segfault, 5 hang, 6 sleep",
+                   typ="Integer"),
             _output("y", "simulation time"),
         ],
         output_deps={"y": []},

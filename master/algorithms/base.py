@@ -37,6 +37,8 @@ class Algorithm:
     honours_interpolation = False   # inputs produced earlier in the same step interpolated (gs_interpolation.py)
     extrapolation_for: dict = {}    # output name -> order, overriding ``extrapolation`` (per_output_orders)
     interpolation = 0               # Gauss-Seidel: samples besides the new one that known inputs are interpolated with
+    honours_threads = False         # the doSteps of a step are independent and may run concurrently (parallel.py)
+    threads = 1
     # what an algebraic loop means under this algorithm, completing "initialization iterates it until the values
     # settle; ..." in ``inspect`` (each algorithm knows best how it treats a loop)
     loop_treatment = "every input is read from the previous step, so the loop only delays values by a step"
@@ -59,6 +61,12 @@ class Algorithm:
         if self.interpolation and not self.honours_interpolation:
             raise CosimError(f"applies to gauss-seidel only, not to {self.name}",
                              element="--gs-interpolation")
+        self.threads = int(getattr(options, "threads", 1) or 1)
+        if self.threads < 1:
+            raise CosimError(f"must be at least 1, got {self.threads}", element="--threads")
+        if self.threads > 1 and not self.honours_threads:
+            raise CosimError(f"applies to jacobi only (its doSteps within a step are independent), not to "
+                             f"{self.name}", element="--threads")
 
     @property
     def feeds_inputs(self) -> bool:
@@ -76,6 +84,10 @@ class Algorithm:
             self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation, self.extrapolation_for,
                                                     keep=self.interpolation)
             self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
+        if self.threads > 1:
+            from .parallel import StepPool
+            self._pool = StepPool(self.threads)
+            self.info = {**self.info, "threads": self.threads}
         self._build()
         return self.info
 
@@ -93,6 +105,9 @@ class Algorithm:
         return step
 
     def _sweep(self, h: float):
+        if self.threads > 1:
+            from .parallel import compile_parallel_step
+            return compile_parallel_step(self.rt, self.order, h, self._pool)
         from .compiled import compile_step
         return compile_step(self.rt, self.order, h, self.gauss_seidel)
 
@@ -111,4 +126,6 @@ class Algorithm:
     def finish(self, out_dir) -> dict:
         """Called once when the run closes (also after a failure): files of its own in ``out_dir`` (None: the
         run keeps its results in memory); returns facts to add to run.json's ``algorithm_info``."""
+        if self.threads > 1:
+            self._pool.close()
         return {}

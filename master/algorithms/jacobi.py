@@ -9,4 +9,5 @@ from .base import Algorithm
 class Jacobi(Algorithm):
     name = "jacobi"
     gauss_seidel = False
+    honours_threads = True
     loop_treatment = "jacobi reads every input from the previous step, so the loop only delays values by a step"

@@ -155,6 +155,8 @@ def why_not(ex) -> str | None:
         return f"the recording ({type(rec).__name__}) looks at every step"
     if rec.str_ or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
+    if ex.algorithm.threads > 1:
+        return "threads: the doSteps run concurrently in Python threads"
     alg = type(ex.algorithm)
     # feeds_inputs: extrapolated (globally or per output) or interpolated inputs, a step the C loop does not know
     if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.feeds_inputs:

@@ -8,15 +8,19 @@
  *   3 -> logs a fatal message and crashes the process with abort()
  *   4 -> crashes the process with a segmentation fault (write through a null pointer)
  *   5 -> hangs (never returns from doStep)
+ *   6 -> never fails, but every such doStep sleeps 20 ms and logs (at OK) the monotonic clock at its start
+ *        and end: "sleep <start> <end>", so that a test can see which doSteps overlapped in time
  */
+#define _POSIX_C_SOURCE 200809L
 #include <stdlib.h>
+#include <time.h>
 
 #include "model_api.h"
 
 int model_initialize(ModelData *d)
 {
-    if (d->i[VR_mode] < 0 || d->i[VR_mode] > 5) {
-        fw_log(d, M_ERROR, "logStatusError", "Faulty: mode must be 0..5 (got %d)", d->i[VR_mode]);
+    if (d->i[VR_mode] < 0 || d->i[VR_mode] > 6) {
+        fw_log(d, M_ERROR, "logStatusError", "Faulty: mode must be 0..6 (got %d)", d->i[VR_mode]);
         return M_ERROR;
     }
     return M_OK;
@@ -49,6 +53,14 @@ int model_do_step(ModelData *d, double t, double h)
             for (;;) {
                 /* a model stuck in an endless iteration */
             }
+        case 6: {
+            struct timespec a, b, nap = {0, 20000000};
+            clock_gettime(CLOCK_MONOTONIC, &a);
+            nanosleep(&nap, NULL);
+            clock_gettime(CLOCK_MONOTONIC, &b);
+            fw_log(d, M_OK, "logAll", "sleep %.9f %.9f", a.tv_sec + 1e-9 * a.tv_nsec, b.tv_sec + 1e-9 * b.tv_nsec);
+            break;
+        }
         default:
             break;
         }
