@@ -197,6 +197,16 @@ def _show_warnings() -> None:
         log.propagate = False
 
 
+def entry() -> int:
+    """The program (console script, ``python -m master.cli``): ``main``, then late interrupts ignored."""
+    try:
+        return main()
+    finally:
+        # the exit code is decided: a Ctrl-C while the interpreter shuts down would turn it into a death by signal
+        import signal
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     _show_warnings()
@@ -308,4 +318,4 @@ def _dispatch(args) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(entry())

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from . import __version__, interrupts
 from .algorithms import get_algorithm
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order
 from .errors import CosimError, ScenarioError
@@ -411,10 +411,14 @@ class Execution:
     # -- the end ------------------------------------------------------------------------------------------
     def close(self, outcome: str | None = None, error: CosimError | None = None) -> dict:
         """Terminate and free the FMUs, finish the observers, write run.json; returns the metadata. Safe to
-        call at any point and more than once."""
-        meta = self.metadata
+        call at any point and more than once. Ctrl-C and SIGTERM wait until the files are whole."""
         if self.closed:
-            return meta
+            return self.metadata
+        with interrupts.deferred():
+            return self._close(outcome, error)
+
+    def _close(self, outcome: str | None, error: CosimError | None) -> dict:
+        meta = self.metadata
         self.closed = True
         if outcome is not None:
             meta["outcome"] = outcome

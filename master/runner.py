@@ -46,6 +46,8 @@ def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(),
         error = exc
         ex.close("error", exc)
     except KeyboardInterrupt as exc:
+        if ex.closed and ex.metadata.get("outcome") == "completed":
+            raise           # it came after the run was complete and written: nothing to close, the caller decides
         why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
         error = CosimError(why, time=ex.metadata.get("last_time"))
         ex.close("interrupted", error)

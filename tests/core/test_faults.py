@@ -133,7 +133,7 @@ def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmu
         deadline = time.monotonic() + 60
         while not out.is_dir() and p.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
-        time.sleep(rnd.uniform(0.3, 2.3))
+        time.sleep(rnd.uniform(0.05, 1.2))      # the native loop runs the 400,000 steps in about a second
         if how == "sigterm":
             p.send_signal(signal.SIGTERM)
         else:
@@ -143,8 +143,11 @@ def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmu
             _consistent(out, 1e-4)
             continue
         assert p.returncode == (143 if how == "sigterm" else 130), err
-        _one_line(err)
         meta = json.loads((out / "run.json").read_text())
+        if meta["outcome"] == "completed":      # it came while the finished run was written: held until whole
+            assert len(_consistent(out, 1e-4)) == 400001
+            continue
+        _one_line(err)
         assert meta["outcome"] == "interrupted"
         df = _consistent(out, 1e-4)
         assert 0 < len(df) < 400001
