@@ -5,9 +5,10 @@ its physics' metres north/east of SITL's home.  The firmware, however, measures 
 radius 6378100 m about integer 1e-7 degree coordinates (AP_Common/Location.cpp: ``Location::offset`` and
 ``get_distance_NE``, LOCATION_SCALING_FACTOR = 0.011131884502145034 m per 1e-7 deg); SITL turns the physics
 position into the GPS fix with the same ``offset`` from its home.  A point 450 m north of home written with
-WGS84 is, to the firmware, 450 m x (1 - M/R) ~ 2.9 m short at 7 deg S (M the WGS84 meridian radius of
-curvature, ~6336.4 km there, against R = 6378.1 km): more than the strategy's 2 m arrival radius, so a
-vehicle sent to a far target would hover beside it forever.  Position targets are therefore expressed with
+WGS84 is, to the firmware, 450 m x R / (M + h) ~ 453 m north at 7 deg S (M the WGS84 meridian radius of
+curvature, ~6336.4 km there, h the height above the ellipsoid, R = 6378.1 km): 2.9 m beyond it, more than the
+strategy's 2 m arrival radius, so a vehicle sent to a far target would hover beside it until its battery
+ran low.  Position targets are therefore expressed with
 the firmware's own rule about the same home that the physics' metres start from; what is left is the
 rounding of coordinates to 1e-7 deg (about 1 cm).
 """

@@ -354,7 +354,7 @@ class SitlVehicle:
 
     def _geodetic(self, x: float, y: float):
         """Our ENU point as the firmware's latitude/longitude: its own spherical rule about SITL's home (not
-        WGS84, which would put a target 450 m north of home 2.9 m short for it; sitlsim/ap_location.py)."""
+        WGS84, which would put a target 450 m north of home 2.9 m beyond it for the firmware; sitlsim/ap_location.py)."""
         lat, lon = ap_location.offset(*self.home_e7, y - self.home_enu[1], x - self.home_enu[0])
         return lat * 1.0e-7, lon * 1.0e-7
 
