@@ -55,8 +55,9 @@ _OUT_REAL = [
     ("groundspeed", "m/s", "horizontal ground speed"),
     ("tilt", "deg", "lean angle of the body (from roll and pitch; lockstep only)"),
     ("motor_power", "W", "electrical power of the motors and avionics from the physics (lockstep; 0 in paced)"),
-    ("slip", "s", "paced: how far the vehicle clock ran past t+h at the end of the step (lockstep: 0)"),
-    ("max_slip", "s", "paced: the largest slip so far"),
+    ("slip", "s", "vehicle clock minus t+h at the end of the step (paced: how far SITL ran past it; "
+                  "lockstep: 0 unless h is no whole number of frames)"),
+    ("max_slip", "s", "the largest |slip| so far"),
     ("ready_time", "s", "vehicle time spent getting ready before t = 0"),
 ]
 _OUT_INT = [("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed"),
@@ -139,7 +140,7 @@ class UavSitl(UnitsMixin, Fmi2Slave):
                              params=_parse_params(self.params), wall_timeout=self.wall_timeout,
                              heartbeat_timeout=self.heartbeat_timeout, ready_timeout=self.ready_timeout,
                              arm_timeout=self.arm_timeout, name=self.instance_name)
-            self._vehicle = SitlVehicle(cfg, self._frame, (self.home_x, self.home_y))
+            self._vehicle = SitlVehicle(cfg, (self.home_x, self.home_y))
             self._vehicle.start()
         except SitlFault as exc:
             self._fail(exc, "start")

@@ -339,6 +339,9 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     _check_idle_uavs(scn, uavs, len(targets_r))
     _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])
     b.annotations.append(monitor_annotation(scn, uavs, targets_r, zones_r, settings(scn, layout)))
+    if sitl_uavs:       # the SITL vehicles' clock slip into run.json (uavstudy/sitl_clock.py)
+        from .sitl_clock import sitl_clock_annotation
+        b.annotations.append(sitl_clock_annotation({uavs[i][DYNAMICS]: scn.sitl.coupling for i in sitl_uavs}))
     return b.write(out_path)
 
 

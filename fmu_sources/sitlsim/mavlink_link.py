@@ -20,7 +20,9 @@ testable against a fake peer.  Stages::
   LinkError quoting the last reason), then NAV_TAKEOFF right away (the firmware disarms 10 s after arming on
   the ground).
 * flying: :meth:`goto` sends SET_POSITION_TARGET_GLOBAL_INT (position only, altitude relative to home) when
-  the set-point changes and again every ``goto_repeat`` s.
+  the set-point changes, and only then: the link is TCP, a GUIDED position target does not time out, and
+  the firmware plans its path to the target from its current state, so a repeat adds nothing
+  (``goto_repeat`` > 0 re-sends it every that many s, as some ground stations do).
 * landing: DO_SET_MODE LAND; landed when EXTENDED_SYS_STATE says on ground and the HEARTBEAT says disarmed.
 
 No HEARTBEAT for ``heartbeat_timeout`` s of vehicle time raises LinkError in every stage.
@@ -61,7 +63,7 @@ class LinkError(RuntimeError):
 class GroundStation:
     def __init__(self, *, target_system: int = 1, streams: dict | None = None, heartbeat_timeout: float = 5.0,
                  arm_retry: float = 1.0, arm_timeout: float = 30.0, command_retry: float = 1.0,
-                 goto_repeat: float = 1.0, source_system: int = 255, source_component: int = 190,
+                 goto_repeat: float | None = None, source_system: int = 255, source_component: int = 190,
                  configure_at: tuple = ()):
         self.mav = mav.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
         self.mav.robust_parsing = True
@@ -321,7 +323,7 @@ class GroundStation:
         g = self._goto
         if g is None:
             return
-        if g != self._goto_sent or self.now - self._goto_sent_at >= self.goto_repeat:
+        if g != self._goto_sent or (self.goto_repeat and self.now - self._goto_sent_at >= self.goto_repeat):
             lat, lon, alt = g
             self._send(mav.MAVLink_set_position_target_global_int_message(
                 int(round(self.now * 1000.0)) & 0xFFFFFFFF, self.target, 1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,

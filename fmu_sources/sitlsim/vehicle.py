@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import ap_location
 from .mavlink_link import STREAMS, GroundStation, LinkError
 from .process import SitlError, SitlProcess, wait_for_port
 
@@ -75,12 +76,13 @@ class SitlConfig:
 
 
 class SitlVehicle:
-    def __init__(self, cfg: SitlConfig, enu_frame=None, home_enu=(0.0, 0.0)):
+    def __init__(self, cfg: SitlConfig, home_enu=(0.0, 0.0)):
         if cfg.coupling not in COUPLINGS:
             raise SitlFault(f"coupling must be one of {', '.join(COUPLINGS)}, not {cfg.coupling!r}")
         self.cfg = cfg
-        self.frame = enu_frame                 # uavsim.geodesy.EnuFrame of the scenario origin
         self.home_enu = tuple(float(v) for v in home_enu)
+        # SITL's home as the firmware holds it (int 1e-7 deg): the origin of the physics' metres and of the GPS
+        self.home_e7 = (ap_location.to_e7(cfg.home[0]), ap_location.to_e7(cfg.home[1]))
         self.proc: SitlProcess | None = None
         self.physics = None
         self.sock: socket.socket | None = None
@@ -261,14 +263,20 @@ class SitlVehicle:
             out = self.link.update(self.vtime)
             if out:
                 self.sock.sendall(out)
-        self.slip = self.vtime - target
-        self.max_slip = max(self.max_slip, self.slip)
+        self._record_slip(target)
         self._wall_mark = time.perf_counter()
         loc = self.link.local
         if loc is not None:
             x, y, z, vx, vy, vz = loc
             self.pos = [self.home_enu[0] + y, self.home_enu[1] + x, -z]
             self.vel = [vy, vx, -vz]
+
+    def _record_slip(self, target: float) -> None:
+        """How far the vehicle clock is from the master's t+h after a step: paced, how far SITL ran past it;
+        lock-step, what whole frames cannot hit (0 when h is a multiple of 1/frame_rate).  Rounded to the ns:
+        the two clocks are sums of different floating-point terms."""
+        self.slip = round(self.vtime - target, 9) + 0.0
+        self.max_slip = max(self.max_slip, abs(self.slip))
 
     def _pace(self, h: float, master_wall: float) -> None:
         """Speed SITL up to the pace the master consumes steps at (at most cfg.speedup): a slower SITL makes
@@ -314,6 +322,7 @@ class SitlVehicle:
             if self.physics is not None:
                 self._exchange()
                 self._advance_lockstep(h)
+                self._record_slip(self.t0 + t + h)
             else:
                 self._wind_paced()
                 self._exchange()
@@ -344,8 +353,10 @@ class SitlVehicle:
             link.goto(*self._geodetic(self.pos[0], self.pos[1]), self.pos[2])
 
     def _geodetic(self, x: float, y: float):
-        lat, lon, _ = self.frame.to_geodetic(x, y, 0.0)
-        return lat, lon
+        """Our ENU point as the firmware's latitude/longitude: its own spherical rule about SITL's home (not
+        WGS84, which would put a target 450 m north of home 2.9 m beyond it for the firmware; sitlsim/ap_location.py)."""
+        lat, lon = ap_location.offset(*self.home_e7, y - self.home_enu[1], x - self.home_enu[0])
+        return lat * 1.0e-7, lon * 1.0e-7
 
     def _update_phase(self) -> None:
         stage = self.link.stage

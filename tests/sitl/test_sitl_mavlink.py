@@ -133,3 +133,22 @@ def test_goto_sends_position_targets_and_land_ends_disarmed(loop_factory):
     assert lp.fake.mode == 9
     assert lp.now >= t_land + 2.0            # the fake touches down 2 s after LAND
     assert not lp.gs.armed
+
+
+def test_a_position_target_goes_out_once_per_change_by_default(loop_factory):
+    """A careful ground station does not repeat a GUIDED position target over TCP: the firmware keeps it (no
+    timeout for position targets) and plans its path from its current state when one arrives."""
+    lp = loop_factory(ready_at=1.0)
+    lp.gs.goto_repeat = None                 # the default of GroundStation (the Loop sets 1 s)
+    assert GroundStation().goto_repeat is None
+    lp.run_until(lambda: lp.gs.ready, 5.0)
+    lp.gs.takeoff(10.0)
+    lp.run_until(lambda: lp.gs.stage == "flying", 10.0)
+    for k, target in enumerate([(-7.2760001, -35.9640002, 20.0), (-7.2770001, -35.9640002, 20.0)]):
+        lp.gs.goto(*target)
+        t0 = lp.now
+        lp.run_until(lambda: lp.now > t0 + 3.0, 30.0)
+        lp.gs.goto(*target)                  # the same set-point again: nothing new to say
+        lp.run_until(lambda: lp.now > t0 + 4.0, 30.0)
+        assert len(lp.fake.targets) == k + 1
+        assert lp.fake.targets[-1][1].lat_int == round(target[0] * 1e7)
