@@ -135,18 +135,21 @@ class StallAfterSteps(Observer):
     "Re-sent frames")."""
 
     def __init__(self, under: Path, steps, pause=1.5, hold=0.6):
-        self.under, self.steps, self.pause, self.hold = under, set(steps), pause, hold
+        """steps: step numbers, or {step: (pause, hold)} for a pause and hold of its own at each."""
+        self.under = under
+        self.steps = dict(steps) if isinstance(steps, dict) else {n: (pause, hold) for n in steps}
         self.stalled: list[int] = []
         self.timers = []
 
     def after_step(self, n, t0, t1):
         if n not in self.steps:
             return
-        time.sleep(self.pause)
+        pause, hold = self.steps[n]
+        time.sleep(pause)
         pids = sitl_pids(self.under)
         for pid in pids:
             os.kill(pid, signal.SIGSTOP)
-        timer = threading.Timer(self.hold, self._resume, (pids,))
+        timer = threading.Timer(hold, self._resume, (pids,))
         timer.start()
         self.timers.append(timer)
         self.stalled.append(n)
