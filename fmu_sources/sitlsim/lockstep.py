@@ -11,8 +11,10 @@ Usage (the SITL vehicle FMU's side)::
 ``advance`` answers exactly round(duration * frame_rate) new servo frames, each with the state one frame
 (1/frame_rate s) later, and returns; SITL blocks between calls, so the firmware's clock equals ``time`` at
 every return (to the microsecond below; docs/sitl_physics.md).  A frame SITL sends again with the same
-frame_count (it re-sends after ~1 s without an answer) advances nothing: if no new frame follows within
-``resend_grace`` s, our answer was lost and is sent again.  A frame_count going backwards is a restarted
+frame_count (it re-sends after ~1 s without an answer) is counted in ``stale_frames`` and never answered:
+SITL re-sends only while our answer has not reached it, and on loopback our answer is never lost, so a second
+answer would be read as the answer to SITL's *next* frame and put the firmware one frame ahead of the physics
+for the rest of the run (a wall-clock-dependent flight).  A frame_count going backwards is a restarted
 SITL: the vehicle is put back on the ground at the origin, time restarts at 0, ``resets`` counts it.  No new
 frame within ``wall_timeout`` wall seconds raises SitlSilent (the frames answered so far stay done).
 SITL sends its first frame only after a MAVLink client has connected to its SERIAL0 (TCP 5760+10N).
@@ -80,7 +82,6 @@ class LockstepPhysics:
     wall_timeout  s of wall clock to wait for a new frame before SitlSilent.
     yaw_deg       initial heading (deg, clockwise from north); the vehicle starts level on the ground.
     no_time_sync  send "no_time_sync":1, so SITL runs as fast as we answer instead of pacing to --speedup.
-    resend_grace  s to wait for a newer frame before answering a re-sent frame again.
     kernel        physics.Kernel to use (default: physics.load(), the compiled twin when it can be had).
     watch         optional callable, asked every ``watch_interval`` s while SITL is silent; a string it returns
                   (e.g. "SITL exited with code -9") ends the advance at once with SitlSilent naming it.
@@ -88,7 +89,7 @@ class LockstepPhysics:
 
     def __init__(self, instance: int = 0, params: IrisParams = IrisParams(), frame_rate: int = 1200,
                  bind_host: str = "127.0.0.1", port: int | None = None, wall_timeout: float = 10.0,
-                 yaw_deg: float = 0.0, no_time_sync: bool = True, resend_grace: float = 0.25, kernel=None,
+                 yaw_deg: float = 0.0, no_time_sync: bool = True, kernel=None,
                  watch=None, watch_interval: float = 0.5):
         if wall_timeout <= 0:
             raise ValueError(f"wall_timeout must be > 0 s, not {wall_timeout}")
@@ -103,7 +104,6 @@ class LockstepPhysics:
         self._s = ph.initial_state(self._p)
         self._io = [0.0] * ph.N_IO
         self._io[ph.IO_TIMEOUT] = self.wall_timeout
-        self._io[ph.IO_GRACE] = float(resend_grace)
         self._io[ph.IO_NO_TIME_SYNC] = 1.0 if no_time_sync else 0.0
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -176,13 +176,8 @@ class LockstepPhysics:
         return int(self._s[ph.S_RESETS])
 
     @property
-    def resends(self) -> int:
-        """Answers sent again because SITL re-sent a frame and no newer one followed."""
-        return int(self._s[ph.S_RESENDS])
-
-    @property
     def stale_frames(self) -> int:
-        """Re-sent frames received (same frame_count as the last answered)."""
+        """Re-sent frames received (same frame_count as the last answered; never answered)."""
         return int(self._s[ph.S_STALE])
 
     @property

@@ -22,12 +22,12 @@
 #include <sys/time.h>
 
 enum { K, PN, PE, PD, VN, VE, VD, QW, QX, QY, QZ, RP, RQ, RR, FX, FY, FZ, M1, M2, M3, M4, PWM1, PWM2, PWM3,
-       PWM4, WN, WE, WD, POWER, ENERGY, GROUND, LAST, HAS_LAST, PEER_IP, PEER_PORT, ANSWERED, RESENDS,
-       RESETS, STALE, BAD, SITL_RATE, NSTATE };
+       PWM4, WN, WE, WD, POWER, ENERGY, GROUND, LAST, HAS_LAST, ANSWERED, RESETS, STALE, BAD,
+       SITL_RATE, NSTATE };
 enum { DT, G, MASS, IXX, IYY, IZZ, KF, WMAX, KM, AUP, ADN, RDRAG, BDRAG, EXPO, SPIN_MIN, SPIN_RANGE, PWM_MIN,
        PWM_RANGE, PIND, PPROF, EFF_INV, AVIONICS, RATE, Q0W, Q0Z, MX1, NPARAM = MX1 + 12 };
-enum { IO_NFRAMES, IO_TIMEOUT, IO_GRACE, IO_NO_TIME_SYNC, IO_STATUS, IO_WAITED, IO_T_WAIT, IO_T_PHYS, IO_T_IO,
-       IO_ERRNO, NIO };
+enum { IO_NFRAMES, IO_TIMEOUT, IO_NO_TIME_SYNC, IO_STATUS, IO_WAITED, IO_T_WAIT, IO_T_PHYS, IO_T_IO, IO_ERRNO,
+       NIO };
 enum { ST_OK = 0, ST_SILENT = 1, ST_SOCKET_ERROR = 2, ST_INTERRUPTED = 3 };
 #define MAGIC_16 18458
 #define MAGIC_32 29569
@@ -243,21 +243,22 @@ static uint32_t rd32(const unsigned char *b)
 
 /* Answer io[IO_NFRAMES] new servo frames; the same loop as physics.serve_py.  Returns the frames answered;
  * io[IO_STATUS] says why it stopped.  One blocking recvfrom per frame (SO_RCVTIMEO ticks of at most 50 ms
- * bound each wait, so the timeouts are checked at least that often) and one sendto: two system calls. */
+ * bound each wait, so the timeouts are checked at least that often) and one sendto: two system calls.
+ * A frame SITL re-sent (same frame_count as the last answered) is counted and never answered: SITL re-sends
+ * only while our answer has not reached it yet, and on loopback an answer is never lost, so a second answer
+ * would be read as the answer to SITL's next frame and put the firmware one frame ahead of the physics for
+ * the rest of the run (docs/sitl_physics.md, "Re-sent frames"). */
 int sitl_serve(int fd, double *s, const double *p, double *io)
 {
     const int nframes = (int)io[IO_NFRAMES], nts = io[IO_NO_TIME_SYNC] != 0.0;
-    const double timeout = io[IO_TIMEOUT], grace = io[IO_GRACE];
+    const double timeout = io[IO_TIMEOUT];
     double tick = 0.05;
     unsigned char pkt[256];
     char msg[1024];
-    struct sockaddr_in peer;
     struct timeval tv;
-    int answered = 0, pending = 0, status = ST_OK, msglen;
-    double pending_since = 0.0, last_new = now_s(), t_wait = 0.0, t_phys = 0.0, t_io = 0.0;
+    int answered = 0, status = ST_OK, msglen;
+    double last_new = now_s(), t_wait = 0.0, t_phys = 0.0, t_io = 0.0;
 
-    if (grace < tick)
-        tick = grace;
     if (timeout < tick)
         tick = timeout;
     if (tick < 0.001)
@@ -265,8 +266,6 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
     tv.tv_sec = (time_t)tick;
     tv.tv_usec = (suseconds_t)((tick - (double)tv.tv_sec) * 1e6);
     setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    memset(&peer, 0, sizeof peer);
-    peer.sin_family = AF_INET;
     io[IO_ERRNO] = 0.0;
     while (answered < nframes) {
         struct sockaddr_in src;
@@ -286,15 +285,6 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
                 status = ST_SOCKET_ERROR;
                 io[IO_ERRNO] = errno;
                 break;
-            }
-            if (pending && t2 - pending_since >= grace) {
-                peer.sin_addr.s_addr = htonl((uint32_t)s[PEER_IP]);
-                peer.sin_port = htons((uint16_t)s[PEER_PORT]);
-                msglen = sitl_format(s, p, nts, msg, sizeof msg);
-                sendto(fd, msg, (size_t)msglen, 0, (struct sockaddr *)&peer, sizeof peer);
-                s[RESENDS] += 1.0;
-                pending = 0;
-                continue;
             }
             if (t2 - last_new >= timeout) {
                 status = ST_SILENT;
@@ -316,10 +306,6 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
         }
         count = rd32(pkt + 4);
         if (s[HAS_LAST] != 0.0 && (double)count == s[LAST]) {
-            if (!pending) {
-                pending = 1;
-                pending_since = t2;
-            }
             s[STALE] += 1.0;
             continue;
         }
@@ -327,14 +313,11 @@ int sitl_serve(int fd, double *s, const double *p, double *io)
             sitl_reset(s, p);
             s[RESETS] += 1.0;
         }
-        pending = 0;
         s[PWM1] = rd16(pkt + 8);
         s[PWM2] = rd16(pkt + 10);
         s[PWM3] = rd16(pkt + 12);
         s[PWM4] = rd16(pkt + 14);
         s[SITL_RATE] = rd16(pkt + 2);
-        s[PEER_IP] = (double)ntohl(src.sin_addr.s_addr);
-        s[PEER_PORT] = (double)ntohs(src.sin_port);
         sitl_step(s, p);
         msglen = sitl_format(s, p, nts, msg, sizeof msg);
         t3 = now_s();

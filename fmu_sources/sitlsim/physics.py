@@ -37,18 +37,17 @@ FLAGS = ["-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-std
 # ---- state slots (physics.c: the first enum)
 (S_K, S_PN, S_PE, S_PD, S_VN, S_VE, S_VD, S_QW, S_QX, S_QY, S_QZ, S_RP, S_RQ, S_RR, S_FX, S_FY, S_FZ,
  S_M1, S_M2, S_M3, S_M4, S_PWM1, S_PWM2, S_PWM3, S_PWM4, S_WN, S_WE, S_WD, S_POWER, S_ENERGY, S_GROUND,
- S_LAST, S_HAS_LAST, S_PEER_IP, S_PEER_PORT, S_ANSWERED, S_RESENDS, S_RESETS, S_STALE, S_BAD,
- S_SITL_RATE) = range(41)
-N_STATE = 41
+ S_LAST, S_HAS_LAST, S_ANSWERED, S_RESETS, S_STALE, S_BAD, S_SITL_RATE) = range(38)
+N_STATE = 38
 # ---- parameter slots
 (P_DT, P_G, P_MASS, P_IXX, P_IYY, P_IZZ, P_KF, P_WMAX, P_KM, P_AUP, P_ADN, P_RDRAG, P_BDRAG, P_EXPO,
  P_SPIN_MIN, P_SPIN_RANGE, P_PWM_MIN, P_PWM_RANGE, P_PIND, P_PPROF, P_EFF_INV, P_AVIONICS, P_RATE,
  P_Q0W, P_Q0Z, P_MX1) = range(26)     # P_MX1..: x, y, yaw sign of motor 1, then of 2, 3, 4
 N_PARAM = P_MX1 + 12
 # ---- serve in/out slots
-(IO_NFRAMES, IO_TIMEOUT, IO_GRACE, IO_NO_TIME_SYNC, IO_STATUS, IO_WAITED, IO_T_WAIT, IO_T_PHYS, IO_T_IO,
- IO_ERRNO) = range(10)
-N_IO = 10
+(IO_NFRAMES, IO_TIMEOUT, IO_NO_TIME_SYNC, IO_STATUS, IO_WAITED, IO_T_WAIT, IO_T_PHYS, IO_T_IO,
+ IO_ERRNO) = range(9)
+N_IO = 9
 OK, SILENT, SOCKET_ERROR, INTERRUPTED = 0, 1, 2, 3
 
 
@@ -199,13 +198,12 @@ _PKT = struct.Struct("<HHI4H")
 
 
 def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
-    """Answer io[IO_NFRAMES] new servo frames on ``sock`` (see physics.c: sitl_serve, the same loop)."""
-    nframes, timeout, grace = int(io[IO_NFRAMES]), io[IO_TIMEOUT], io[IO_GRACE]
+    """Answer io[IO_NFRAMES] new servo frames on ``sock`` (see physics.c: sitl_serve, the same loop; a
+    re-sent frame is counted and never answered twice)."""
+    nframes, timeout = int(io[IO_NFRAMES]), io[IO_TIMEOUT]
     nts = io[IO_NO_TIME_SYNC] != 0.0
     clock = time.perf_counter
     answered = 0
-    pending = False
-    pending_since = 0.0
     last_new = clock()
     t_wait = t_phys = t_io = 0.0
     status = OK
@@ -213,20 +211,12 @@ def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
     while answered < nframes:
         now = clock()
         left = timeout - (now - last_new)
-        if pending:
-            left = min(left, grace - (now - pending_since))
         t1 = clock()
         ready = select.select([fd], [], [], max(0.0, left))[0]
         t2 = clock()
         t_wait += t2 - t1
         if not ready:
             now = clock()
-            if pending and now - pending_since >= grace:
-                sock.sendto(format_py(s, p, nts), (socket.inet_ntoa(struct.pack("!I", int(s[S_PEER_IP]))),
-                                                   int(s[S_PEER_PORT])))
-                s[S_RESENDS] += 1
-                pending = False
-                continue
             if now - last_new >= timeout:
                 status = SILENT
                 io[IO_WAITED] = now - last_new
@@ -251,18 +241,13 @@ def serve_py(sock: socket.socket, s: list, p, io: list) -> int:
             s[S_BAD] += 1
             continue
         if s[S_HAS_LAST] != 0.0 and count == s[S_LAST]:
-            if not pending:
-                pending, pending_since = True, t3
             s[S_STALE] += 1
             continue
         if s[S_HAS_LAST] != 0.0 and count < s[S_LAST]:
             reset_py(s, p)
             s[S_RESETS] += 1
-        pending = False
         s[S_PWM1], s[S_PWM2], s[S_PWM3], s[S_PWM4] = float(m1), float(m2), float(m3), float(m4)
         s[S_SITL_RATE] = float(rate)
-        s[S_PEER_IP] = float(struct.unpack("!I", socket.inet_aton(addr[0]))[0])
-        s[S_PEER_PORT] = float(addr[1])
         step_py(s, p)
         msg = format_py(s, p, nts)
         t4 = clock()

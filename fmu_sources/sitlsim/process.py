@@ -33,6 +33,9 @@ MAVLINK_BASE, PHYSICS_BASE, RC_BASE = 5760, 9002, 5501
 MAX_INSTANCE = 200          # 5760 + 10*200 stays clear of the physics ports 9002+
 ENV_BINARY = "ARDUPILOT_SITL"
 PR_SET_PDEATHSIG = 1
+#: SITL's simulated GPS and real-time clock start at this UTC time (2025-01-01 00:00:00) instead of the wall
+#: clock's, so the firmware's GPS time stamps and its logs are the same in every run
+START_TIME_UTC = 1735689600
 
 
 _LIVE: set = set()        # started and not yet stopped: stopped at interpreter exit, whatever else happened
@@ -175,7 +178,8 @@ class SitlProcess:
     def command(self) -> list[str]:
         lat, lon, alt, yaw = self.home
         cmd = [self.binary, "--model", self.model, "--home", f"{lat!r},{lon!r},{alt!r},{yaw!r}",
-               "-I", str(self.number), "--sysid", str(self.sysid), "--speedup", f"{self.speedup:g}", "-w"]
+               "-I", str(self.number), "--sysid", str(self.sysid), "--speedup", f"{self.speedup:g}", "-w",
+               "--start-time", str(START_TIME_UTC)]
         if self.defaults:
             cmd += ["--defaults", str(self.defaults)]
         if self.rate:

@@ -66,13 +66,15 @@ class FakeSitl:
     duplicate: send every frame twice (a re-send that crosses our answer).
     drop_answer: frame counts whose first answer is thrown away (as if lost).
     restart_at: after answering this many frames, start over at frame_count 0 (a restarted SITL).
+    pause_after: {frame_count: s} to wait after that frame's answer before sending the next (a busy SITL).
     """
 
     def __init__(self, port: int, pwm=lambda c: (1000,) * 4, frames: int = 10 ** 9, duplicate=False,
-                 drop_answer=(), restart_at=None, resend_after=0.5):
+                 drop_answer=(), restart_at=None, resend_after=0.5, pause_after=None):
         self.port, self.pwm, self.frames = port, pwm, frames
         self.duplicate, self.drop = duplicate, set(drop_answer)
         self.restart_at, self.resend_after = restart_at, resend_after
+        self.pause_after = dict(pause_after or {})
         self.answers: list[bytes] = []      # every datagram received, in order
         self.answered_counts: list[int] = []
         self.sent = 0
@@ -122,6 +124,8 @@ class FakeSitl:
                 json.loads(data)                # a complete JSON object, or the test fails here
                 self.answered_counts.append(count)
                 break
+            if count in self.pause_after:
+                self._stop.wait(self.pause_after[count])
             done += 1
             count += 1
             if self.restart_at is not None and not restarted and done == self.restart_at:

@@ -1,7 +1,7 @@
 """Two real ArduPilot SITL UAVs in lock-step with their doSteps run concurrently (``threads=2``,
 master/algorithms/parallel.py): the run completes, both UAVs take off, each on its own SITL instance, and the
 per-UAV results are those of the sequential run (lock-step: the firmware sees the same frames whichever thread
-answers them; docs/sitl.md, "Determinism", for the known rare differing pair)."""
+answers them; docs/sitl.md, "Determinism")."""
 from __future__ import annotations
 
 import pytest

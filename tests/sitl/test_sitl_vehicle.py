@@ -14,6 +14,8 @@ import json
 import os
 import signal
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -125,6 +127,42 @@ def _check_short_mission(out: Path, frame, takeoff=5.0, target=(30.0, 20.0)):
     assert sitl_pids(out) == []
 
 
+class StallAfterSteps(Observer):
+    """After the given steps, holds the master for ``pause`` s of wall clock (SITL, waiting for its answer,
+    re-sends its servo frame after ~1 s) and then stops the SITL process for ``hold`` s, so that the next
+    doStep answers the frame while SITL is frozen and meets the re-sent copy with no newer frame behind it:
+    the two wall-clock accidents a loaded machine produces, made certain (docs/sitl_physics.md,
+    "Re-sent frames")."""
+
+    def __init__(self, under: Path, steps, pause=1.5, hold=0.6):
+        """steps: step numbers, or {step: (pause, hold)} for a pause and hold of its own at each."""
+        self.under = under
+        self.steps = dict(steps) if isinstance(steps, dict) else {n: (pause, hold) for n in steps}
+        self.stalled: list[int] = []
+        self.timers = []
+
+    def after_step(self, n, t0, t1):
+        if n not in self.steps:
+            return
+        pause, hold = self.steps[n]
+        time.sleep(pause)
+        pids = sitl_pids(self.under)
+        for pid in pids:
+            os.kill(pid, signal.SIGSTOP)
+        timer = threading.Timer(hold, self._resume, (pids,))
+        timer.start()
+        self.timers.append(timer)
+        self.stalled.append(n)
+
+    @staticmethod
+    def _resume(pids):
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
+
+
 @needs_sitl
 def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sitl_env):
     ssp = scenario(tmp_path)
@@ -134,21 +172,21 @@ def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sit
     _check_short_mission(tmp_path / "a", fa)
     assert (fa["uav1_dyn.flight_mode"] == 4).any() and (fa["uav1_dyn.flight_mode"] == 9).any()  # GUIDED, LAND
     assert (fa["uav1_dyn.slip"] == 0.0).all()
-
-    def differing(fb):
-        assert list(fa.columns) == list(fb.columns) and len(fa) == len(fb)
-        # sitl_instance is the instance number that was free on the machine (another SITL may hold one): where
-        # the vehicle ran, not what it did
-        return [col for col in fa.columns if col != "uav1_dyn.sitl_instance" and not fa[col].equals(fb[col])]
-
-    # Known shortfall (docs/sitl.md, "Determinism"): about 1 pair in 10 still differs, through a wall-clock effect
-    # inside the firmware not yet found. A differing pair is reported as a warning and one more run must then
-    # match the first exactly, so a regression that makes lock-step runs differ every time still fails here.
-    diff = differing(run(ssp, tmp_path / "b").frame)
-    if diff:
-        import warnings
-        warnings.warn(f"lock-step SITL runs differed in {', '.join(diff[:5])}: the known rare case; trying once more")
-        diff = differing(run(ssp, tmp_path / "c").frame)
+    # the second run is stalled where the first was not: lock-step must not see the wall clock
+    stall = StallAfterSteps(tmp_path / "b", steps=(15, 120))     # during the takeoff and on the way out
+    try:
+        b = run(ssp, tmp_path / "b", observers=[stall])
+    finally:
+        for timer in stall.timers:
+            timer.join()
+    assert b.metadata["outcome"] == "completed", error_of(b)
+    assert stall.stalled == [15, 120]
+    assert "resending servos" in (tmp_path / "b" / "sitl" / "uav1_dyn" / "sitl.log").read_text()
+    fb = b.frame
+    assert list(fa.columns) == list(fb.columns) and len(fa) == len(fb)
+    # sitl_instance is the instance number that was free on the machine (another SITL may hold one): where
+    # the vehicle ran, not what it did
+    diff = [col for col in fa.columns if col != "uav1_dyn.sitl_instance" and not fa[col].equals(fb[col])]
     assert not diff, f"{', '.join(diff)} differ between lock-step runs"
 
 
@@ -210,7 +248,6 @@ def test_a_killed_sitl_is_reported_cleanly_and_the_results_are_kept(tmp_path, si
 @needs_sitl
 def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_env):
     import subprocess
-    import time
     out = tmp_path / "cc"
     ssp = scenario(tmp_path, stop=300.0)
     cli = subprocess.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out)],
