@@ -130,10 +130,17 @@ def test_instances_do_not_collide_and_busy_ports_are_skipped(locks):
         with pytest.raises(SitlError, match="in use"):
             claim_instance(a.number)
         # a listener on the next instance's MAVLink port (a SITL started by hand) makes it skip that one
+        # (another SITL on the machine may hold the next one already: block the first free port above)
         n = max(a.number, b.number) + 1
-        blocker = socket.socket()
-        blocker.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        blocker.bind(("127.0.0.1", ports(n)["mavlink"]))
+        while True:
+            blocker = socket.socket()
+            blocker.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                blocker.bind(("127.0.0.1", ports(n)["mavlink"]))
+                break
+            except OSError:
+                blocker.close()
+                n += 1
         blocker.listen(1)
         try:
             c = claim_instance(first=n)
