@@ -6,6 +6,7 @@ child when its parent dies; an flock is released when its owner dies) and the po
 ``-I N`` (5760 + 10 N, ...)."""
 from __future__ import annotations
 
+import fcntl
 import os
 import signal
 import socket
@@ -119,7 +120,12 @@ def test_a_killed_master_leaves_no_sitl_behind(tmp_path, locks, fake_sitl):
     finally:
         # PR_SET_PDEATHSIG covers the SITL process itself, not processes it would start (arducopter starts none)
         os.killpg(sitl, signal.SIGKILL) if not _gone(child, 0.5) else None
-    claim_instance(number).release()          # the dead master's lock is gone with it
+    # the dead master's lock is gone with it (its ports may meanwhile be taken by another SITL on the machine)
+    fd = os.open(locks / f"instance-{number}.lock", os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    finally:
+        os.close(fd)
 
 
 def test_instances_do_not_collide_and_busy_ports_are_skipped(locks):
