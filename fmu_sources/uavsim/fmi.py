@@ -4,12 +4,18 @@ pythonfmu 0.7's ``Real`` has no ``unit`` attribute, so ``UnitReal`` adds it to t
 element, and ``UnitsMixin.to_xml`` inserts the matching ``<UnitDefinitions>`` (with SI base-unit
 exponents) that FMI 2.0 requires for every unit used.  ``StateMixin`` gives a shell FMI's get/set FMU
 state (rollback: iterative coupling).
+
+The instances of a shell class share one variable table (``_VarTable``, built from the first instance):
+pythonfmu builds every ScalarVariable with a getter and a setter closure per instance, 1.5 MB for the
+strategy's 1210 variables, which made 256 UAVs cost 390 MB in variable objects alone.  Each instance keeps
+its values as its own attributes, as before.
 """
 from __future__ import annotations
 
 import copy
 import ctypes
 import types
+from abc import ABCMeta
 from operator import attrgetter
 from xml.etree.ElementTree import Element, SubElement
 
@@ -66,7 +72,144 @@ def _accessor(fn, self, var, kind):
     return fn
 
 
-class UnitsMixin:
+class _VarTable:
+    """The variables of a shell class, shared by its instances: the ScalarVariable objects (what
+    modelDescription.xml lists, without per-instance getter/setter closures), their names in value-reference
+    order, and per type the attribute read (get) and written (set) for each value reference."""
+
+    __slots__ = ("vars", "names", "tables")
+
+    def __init__(self, variables):
+        self.vars = variables
+        self.names = tuple(v.name for v in variables.values())
+        self.tables = {}
+        for cls in (Real, Integer, Boolean, String):
+            vrs = [vr for vr, v in variables.items() if isinstance(v, cls)]
+            self.tables[cls] = ({vr: variables[vr].name for vr in vrs},
+                                {vr: variables[vr].name for vr in vrs if variables[vr].setter is not None})
+
+
+def _shareable(variables) -> bool:
+    """True when every variable uses pythonfmu's default accessors on a plain attribute of the slave (then
+    the attribute name is all an instance needs); a custom getter/setter or a nested name binds the
+    variable to one instance."""
+    return all(var.name == var.local_name and isinstance(var, (Real, Integer, Boolean, String))
+               and isinstance(_accessor(var.getter, None, var, "get"), str)
+               and (var.setter is None or isinstance(_accessor(var.setter, None, var, "set"), str))
+               for var in variables.values())
+
+
+def _adopt_table(cls, obj) -> None:
+    """After obj's __init__: the first instance of cls gives the class its table (its own variables, their
+    closures dropped: they hold that instance); later instances, which registered nothing, take it."""
+    d = obj.__dict__
+    table = cls.__dict__.get("_var_table")
+    if table is None:
+        variables = d.get("vars")
+        table = _VarTable(variables) if variables and _shareable(variables) else False
+        if table:
+            for var in variables.values():
+                var.getter = var.setter = None
+        cls._var_table = table
+    if not table:
+        return
+    n = d.pop("_n_registered", None)
+    if d["vars"] is not table.vars:
+        if n != len(table.names):
+            raise RuntimeError(f"{cls.__name__} instance {d.get('instance_name')!r} registered {n or 0} variables, "
+                               f"its class's first instance {len(table.names)}: the instances of a class share one "
+                               "variable table, so each must register the same variables")
+        d["vars"] = table.vars
+    d["_vr_readers"], d["_vr_writers"] = {}, {}
+
+
+class _SharedVariables(ABCMeta):
+    """Metaclass of UnitsMixin: the variable table is settled once an instance's __init__ (the shell's,
+    which registers the variables) has returned."""
+
+    def __call__(cls, *args, **kwargs):
+        obj = super().__call__(*args, **kwargs)
+        _adopt_table(cls, obj)
+        return obj
+
+
+def _table_of(obj):
+    """obj's shared variable table, or None (a class whose variables are bound to their instance)."""
+    table = type(obj).__dict__.get("_var_table")
+    return table if table and obj.__dict__.get("vars") is table.vars else None
+
+
+class _PythonfmuMethods:
+    """pythonfmu's get_*/set_* and FMU state (the same loop, the same errors) for instances with a shared
+    table, whose variables have no getter/setter closures to call; other instances use pythonfmu's own.
+    UnitsMixin falls back to these for requests its fast path refuses."""
+
+    def _table_get(self, cls, conv, vrs, name):
+        table = _table_of(self)
+        if table is None:
+            return getattr(super(), name)(vrs)
+        names = table.tables[cls][0]
+        out = []
+        for vr in vrs:
+            var = self.vars[vr]
+            if not isinstance(var, cls):
+                raise TypeError(f"Variable with valueReference={vr} is not of type {cls.__name__}!")
+            out.append(conv(getattr(self, names[vr])))
+        return out
+
+    def _table_set(self, cls, vrs, values, name):
+        table = _table_of(self)
+        if table is None:
+            return getattr(super(), name)(vrs, values)
+        names = table.tables[cls][1]
+        for vr, value in zip(vrs, values):
+            var = self.vars[vr]
+            if not isinstance(var, cls):
+                raise TypeError(f"Variable with valueReference={vr} is not of type {cls.__name__}!")
+            if vr not in names:
+                raise TypeError(f"Variable with valueReference={vr} ({var.name}) cannot be set")
+            setattr(self, names[vr], value)
+
+    def get_real(self, vrs):
+        return self._table_get(Real, float, vrs, "get_real")
+
+    def get_integer(self, vrs):
+        return self._table_get(Integer, int, vrs, "get_integer")
+
+    def get_boolean(self, vrs):
+        return self._table_get(Boolean, bool, vrs, "get_boolean")
+
+    def get_string(self, vrs):
+        return self._table_get(String, str, vrs, "get_string")
+
+    def set_real(self, vrs, values):
+        return self._table_set(Real, vrs, values, "set_real")
+
+    def set_integer(self, vrs, values):
+        return self._table_set(Integer, vrs, values, "set_integer")
+
+    def set_boolean(self, vrs, values):
+        return self._table_set(Boolean, vrs, values, "set_boolean")
+
+    def set_string(self, vrs, values):
+        return self._table_set(String, vrs, values, "set_string")
+
+    def _get_fmu_state(self):
+        if _table_of(self) is None:
+            return super()._get_fmu_state()
+        return {var.name: getattr(self, var.name) for var in self.vars.values()}
+
+    def _set_fmu_state(self, state):
+        table = _table_of(self)
+        if table is None:
+            return super()._set_fmu_state(state)
+        settable = {n for _, put in table.tables.values() for n in put.values()}
+        for name, value in state.items():
+            if name in settable or name not in table.names:
+                setattr(self, name, value)
+
+
+class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
     """Mixin for Fmi2Slave subclasses: typed registration helpers, UnitDefinitions, and faster
     get/set of values.
 
@@ -78,6 +221,9 @@ class UnitsMixin:
     """
 
     def _vr_tables(self):
+        table = _table_of(self)
+        if table is not None:
+            return table.tables
         cache = self.__dict__.get("_vr_cache")
         if cache is None or cache[0] != len(self.vars):      # built once, after registration
             tables = {}
@@ -207,35 +353,62 @@ class UnitsMixin:
     def set_string(self, vrs, values):
         return self._set(String, vrs, values, "set_string")
 
+    def _in_table(self, name) -> bool:
+        """True when the class's shared table holds the variable registered next (then nothing is built):
+        the instances of a class must register the same variables in the same order."""
+        table = type(self).__dict__.get("_var_table")
+        if not table:
+            return False
+        d = self.__dict__
+        n = d.get("_n_registered", 0)
+        if n >= len(table.names) or table.names[n] != name:
+            first = table.names[n] if n < len(table.names) else "nothing"
+            raise RuntimeError(f"{type(self).__name__} registers variable {n} as {name!r}, its first instance "
+                               f"registered {first!r}: the instances of a class share one variable table")
+        d["_n_registered"] = n + 1
+        return True
+
+    def register_variable(self, var, nested: bool = True):
+        if not self._in_table(var.name):
+            super().register_variable(var, nested)
+
     def par_real(self, name, unit, description):
-        self.register_variable(UnitReal(name, unit=unit, description=description, **_PAR))
+        if not self._in_table(name):
+            self.register_variable(UnitReal(name, unit=unit, description=description, **_PAR))
 
     def par_int(self, name, description):
-        self.register_variable(Integer(name, description=description, **_PAR))
+        if not self._in_table(name):
+            self.register_variable(Integer(name, description=description, **_PAR))
 
     def par_bool(self, name, description):
-        self.register_variable(Boolean(name, description=description, **_PAR))
+        if not self._in_table(name):
+            self.register_variable(Boolean(name, description=description, **_PAR))
 
     def par_str(self, name, description):
-        self.register_variable(String(name, description=description, **_PAR))
+        if not self._in_table(name):
+            self.register_variable(String(name, description=description, **_PAR))
 
     def in_real(self, name, unit, description):
-        self.register_variable(UnitReal(name, unit=unit, description=description,
-                                        causality=Fmi2Causality.input,
-                                        variability=Fmi2Variability.continuous))
+        if not self._in_table(name):
+            self.register_variable(UnitReal(name, unit=unit, description=description,
+                                            causality=Fmi2Causality.input,
+                                            variability=Fmi2Variability.continuous))
 
     def in_int(self, name, description):
-        self.register_variable(Integer(name, description=description, causality=Fmi2Causality.input,
-                                       variability=Fmi2Variability.discrete))
+        if not self._in_table(name):
+            self.register_variable(Integer(name, description=description, causality=Fmi2Causality.input,
+                                           variability=Fmi2Variability.discrete))
 
     def out_real(self, name, unit, description):
-        self.register_variable(UnitReal(name, unit=unit, description=description,
-                                        causality=Fmi2Causality.output,
-                                        variability=Fmi2Variability.continuous))
+        if not self._in_table(name):
+            self.register_variable(UnitReal(name, unit=unit, description=description,
+                                            causality=Fmi2Causality.output,
+                                            variability=Fmi2Variability.continuous))
 
     def out_int(self, name, description):
-        self.register_variable(Integer(name, description=description, causality=Fmi2Causality.output,
-                                       variability=Fmi2Variability.discrete))
+        if not self._in_table(name):
+            self.register_variable(Integer(name, description=description, causality=Fmi2Causality.output,
+                                           variability=Fmi2Variability.discrete))
 
     def to_xml(self, model_options=dict()) -> Element:
         root = super().to_xml(model_options)

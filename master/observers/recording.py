@@ -38,14 +38,17 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     match = re.compile("|".join(f"(?:{fnmatch.translate(p)})|(?:{re.escape(p)}\\Z)" for p in patterns)).match
     chosen, seen = [], set()
     for comp, vars_ in plan.variables.items():
-        for v in vars_.values():
-            q = v.qualified
-            # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
-            if q in seen or v.type not in ARROW_TYPES or v.is_array:
+        prefix = comp + "."
+        for name in vars_:          # by name: the plan makes a Var only for what is asked for (plan.ComponentVariables)
+            q = prefix + name
+            if q in seen or not match(q):
                 continue
-            if match(q):
-                chosen.append(v)
-                seen.add(q)
+            v = vars_[name]
+            # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
+            if v.type not in ARROW_TYPES or v.is_array:
+                continue
+            chosen.append(v)
+            seen.add(q)
     return chosen
 
 
