@@ -11,8 +11,8 @@ errors and rows kept are the same, bit for bit.
 
 It applies only when nothing else needs Python between steps: a fixed-step algorithm whose step is the
 compiled one (jacobi, gauss-seidel; no extrapolation, no rollback), no monitors, observers or manipulators
-besides the recording (a supervised child's recording reports after every step, so supervised runs keep the
-Python path too), every active component a native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports
+besides the recording (a supervised child's recording lets the loop keep its shared progress header: time,
+rows, and the component whose FMI call is in progress, see ``PROGRESS_SLOTS``), every active component a native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports
 or an FMI 3.0 one with Float64 ports and neither event mode nor early return (pythonfmu FMUs in process, model
 exchange and FMI 1.0 keep the Python path), no value maps on inputs, and numeric recorded values. Otherwise
 the Python path runs, unchanged; run.json's ``native_loop`` says which ran and why.
@@ -45,6 +45,9 @@ SUPPORTED_TYPES = ("Real", "Integer", "Boolean")
 OP_XFER_REAL, OP_XFER_INT32, OP_SET, OP_STEP, OP_GET, OP_PUBLISH, OP_SET3, OP_GET3, OP_STEP3 = range(1, 10)
 GATHER_F64, GATHER_I32, GATHER_BITS64 = 1, 2, 3
 DONE, OP_FAILED, SAMPLE_FAILED, BLOCK_FULL, NONFINITE, STEP3_LOOK = range(6)
+# what the loop reports as it goes (cm_loop's last fields): time reached, time of the last row, rows in the
+# block, component whose FMI call is in progress (-1: none)
+PROGRESS_SLOTS = ("time_reached", "last_row", "rows", "busy")
 
 
 class _Op(Structure):
@@ -65,7 +68,8 @@ class _Loop(Structure):
                 ("block", c_void_p), ("block_rows", c_longlong), ("ncols", c_longlong), ("fill", c_longlong),
                 ("gathers", POINTER(_Gather)), ("n_gathers", c_longlong), ("check", c_void_p),
                 ("n_check", c_longlong), ("counts", c_void_p), ("n", c_longlong), ("code", c_longlong),
-                ("op", c_longlong), ("status", c_longlong)]
+                ("op", c_longlong), ("status", c_longlong), ("time_reached", c_void_p), ("last_row", c_void_p),
+                ("rows", c_void_p), ("busy", c_void_p)]
 
 
 def _cache_dir() -> Path:
@@ -151,7 +155,8 @@ def why_not(ex) -> str | None:
                         for ob in others})
         return f"observers look at every step: {', '.join(names)}"
     rec = ex.recording
-    if type(rec) is not Recording:      # a supervised child's: it reports its progress after every step
+    # a subclass may look at every step; a supervised child's lets the loop report its progress instead
+    if type(rec) is not Recording and getattr(rec, "native_progress", None) is None:
         return f"the recording ({type(rec).__name__}) looks at every step"
     if rec.str_ or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
@@ -270,6 +275,17 @@ class NativeLoop:
         if not ex.options.allow_nonfinite and len(rt.out["Real"]):
             L.check, L.n_check = rt.out["Real"].ctypes.data, len(rt.out["Real"])
         L.counts = self.counts.ctypes.data
+        self._bind_progress(rec)
+
+    def _bind_progress(self, rec):
+        """The C loop keeps a supervised child's progress (supervise.py) as after_step and sample keep it on the
+        Python path: such a recording offers one-value views of its shared header; anything else gets scratch."""
+        offer = getattr(rec, "native_progress", None)
+        slots = offer() if offer is not None else {}
+        scratch = np.full(len(PROGRESS_SLOTS), -1.0)
+        self._progress = [slots.get(name, scratch[k:k + 1]) for k, name in enumerate(PROGRESS_SLOTS)]
+        for name, view in zip(PROGRESS_SLOTS, self._progress):      # kept alive for the C side
+            setattr(self.L, name, _addr(view))
 
     def _bind(self):
         rt = self.ex.rt
