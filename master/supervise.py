@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from .errors import CosimError
+from .errors import CosimError, Terminated
 from .execution import Execution, Options, write_run_files
 from .observers.recording import Recording, block_table
 from .results import claim_output_folder
@@ -155,6 +155,10 @@ def _step_lines(fn) -> dict:
     return out
 
 
+def _terminated(signum, frame):
+    raise Terminated()
+
+
 def _child(conn, scenario, options: dict):
     out_dir = Path(options["output"])
     stack = open(out_dir / CRASH_FILE, "w", buffering=1)
@@ -163,6 +167,10 @@ def _child(conn, scenario, options: dict):
     ex = Execution(scenario, **options)
     ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
     status = 1
+    # a forked child starts with the parent's handlers, which only note the signal there: the child's own
+    # interrupts end its run in order (its run.json, every row), as in an unsupervised run
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         ex.setup()
         rec = _ChildRecording(ex.recording, conn)
@@ -178,10 +186,13 @@ def _child(conn, scenario, options: dict):
         status = 0
     except CosimError as exc:
         ex.close("error", exc)
-    except KeyboardInterrupt:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)     # one interrupt is enough: the close must finish
-        ex.close("interrupted", CosimError("interrupted by the user", time=ex.metadata.get("last_time")))
-        status = 130
+    except KeyboardInterrupt as exc:
+        for s in (signal.SIGINT, signal.SIGTERM):      # one interrupt is enough: the close must finish
+            signal.signal(s, signal.SIG_IGN)
+        sigterm = isinstance(exc, Terminated)
+        why = "stopped by SIGTERM" if sigterm else "interrupted by the user"
+        ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
+        status = 143 if sigterm else 130
     except BaseException as exc:  # noqa: BLE001 - a bug must still leave run.json
         ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
     finally:
@@ -214,6 +225,7 @@ class _Supervisor:
         self.stop_reason: str | None = None        # why this process ended the child
         self.kill_at: float | None = None
         self.forward_at: float | None = None        # when to pass an interrupt on to the child
+        self.forward_signal = signal.SIGINT
         self.write_error: CosimError | None = None
         self.native_loop = False                    # the child steps in the native loop
 
@@ -284,6 +296,7 @@ class _Supervisor:
             # (a second interrupt could cut the child's own orderly close short); SIGTERM at once
             if self.forward_at is None:
                 self.forward_at = time.monotonic() + (0.5 if signum == signal.SIGINT else 0.0)
+                self.forward_signal = signum
         for s in (signal.SIGINT, signal.SIGTERM):
             previous[s] = signal.signal(s, on_signal)
         t0 = time.monotonic()
@@ -308,7 +321,7 @@ class _Supervisor:
                 if self.forward_at is not None and now >= self.forward_at:
                     self.forward_at = float("inf")
                     try:
-                        os.kill(proc.pid, signal.SIGINT)
+                        os.kill(proc.pid, self.forward_signal)
                     except ProcessLookupError:
                         pass
                 if self.timeout is not None and now - t0 > self.timeout and self.stop_reason is None:
