@@ -13,9 +13,10 @@ It applies only when nothing else needs Python between steps: a fixed-step algor
 compiled one (jacobi, gauss-seidel; no extrapolation, no rollback), no monitors, observers or manipulators
 besides the recording (a supervised child's recording lets the loop keep its shared progress header: time,
 rows, and the component whose FMI call is in progress, see ``PROGRESS_SLOTS``), every active component a
-native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports or an FMI 3.0 one with Float64 ports and neither event mode nor early return (pythonfmu FMUs in process, model
-exchange and FMI 1.0 keep the Python path), no value maps on inputs, and numeric recorded values. Otherwise
-the Python path runs, unchanged; run.json's ``native_loop`` says which ran and why.
+native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports or an FMI 3.0 one with Float64 ports and
+neither event mode nor early return (pythonfmu FMUs in process, model exchange and FMI 1.0 keep the Python
+path), no value maps on inputs, and numeric recorded values. Otherwise the Python path runs, unchanged;
+run.json's ``native_loop`` says which ran and why.
 
 The C source is compiled on first use with the system's C compiler (``$CC`` or ``cc``) into the per-user
 cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would be one, and
