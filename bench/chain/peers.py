@@ -206,8 +206,8 @@ def peer_cosim_master(a: dict) -> dict:
     extra["metadata"] = {k: meta.get(k) for k in ("wall_time_s", "outcome", "algorithm", "steps", "step_size",
                                                   "algorithm_info", "rows_recorded", "package_version",
                                                   "native_loop")}
-    extra["kwargs"] = {k: v for k, v in kw.items() if k != "record"} | {k: True for k, on in
-                                                                        (("supervised", supervised), ("files", files)) if on}
+    modes = {k: True for k, on in (("supervised", supervised), ("files", files)) if on}
+    extra["kwargs"] = {k: v for k, v in kw.items() if k != "record"} | modes
     frame = res.frame
     col = f"{last}.y"
     ys = frame[col].to_numpy()

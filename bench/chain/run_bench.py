@@ -475,9 +475,10 @@ def render(a, table, machine, ref_final, sensitivity, problems, elapsed) -> dict
         if max(lb[0], la[0]) > 0.5:
             load += (" **Other processes were running: absolute figures are inflated and noisy; the best-of "
                      "figures and the ratios within one run are the more reliable.**")
+    flag = " --supervised" if a.supervised else ""
     md = f"""# Chain benchmark, {machine['date'][:10]}
 
-Command: `python bench/chain/run_bench.py --fmus {a.fmus} --steps {a.steps} --step {a.step:g} --repeats {a.repeats}{' --supervised' if a.supervised else ''}`
+Command: `python bench/chain/run_bench.py --fmus {a.fmus} --steps {a.steps} --step {a.step:g} --repeats {a.repeats}{flag}`
 (total {elapsed:.0f} s). {setup} µs/FMU-step = wall time of the timed stepping phase / (FMUs × steps timed).
 {load}
 
