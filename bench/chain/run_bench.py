@@ -392,7 +392,7 @@ def main(argv=None):
         stamp = _dt.date.today().isoformat()
         md_path = out_dir / f"chain_{stamp}{'_supervised' if a.supervised else ''}.md"
         md_path.write_text(report["markdown"], encoding="utf-8")
-        (out_dir / f"chain_{stamp}.json").write_text(json.dumps(
+        md_path.with_suffix(".json").write_text(json.dumps(
             {"args": vars(a), "machine": machine, "reference_final": ref_final, "sensitivity": sensitivity,
              "table": table,
              "raw": {f"{rows[ri][0]} [{fl}]": [r if i == 0 else {k: v for k, v in r.items() if k != "samples"}
