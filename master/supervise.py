@@ -10,11 +10,16 @@ An FMU is foreign code in the master's address space: it can abort, segfault or 
 * a crash (signal), ``--timeout`` (wall clock) or Ctrl-C/SIGTERM that the child does not answer within
   ``GRACE_S`` ends with the child killed, its rows written, run.json saying what happened, and the component
   named: the child's faulthandler dumps its Python stack on a fatal signal and on SIGUSR1 (sent before a kill),
-  and the line of the compiled step it was in tells which component's FMI call it was; outside the step loop a
-  shared probe tells the phase and component.
+  and the line of the compiled step it was in tells which component's FMI call it was; in the native step
+  loop and outside the step loop a shared probe tells the phase and component.
+
+The native step loop (algorithms/native_loop.py) runs in the child too: it keeps the header as the Python path
+does (time reached, rows) and writes the index of the component whose FMI call it is in before each call, so
+a crash there names the same component and time.
 
 Shared memory layout (float64): [blocks sent, rows in the current block, time of the last row, time reached,
-phase, component index, unused, unused] then the block (rows x columns).
+phase, component index, component in an FMI call of the native loop (-1: none), unused] then the block
+(rows x columns).
 """
 from __future__ import annotations
 
@@ -32,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from .errors import CosimError
+from .errors import CosimError, Terminated
 from .execution import Execution, Options, write_run_files
 from .observers.recording import Recording, block_table
 from .results import claim_output_folder
@@ -42,7 +47,7 @@ from .sinks.base import Sink
 from .sinks.group import SinkGroup
 
 HEADER = 8
-H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT = range(6)
+H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
 GRACE_S = 3.0                    # how long a child may take to stop after Ctrl-C/SIGTERM before it is killed
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
@@ -90,6 +95,15 @@ class _ChildRecording(Recording):
         super().attach(ctx, start)
         ctx.rt.probe = self.header[H_PHASE:H_COMPONENT + 1]
         self.header[H_PHASE] = PHASE_STEP
+
+    def native_progress(self) -> dict:
+        """Where the native loop reports what after_step and sample report here (native_loop.PROGRESS_SLOTS);
+        by offering it this recording lets the loop run its steps in C. The parent is told, for the run.json
+        of a child that dies."""
+        self.conn.send(("native_loop",))
+        h = self.header
+        return {"time_reached": h[H_TIME:H_TIME + 1], "last_row": h[H_LAST_ROW:H_LAST_ROW + 1],
+                "rows": h[H_FILL:H_FILL + 1], "busy": h[H_NATIVE:H_NATIVE + 1]}
 
     def after_step(self, n, t0, t1):
         self.header[H_TIME] = t1
@@ -141,6 +155,10 @@ def _step_lines(fn) -> dict:
     return out
 
 
+def _terminated(signum, frame):
+    raise Terminated()
+
+
 def _child(conn, scenario, options: dict):
     out_dir = Path(options["output"])
     stack = open(out_dir / CRASH_FILE, "w", buffering=1)
@@ -149,6 +167,10 @@ def _child(conn, scenario, options: dict):
     ex = Execution(scenario, **options)
     ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
     status = 1
+    # a forked child starts with the parent's handlers, which only note the signal there: the child's own
+    # interrupts end its run in order (its run.json, every row), as in an unsupervised run
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         ex.setup()
         rec = _ChildRecording(ex.recording, conn)
@@ -164,10 +186,13 @@ def _child(conn, scenario, options: dict):
         status = 0
     except CosimError as exc:
         ex.close("error", exc)
-    except KeyboardInterrupt:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)     # one interrupt is enough: the close must finish
-        ex.close("interrupted", CosimError("interrupted by the user", time=ex.metadata.get("last_time")))
-        status = 130
+    except KeyboardInterrupt as exc:
+        for s in (signal.SIGINT, signal.SIGTERM):      # one interrupt is enough: the close must finish
+            signal.signal(s, signal.SIG_IGN)
+        sigterm = isinstance(exc, Terminated)
+        why = "stopped by SIGTERM" if sigterm else "interrupted by the user"
+        ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
+        status = 143 if sigterm else 130
     except BaseException as exc:  # noqa: BLE001 - a bug must still leave run.json
         ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
     finally:
@@ -200,7 +225,9 @@ class _Supervisor:
         self.stop_reason: str | None = None        # why this process ended the child
         self.kill_at: float | None = None
         self.forward_at: float | None = None        # when to pass an interrupt on to the child
+        self.forward_signal = signal.SIGINT
         self.write_error: CosimError | None = None
+        self.native_loop = False                    # the child steps in the native loop
 
     # messages ---------------------------------------------------------------------------------------------
     def handle(self, msg, conn):
@@ -231,7 +258,7 @@ class _Supervisor:
                 os.close(fd)
             self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self.mm)
             self.header[:] = 0.0
-            self.header[H_COMPONENT] = -1
+            self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
             self.group.open(self.schema)
             conn.send(("shm", path))
@@ -241,6 +268,8 @@ class _Supervisor:
                                                                   else {})}))
         elif kind == "names":
             self.names, self.step_lines = msg[1], msg[2]
+        elif kind == "native_loop":
+            self.native_loop = True
         elif kind == "meta":
             self.meta, self.events = msg[1], list(msg[2])
 
@@ -267,6 +296,7 @@ class _Supervisor:
             # (a second interrupt could cut the child's own orderly close short); SIGTERM at once
             if self.forward_at is None:
                 self.forward_at = time.monotonic() + (0.5 if signum == signal.SIGINT else 0.0)
+                self.forward_signal = signum
         for s in (signal.SIGINT, signal.SIGTERM):
             previous[s] = signal.signal(s, on_signal)
         t0 = time.monotonic()
@@ -291,7 +321,7 @@ class _Supervisor:
                 if self.forward_at is not None and now >= self.forward_at:
                     self.forward_at = float("inf")
                     try:
-                        os.kill(proc.pid, signal.SIGINT)
+                        os.kill(proc.pid, self.forward_signal)
                     except ProcessLookupError:
                         pass
                 if self.timeout is not None and now - t0 > self.timeout and self.stop_reason is None:
@@ -330,7 +360,9 @@ class _Supervisor:
                 return self.names[i], PHASE_NAMES[PHASE_STEP]
         if self.header is not None and self.names:
             phase, i = int(self.header[H_PHASE]), int(self.header[H_COMPONENT])
-            if phase != PHASE_STEP and 0 <= i < len(self.names):
+            if phase == PHASE_STEP:         # only the native loop says which component's call a step is in
+                i = int(self.header[H_NATIVE])
+            if 0 <= i < len(self.names):
                 return self.names[i], PHASE_NAMES.get(phase, "setup")
         return None, ""
 
@@ -382,6 +414,8 @@ class _Supervisor:
             meta["results_notes"] = self.group.notes
         meta["supervised"] = {"child_exit": exitcode, **({"rows_recovered": recovered} if recovered else {})}
         if self.meta is None:
+            if self.native_loop:
+                meta["native_loop"] = {"used": True}
             during = f" during {phase}" if phase else ""
             if self.write_error is not None:
                 reason = str(self.write_error)

@@ -133,7 +133,12 @@ def peer_cosim_master(a: dict) -> dict:
     """master.run(ssp, algorithm="jacobi", output=None, record=[last.y]). The stepping phase is timed by
     wrapping the step loop (master.execution.Execution._steps; master.runner._loop in versions before the
     Execution API): algorithm step + observers (recording) per step. Cross-check by
-    the difference method: wall_time_s of an N-step run minus that of a 1-step run, over N-1 steps."""
+    the difference method: wall_time_s of an N-step run minus that of a 1-step run, over N-1 steps.
+
+    ``supervised``: as ``cosim-master run`` does by default (master.supervise.run_supervised: the simulation in
+    a forked child, its rows in shared memory and through a pipe, Parquet and CSV written by this process into
+    a temporary folder); the child's step loop reports its wall time through a file. ``files``: unsupervised,
+    but Parquet and CSV written to a temporary folder as a supervised run writes them."""
     import inspect
 
     sys.path.insert(0, str(ROOT))
@@ -142,6 +147,21 @@ def peer_cosim_master(a: dict) -> dict:
 
     n, steps, h, every, last = a["n"], a["steps"], a["step"], a["every"], a["last"]
     kw = dict(algorithm=a.get("algorithm", "jacobi"), step=h, output=None, record=[f"{last}.y"])
+    supervised, files = a.get("supervised", False), a.get("files", False)
+    folder = Path(tempfile.mkdtemp(prefix="chain_cosim_master_"))
+    marks_file = folder / "step_loop_s"
+    runs = iter(range(1000))
+    if supervised or files:
+        kw.pop("output")
+        if supervised:
+            from master.supervise import run_supervised as run_to_folder
+        else:
+            run_to_folder = master.run
+
+        def simulate(ssp, **opts):
+            return run_to_folder(ssp, output=folder / f"run{next(runs)}", **opts)
+    else:
+        simulate = master.run
     extra = {"cosim_master_version": getattr(master, "__version__", "?")}
     for opt in ("inprocess", "native_loop"):
         if opt in a:
@@ -164,20 +184,30 @@ def peer_cosim_master(a: dict) -> dict:
                 return orig_loop(*args, **kwargs)
             finally:
                 marks.append(perf() - t0)
+                with open(marks_file, "a") as f:        # a supervised run's loop is in its child
+                    f.write(f"{marks[-1]!r}\n")
         setattr(owner, attr, timed_loop)
 
-    master.run(a["ssp"], stop_time=h, **kw)          # warm-up: lazy imports, page cache
+    simulate(a["ssp"], stop_time=h, **kw)          # warm-up: lazy imports, page cache
+    try:        # a one-step run does not reach the native loop; a supervised child would import it each time
+        from master.algorithms.native_loop import library
+        library()
+    except ImportError:       # versions before the native loop
+        pass
     t_all = perf()
-    res = master.run(a["ssp"], stop_time=steps * h, **kw)
+    res = simulate(a["ssp"], stop_time=steps * h, **kw)
     total = perf() - t_all
-    one = master.run(a["ssp"], stop_time=h, **kw)
+    one = simulate(a["ssp"], stop_time=h, **kw)
+    if marks_file.is_file():
+        marks = [float(x) for x in marks_file.read_text().split()]
     meta = res.metadata
     diff = (meta["wall_time_s"] - one.metadata["wall_time_s"]) / (steps - 1)
     extra["difference_method_us_per_fmu_step"] = diff / n * 1e6
     extra["metadata"] = {k: meta.get(k) for k in ("wall_time_s", "outcome", "algorithm", "steps", "step_size",
                                                   "algorithm_info", "rows_recorded", "package_version",
                                                   "native_loop")}
-    extra["kwargs"] = {k: v for k, v in kw.items() if k != "record"}
+    modes = {k: True for k, on in (("supervised", supervised), ("files", files)) if on}
+    extra["kwargs"] = {k: v for k, v in kw.items() if k != "record"} | modes
     frame = res.frame
     col = f"{last}.y"
     ys = frame[col].to_numpy()
@@ -187,6 +217,8 @@ def peer_cosim_master(a: dict) -> dict:
     samples = {k: float(ys[k]) for k in range(0, steps + 1, every)}
     samples[steps] = float(ys[steps])
     extra["last_time"] = float(ts[-1])
+    import shutil
+    shutil.rmtree(folder, ignore_errors=True)
     if marks:
         stepping, how = marks[1], f"wrapped {owner.__name__}.{attr} (step loop incl. recording), warm process"
     else:

@@ -1,6 +1,6 @@
 """Chain benchmark: master overhead per FMU step, cosim-master side by side with its peers.
 
-    python bench/chain/run_bench.py [--fmus 10] [--steps 10000] [--step 0.001] [--repeats 3]
+    python bench/chain/run_bench.py [--fmus 10] [--steps 10000] [--step 0.001] [--repeats 3] [--supervised]
 
 A chain of --fmus first-order lags (lag{i-1}.y -> lag{i}.u; lag0.u unconnected), --steps fixed steps of
 --step seconds, in two flavours of the same model: a native C FMI 2.0 co-simulation FMU (bench/chain/lag.c,
@@ -15,7 +15,11 @@ closed-form recurrence recomputed here (Jacobi: all inputs from the outputs at t
 initial outputs after initialization) to 1e-9 relative; a peer that matches another semantics instead
 (first-step inputs 0, Gauss-Seidel, a one-step shift) is named as such.
 
-Results: printed, and written to bench/results/chain_<date>.md and .json (unless --no-write).
+--supervised measures cosim-master as ``cosim-master run`` runs by default (the simulation in a supervised
+child process), native loop on and off, beside its unsupervised default, Ecos pinned and the bare loop.
+
+Results: printed, and written to bench/results/chain_<date>.md and .json, or chain_<date>_supervised.* with
+--supervised (unless --no-write).
 A peer that cannot be installed, loaded or run gets a row with the reason; the harness does not fail.
 """
 from __future__ import annotations
@@ -67,6 +71,23 @@ ROWS = [
     ("fmpy simulate_ssp", "fmpy_ssp", {}, True,
      "fmpy.ssp.simulation.simulate_ssp, a pure-Python loop over fmpy's FMU2Slave"),
 ]
+
+# --supervised: the chain as `cosim-master run` runs it by default (the simulation in a supervised child)
+SUPERVISED_ROWS = [ROWS[0],
+                   ("cosim-master supervised (defaults)", "cosim_master", {"supervised": True}, True,
+                    "master.supervise.run_supervised(..., algorithm='jacobi', record=[last.y]) as `cosim-master "
+                    "run` does: the simulation in a forked child, rows through shared memory and a pipe, Parquet "
+                    "and CSV written by the parent; the child's step loop is timed"),
+                   ("cosim-master supervised (native_loop=False)", "cosim_master",
+                    {"supervised": True, "native_loop": False}, True,
+                    "the same with the step loop in Python, as `cosim-master run --no-native-loop`"),
+                   ("cosim-master (files)", "cosim_master", {"files": True}, True,
+                    "unsupervised (master.run), but writing Parquet and CSV to a folder as the supervised rows do "
+                    "(the other rows record to memory): what supervision itself costs is the difference"),
+                   ("cosim-master (files, native_loop=False)", "cosim_master", {"files": True, "native_loop": False},
+                    True, "the same with the step loop in Python"),
+                   ROWS[2],
+                   ROWS[5]]
 
 # packages each peer needs, and what 'pip install' gives them (ecospy's wheel needs libtbb.so.12 from tbb)
 REQUIRES = {"ecospy": ["ecospy", "tbb"], "libcosimpy": ["libcosimpy"], "fmpy_ssp": ["fmpy"],
@@ -261,6 +282,9 @@ def main(argv=None):
     ap.add_argument("--every", type=int, default=100, help="trajectory sample interval in steps (default 100)")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per peer subprocess (default 600)")
     ap.add_argument("--only", default="", help="comma-separated peer names to run (default: all)")
+    ap.add_argument("--supervised", action="store_true",
+                    help="cosim-master supervised (as the CLI runs) with the native loop on and off, against Ecos "
+                         "pinned; written to chain_<date>_supervised.md")
     ap.add_argument("--no-install", action="store_true", help="do not pip install missing peers")
     ap.add_argument("--no-write", action="store_true", help="print only; write nothing to bench/results")
     ap.add_argument("--results-dir", default=str(ROOT / "bench" / "results"))
@@ -270,7 +294,7 @@ def main(argv=None):
     t_start = time.perf_counter()
 
     only = {s.strip() for s in a.only.split(",") if s.strip()}
-    rows = [r for r in ROWS if not only or r[1] in only]
+    rows = [r for r in (SUPERVISED_ROWS if a.supervised else ROWS) if not only or r[1] in only]
     problems = ensure_packages(not a.no_install)
     machine = machine_description()
     load_before = os.getloadavg() if hasattr(os, "getloadavg") else None
@@ -366,9 +390,9 @@ def main(argv=None):
         out_dir = Path(a.results_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         stamp = _dt.date.today().isoformat()
-        md_path = out_dir / f"chain_{stamp}.md"
+        md_path = out_dir / f"chain_{stamp}{'_supervised' if a.supervised else ''}.md"
         md_path.write_text(report["markdown"], encoding="utf-8")
-        (out_dir / f"chain_{stamp}.json").write_text(json.dumps(
+        md_path.with_suffix(".json").write_text(json.dumps(
             {"args": vars(a), "machine": machine, "reference_final": ref_final, "sensitivity": sensitivity,
              "table": table,
              "raw": {f"{rows[ri][0]} [{fl}]": [r if i == 0 else {k: v for k, v in r.items() if k != "samples"}
@@ -451,9 +475,10 @@ def render(a, table, machine, ref_final, sensitivity, problems, elapsed) -> dict
         if max(lb[0], la[0]) > 0.5:
             load += (" **Other processes were running: absolute figures are inflated and noisy; the best-of "
                      "figures and the ratios within one run are the more reliable.**")
+    flag = " --supervised" if a.supervised else ""
     md = f"""# Chain benchmark, {machine['date'][:10]}
 
-Command: `python bench/chain/run_bench.py --fmus {a.fmus} --steps {a.steps} --step {a.step:g} --repeats {a.repeats}`
+Command: `python bench/chain/run_bench.py --fmus {a.fmus} --steps {a.steps} --step {a.step:g} --repeats {a.repeats}{flag}`
 (total {elapsed:.0f} s). {setup} µs/FMU-step = wall time of the timed stepping phase / (FMUs × steps timed).
 {load}
 

@@ -62,6 +62,11 @@ typedef struct {
     long long n_check;
     long long *counts;                   /* doStep calls per component */
     long long n, code, op, status;       /* out: steps done, why it returned, which operation, its status */
+    /* progress for a supervisor (supervise.py), kept as its Python path keeps it; a scratch array when there is
+     * none. Plain stores into shared memory, no system call: the time reached after every step, the time and
+     * count of the rows recorded at every row, and the component whose FMI call is in progress (-1: none), so
+     * that a crash inside an FMU is pinned on its component. */
+    double *time_reached, *last_row, *rows, *busy;
 } cm_loop;
 
 static int run_op(cm_loop *L, const cm_op *o, double t) {
@@ -89,15 +94,19 @@ static int run_op(cm_loop *L, const cm_op *o, double t) {
     }
     case OP_SET:
     case OP_GET:
+        *L->busy = (double)o->comp;
         return ((fmi2_io)o->fn)(o->inst, o->vr, (size_t)o->n, o->dst);
     case OP_STEP:
+        *L->busy = (double)o->comp;
         L->counts[o->comp]++;
         return ((fmi2_do_step)o->fn)(o->inst, t, o->h, 1);
     case OP_SET3:
     case OP_GET3:
+        *L->busy = (double)o->comp;
         return ((fmi3_io)o->fn)(o->inst, o->vr, (size_t)o->n, o->dst, (size_t)o->nvalues);
     case OP_STEP3: {
         int st;
+        *L->busy = (double)o->comp;
         L->counts[o->comp]++;
         st = ((fmi3_do_step)o->fn)(o->inst, t, o->h, o->no_set_prior != 0, o->event, o->terminate, o->early,
                                    o->last);
@@ -139,12 +148,23 @@ static void record(cm_loop *L, double t1) {
     L->fill++;
 }
 
+/* Return to Python with ``code`` after ``n`` steps. After a failed FMI call the component stays marked busy: Python
+ * finishes that call (its status, the FMU's log, a request to terminate). */
+static int leave(cm_loop *L, long long n, int code) {
+    L->n = n;
+    L->code = code;
+    if (code != OP_FAILED && code != STEP3_LOOK && code != SAMPLE_FAILED)
+        *L->busy = -1.0;
+    return code;
+}
+
 /* Steps n0 .. n1-1, the first from operation op0 on. ``rest_only``: finish step n0 from op0 and return
  * (after an FMU asked to end the run in its doStep; Python then does what follows the step). */
 int cm_run(cm_loop *L, long long n0, long long n1, long long op0, int rest_only) {
     long long n, k;
     for (n = n0; n < n1; n++) {
         double t = L->start + (double)n * L->h;
+        double t1;
         for (k = op0; k < L->n_ops; k++) {
             const cm_op *o = &L->ops[k];
             int st;
@@ -152,39 +172,38 @@ int cm_run(cm_loop *L, long long n0, long long n1, long long op0, int rest_only)
                 continue;
             st = run_op(L, o, t);
             if (st > 1) {
-                L->n = n; L->code = OP_FAILED; L->op = k; L->status = st;
-                return OP_FAILED;
+                L->op = k; L->status = st;
+                return leave(L, n, OP_FAILED);
             }
             if (st < 0) {
-                L->n = n; L->code = STEP3_LOOK; L->op = k; L->status = -1 - st;
-                return STEP3_LOOK;
+                L->op = k; L->status = -1 - st;
+                return leave(L, n, STEP3_LOOK);
             }
         }
         op0 = 0;
-        if (rest_only) {
-            L->n = n + 1; L->code = DONE;
-            return DONE;
-        }
+        if (rest_only)
+            return leave(L, n + 1, DONE);
+        t1 = L->start + (double)(n + 1) * L->h;
+        *L->time_reached = t1;
         if (L->every && ((n + 1) % L->every == 0 || n + 1 == L->steps)) {
-            double t1 = L->start + (double)(n + 1) * L->h;
             for (k = 0; k < L->n_samples; k++) {
                 int st = run_op(L, &L->samples[k], t1);
                 if (st > 1) {
-                    L->n = n; L->code = SAMPLE_FAILED; L->op = k; L->status = st;
-                    return SAMPLE_FAILED;
+                    L->op = k; L->status = st;
+                    return leave(L, n, SAMPLE_FAILED);
                 }
             }
             record(L, t1);
+            /* after the row is whole: a supervisor keeps exactly the rows counted here */
+            *L->last_row = t1;
+            *L->rows = (double)L->fill;
             if (L->fill == L->block_rows) {
-                L->n = n + 1; L->code = BLOCK_FULL; L->status = L->check && !all_finite(L);
-                return BLOCK_FULL;
+                L->status = L->check && !all_finite(L);
+                return leave(L, n + 1, BLOCK_FULL);
             }
         }
-        if (L->check && !all_finite(L)) {
-            L->n = n + 1; L->code = NONFINITE;
-            return NONFINITE;
-        }
+        if (L->check && !all_finite(L))
+            return leave(L, n + 1, NONFINITE);
     }
-    L->n = n1; L->code = DONE;
-    return DONE;
+    return leave(L, n1, DONE);
 }

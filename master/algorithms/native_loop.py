@@ -11,11 +11,12 @@ errors and rows kept are the same, bit for bit.
 
 It applies only when nothing else needs Python between steps: a fixed-step algorithm whose step is the
 compiled one (jacobi, gauss-seidel; no extrapolation, no rollback), no monitors, observers or manipulators
-besides the recording (a supervised child's recording reports after every step, so supervised runs keep the
-Python path too), every active component a native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports
-or an FMI 3.0 one with Float64 ports and neither event mode nor early return (pythonfmu FMUs in process, model
-exchange and FMI 1.0 keep the Python path), no value maps on inputs, and numeric recorded values. Otherwise
-the Python path runs, unchanged; run.json's ``native_loop`` says which ran and why.
+besides the recording (a supervised child's recording lets the loop keep its shared progress header: time,
+rows, and the component whose FMI call is in progress, see ``PROGRESS_SLOTS``), every active component a
+native FMI 2.0 co-simulation FMU with Real/Integer/Boolean ports or an FMI 3.0 one with Float64 ports and
+neither event mode nor early return (pythonfmu FMUs in process, model exchange and FMI 1.0 keep the Python
+path), no value maps on inputs, and numeric recorded values. Otherwise the Python path runs, unchanged;
+run.json's ``native_loop`` says which ran and why.
 
 The C source is compiled on first use with the system's C compiler (``$CC`` or ``cc``) into the per-user
 cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would be one, and
@@ -31,20 +32,29 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from ctypes import POINTER, Structure, c_double, c_longlong, c_void_p
 from pathlib import Path
 
 import numpy as np
 
+from .. import interrupts
 from ..fmi.slave import WARNING
 
 SOURCE = Path(__file__).with_name("native_loop.c")
-CHUNK = 1 << 16        # steps per call at most: Ctrl-C and the progress bar are served between calls
+# Ctrl-C, SIGTERM and the progress bar are served between calls: a call runs at most CHUNK steps and about
+# CALL_S seconds at the rate the previous call measured (the first runs one step, and each limit is at most
+# GROWTH times the last), so that slow FMUs too return well within a supervisor's grace time
+# (supervise.GRACE_S) and the run closes in order
+CHUNK, GROWTH, CALL_S = 1 << 16, 16, 0.1
 SUPPORTED_TYPES = ("Real", "Integer", "Boolean")
 
 OP_XFER_REAL, OP_XFER_INT32, OP_SET, OP_STEP, OP_GET, OP_PUBLISH, OP_SET3, OP_GET3, OP_STEP3 = range(1, 10)
 GATHER_F64, GATHER_I32, GATHER_BITS64 = 1, 2, 3
 DONE, OP_FAILED, SAMPLE_FAILED, BLOCK_FULL, NONFINITE, STEP3_LOOK = range(6)
+# what the loop reports as it goes (cm_loop's last fields): time reached, time of the last row, rows in the
+# block, component whose FMI call is in progress (-1: none)
+PROGRESS_SLOTS = ("time_reached", "last_row", "rows", "busy")
 
 
 class _Op(Structure):
@@ -65,7 +75,8 @@ class _Loop(Structure):
                 ("block", c_void_p), ("block_rows", c_longlong), ("ncols", c_longlong), ("fill", c_longlong),
                 ("gathers", POINTER(_Gather)), ("n_gathers", c_longlong), ("check", c_void_p),
                 ("n_check", c_longlong), ("counts", c_void_p), ("n", c_longlong), ("code", c_longlong),
-                ("op", c_longlong), ("status", c_longlong)]
+                ("op", c_longlong), ("status", c_longlong), ("time_reached", c_void_p), ("last_row", c_void_p),
+                ("rows", c_void_p), ("busy", c_void_p)]
 
 
 def _cache_dir() -> Path:
@@ -151,7 +162,8 @@ def why_not(ex) -> str | None:
                         for ob in others})
         return f"observers look at every step: {', '.join(names)}"
     rec = ex.recording
-    if type(rec) is not Recording:      # a supervised child's: it reports its progress after every step
+    # a subclass may look at every step; a supervised child's lets the loop report its progress instead
+    if type(rec) is not Recording and getattr(rec, "native_progress", None) is None:
         return f"the recording ({type(rec).__name__}) looks at every step"
     if rec.str_ or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
@@ -253,6 +265,7 @@ class NativeLoop:
         rt, rec = ex.rt, ex.recording
         self.counts = np.zeros(len(rt.names), dtype=np.int64)
         self.steps_run = 0
+        self.chunk = 1
         self._program = None
         self._active = None
         L = self.L = _Loop()
@@ -270,6 +283,21 @@ class NativeLoop:
         if not ex.options.allow_nonfinite and len(rt.out["Real"]):
             L.check, L.n_check = rt.out["Real"].ctypes.data, len(rt.out["Real"])
         L.counts = self.counts.ctypes.data
+        self._bind_progress(rec)
+
+    def _pace(self, steps: int, seconds: float) -> None:
+        if steps > 0:
+            self.chunk = max(1, min(CHUNK, GROWTH * self.chunk, int(steps * CALL_S / max(seconds, 1e-9))))
+
+    def _bind_progress(self, rec):
+        """The C loop keeps a supervised child's progress (supervise.py) as after_step and sample keep it on the
+        Python path: such a recording offers one-value views of its shared header; anything else gets scratch."""
+        offer = getattr(rec, "native_progress", None)
+        slots = offer() if offer is not None else {}
+        scratch = np.full(len(PROGRESS_SLOTS), -1.0)
+        self._progress = [slots.get(name, scratch[k:k + 1]) for k, name in enumerate(PROGRESS_SLOTS)]
+        for name, view in zip(PROGRESS_SLOTS, self._progress):      # kept alive for the C side
+            setattr(self.L, name, _addr(view))
 
     def _bind(self):
         rt = self.ex.rt
@@ -284,18 +312,25 @@ class NativeLoop:
         return p
 
     def _call(self, n0, n1, op0=0, rest_only=False):
-        rec, L = self.ex.recording, self.L
-        L.block, L.fill = rec.block.ctypes.data, rec.fill      # the recording's own: flushing resets its fill
-        try:
-            return self.lib.cm_run(ctypes.byref(L), n0, n1, op0, int(rest_only))
-        finally:
+        """Steps n0 .. n1-1 in C. The master's count of steps, rows and calls is brought up to date with what
+        the loop did before an interrupt is let through, so that run.json and the rows kept agree."""
+        ex, L = self.ex, self.L
+        rec = ex.recording
+        with interrupts.deferred():
+            L.block, L.fill = rec.block.ctypes.data, rec.fill      # the recording's own: flushing resets its fill
+            code = self.lib.cm_run(ctypes.byref(L), n0, n1, op0, int(rest_only))
             rec.fill = L.fill
             self.steps_run += L.n - n0
             done = self.counts.nonzero()[0]
             for i in done:
-                self.ex.rt.do_step_calls[i] += int(self.counts[i])
+                ex.rt.do_step_calls[i] += int(self.counts[i])
             self.counts[done] = 0
-            self.ex.metadata["native_loop"]["steps"] = self.steps_run
+            ex.metadata["native_loop"]["steps"] = self.steps_run
+            if not rest_only:        # the rest of a step that ends the run: Python does what follows it
+                ex.n = L.n           # steps completed, or the step in progress after a failure
+                if L.n > 0:
+                    ex.metadata["last_time"] = ex.settings.start + L.n * ex.settings.step
+        return code
 
     def advance(self, n: int, stop: int, bar=None) -> None:
         """Steps n .. stop-1 (fewer when the run ends early or fails); ``ex.n`` and run.json's last time follow
@@ -309,17 +344,17 @@ class NativeLoop:
             if ending:
                 code = self._call(n, n + 1, op0, rest_only=True)
             else:
-                code = self._call(n, min(stop, n + CHUNK), op0)
+                t0 = time.perf_counter()
+                code = self._call(n, min(stop, n + self.chunk), op0)
+                self._pace(self.L.n - n, time.perf_counter() - t0)
             op0 = 0
-            done = self.L.n          # steps completed, or the step in progress after a failure
+            done = self.L.n
             if bar is not None:
                 bar.update(done - n)
             if ending and code == DONE:
                 self._after_terminating_step(n)
                 return
-            n = ex.n = done
-            if n > 0:
-                meta["last_time"] = start + n * h
+            n = done
             if code == DONE:
                 continue
             if code == BLOCK_FULL:

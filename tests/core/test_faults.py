@@ -110,7 +110,12 @@ def test_ctrl_c_ends_a_hanging_fmu_with_exit_130(tmp_path, test_fmus):
     out = tmp_path / "out"
     p = subprocess.Popen(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out)], env=_env(),
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
-    time.sleep(2.0)                      # well into the hang (it starts at t = 0.5 of a few-ms run)
+    # well into the hang (it starts at t = 0.5 of a few-ms run): the results file is opened once the child has
+    # initialized; a fixed delay alone met a busy machine's start-up (imports, unpacking) as often as the hang
+    deadline = time.monotonic() + 60
+    while not (out / "results.parquet").exists() and p.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    time.sleep(1.0)
     os.killpg(p.pid, signal.SIGINT)      # what a terminal's Ctrl-C does
     _, err = p.communicate(timeout=60)
     assert p.returncode == 130
@@ -128,10 +133,11 @@ def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmu
         out = tmp_path / f"out{k}"
         args = CLI + ["run", str(ssp), "-o", str(out)] + (["--no-supervise"] if how.startswith("in-process") else [])
         p = subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True, start_new_session=True)
-        # the random point is counted from the moment the run owns its folder: on a loaded machine the start-up
-        # (imports, unpacking) alone can take longer than the delay, and an interrupt then finds nothing to keep
+        # the random point is counted from the moment the results file is opened (after initialization): on a
+        # loaded machine the start-up (imports, unpacking, instantiation) alone can take longer than the delay,
+        # and an interrupt then finds nothing to keep
         deadline = time.monotonic() + 60
-        while not out.is_dir() and p.poll() is None and time.monotonic() < deadline:
+        while not (out / "results.parquet").exists() and p.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
         time.sleep(rnd.uniform(0.05, 1.2))      # the native loop runs the 400,000 steps in about a second
         if how == "sigterm":
