@@ -177,11 +177,24 @@ class UnitsMixin:
         if cls is None:
             return None
         vrs = [int(v) for v in vrs]
+        if op == "get_raw":
+            return self._raw_reader(cls, vrs)
         if op == "get":
             return self._reader(cls, {Real: float, Integer: int, Boolean: bool, String: str}[cls], vrs)
         if op == "set":
             return self._writer(cls, vrs)
         return None
+
+    def _raw_reader(self, cls, vrs):
+        """For ``cosim_bind("get_raw", ...)``: (fetch, single) with ``fetch(slave)`` giving the values of
+        ``vrs`` unconverted (a tuple, or the value itself when ``single``), for a master that stores them in a
+        buffer of the FMI type (which converts as get_<type> would); None unless every one is an attribute.
+        ``fetch`` is an operator.attrgetter: no Python frame per call, and valid for any instance."""
+        get = self._vr_tables()[cls][0]
+        names = [get.get(vr) for vr in vrs]
+        if not names or not all(a.__class__ is str for a in names):
+            return None
+        return attrgetter(*names), len(names) == 1
 
     def get_real(self, vrs):
         return self._get(Real, float, vrs, "get_real")

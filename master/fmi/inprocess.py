@@ -169,16 +169,48 @@ class PythonFmuSlave(Slave):
 
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
+        read = self._reader(typ, vrs, buf, conv)
+        drain, get_port = self._drain, self.get_port
+
+        # one frame per call: the read inlined, the log queue looked at only when it holds a message
+        def op():
+            try:
+                read()
+            except Exception:
+                return get_port(typ, port)        # again through the reporting path
+            if obj.log_queue:
+                drain()
+            return OK
+        return op
+
+    def _reader(self, typ, vrs, buf, conv):
+        """A function filling ``buf`` with the values of ``vrs``: the slave's own fast accessor where it has
+        one, else its getters, else its get_<typ>."""
+        obj = self.obj
+        if typ == "Real":
+            # the values go into a float64 buffer, which converts them as float() would: the slave may hand
+            # them over unconverted (``get_raw``: one C-level attribute fetch, no list)
+            raw = self._bound("get_raw", typ, vrs)
+            if raw is not None:
+                fetch, single = raw
+                if single:
+                    def read():
+                        buf[0] = fetch(obj)
+                else:
+                    def read():
+                        buf[:] = fetch(obj)
+                return read
         bound = self._bound("get", typ, vrs)
-        getters = None if bound is not None else self._direct("get", typ, vrs)
-        method = getattr(obj, f"get_{typ.lower()}")
-        if bound is not None and len(vrs) == 1:
-            def read():
-                buf[0] = bound()[0]
-        elif bound is not None:
-            def read():
-                buf[:] = bound()
-        elif getters is not None and len(getters) == 1:
+        if bound is not None:
+            if len(vrs) == 1:
+                def read():
+                    buf[0] = bound()[0]
+            else:
+                def read():
+                    buf[:] = bound()
+            return read
+        getters = self._direct("get", typ, vrs)
+        if getters is not None and len(getters) == 1:
             g = getters[0]
 
             def read():
@@ -187,30 +219,31 @@ class PythonFmuSlave(Slave):
             def read():
                 buf[:] = [conv(g()) for g in getters]
         else:
+            method = getattr(obj, f"get_{typ.lower()}")
+
             def read():
                 buf[:] = method(vrs)
-
-        def op():
-            try:
-                read()
-            except Exception:
-                return self.get_port(typ, port)   # again through the reporting path
-            if obj.log_queue:
-                self._drain()
-            return OK
-        return op
+        return read
 
     def bound_set(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
         bound = self._bound("set", typ, vrs)
         setters = None if bound is not None else self._direct("set", typ, vrs)
         method = getattr(obj, f"set_{typ.lower()}")
+        drain, set_port, tolist = self._drain, self.set_port, buf.tolist
         if bound is not None and typ == "Real":
-            def write():                 # a float64 buffer's tolist() holds Python floats already
-                bound(buf.tolist())
-        elif bound is not None:
+            def op():                 # a float64 buffer's tolist() holds Python floats already
+                try:
+                    bound(tolist())
+                except Exception:
+                    return set_port(typ, port)
+                if obj.log_queue:
+                    drain()
+                return OK
+            return op
+        if bound is not None:
             def write():
-                bound([conv(v) for v in buf.tolist()])
+                bound([conv(v) for v in tolist()])
         elif setters is not None and len(setters) == 1:
             s0 = setters[0]
 
@@ -218,19 +251,19 @@ class PythonFmuSlave(Slave):
                 s0(conv(buf[0]))
         elif setters is not None:
             def write():
-                for s, v in zip(setters, buf.tolist()):
+                for s, v in zip(setters, tolist()):
                     s(conv(v))
         else:
             def write():
-                method(vrs, [conv(v) for v in buf.tolist()])
+                method(vrs, [conv(v) for v in tolist()])
 
         def op():
             try:
                 write()
             except Exception:
-                return self.set_port(typ, port)
+                return set_port(typ, port)
             if obj.log_queue:
-                self._drain()
+                drain()
             return OK
         return op
 
