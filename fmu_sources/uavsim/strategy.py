@@ -514,6 +514,18 @@ class Strategy:
     def targets_visited(self) -> int:
         return len(self.visited)
 
+    def outputs(self) -> tuple:
+        """What an FMU publishes, in one call: cmd, setpoint x, y, z, state, targets assigned and visited,
+        photo count, last photo target, current target, avoiding (0/1), avoid count, last photo time, x, y."""
+        sp = self.sp
+        if self.planning:
+            avoiding = 1 if self.braking or len(self.path) > 1 else 0
+        else:
+            avoiding = 1 if self.detour else 0
+        return (int(self.cmd), sp[0], sp[1], sp[2], int(self.state), len(self.assigned), len(self.visited),
+                self.photo_count, self.last_photo_target, self.current_target, avoiding, self.avoid_count,
+                self.last_photo_time, self.last_photo_x, self.last_photo_y)
+
     def _goal(self):
         if self.state == TRANSIT and self.current_target >= 0:
             return self.targets[self.current_target]

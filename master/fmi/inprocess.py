@@ -231,8 +231,10 @@ class PythonFmuSlave(Slave):
         setters = None if bound is not None else self._direct("set", typ, vrs)
         method = getattr(obj, f"set_{typ.lower()}")
         drain, set_port, tolist = self._drain, self.set_port, buf.tolist
-        if bound is not None and typ == "Real":
-            def op():                 # a float64 buffer's tolist() holds Python floats already
+        if bound is not None and (typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")):
+            # a float or integer buffer's tolist() holds Python floats or ints already: nothing to convert
+            # (a Boolean buffer holds 0/1, which bool() makes True/False)
+            def op():
                 try:
                     bound(tolist())
                 except Exception:

@@ -369,3 +369,25 @@ def test_blocked_is_shapely_on_every_zone():
     for a, b in (((math.nan, 120.0), (130.0, 120.0)), ((math.inf, 0.0), (0.0, 0.0)), ((5.0, 5.0), (6.0, math.nan))):
         line = LineString([a, b])
         assert zm.blocked(a, b) == next((i for i, pz in enumerate(zm._prep) if pz.intersects(line)), -1)
+
+
+@pytest.mark.parametrize("planning", [True, False])
+def test_outputs_are_the_published_attributes(planning, monkeypatch):
+    # Strategy.outputs() (one call per FMU step) gives exactly what the FMU used to read attribute by attribute,
+    # at every step of a mission with a zone detour, photos and the return
+    from uavsim.strategy import Strategy
+    seen = []
+    step = Strategy.step
+
+    def checked(self, *a):
+        step(self, *a)
+        o = self.outputs()
+        assert o == (int(self.cmd), *self.sp, int(self.state), self.targets_assigned, self.targets_visited,
+                     self.photo_count, self.last_photo_target, self.current_target, int(self.avoiding),
+                     self.avoid_count, self.last_photo_time, self.last_photo_x, self.last_photo_y)
+        seen.append(o[10])
+    monkeypatch.setattr(Strategy, "step", checked)
+    res = simulate_mission(StrategyParams(strategy="B", targets="150,10;-60,200", zone_planning=planning,
+                                          zones="40,-20;80,-20;80,60;40,60"), t_end=400.0)
+    assert res.strategy.state == LANDED_BASE and res.strategy.targets_visited == 2
+    assert 1 in seen and 0 in seen          # a detour was flown
