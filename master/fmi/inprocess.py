@@ -169,8 +169,34 @@ class PythonFmuSlave(Slave):
 
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
-        read = self._reader(typ, vrs, buf, conv)
         drain, get_port = self._drain, self.get_port
+        # Real and Integer values go into a float64 or integer buffer, which converts them as float() or int()
+        # would: the slave may hand them over unconverted (``get_raw``: one C-level attribute fetch, no list, no
+        # Python frame); a Boolean buffer holds 0/1 either way, but a String one would keep a non-str
+        as_is = typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")
+        raw = self._bound("get_raw", typ, vrs) if as_is else None
+        if raw is not None:
+            fetch, single = raw
+            if single:
+                def op():
+                    try:
+                        buf[0] = fetch(obj)
+                    except Exception:
+                        return get_port(typ, port)        # again through the reporting path
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            else:
+                def op():
+                    try:
+                        buf[:] = fetch(obj)
+                    except Exception:
+                        return get_port(typ, port)
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            return op
+        read = self._reader(typ, vrs, buf, conv)
 
         # one frame per call: the read inlined, the log queue looked at only when it holds a message
         def op():
@@ -187,19 +213,6 @@ class PythonFmuSlave(Slave):
         """A function filling ``buf`` with the values of ``vrs``: the slave's own fast accessor where it has
         one, else its getters, else its get_<typ>."""
         obj = self.obj
-        if typ == "Real":
-            # the values go into a float64 buffer, which converts them as float() would: the slave may hand
-            # them over unconverted (``get_raw``: one C-level attribute fetch, no list)
-            raw = self._bound("get_raw", typ, vrs)
-            if raw is not None:
-                fetch, single = raw
-                if single:
-                    def read():
-                        buf[0] = fetch(obj)
-                else:
-                    def read():
-                        buf[:] = fetch(obj)
-                return read
         bound = self._bound("get", typ, vrs)
         if bound is not None:
             if len(vrs) == 1:
@@ -231,9 +244,23 @@ class PythonFmuSlave(Slave):
         setters = None if bound is not None else self._direct("set", typ, vrs)
         method = getattr(obj, f"set_{typ.lower()}")
         drain, set_port, tolist = self._drain, self.set_port, buf.tolist
-        if bound is not None and (typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")):
-            # a float or integer buffer's tolist() holds Python floats or ints already: nothing to convert
-            # (a Boolean buffer holds 0/1, which bool() makes True/False)
+        # a float or integer buffer's tolist() holds Python floats or ints already: nothing to convert (a
+        # Boolean buffer holds 0/1, which bool() makes True/False)
+        as_is = typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")
+        raw = self._bound("set_raw", typ, vrs) if as_is else None
+        if raw is not None:
+            update, names = raw          # the slave's own attribute update, called inline: no Python frame
+
+            def op():
+                try:
+                    update(zip(names, tolist()))
+                except Exception:
+                    return set_port(typ, port)
+                if obj.log_queue:
+                    drain()
+                return OK
+            return op
+        if bound is not None and as_is:
             def op():
                 try:
                     bound(tolist())
