@@ -12,6 +12,7 @@ and log messages queued by the slave are forwarded after every call.
 from __future__ import annotations
 
 import importlib
+import struct
 import sys
 import traceback
 
@@ -183,6 +184,20 @@ class PythonFmuSlave(Slave):
                         buf[0] = fetch(obj)
                     except Exception:
                         return get_port(typ, port)        # again through the reporting path
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            elif buf.flags.c_contiguous and buf.flags.writeable and buf.dtype.isnative:
+                # struct writes the values into the buffer's memory in one C loop (numpy's assignment from a
+                # tuple converts value by value); a value struct does not take as is raises, and the reporting
+                # path below stores it through numpy as before
+                pack_into = struct.Struct(f"@{len(buf)}{buf.dtype.char}").pack_into
+
+                def op():
+                    try:
+                        pack_into(buf, 0, *fetch(obj))
+                    except Exception:
+                        return get_port(typ, port)
                     if obj.log_queue:
                         drain()
                     return OK
