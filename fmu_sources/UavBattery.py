@@ -87,6 +87,8 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
         self.depleted = int(m.depleted)
 
     def do_step(self, current_time, step_size):
-        self._model.step(step_size, self.airspeed, self.vz, int(self.phase))
-        self._publish()
+        out = self._model.step_outputs(step_size, self.airspeed, self.vz, int(self.phase))
+        if out is not None:       # the model's step returns what _publish would read from it
+            (self.soc, self.consumed, self.voltage, self.current, self.power, self.energy_used,
+             self.depleted) = out
         return True

@@ -106,10 +106,8 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
             self.airspeed = self.groundspeed = self.tilt = 0.0
             self.phase, self.ready = 0, 0
         else:
-            self.x, self.y, self.z = m.pos
-            self.vx, self.vy, self.vz = m.ground_velocity
-            self.airspeed, self.groundspeed, self.tilt = m.airspeed, m.groundspeed, m.tilt_deg
-            self.phase, self.ready = int(m.phase), int(m.ready)
+            (self.x, self.y, self.z, self.vx, self.vy, self.vz, self.airspeed, self.groundspeed, self.tilt,
+             self.phase, self.ready) = m.outputs()
 
     # The geodetic position is an output few masters read every step (cosim-master reads recorded-only
     # outputs when it samples), and the exact ENU -> WGS84 conversion is the costliest part of publishing

@@ -131,15 +131,9 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
         self._publish()
 
     def _publish(self):
-        m = self._model
-        self.cmd = int(m.cmd)
-        self.sp_x, self.sp_y, self.sp_z = m.sp
-        self.mission_state = int(m.state)
-        self.targets_assigned, self.targets_visited = m.targets_assigned, m.targets_visited
-        self.photo_count, self.last_photo_target = m.photo_count, m.last_photo_target
-        self.current_target, self.avoiding, self.avoid_count = m.current_target, int(m.avoiding), m.avoid_count
-        self.last_photo_time, self.last_photo_x, self.last_photo_y = (
-            m.last_photo_time, m.last_photo_x, m.last_photo_y)
+        (self.cmd, self.sp_x, self.sp_y, self.sp_z, self.mission_state, self.targets_assigned, self.targets_visited,
+         self.photo_count, self.last_photo_target, self.current_target, self.avoiding, self.avoid_count,
+         self.last_photo_time, self.last_photo_x, self.last_photo_y) = self._model.outputs()
 
     def do_step(self, current_time, step_size):
         if self._model is None:

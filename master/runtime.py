@@ -274,7 +274,7 @@ class Runtime:
     def fast_ops(self, i: int):
         """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None)."""
         slave = self.slaves[i]
-        transfers = [functools.partial(self._transfer, [entry]) for entry in self.xfer[i]]
+        transfers = [self._transfer_op(entry) for entry in self.xfer[i]]
         setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]]
         getters = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
         publish = functools.partial(self.publish, i) if self.staging[i] else None
@@ -313,6 +313,15 @@ class Runtime:
                 raise slave.fail(f"setting {v.name}={value!r} ({origin})", st, start)
 
     # -- value transfer ---------------------------------------------------------------------
+    def _transfer_op(self, entry):
+        """One transfer as a callable of no argument. A plain copy (no conversion, no mapping) is the buffer's own
+        ``take`` bound to its arguments: no Python frame per call. mode 'clip' spares the copy of ``view`` that
+        'raise' makes; the indices are positions in ``out`` by construction, so it takes the same values."""
+        t, out, src, view, f, o, maps = entry
+        if f is None and not maps:
+            return functools.partial(out.take, src, None, view, "clip")
+        return functools.partial(self._transfer, [entry])
+
     @staticmethod
     def _transfer(entries):
         for t, out, src, view, f, o, maps in entries:

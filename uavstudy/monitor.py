@@ -475,13 +475,16 @@ class UavMonitor(Monitor):
             self._step_small(t0, t1, p0, p1, ph1)
         else:
             self._step_vector(t0, t1, p0, p1, ph1)
-        if self.cfg.end_when_done and (PHASE_LANDED in ph1 or self._rm_idx.size):
+        if self.cfg.end_when_done and (self._rm_idx.size or PHASE_LANDED in (self._ph0l if self._small else ph1)):
             self._stop_if_fleet_done(ph1)
 
     def _stop_if_fleet_done(self, ph1) -> None:
         """Nothing happens to a fleet that has landed or been removed for good: stop instead of idling to the
         stop time.  A UAV that never took off keeps the run going (it may still be waiting for its turn)."""
-        landed = (ph1 == PHASE_LANDED) & np.asarray(self._took_off, dtype=bool)
+        on_ground = ph1 == PHASE_LANDED
+        if not (on_ground | self._removed).all():
+            return          # a UAV neither landed nor removed: the fleet is not done (the test below is stricter)
+        landed = on_ground & np.asarray(self._took_off, dtype=bool)
         if self.ms0 is not None:   # and the strategy has registered the landing (landed_base / landed_away)
             landed &= np.isin(np.asarray(self.ms0, dtype=float), FINAL_STATES)
         if (self._removed | landed).all():

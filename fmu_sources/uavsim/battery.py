@@ -113,6 +113,16 @@ def power_function(p: PowerParams):
     return power
 
 
+def _power_slots(p: PowerParams) -> tuple:
+    """The constants of :func:`power_function` in the kernels' power slots (uavsim.kernels W_*)."""
+    v0 = p.v0
+    return (p.p0, p.tip_speed ** 2, p.pi, 4.0 * v0 ** 4, 2.0 * v0 * v0, 0.5 * p.rho * p.flat_plate_area,
+            p.weight, p.efficiency, p.avionics_power)
+
+
+_MOTORS_ON = (1, 2, 3)
+
+
 @dataclass
 class BatteryParams:
     cells: int = P.CELLS
@@ -162,10 +172,10 @@ class Battery:
 
     def __post_init__(self):
         bp = self.params
-        self._count = (self.kernels or _kernels.load()).make_battery()
-        self._power = power_function(self.power_params)
-        self._kparams = (float(bp.cells), bp.resistance, bp.capacity_c, float(len(bp.ocv_soc)),
-                         *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
+        self._step = (self.kernels or _kernels.load()).make_battery_step()
+        self._kparams = (*_power_slots(self.power_params), float(bp.cells), bp.resistance, bp.capacity_c,
+                         float(len(bp.ocv_soc)), *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
+        self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J
         self.power = 0.0
@@ -221,15 +231,22 @@ class Battery:
         """Advance by ``dt`` with the inputs held: coulomb counting on fixed sub-steps.
 
         Same arithmetic as :meth:`step_reference` (bit-identical, tested), with the power demand
-        computed once (the inputs are held over the step) and the sub-step loop in the kernels of
-        :mod:`uavsim.kernels`."""
+        computed once (the inputs are held over the step); power, sub-step loop and the published outputs
+        are one call of the kernels of :mod:`uavsim.kernels`."""
+        self.step_outputs(dt, airspeed, vz, phase)
+
+    def step_outputs(self, dt: float, airspeed: float, vz: float, phase: int):
+        """:meth:`step`, returning what an FMU publishes: (soc, consumed, voltage, current, power, energy_used,
+        depleted as 0/1), or None when ``dt`` <= 0 (nothing changed)."""
         if dt <= 0.0:
-            return
-        motors_on = int(phase) in (1, 2, 3)
-        n, h = self._substeps(dt)
-        demand = self._power(airspeed, vz, motors_on)
-        s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, n, h, demand]
-        self._count(s, self._kparams)
-        q, e, cur, over, volt, pw = s[:6]
+            return None
+        sub = self._sub.get(dt)
+        if sub is None:
+            sub = self._sub[dt] = self._substeps(dt)
+        s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, sub[0], sub[1], 0.0, float(airspeed), float(vz),
+             1.0 if int(phase) in _MOTORS_ON else 0.0, 0.0, 0.0, 0.0]
+        self._step(s, self._kparams)
+        q, e, cur, over, volt, pw, _, _, _, _, _, _, cons, soc, depl = s
         self.charge_used, self.energy_used = q, e
-        self.current, self.overload, self.voltage, self.power = cur, bool(over), volt, pw
+        self.current, self.overload, self.voltage, self.power = cur, over != 0.0, volt, pw
+        return soc, cons, volt, cur, pw, e, int(depl)

@@ -102,6 +102,7 @@ class Dynamics:
         p = self.params
         self._fly = (self.kernels or _kernels.load()).make_fly()
         self._kparams = self._kernel_params()
+        self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
         self.time = 0.0
         self.pos = [p.home_x, p.home_y, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -143,8 +144,28 @@ class Dynamics:
         """Lean angle needed for the current horizontal thrust acceleration [deg]."""
         return math.degrees(math.atan2(math.hypot(*self.a_cmd), self.params.g))
 
+    def outputs(self) -> tuple:
+        """What an FMU publishes, in one call: x, y, z, the ground velocity, airspeed, groundspeed, tilt_deg,
+        phase, ready (the properties above, computed by the same operations)."""
+        vel, w = self.vel, self.wind
+        push = self.params.wind_push
+        if push and self.phase in (TAKEOFF, FLY, LAND):
+            gx, gy = vel[0] + w[0], vel[1] + w[1]
+        else:
+            gx, gy = vel[0], vel[1]
+        air = math.hypot(vel[0], vel[1]) if push else math.hypot(vel[0] - w[0], vel[1] - w[1])
+        pos = self.pos
+        return (pos[0], pos[1], pos[2], gx, gy, vel[2], air, math.hypot(gx, gy),
+                math.degrees(math.atan2(math.hypot(*self.a_cmd), self.params.g)), int(self.phase), int(self.ready))
+
     # ------------------------------------------------------------------ stepping
     def _substeps(self, dt: float) -> tuple[int, float]:
+        sub = self._sub.get(dt)
+        if sub is None:
+            sub = self._sub[dt] = self._count_substeps(dt)
+        return sub
+
+    def _count_substeps(self, dt: float) -> tuple[int, float]:
         h0 = self.params.substep
         n = max(1, int(round(dt / h0)))
         if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):

@@ -323,11 +323,37 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
         if cls is None:
             return None
         vrs = [int(v) for v in vrs]
+        if op == "get_raw":
+            return self._raw_reader(cls, vrs)
+        if op == "set_raw":
+            return self._raw_writer(cls, vrs)
         if op == "get":
             return self._reader(cls, {Real: float, Integer: int, Boolean: bool, String: str}[cls], vrs)
         if op == "set":
             return self._writer(cls, vrs)
         return None
+
+    def _raw_reader(self, cls, vrs):
+        """For ``cosim_bind("get_raw", ...)``: (fetch, single) with ``fetch(slave)`` giving the values of
+        ``vrs`` unconverted (a tuple, or the value itself when ``single``), for a master that stores them in a
+        buffer of the FMI type (which converts as get_<type> would); None unless every one is an attribute.
+        ``fetch`` is an operator.attrgetter: no Python frame per call, and valid for any instance."""
+        get = self._vr_tables()[cls][0]
+        names = [get.get(vr) for vr in vrs]
+        if not names or not all(a.__class__ is str for a in names):
+            return None
+        return attrgetter(*names), len(names) == 1
+
+    def _raw_writer(self, cls, vrs):
+        """For ``cosim_bind("set_raw", ...)``: (update, names) such that ``update(zip(names, values))`` does
+        what set_<type>(vrs, values) does, for a master that calls it inline (no Python frame); None unless every
+        one is a plain instance attribute (no property, no __setattr__)."""
+        put = self._vr_tables()[cls][1]
+        names = tuple(put.get(vr) for vr in vrs)
+        if (not names or type(self).__setattr__ is not object.__setattr__
+                or not all(a.__class__ is str and not hasattr(type(self), a) for a in names)):
+            return None
+        return self.__dict__.update, names
 
     def get_real(self, vrs):
         return self._get(Real, float, vrs, "get_real")

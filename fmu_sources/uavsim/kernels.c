@@ -190,3 +190,32 @@ int uav_battery(double *s, const double *p)
     s[BQ] = q; s[BE] = e; s[BCUR] = cur; s[BOVER] = over; s[BVOLT] = volt; s[BPOW] = pw;
     return n;
 }
+
+/* uav_battery_step: one whole Battery.step with the inputs held -- the Zeng power demand (uavsim.battery's
+ * power_function, same expression order), the coulomb counting of uav_battery, and the outputs the FMU
+ * publishes (consumed, soc, depleted), so that the FMU's step is one foreign call.
+ * State slots: the battery slots above, then these; parameters: the power slots, then uav_battery's. */
+enum { BAIR = BSTATE, BVZ, BMOTORS, BCONS, BSOC, BDEPL, BSTEP };
+enum { WP0, WTIP2, WPI, WV04, WV02, WDRAG, WWEIGHT, WEFF, WAVIONICS, WPOWER };
+
+int uav_battery_step(double *s, const double *p)
+{
+    const double airspeed = s[BAIR], vz = s[BVZ];
+    double demand, cons;
+    if (s[BMOTORS] == 0.0) {
+        demand = p[WAVIONICS];
+    } else {
+        const double v2 = airspeed * airspeed;
+        const double blade = p[WP0] * (1.0 + 3.0 * v2 / p[WTIP2]);
+        const double induced = p[WPI] * sqrt(dmax(0.0, sqrt(1.0 + v2 * v2 / p[WV04]) - v2 / p[WV02]));
+        const double shaft = blade + induced + p[WDRAG] * v2 * fabs(airspeed);
+        demand = (shaft + dmax(0.0, p[WWEIGHT] * vz)) / p[WEFF] + p[WAVIONICS];
+    }
+    s[BDEMAND] = demand;
+    uav_battery(s, p + WPOWER);
+    cons = s[BQ] / p[WPOWER + BCAP];
+    s[BCONS] = cons;
+    s[BSOC] = dmax(0.0, 1.0 - cons);
+    s[BDEPL] = cons >= 1.0;
+    return (int)s[BN];
+}

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import ctypes
 import os
+import struct
 from math import copysign, sqrt
 from pathlib import Path
 
 LIBRARY = "_uavsim_kernels.so"
+SYMBOLS = ("uav_fly", "uav_battery", "uav_battery_step")
 
 # dynamics state slots (kernels.c: the first enum)
 (S_PX, S_PY, S_PZ, S_VX, S_VY, S_VTX, S_VTY, S_VTZ, S_IX, S_IY, S_AX, S_AY, S_HX, S_HY, S_HOLDZ, S_PHASE,
@@ -30,6 +32,12 @@ N_PARAM = 15
 # battery state slots; battery parameters: cells, resistance, capacity (C), m, m soc values, m ocv values
 B_Q, B_E, B_CUR, B_OVER, B_VOLT, B_POW, B_N, B_H, B_DEMAND = range(9)
 N_BSTATE = 9
+# whole battery step (uav_battery_step): the battery slots, then inputs and published outputs; its parameters are
+# the power slots, then the battery parameters above
+B_AIR, B_VZ, B_MOTORS, B_CONS, B_SOC, B_DEPL = range(N_BSTATE, N_BSTATE + 6)
+N_BSTEP = N_BSTATE + 6
+(W_P0, W_TIP2, W_PI, W_V04, W_V02, W_DRAG, W_WEIGHT, W_EFF, W_AVIONICS) = range(9)
+N_POWER = 9
 
 TAKEOFF, FLY, LAND = 1, 2, 3
 CMD_GOTO, CMD_LAND = 2, 3
@@ -188,6 +196,28 @@ def battery_py(s: list, p) -> int:
     return n
 
 
+def battery_step_py(s: list, p) -> int:
+    """A whole Battery.step: the power demand for the held inputs (battery.power_function, same expression
+    order), the coulomb counting of :func:`battery_py` and the outputs the FMU publishes; state in s."""
+    if s[B_MOTORS] == 0.0:
+        demand = p[W_AVIONICS]
+    else:
+        airspeed, vz = s[B_AIR], s[B_VZ]
+        v2 = airspeed * airspeed
+        blade = p[W_P0] * (1.0 + 3.0 * v2 / p[W_TIP2])
+        induced = p[W_PI] * sqrt(max(0.0, sqrt(1.0 + v2 * v2 / p[W_V04]) - v2 / p[W_V02]))
+        shaft = blade + induced + p[W_DRAG] * v2 * abs(airspeed)
+        demand = (shaft + max(0.0, p[W_WEIGHT] * vz)) / p[W_EFF] + p[W_AVIONICS]
+    s[B_DEMAND] = demand
+    bp = p[N_POWER:]
+    battery_py(s, bp)
+    cons = s[B_Q] / bp[2]
+    s[B_CONS] = cons
+    s[B_SOC] = max(0.0, 1.0 - cons)
+    s[B_DEPL] = 1.0 if cons >= 1.0 else 0.0
+    return int(s[B_N])
+
+
 class Kernels:
     """The two loops behind one interface.  ``make_fly()`` and ``make_battery()`` return a function
     ``f(state, params)`` for ONE model instance (its own buffers: instances may step in different
@@ -204,18 +234,27 @@ class Kernels:
     def make_battery(self):
         return battery_py if self._lib is None else _bind(self._lib.uav_battery, N_BSTATE, B_N)
 
+    def make_battery_step(self):
+        return battery_step_py if self._lib is None else _bind(self._lib.uav_battery_step, N_BSTEP, B_N)
+
 
 def _bind(c_fn, size: int, result_slot: int):
     buf = (ctypes.c_double * size)()
+    # struct moves the values in and out in one C loop each (a ctypes array's slice assignment and iteration go
+    # value by value through Python, several times slower); both store the IEEE doubles as they are
+    pack_into, unpack_from = struct.Struct(f"{size}d").pack_into, struct.Struct(f"{size}d").unpack_from
     arrays = {}
+    last = [None, None]      # the parameters of the previous call (one model instance: every call) and their array
 
     def run(s, p):
-        a = arrays.get(p)
-        if a is None:         # parameters are a tuple fixed per model instance: converted once
-            a = arrays[p] = (ctypes.c_double * len(p))(*p)
-        buf[:] = s
-        c_fn(buf, a)          # no argtypes: the arrays pass as pointers
-        s[:] = buf
+        if p is not last[0]:     # parameters: a tuple fixed per model instance, converted once per value
+            a = arrays.get(p)
+            if a is None:
+                a = arrays[p] = (ctypes.c_double * len(p))(*p)
+            last[:] = p, a
+        pack_into(buf, 0, *s)
+        c_fn(buf, last[1])       # no argtypes: the arrays pass as pointers
+        s[:] = unpack_from(buf)
         return int(s[result_slot])
     return run
 
@@ -245,7 +284,9 @@ def _search(folders) -> Kernels:
         if os.path.isfile(path):
             try:
                 lib = ctypes.PyDLL(path)     # keeps the GIL: the loops are short
-            except OSError:            # another platform or architecture: the Python twins serve
+                for name in SYMBOLS:         # a library built from an older kernels.c lacks the newer kernels
+                    getattr(lib, name)
+            except (OSError, AttributeError):   # another platform, architecture or version: the Python twins serve
                 continue
             _loaded[path] = Kernels(lib)
             return _loaded[path]

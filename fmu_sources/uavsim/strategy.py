@@ -181,6 +181,10 @@ class ZoneMap:
             r = max((math.hypot(x - c.x, y - c.y) for x, y in shapely.get_coordinates(p).tolist()),
                     default=0.0)
             self._circles.append((c.x, c.y, r + 1e-6))
+        # the squares about those circles: a segment whose bounding box misses a square misses its circle and
+        # zone, which four comparisons tell (the circle's distance test is a function call)
+        self._tests = [(cx - r, cy - r, cx + r, cy + r, cx, cy, r) for cx, cy, r in self._circles]
+        self._all = [(-math.inf, -math.inf, math.inf, math.inf, cx, cy, r) for cx, cy, r in self._circles]
         self._paper = None        # lazily built visibility graph of the paper's reactive detour
         self._planners: dict[float, ZonePlanner] = {}
 
@@ -192,8 +196,15 @@ class ZoneMap:
         ax, ay = float(a[0]), float(a[1])
         bx, by = float(b[0]), float(b[1])
         geom = None
-        for i, (cx, cy, r) in enumerate(self._circles):
-            if _seg_point_dist(ax, ay, bx, by, cx, cy) > r:
+        if ax - ax + ay - ay + bx - bx + by - by == 0.0:       # finite end points: the squares first
+            lox, hix = (ax, bx) if ax <= bx else (bx, ax)
+            loy, hiy = (ay, by) if ay <= by else (by, ay)
+            tests = self._tests
+        else:                 # (a NaN or infinite end point goes through the distance test as it always did)
+            lox = hix = loy = hiy = 0.0
+            tests = self._all
+        for i, (x0, y0, x1, y1, cx, cy, r) in enumerate(tests):
+            if hix < x0 or lox > x1 or hiy < y0 or loy > y1 or _seg_point_dist(ax, ay, bx, by, cx, cy) > r:
                 continue                      # the segment cannot reach this zone
             if geom is None:
                 from shapely.geometry import LineString, Point
@@ -502,6 +513,18 @@ class Strategy:
     @property
     def targets_visited(self) -> int:
         return len(self.visited)
+
+    def outputs(self) -> tuple:
+        """What an FMU publishes, in one call: cmd, setpoint x, y, z, state, targets assigned and visited,
+        photo count, last photo target, current target, avoiding (0/1), avoid count, last photo time, x, y."""
+        sp = self.sp
+        if self.planning:
+            avoiding = 1 if self.braking or len(self.path) > 1 else 0
+        else:
+            avoiding = 1 if self.detour else 0
+        return (int(self.cmd), sp[0], sp[1], sp[2], int(self.state), len(self.assigned), len(self.visited),
+                self.photo_count, self.last_photo_target, self.current_target, avoiding, self.avoid_count,
+                self.last_photo_time, self.last_photo_x, self.last_photo_y)
 
     def _goal(self):
         if self.state == TRANSIT and self.current_target >= 0:

@@ -190,6 +190,8 @@ class Wind:
         instantaneous wind at t0 would feel an episode's onset ramp (0 at the episode start) for the whole
         step and, with steps as long as the episodes, no wind at all. Fed the step mean, it receives the
         same impulse whatever the step."""
+        if not self.p.probability > 0.0:
+            return 0.0, 0.0, 0.0, 0          # no episode can occur (u < probability never holds): calm
         h = t1 - t0
         if h <= 0.0:
             return self.at(t0)

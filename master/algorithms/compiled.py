@@ -11,6 +11,7 @@ from __future__ import annotations
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     from ctypes import c_double
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
+    ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
     uses_ct = False
     body: list[str] = []
     tail: list[str] = []
@@ -20,6 +21,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         transfers, setters, step, getters, publish = rt.fast_ops(i)
         ns[f"H{i}"] = h * k
         raw = rt.slaves[i].raw_step
+        cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
         if raw is not None:
             ns[f"d{i}"] = raw
             ns[f"CH{i}"] = c_double(h * k)
@@ -34,11 +36,16 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         for j, x in enumerate(transfers):
             ns[f"x{i}_{j}"] = x
             lines.append(f"{ind}x{i}_{j}()")
-        for j, s in enumerate(setters):
-            ns[f"s{i}_{j}"] = s
-            lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-        lines.append(f"{ind}_calls[{i}] += 1")
-        lines.append(f"{ind}if (st := {call}) > 1: _step_failed({i}, st, t)")
+        if cycle is not None:
+            # inputs and step in one call (an in-process slave: see Slave.bound_cycle), which counts the step
+            ns[f"c{i}"] = cycle
+            lines.append(f"{ind}if (st := c{i}(t, H{i})) > 1: _cycle_failed({i}, st, t)")
+        else:
+            for j, s in enumerate(setters):
+                ns[f"s{i}_{j}"] = s
+                lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+            lines.append(f"{ind}_calls[{i}] += 1")
+            lines.append(f"{ind}if (st := {call}) > 1: _step_failed({i}, st, t)")
         gets = []
         for j, g in enumerate(getters):
             ns[f"g{i}_{j}"] = g
@@ -73,3 +80,14 @@ def _step_failer(rt):
         if not rt.ends_run_on_request(i, status):
             raise rt.slaves[i].fail("doStep", status, t)
     return step_failed
+
+
+def _cycle_failer(fail, step_failed):
+    from ..fmi.slave import SET_FAILED
+
+    def cycle_failed(i, status, t):
+        """A combined inputs-and-step call above Warning: its inputs failed (status + SET_FAILED) or its step."""
+        if status >= SET_FAILED:
+            fail(i, "setting inputs", status - SET_FAILED, t)
+        step_failed(i, status, t)
+    return cycle_failed

@@ -12,12 +12,13 @@ and log messages queued by the slave are forwarded after every call.
 from __future__ import annotations
 
 import importlib
+import struct
 import sys
 import traceback
 
 from ..errors import FmuError
 from .logsink import STATUS_LEVEL
-from .slave import DISCARD, ERROR, FATAL, OK, Port, Slave
+from .slave import DISCARD, ERROR, FATAL, OK, SET_FAILED, WARNING, Port, Slave
 
 _CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
 
@@ -169,16 +170,75 @@ class PythonFmuSlave(Slave):
 
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
+        drain, get_port = self._drain, self.get_port
+        # Real and Integer values go into a float64 or integer buffer, which converts them as float() or int()
+        # would: the slave may hand them over unconverted (``get_raw``: one C-level attribute fetch, no list, no
+        # Python frame); a Boolean buffer holds 0/1 either way, but a String one would keep a non-str
+        as_is = typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")
+        raw = self._bound("get_raw", typ, vrs) if as_is else None
+        if raw is not None:
+            fetch, single = raw
+            if single:
+                def op():
+                    try:
+                        buf[0] = fetch(obj)
+                    except Exception:
+                        return get_port(typ, port)        # again through the reporting path
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            elif buf.flags.c_contiguous and buf.flags.writeable and buf.dtype.isnative:
+                # struct writes the values into the buffer's memory in one C loop (numpy's assignment from a
+                # tuple converts value by value); a value struct does not take as is raises, and the reporting
+                # path below stores it through numpy as before
+                pack_into = struct.Struct(f"@{len(buf)}{buf.dtype.char}").pack_into
+
+                def op():
+                    try:
+                        pack_into(buf, 0, *fetch(obj))
+                    except Exception:
+                        return get_port(typ, port)
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            else:
+                def op():
+                    try:
+                        buf[:] = fetch(obj)
+                    except Exception:
+                        return get_port(typ, port)
+                    if obj.log_queue:
+                        drain()
+                    return OK
+            return op
+        read = self._reader(typ, vrs, buf, conv)
+
+        # one frame per call: the read inlined, the log queue looked at only when it holds a message
+        def op():
+            try:
+                read()
+            except Exception:
+                return get_port(typ, port)        # again through the reporting path
+            if obj.log_queue:
+                drain()
+            return OK
+        return op
+
+    def _reader(self, typ, vrs, buf, conv):
+        """A function filling ``buf`` with the values of ``vrs``: the slave's own fast accessor where it has
+        one, else its getters, else its get_<typ>."""
+        obj = self.obj
         bound = self._bound("get", typ, vrs)
-        getters = None if bound is not None else self._direct("get", typ, vrs)
-        method = getattr(obj, f"get_{typ.lower()}")
-        if bound is not None and len(vrs) == 1:
-            def read():
-                buf[0] = bound()[0]
-        elif bound is not None:
-            def read():
-                buf[:] = bound()
-        elif getters is not None and len(getters) == 1:
+        if bound is not None:
+            if len(vrs) == 1:
+                def read():
+                    buf[0] = bound()[0]
+            else:
+                def read():
+                    buf[:] = bound()
+            return read
+        getters = self._direct("get", typ, vrs)
+        if getters is not None and len(getters) == 1:
             g = getters[0]
 
             def read():
@@ -187,30 +247,47 @@ class PythonFmuSlave(Slave):
             def read():
                 buf[:] = [conv(g()) for g in getters]
         else:
+            method = getattr(obj, f"get_{typ.lower()}")
+
             def read():
                 buf[:] = method(vrs)
-
-        def op():
-            try:
-                read()
-            except Exception:
-                return self.get_port(typ, port)   # again through the reporting path
-            if obj.log_queue:
-                self._drain()
-            return OK
-        return op
+        return read
 
     def bound_set(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]
         bound = self._bound("set", typ, vrs)
         setters = None if bound is not None else self._direct("set", typ, vrs)
         method = getattr(obj, f"set_{typ.lower()}")
-        if bound is not None and typ == "Real":
-            def write():                 # a float64 buffer's tolist() holds Python floats already
-                bound(buf.tolist())
-        elif bound is not None:
+        drain, set_port, tolist = self._drain, self.set_port, buf.tolist
+        # a float or integer buffer's tolist() holds Python floats or ints already: nothing to convert (a
+        # Boolean buffer holds 0/1, which bool() makes True/False)
+        as_is = typ == "Real" or (typ == "Integer" and buf.dtype.kind in "iu")
+        raw = self._bound("set_raw", typ, vrs) if as_is else None
+        if raw is not None:
+            update, names = raw          # the slave's own attribute update, called inline: no Python frame
+
+            def op():
+                try:
+                    update(zip(names, tolist()))
+                except Exception:
+                    return set_port(typ, port)
+                if obj.log_queue:
+                    drain()
+                return OK
+            return op
+        if bound is not None and as_is:
+            def op():
+                try:
+                    bound(tolist())
+                except Exception:
+                    return set_port(typ, port)
+                if obj.log_queue:
+                    drain()
+                return OK
+            return op
+        if bound is not None:
             def write():
-                bound([conv(v) for v in buf.tolist()])
+                bound([conv(v) for v in tolist()])
         elif setters is not None and len(setters) == 1:
             s0 = setters[0]
 
@@ -218,20 +295,100 @@ class PythonFmuSlave(Slave):
                 s0(conv(buf[0]))
         elif setters is not None:
             def write():
-                for s, v in zip(setters, buf.tolist()):
+                for s, v in zip(setters, tolist()):
                     s(conv(v))
         else:
             def write():
-                method(vrs, [conv(v) for v in buf.tolist()])
+                method(vrs, [conv(v) for v in tolist()])
 
         def op():
             try:
                 write()
             except Exception:
-                return self.set_port(typ, port)
+                return set_port(typ, port)
             if obj.log_queue:
-                self._drain()
+                drain()
             return OK
+        return op
+
+    def bound_cycle(self, write_ports, calls, index):
+        """Inputs and doStep in one call when every input port has the slave's inline update (``set_raw``): the
+        same work as the setters and the step bound one by one, without a frame and a status test per port."""
+        raws = []
+        for typ, port in write_ports:
+            raw = self._bound("set_raw", typ, port.extra) if (
+                typ == "Real" or (typ == "Integer" and port.buf.dtype.kind in "iu")) else None
+            if raw is None:
+                return None
+            raws.append((raw[0], raw[1], port.buf.tolist))
+        obj, do_step, drain, set_port = self.obj, self.obj.do_step, self._drain, self.set_port
+        step_error = self._step_error
+
+        def failed():
+            """A setter raised: the ports again through the reporting path, in order, up to the failing one
+            (its status + SET_FAILED); None when they all go through this time (then the step goes on)."""
+            for typ, port in write_ports:
+                st = set_port(typ, port)
+                if st > WARNING:
+                    return SET_FAILED + st
+            return None
+
+        def step(t, h):
+            calls[index] += 1
+            try:
+                ok = do_step(t, h)
+            except Exception:
+                return step_error(t, h)
+            if obj.log_queue:
+                drain()
+            return OK if ok else DISCARD
+
+        if not raws:
+            return step
+        if len(raws) == 1:
+            (u0, n0, l0), = raws
+
+            def op(t, h):
+                try:
+                    u0(zip(n0, l0()))
+                except Exception:
+                    if (st := failed()) is not None:
+                        return st
+                calls[index] += 1
+                try:
+                    ok = do_step(t, h)
+                except Exception:
+                    return step_error(t, h)
+                if obj.log_queue:
+                    drain()
+                return OK if ok else DISCARD
+        elif len(raws) == 2:
+            (u0, n0, l0), (u1, n1, l1) = raws
+
+            def op(t, h):
+                try:
+                    u0(zip(n0, l0()))
+                    u1(zip(n1, l1()))
+                except Exception:
+                    if (st := failed()) is not None:
+                        return st
+                calls[index] += 1
+                try:
+                    ok = do_step(t, h)
+                except Exception:
+                    return step_error(t, h)
+                if obj.log_queue:
+                    drain()
+                return OK if ok else DISCARD
+        else:
+            def op(t, h):
+                try:
+                    for u, n, l in raws:
+                        u(zip(n, l()))
+                except Exception:
+                    if (st := failed()) is not None:
+                        return st
+                return step(t, h)
         return op
 
     def bound_step(self):

@@ -60,6 +60,10 @@ def base_type(fmi_version: str, var_type: str) -> str | None:
     return table.get(var_type)
 
 
+#: added by ``Slave.bound_cycle`` to a setter's status: the inputs failed, the step was not done
+SET_FAILED = 256
+
+
 class Port:
     """A set of value references of one base type bound to a buffer slice of the master."""
     __slots__ = ("vrs", "buf", "n", "vr_ptr", "buf_ptr", "extra")
@@ -155,6 +159,12 @@ class Slave(abc.ABC):
 
     def bound_step(self):
         return self.do_step
+
+    def bound_cycle(self, write_ports, calls: list, index: int):
+        """Optional: setting the inputs of ``write_ports`` and the doStep as one callable of (t, h), which also
+        counts the step in ``calls[index]``; it returns the step's status, or ``SET_FAILED`` + the setter's
+        status when an input could not be set (the step not done). None: the slave has no such shortcut."""
+        return None
 
     # When a slave offers a raw step, the compiled step calls it as raw(c_double(t), c_double(h), 1), sharing
     # one c_double for t among all slaves of a master step (no per-call argument conversion).

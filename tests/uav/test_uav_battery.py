@@ -118,8 +118,40 @@ def test_fast_step_bit_identical_to_reference(any_kernels):
         for _ in range(3000):
             h = rng.choice([0.05, 0.1, 0.37, 1.0])
             args = (h, rng.uniform(0, 16), rng.uniform(-2, 3), rng.choice([0, 1, 2, 2, 3, 4]))
-            a.step(*args)
+            out = a.step_outputs(*args)
             b.step_reference(*args)
             assert (a.charge_used, a.energy_used, a.current, a.voltage, a.power, a.overload) == \
                 (b.charge_used, b.energy_used, b.current, b.voltage, b.power, b.overload)
+            # what the FMU publishes: the reference model's properties
+            assert out == (b.soc, b.consumed, b.voltage, b.current, b.power, b.energy_used, int(b.depleted))
         assert a.consumed > 0
+
+
+def _bits(values):
+    import struct
+    return [struct.pack("<d", float(v)) for v in values]
+
+
+def test_whole_step_kernel_twins_bitwise(compiled_kernels):
+    # uav_battery_step (kernels.c) == battery_step_py on random states, inputs and packs, every slot bit for bit
+    # (NaN included): the compiled twin may only change the speed
+    import random
+
+    from uavsim import kernels as K
+    from uavsim.battery import _power_slots
+    rng = random.Random(7)
+    py, c = K.Kernels(None).make_battery_step(), compiled_kernels.make_battery_step()
+    for _ in range(4000):
+        pp = PowerParams(mass=rng.uniform(0.5, 5), rho=rng.uniform(0.9, 1.3), efficiency=rng.uniform(0.4, 0.9),
+                         avionics_power=rng.uniform(0, 20))
+        bp = BatteryParams(cells=rng.choice([2, 3, 4, 6]), capacity_ah=rng.uniform(0.01, 10),
+                           cell_resistance=rng.choice([0.0, rng.uniform(0, 0.5)]))
+        params = (*_power_slots(pp), float(bp.cells), bp.resistance, bp.capacity_c, float(len(bp.ocv_soc)),
+                  *bp.ocv_soc, *bp.ocv_cell)
+        cap = bp.capacity_c
+        s = [rng.uniform(-0.1, 1.2) * cap, rng.uniform(0, 1e6), 0.0, 0.0, 0.0, 0.0, rng.choice([1, 2, 5, 20]),
+             rng.choice([0.05, 0.02, 0.037]), 0.0, rng.choice([rng.uniform(0, 30), 0.0, float("nan")]),
+             rng.uniform(-5, 5), rng.choice([0.0, 1.0]), 0.0, 0.0, 0.0]
+        a, b = list(s), list(s)
+        assert py(a, params) == c(b, params)
+        assert _bits(a) == _bits(b)

@@ -168,3 +168,19 @@ def test_fast_loop_bit_identical_to_reference_substeps(any_kernels):
             (b.pos, b.vel, b.vt, b.vtz, b.integ, b.a_cmd, b.phase, b.mode, b.hold, b.hold_z, b.ready)
         phases.add(a.phase)
     assert phases == {0, 1, 2, 3, 4}
+
+
+@pytest.mark.parametrize("push", [False, True])
+def test_outputs_are_the_published_properties(push):
+    # Dynamics.outputs() (one call per FMU step) gives exactly the properties the FMU used to read one by one,
+    # through takeoff, flight in wind, landing and on the ground
+    m = Dynamics(DynamicsParams(wind_push=push))
+    seen = set()
+    for k in range(1500):
+        cmd = 1 if k < 150 else (2 if k < 600 else 3)
+        m.step(0.1, cmd, (40.0, -25.0, 30.0), (3.0 * math.sin(0.01 * k), -2.0, 0.0))
+        o = m.outputs()
+        gv = m.ground_velocity
+        assert o == (*m.pos, *gv, m.airspeed, m.groundspeed, m.tilt_deg, int(m.phase), int(m.ready))
+        seen.add(m.phase)
+    assert {FLY, LANDED} <= seen

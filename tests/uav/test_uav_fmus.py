@@ -233,6 +233,24 @@ def test_cosim_bind_equals_the_fmi_methods(name):
         assert s.cosim_bind("get", "Real", reals[:1] + ints[:1]) is None
     assert s.cosim_bind("get", "Real", [10 ** 6]) is None
     assert s.cosim_bind("frobnicate", "Real", reals) is None
+    # the unconverted forms: get_raw fetches the same values (as stored in a buffer of the type), set_raw's
+    # update writes what set_* writes; refused like the others
+    import numpy as np
+    for t, typ, dtype in ((Real, "Real", np.float64), (Integer, "Integer", np.int32)):
+        vrs = [vr for vr, v in s.vars.items() if isinstance(v, t)]
+        fetch, single = s.cosim_bind("get_raw", typ, vrs)
+        buf = np.zeros(len(vrs), dtype=dtype)
+        buf[:] = [fetch(s)] if single else fetch(s)
+        assert buf.tolist() == getattr(s, f"get_{typ.lower()}")(vrs)
+        settable = [vr for vr in vrs if s.vars[vr].causality.name in ("input", "parameter")]
+        if settable:
+            values = [float(i) + 0.25 if t is Real else i + 3 for i in range(len(settable))]
+            update, names = s.cosim_bind("set_raw", typ, settable)
+            update(zip(names, values))
+            assert getattr(s, f"get_{typ.lower()}")(settable) == values
+    if ints:
+        assert s.cosim_bind("get_raw", "Real", reals[:1] + ints[:1]) is None
+        assert s.cosim_bind("set_raw", "Integer", ints[:1] + reals[:1]) is None
 
 
 def test_geodetic_outputs_follow_the_position():

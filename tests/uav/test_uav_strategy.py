@@ -337,3 +337,61 @@ def test_lanes_separate_the_detours_of_different_uavs():
         for b in range(a + 1, 4):
             for p, q in zip(paths[a][:-1], paths[b][:-1]):
                 assert math.dist(p, q) >= PP.LANE_SPACING * 0.99
+
+
+def test_blocked_is_shapely_on_every_zone():
+    # ZoneMap.blocked skips zones by bounding squares and circles; its answer must be shapely's own test against
+    # every zone (first zone hit, -1 for none), for segments near, across, inside and far from the zones
+    import random
+
+    from shapely.geometry import LineString, Point
+
+    from uavsim.strategy import ZoneMap
+    rng = random.Random(11)
+    zones = [[(100, 100), (160, 100), (160, 150), (100, 150)], [(-80, 20), (-40, 90), (-120, 60)],
+             [(0, -200), (30, -260), (-30, -260)]]
+    zm = ZoneMap(zones)
+    hits = 0
+    for _ in range(4000):
+        ax, ay = rng.uniform(-250, 250), rng.uniform(-300, 250)
+        if rng.random() < 0.3:
+            bx, by = ax, ay
+        else:
+            ln = rng.choice([2.0, 25.0, 300.0])
+            ang = rng.uniform(0, 6.3)
+            bx, by = ax + ln * math.cos(ang), ay + ln * math.sin(ang)
+        geom = Point(ax, ay) if math.hypot(bx - ax, by - ay) < 1e-9 else LineString([(ax, ay), (bx, by)])
+        expected = next((i for i, pz in enumerate(zm._prep) if pz.intersects(geom)), -1)
+        assert zm.blocked((ax, ay), (bx, by)) == expected
+        hits += expected >= 0
+    assert 50 < hits < 3950
+    # a non-finite end point takes no shortcut: shapely decides, whatever it makes of it
+    import warnings
+    with warnings.catch_warnings():          # shapely warns of the invalid coordinates, as it always did
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for a, b in (((math.nan, 120.0), (130.0, 120.0)), ((math.inf, 0.0), (0.0, 0.0)),
+                     ((5.0, 5.0), (6.0, math.nan))):
+            line = LineString([a, b])
+            assert zm.blocked(a, b) == next((i for i, pz in enumerate(zm._prep) if pz.intersects(line)), -1)
+
+
+@pytest.mark.parametrize("planning", [True, False])
+def test_outputs_are_the_published_attributes(planning, monkeypatch):
+    # Strategy.outputs() (one call per FMU step) gives exactly what the FMU used to read attribute by attribute,
+    # at every step of a mission with a zone detour, photos and the return
+    from uavsim.strategy import Strategy
+    seen = []
+    step = Strategy.step
+
+    def checked(self, *a):
+        step(self, *a)
+        o = self.outputs()
+        assert o == (int(self.cmd), *self.sp, int(self.state), self.targets_assigned, self.targets_visited,
+                     self.photo_count, self.last_photo_target, self.current_target, int(self.avoiding),
+                     self.avoid_count, self.last_photo_time, self.last_photo_x, self.last_photo_y)
+        seen.append(o[10])
+    monkeypatch.setattr(Strategy, "step", checked)
+    res = simulate_mission(StrategyParams(strategy="B", targets="150,10;-60,200", zone_planning=planning,
+                                          zones="40,-20;80,-20;80,60;40,60"), t_end=400.0)
+    assert res.strategy.state == LANDED_BASE and res.strategy.targets_visited == 2
+    assert 1 in seen and 0 in seen          # a detour was flown

@@ -147,3 +147,15 @@ def test_gust_inside_short_episode_with_ramp_is_continuous():
     xs = np.array([w.at(i * h)[0] for i in range(int(60 / h))])
     assert np.max(np.abs(np.diff(xs))) < 0.1     # <= max slope (~ 1.5 U / ramp) x h
     assert np.max(-xs) > 0.0
+
+
+def test_calm_step_mean_is_zero_and_draws_stay_in_order():
+    # probability 0: no episode can occur, so every step mean is exactly zero (the shortcut draws nothing); the
+    # intervals drawn later (gust_window) are those of a wind that drew every interval on the way
+    full = dict(turbulence=True, gusts=True, probability=0.0, seed=4)
+    lazy, eager = Wind(WindParams(**full)), Wind(WindParams(**full))
+    for k in range(300):
+        t = 0.1 * k
+        assert lazy.mean_over(t, t + 0.1) == (0.0, 0.0, 0.0, 0)
+        assert eager.at(t) == (0.0, 0.0, 0.0, 0)
+    assert [lazy.gust_window(k) for k in range(40)] == [eager.gust_window(k) for k in range(40)]
