@@ -3,6 +3,8 @@
     python bench/bench_campaign.py                      # full campaign on every core + profile
     python bench/bench_campaign.py --fraction 0.25      # every 4th run (stratified), extrapolated
     python bench/bench_campaign.py --profile-only       # just the cProfile of one run
+    python bench/bench_campaign.py --phases 48          # CPU per phase of 48 runs in one warm process
+    python bench/bench_campaign.py --phases 48 --stop-time 1    # the same, fixed part alone
 
 Prints the wall time, runs per minute and per core, the mean run wall time by fleet size, the
 extrapolation to the full 336 runs, and the top entries of a cProfile of one warm run (4 UAVs by
@@ -11,6 +13,10 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
+
+Measured on 2026-11-23 (``rules: paper``, 5 m/s): see bench/results/campaign_2026-11-23.md -- where a
+warm worker's run spends its CPU (the step loop ~80 %, FMU instantiation ~8 %, the rest ~10 %), the
+worker caches added that day, and the full campaign before/after on a shared machine.
 
 Measured on 2026-11-21 (2 cores; step 0.25 s, stop 1500 s, runs end when the fleet has landed):
 
