@@ -3,6 +3,8 @@
     python bench/bench_campaign.py                      # full campaign on every core + profile
     python bench/bench_campaign.py --fraction 0.25      # every 4th run (stratified), extrapolated
     python bench/bench_campaign.py --profile-only       # just the cProfile of one run
+    python bench/bench_campaign.py --phases 48          # CPU per phase of 48 runs in one warm process
+    python bench/bench_campaign.py --phases 48 --stop-time 1    # the same, fixed part alone
 
 Prints the wall time, runs per minute and per core, the mean run wall time by fleet size, the
 extrapolation to the full 336 runs, and the top entries of a cProfile of one warm run (4 UAVs by
@@ -11,6 +13,10 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
+
+Measured on 2026-11-23 (``rules: paper``, 5 m/s): see bench/results/campaign_2026-11-23.md -- where a
+warm worker's run spends its CPU (the step loop ~80 %, FMU instantiation ~8 %, the rest ~10 %), the
+worker caches added that day, and the full campaign before/after on a shared machine.
 
 Measured on 2026-11-21 (2 cores; step 0.25 s, stop 1500 s, runs end when the fleet has landed):
 
@@ -127,6 +133,99 @@ def profile_one(n_uavs: int, strategy: str, variant: str, wind: float, top: int 
         print("\n".join(lines[start:start + top + 1]))
 
 
+PHASES = (  # (phase, what it holds): the parts of one campaign run, as execute_run goes through them
+    ("build", "the scenario kind's prepare_run: scenario.yaml, layout, SSD and the run's .ssp archive"),
+    ("load", "Execution.setup: open the archive, parse the SSD, plan against the FMUs, settings, observers"),
+    ("init", "Execution.initialize: instantiate the FMUs, start values, initialization mode, bind ports"),
+    ("loop", "Execution.simulate_until: the master steps until the fleet has landed"),
+    ("outputs", "Execution.close: monitors' summary/photos/events, results.parquet, run.json"),
+    ("bookkeeping", "the rest of execute_run: run folder, record, summary read, pruning to keep: summary"),
+)
+# Runtime.instantiate calls bind_samples itself: the table shows instantiate without it
+INIT_PARTS = (("instantiate FMUs, ports", "Runtime", "instantiate"), ("bind sampled reads", "Runtime", "bind_samples"),
+              ("initialization mode", "Runtime", "initialize"))
+
+
+def phase_breakdown(n_runs: int, stop_time: float | None = None) -> None:
+    """CPU time per phase of ``n_runs`` runs of the campaign (every k-th, so every fleet size and variant
+    appears) executed one after another in this process, as a warm worker runs them; ``stop_time``: each run
+    stopped then (e.g. 1 s: the fixed part alone)."""
+    import master.execution as ex
+    import master.runtime as rtm
+    from master.scenario_kinds import SCENARIO_KINDS
+    camp = load_campaign(PAPER)
+    kind_cls = type(SCENARIO_KINDS.get(camp.kind))
+    spent: dict = defaultdict(float)
+    clock = time.process_time
+
+    def timed(owner, name, label):
+        fn = getattr(owner, name)
+
+        def wrapper(*a, **k):
+            t0 = clock()
+            try:
+                return fn(*a, **k)
+            finally:
+                spent[label] += clock() - t0
+        setattr(owner, name, wrapper)
+        return fn
+
+    originals = [(kind_cls, "prepare_run", timed(kind_cls, "prepare_run", "build")),
+                 (ex.Execution, "setup", timed(ex.Execution, "setup", "load")),
+                 (ex.Execution, "simulate_until", timed(ex.Execution, "simulate_until", "loop")),
+                 (ex.Execution, "close", timed(ex.Execution, "close", "outputs"))]
+    originals += [(rtm.Runtime, name, timed(rtm.Runtime, name, f"init: {label}")) for label, _, name in INIT_PARTS]
+    init = ex.Execution.initialize
+
+    def initialize(self):       # setup counts as load, the rest as init
+        if not self._set_up:
+            self.setup()
+        t0 = clock()
+        try:
+            return init(self)
+        finally:
+            spent["init"] += clock() - t0
+    originals.append((ex.Execution, "initialize", init))
+    ex.Execution.initialize = initialize
+    every = max(1, len(camp.runs) // n_runs)
+    runs = [camp.runs[i * every] for i in range(n_runs)]
+    tmp = Path(tempfile.mkdtemp(prefix="bench-campaign-phases-"))
+    try:
+        execute_run(make_task(camp, camp.runs[1], tmp))       # the worker's cold start is not a phase of a run
+        spent.clear()
+        total_cpu, steps = 0.0, 0
+        t_wall = time.perf_counter()
+        for r in runs:
+            task = make_task(camp, r, tmp)
+            if stop_time is not None:
+                task["overrides"] = dict(task["overrides"], stop_time=stop_time)
+            c0 = clock()
+            rec = execute_run(task)
+            total_cpu += clock() - c0
+            steps += round((rec.get("last_time") or 0.0) / rec.get("step_size", 1.0))
+        wall = time.perf_counter() - t_wall
+    finally:
+        for owner, name, fn in originals:
+            setattr(owner, name, fn)
+        shutil.rmtree(tmp, ignore_errors=True)
+    spent["bookkeeping"] = total_cpu - sum(spent[p] for p, _ in PHASES if p != "bookkeeping")
+    spent["init: instantiate FMUs, ports"] -= spent["init: bind sampled reads"]
+    cut = f", stopped at {stop_time:g} s" if stop_time is not None else ""
+    print(f"\n== phases of {n_runs} runs (every {every}th of {camp.name}{cut}) in one warm process: "
+          f"{total_cpu / n_runs * 1000:.0f} ms CPU per run ({wall / n_runs * 1000:.0f} ms wall), "
+          f"{steps / n_runs:.0f} master steps per run; load average {os.getloadavg()[0]:.2f}")
+    print(f"{'phase':<26} {'ms CPU/run':>10} {'share':>6}  what")
+    for p, what in PHASES:
+        print(f"{p:<26} {spent[p] / n_runs * 1000:10.1f} {100 * spent[p] / total_cpu:5.1f}%  {what}")
+        if p == "init":
+            for label, _, _ in INIT_PARTS:
+                v = spent[f"init: {label}"]
+                print(f"{'  ' + label:<26} {v / n_runs * 1000:10.1f} {100 * v / total_cpu:5.1f}%")
+    fixed = total_cpu - spent["loop"]
+    print(f"fixed part (all but the loop): {fixed / n_runs * 1000:.0f} ms CPU per run; loop "
+          f"{spent['loop'] / max(1, steps) * 1e6:.0f} us CPU per master step")
+
+
 def run_bench(fraction: float, workers: int | None, output: Path | None, keep_output: bool) -> None:
     camp = load_campaign(PAPER)
     every = max(1, round(1 / fraction))
@@ -171,10 +270,18 @@ def main():
     ap.add_argument("--output", type=Path, default=None, help="campaign folder (default: a temporary one)")
     ap.add_argument("--keep-output", action="store_true")
     ap.add_argument("--profile-only", action="store_true")
+    ap.add_argument("--phases", type=int, default=0, metavar="N",
+                    help="CPU time per phase (build, load, init, loop, outputs, bookkeeping) of N runs in one "
+                         "process, then exit")
+    ap.add_argument("--stop-time", type=float, default=None, help="with --phases: stop each run then (1: the fixed "
+                    "part alone)")
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--profile-run", default="4,B,free,0.15",
                     help="n_uavs,strategy,variant,wind of the profiled run (default 4,B,free,0.15)")
     args = ap.parse_args()
+    if args.phases:
+        phase_breakdown(args.phases, args.stop_time)
+        return
     if not args.profile_only:
         run_bench(args.fraction, args.workers, args.output, args.keep_output)
     if not args.no_profile:

@@ -260,6 +260,33 @@ def _sitl_parameters(scn: UavScenario, i: int) -> dict:
     return out
 
 
+#: random layouts drawn in this process: every cell of a campaign's repetition flies the same one
+_LAYOUTS: dict[tuple, object] = {}
+_MAX_LAYOUTS = 64
+
+
+def layout_key(scn: UavScenario) -> tuple | None:
+    """Everything :func:`uavstudy.layout.realize` reads of a random-layout scenario (None: not random)."""
+    if scn.layout != "random":
+        return None
+    return (int(scn.layout_seed), len(scn.targets), len(scn.zones), int(scn.n_uavs), float(scn.area_scale))
+
+
+def _realize(scn: UavScenario):
+    key = layout_key(scn)
+    if key is None:
+        return realize(scn)
+    layout = _LAYOUTS.get(key)
+    if layout is None:
+        layout = realize(scn)
+        for a in (layout.targets, *(z["polygon"] for z in layout.zones)):
+            a.flags.writeable = False        # shared by later runs: a change would leak into them
+        if len(_LAYOUTS) >= _MAX_LAYOUTS:
+            _LAYOUTS.clear()
+        _LAYOUTS[key] = layout
+    return layout
+
+
 def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder)."""
     fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
@@ -272,7 +299,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
         raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
                             "'python fmu_sources/build_fmus.py')", file=str(fmu_dir), element="fmus")
     lat0, lon0, alt0 = scn.base
-    layout = realize(scn)
+    layout = _realize(scn)
     targets = layout.targets
     zones = layout.zones
     targets_s = _pts(targets)

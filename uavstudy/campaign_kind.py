@@ -116,6 +116,23 @@ def layout_seed(campaign_seed: int, rep: int) -> int:
     return int(digest[:8], 16) & 0x7FFFFFFF
 
 
+#: a worker's parsed base scenarios by the SHA-256 of their bytes: a campaign has one or two base files and
+#: hundreds of runs, and parsing the YAML cost more than copying the parsed mapping
+_BASES: dict[str, object] = {}
+_MAX_BASES = 16
+
+
+def _base_data(sha: str, raw: bytes):
+    """A fresh copy of the parsed base scenario (each run modifies its own)."""
+    data = _BASES.get(sha)
+    if data is None:
+        data = yamlio.load(raw.decode("utf-8"))
+        if len(_BASES) >= _MAX_BASES:
+            _BASES.clear()
+        _BASES[sha] = data
+    return copy.deepcopy(data)
+
+
 class UavKind(ScenarioKind):
     name = "uav"
     label = "UAV YAML"
@@ -190,8 +207,8 @@ class UavKind(ScenarioKind):
         src = Path(task["scenario"])
         try:
             raw = src.read_bytes()
-            used["scenario_sha256"] = hashlib.sha256(raw).hexdigest()
-            data = yamlio.load(raw.decode("utf-8"))
+            used["scenario_sha256"] = sha = hashlib.sha256(raw).hexdigest()
+            data = _base_data(sha, raw)
         except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
             raise ScenarioError(f"cannot read the scenario: {exc}", file=str(src)) from None
         if not isinstance(data, dict):

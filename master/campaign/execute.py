@@ -94,9 +94,11 @@ def execute_run(task: dict) -> dict:
         kw["options_source"] = "campaign"
         kw.setdefault("log_level", "error")
         kw["write_csv"] = bool(opts.get("csv", True))
+        kind = SCENARIO_KINDS.get(task["kind"])
         if task.get("keep", "all") == "summary":
             kw["products"] = "summary"       # no map or trajectory that pruning would delete anyway
-        kind = SCENARIO_KINDS.get(task["kind"])
+            if not kind.records_final_values:
+                kw["sinks"] = ["memory"]     # nor results.parquet: the same rows, never written to disk
         run = kind.prepare_run(task, out, used)
         kw.update(run.options)
         # the folder is the run's own (cleared above); the kind may have put the run's scenario in it

@@ -50,11 +50,45 @@ def _extract_ssp(path: Path) -> Path:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise ScenarioError(f"archive member escapes the archive: {name}", file=path)
         try:
-            zf.extractall(tmp)
+            for info in zf.infolist():
+                if info.is_dir() or not info.filename.lower().endswith(".fmu") or not _link_fmu(zf, info, tmp):
+                    zf.extract(info, tmp)
         except (zipfile.BadZipFile, OSError, EOFError) as exc:
             shutil.rmtree(tmp, ignore_errors=True)
             raise ScenarioError(f"corrupt SSP archive: {exc}", file=path) from None
     return tmp
+
+
+def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> bool:
+    """Put an FMU member in place as a link to one copy per content (``<FMU cache>/archived/<sha256>.fmu``)
+    instead of a fresh file: a campaign unpacks the same FMUs from every run's archive, and the FMU cache
+    (``master.fmi.cache``) knows a file it has hashed by its path and mtime, so it neither hashes nor unpacks the
+    FMU again.  False (extract it as usual) where links cannot be made."""
+    from ..fmi.cache import cache_root
+    h = hashlib.sha256()
+    with zf.open(info) as fh:            # reading to the end checks the member's CRC, as extract() does
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    sha = h.hexdigest()
+    store = cache_root() / "archived"
+    kept = store / f"{sha}.fmu"
+    link = tmp / info.filename
+    try:
+        if not kept.is_file():
+            store.mkdir(parents=True, exist_ok=True)
+            part = store / f".{sha}.{os.getpid()}.tmp"
+            with zf.open(info) as fh, open(part, "wb") as out:
+                shutil.copyfileobj(fh, out, 1 << 20)
+            os.replace(part, kept)          # whole or absent, whichever process wins
+        link.parent.mkdir(parents=True, exist_ok=True)
+        if link.is_symlink():               # a member named twice: the later one counts, as with extract()
+            link.unlink()
+        os.symlink(kept, link)
+    except OSError:
+        if link.is_symlink():               # extract() must not write through a link into the store
+            link.unlink()
+        return False
+    return True
 
 
 def _not_an_ssp(path: Path) -> None:

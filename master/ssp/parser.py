@@ -22,8 +22,17 @@ from ..values import parse_boolean, parse_text
 FMU_TYPES = ("application/x-fmu-sharedlibrary",)
 
 
+_LOCAL: dict[str, str] = {}      # "{namespace}name" -> "name": an SSD repeats a few dozen tags thousands of times
+
+
 def _local(el) -> str:
-    return etree.QName(el).localname if isinstance(el.tag, str) else ""
+    tag = el.tag
+    if not isinstance(tag, str):
+        return ""
+    name = _LOCAL.get(tag)
+    if name is None:
+        name = _LOCAL[tag] = etree.QName(tag).localname
+    return name
 
 
 def _children(el, name):

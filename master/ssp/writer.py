@@ -215,7 +215,7 @@ class SspBuilder:
                 for name, data in ssv_bytes.items():
                     zf.writestr(_zinfo(f"resources/{name}"), data)
                 for arc, src in sorted(members.items()):
-                    zf.writestr(_zinfo(arc), src.read_bytes())
+                    zf.writestr(_zinfo(arc), _fmu_bytes(src))
             os.replace(tmp, path)
         else:
             if path.exists():
@@ -227,6 +227,22 @@ class SspBuilder:
             for arc, src in members.items():
                 shutil.copyfile(src, path / arc)
         return path
+
+
+_FMU_BYTES: dict[tuple, bytes] = {}
+
+
+def _fmu_bytes(src: Path) -> bytes:
+    """An FMU's bytes, read once per process while the file is unchanged: a campaign writes the same FMUs into
+    every run's archive."""
+    st = src.stat()
+    key = (str(src.resolve()), st.st_mtime_ns, st.st_size)
+    data = _FMU_BYTES.get(key)
+    if data is None:
+        if len(_FMU_BYTES) >= 32:
+            _FMU_BYTES.clear()
+        data = _FMU_BYTES[key] = src.read_bytes()
+    return data
 
 
 def _zinfo(name):
