@@ -143,3 +143,5 @@ def test_isolated_loading_leaves_global_modules_and_path_as_they_were(tmp_path, 
     assert clashes == [pkg]
     bundled = getattr(module, pkg)
     assert bundled.core.GAIN == 2.0 and bundled.late.VALUE == 10.0 and bundled is not sys.modules[pkg]
+    import pythonfmu
+    assert issubclass(module.IsoKeep, pythonfmu.Fmi2Slave)     # pythonfmu stays the installed one
