@@ -45,7 +45,7 @@ from master.monitors import Monitor, register
 from master.values import parse_boolean
 
 from .geodetic import to_geodetic
-from .geometry import CollisionDetector, ZoneDetector
+from .geometry import SKIP_REL, CollisionDetector, ZoneDetector, pair_clearances
 from .names import (AIRBORNE_PHASES, FINAL_STATES, FORCED_LANDING_STATES, MISSION_DETAIL, MISSION_EVENTS,
                     MONITOR_TYPE, OPTIONAL_ROLES, PHASE_LANDED, PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_CMD, STATE_RETURN_LOW,
                     UAV_COLLISION, WIND, ZONE_COLLISION)
@@ -268,6 +268,14 @@ class UavMonitor(Monitor):
         self._rm_pos = np.empty((0, 3))
         self._idle = False
         self.skip_idle = True     # False: every step takes the full path (for tests; same results)
+        # small fleets: skip the contact / zone checks of steps that provably hold none (geometry module
+        # doc, "Skipping steps"): clearances at a reference position and the distance travelled since
+        self.precheck = True      # False: every step runs the exact checks (the reference; same results)
+        self._clear = [[-math.inf] * n for _ in range(n)]   # pair clearances; -inf: check the first step
+        self._trav = [0.0] * n                               # travelled since the pair clearances were set
+        self._zclear = [-math.inf] * n                       # per UAV: clearance to the zones' boxes
+        self._ztrav = [0.0] * n                              # travelled since its zone clearance was set
+        self._reml = [False] * n                             # self._removed as a Python list
 
     def required_variables(self) -> list[str]:
         out, seen = [], set()
@@ -418,6 +426,7 @@ class UavMonitor(Monitor):
         rec = self.records[k]
         rec.removed = True
         self._removed[k] = True
+        self._reml[k] = True
         rec.removed_time = float(time)
         rec.removed_reason = reason
         rec.removed_by = by
@@ -481,6 +490,10 @@ class UavMonitor(Monitor):
     def _stop_if_fleet_done(self, ph1) -> None:
         """Nothing happens to a fleet that has landed or been removed for good: stop instead of idling to the
         stop time.  A UAV that never took off keeps the run going (it may still be waiting for its turn)."""
+        if self._small:     # the usual answer, on Python values (a few numpy calls cost more than 4 tests)
+            for ph, gone in zip(self._ph0l, self._reml):
+                if ph != PHASE_LANDED and not gone:
+                    return
         on_ground = ph1 == PHASE_LANDED
         if not (on_ground | self._removed).all():
             return          # a UAV neither landed nor removed: the fleet is not done (the test below is stricter)
@@ -491,23 +504,34 @@ class UavMonitor(Monitor):
             self.ctx.request_stop("every UAV has landed or been removed")
 
     def _step_small(self, t0, t1, p0, p1, ph1) -> None:
-        """The rest of a step on Python floats (few UAVs): the same operations as ``_step_vector``."""
+        """The rest of a step on Python floats (few UAVs): the same operations as ``_step_vector``, except
+        that contact and zone checks that provably find nothing are skipped (``precheck``)."""
         cfg = self.cfg
         lo, hi = AIRBORNE_PHASES[0], AIRBORNE_PHASES[-1]
         thr = cfg.altitude_threshold
         p0l, ph0l = self._p0l, self._ph0l
         p1l, ph1l = p1.tolist(), ph1.tolist()
-        rem = self._removed.tolist()            # at the start of the step (a copy)
+        rem = self._reml[:]                     # at the start of the step (a copy)
         nu = len(rem)
+        sqrt = math.sqrt
+        trav, ztrav = self._trav, self._ztrav
         flying = [False] * nu
+        seg = [None] * nu               # this step's segment: squared horizontal length, 3D length
         checked = []
         fly_next, n_next = [], 0        # alive in phases 1-3 at t1 / and above the threshold (see below)
         for k in range(nu):
+            a, b = p0l[k], p1l[k]
+            dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+            sxy = dx * dx + dy * dy
+            step_len = sqrt(sxy + dz * dz)
+            seg[k] = (sxy, step_len)
+            trav[k] += step_len
+            ztrav[k] += step_len
             a1 = lo <= ph1l[k] <= hi
             if a1 or lo <= ph0l[k] <= hi:
                 flying[k] = True
                 if not rem[k]:
-                    z0, z1 = p0l[k][2], p1l[k][2]
+                    z0, z1 = a[2], b[2]
                     if (z0 > thr or z1 > thr) and z0 == z0 and z1 == z1:   # np.maximum(z0, z1) > thr
                         checked.append(k)
                     if a1:
@@ -515,12 +539,36 @@ class UavMonitor(Monitor):
                         if z1 > thr:
                             n_next += 1
         found = []
+        precheck = self.precheck
+        grow = 1.0 + SKIP_REL
+        pairs_checked = False
         if len(checked) >= 2:
-            for c in self.collider.check_few(t0, t1, p0, p1, checked, p0l, p1l):
-                found.append((c.time, 0, c.i, c.j, c))
+            clear = self._clear
+            far = precheck
+            for u in range(len(checked) - 1) if far else ():
+                i = checked[u]
+                ci, ti = clear[i], trav[i]
+                for j in checked[u + 1:]:
+                    if not ci[j] - (ti + trav[j]) * grow > 0.0:   # NaN: not provably apart
+                        far = False
+                        break
+                if not far:
+                    break
+            if not far:
+                pairs_checked = True
+                for c in self.collider.check_few(t0, t1, p0, p1, checked, p0l, p1l):
+                    found.append((c.time, 0, c.i, c.j, c))
         zd = self.zone_detector
+        zone_checked = []
         if zd is not None and checked:
-            near = [k for k in checked if zd.may_enter(p0l[k][0], p0l[k][1], p1l[k][0], p1l[k][1])]
+            zclear = self._zclear
+            near = []
+            for k in checked:
+                if precheck and zclear[k] - ztrav[k] * grow > 0.0:
+                    continue        # provably away from every zone's box
+                zone_checked.append(k)
+                if zd.may_enter(p0l[k][0], p0l[k][1], p1l[k][0], p1l[k][1]):
+                    near.append(k)
             if near:
                 mask = np.zeros(nu, dtype=bool)
                 mask[near] = True
@@ -531,13 +579,10 @@ class UavMonitor(Monitor):
         # distance flown and airborne time of the UAVs flying this step (up to their removal)
         dt = t1 - t0
         dist, dist_xy, ftime, took_off = self._dist, self._dist_xy, self._ftime, self._took_off
-        sqrt = math.sqrt
         for k in range(nu):
             f = cut[k] if k in cut else (0.0 if rem[k] else 1.0)
-            a, b = p0l[k], p1l[k]
-            dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-            sxy = dx * dx + dy * dy
-            dist[k] += f * sqrt(sxy + dz * dz)
+            sxy, step_len = seg[k]
+            dist[k] += f * step_len
             dist_xy[k] += f * sqrt(sxy)
             if flying[k]:
                 ftime[k] += f * dt
@@ -546,6 +591,13 @@ class UavMonitor(Monitor):
         for k, f in cut.items():        # removed UAVs: keep their position at removal in the track
             p1[k] = p0[k] + f * (p1[k] - p0[k])
             p1l[k] = p1[k].tolist()
+        # new reference positions for the skip tests that failed (the travel counts from here)
+        if pairs_checked:
+            self._clear = pair_clearances(p1l, self.collider.impact_diameter)
+            self._trav = [0.0] * nu
+        for k in zone_checked:
+            self._zclear[k] = zd.clearance(p1l[k][0], p1l[k][1])
+            ztrav[k] = 0.0
         self.p0, self.ph0, self._p0l, self._ph0l = p1, ph1, p1l, ph1l
         self.last_time = float(t1)
         if cut or t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
