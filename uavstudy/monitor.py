@@ -515,22 +515,29 @@ class UavMonitor(Monitor):
         nu = len(rem)
         sqrt = math.sqrt
         trav, ztrav = self._trav, self._ztrav
+        # distance flown and airborne time of the UAVs flying this step, as if no UAV were removed in it (the
+        # usual case; one loop instead of two); a removal below recomputes them from the saved values
+        dt = t1 - t0
+        dist, dist_xy, ftime, took_off = self._dist, self._dist_xy, self._ftime, self._took_off
+        saved = dist[:], dist_xy[:], ftime[:]
         flying = [False] * nu
-        seg = [None] * nu               # this step's segment: squared horizontal length, 3D length
         checked = []
         fly_next, n_next = [], 0        # alive in phases 1-3 at t1 / and above the threshold (see below)
-        for k in range(nu):
-            a, b = p0l[k], p1l[k]
+        for k, a, b, g0, g1, gone in zip(range(nu), p0l, p1l, ph0l, ph1l, rem):
             dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
             sxy = dx * dx + dy * dy
             step_len = sqrt(sxy + dz * dz)
-            seg[k] = (sxy, step_len)
             trav[k] += step_len
             ztrav[k] += step_len
-            a1 = lo <= ph1l[k] <= hi
-            if a1 or lo <= ph0l[k] <= hi:
+            f = 0.0 if gone else 1.0
+            dist[k] += f * step_len
+            dist_xy[k] += f * sqrt(sxy)
+            a1 = lo <= g1 <= hi
+            if a1 or lo <= g0 <= hi:
                 flying[k] = True
-                if not rem[k]:
+                ftime[k] += f * dt
+                if not gone:
+                    took_off[k] = True
                     z0, z1 = a[2], b[2]
                     if (z0 > thr or z1 > thr) and z0 == z0 and z1 == z1:   # np.maximum(z0, z1) > thr
                         checked.append(k)
@@ -575,19 +582,17 @@ class UavMonitor(Monitor):
                 for z in zd.check(t0, t1, p0, p1, mask):
                     found.append((z.time, 1, z.vehicle, z.zone, z))
         cut = self._handle(found, t0, t1) if found else {}
-
-        # distance flown and airborne time of the UAVs flying this step (up to their removal)
-        dt = t1 - t0
-        dist, dist_xy, ftime, took_off = self._dist, self._dist_xy, self._ftime, self._took_off
-        for k in range(nu):
-            f = cut[k] if k in cut else (0.0 if rem[k] else 1.0)
-            sxy, step_len = seg[k]
-            dist[k] += f * step_len
-            dist_xy[k] += f * sqrt(sxy)
-            if flying[k]:
-                ftime[k] += f * dt
-                if not rem[k]:
-                    took_off[k] = True
+        if cut:     # UAVs removed within the step flew a fraction f of it: redo the sums from the saved values
+            dist[:], dist_xy[:], ftime[:] = saved
+            for k in range(nu):
+                f = cut[k] if k in cut else (0.0 if rem[k] else 1.0)
+                a, b = p0l[k], p1l[k]
+                dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+                sxy = dx * dx + dy * dy
+                dist[k] += f * sqrt(sxy + dz * dz)
+                dist_xy[k] += f * sqrt(sxy)
+                if flying[k]:
+                    ftime[k] += f * dt
         for k, f in cut.items():        # removed UAVs: keep their position at removal in the track
             p1[k] = p0[k] + f * (p1[k] - p0[k])
             p1l[k] = p1[k].tolist()
