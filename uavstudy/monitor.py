@@ -55,6 +55,7 @@ TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map trac
 #: up to this many UAVs the per-step bookkeeping runs on Python floats (for a few UAVs the fixed cost of
 #: ~30 numpy calls on tiny arrays is far more than the arithmetic); above, on numpy vectors
 SMALL_FLEET = 16
+REFRESH_EVERY = 8
 
 
 @dataclass
@@ -275,6 +276,11 @@ class UavMonitor(Monitor):
         self._trav = [0.0] * n                               # travelled since the pair clearances were set
         self._zclear = [-math.inf] * n                       # per UAV: clearance to the zones' boxes
         self._ztrav = [0.0] * n                              # travelled since its zone clearance was set
+        # consecutive steps whose skip test failed (pairs; per UAV for zones): a stale clearance is still a
+        # valid bound, only a weaker one, so while UAVs stay close the O(pairs) / O(zones) refresh is done
+        # on the first two such steps and then every REFRESH_EVERY-th only
+        self._fails = 0
+        self._zfails = [0] * n
         self._reml = [False] * n                             # self._removed as a Python list
 
     def required_variables(self) -> list[str]:
@@ -548,7 +554,7 @@ class UavMonitor(Monitor):
         found = []
         precheck = self.precheck
         grow = 1.0 + SKIP_REL
-        pairs_checked = False
+        refresh_pairs = False
         if len(checked) >= 2:
             clear = self._clear
             far = precheck
@@ -561,19 +567,25 @@ class UavMonitor(Monitor):
                         break
                 if not far:
                     break
-            if not far:
-                pairs_checked = True
+            if far:
+                self._fails = 0
+            else:
+                self._fails += 1
+                refresh_pairs = self._fails <= 2 or self._fails % REFRESH_EVERY == 0
                 for c in self.collider.check_few(t0, t1, p0, p1, checked, p0l, p1l):
                     found.append((c.time, 0, c.i, c.j, c))
         zd = self.zone_detector
-        zone_checked = []
+        refresh_zone = []
         if zd is not None and checked:
-            zclear = self._zclear
+            zclear, zfails = self._zclear, self._zfails
             near = []
             for k in checked:
                 if precheck and zclear[k] - ztrav[k] * grow > 0.0:
+                    zfails[k] = 0
                     continue        # provably away from every zone's box
-                zone_checked.append(k)
+                zfails[k] += 1
+                if zfails[k] <= 2 or zfails[k] % REFRESH_EVERY == 0:
+                    refresh_zone.append(k)
                 if zd.may_enter(p0l[k][0], p0l[k][1], p1l[k][0], p1l[k][1]):
                     near.append(k)
             if near:
@@ -596,11 +608,12 @@ class UavMonitor(Monitor):
         for k, f in cut.items():        # removed UAVs: keep their position at removal in the track
             p1[k] = p0[k] + f * (p1[k] - p0[k])
             p1l[k] = p1[k].tolist()
-        # new reference positions for the skip tests that failed (the travel counts from here)
-        if pairs_checked:
+        # new reference positions for the skip tests that failed (the travel counts from here); the exact
+        # checks above ran whether or not the clearances are refreshed
+        if refresh_pairs:
             self._clear = pair_clearances(p1l, self.collider.impact_diameter)
             self._trav = [0.0] * nu
-        for k in zone_checked:
+        for k in refresh_zone:
             self._zclear[k] = zd.clearance(p1l[k][0], p1l[k][1])
             ztrav[k] = 0.0
         self.p0, self.ph0, self._p0l, self._ph0l = p1, ph1, p1l, ph1l
