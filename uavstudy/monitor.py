@@ -55,6 +55,8 @@ TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map trac
 #: up to this many UAVs the per-step bookkeeping runs on Python floats (for a few UAVs the fixed cost of
 #: ~30 numpy calls on tiny arrays is far more than the arithmetic); above, on numpy vectors
 SMALL_FLEET = 16
+#: while a skip test keeps failing (UAVs close to each other or to a zone), its clearances are refreshed on
+#: the first two failures and then every this many steps (a stale clearance is a weaker, still valid bound)
 REFRESH_EVERY = 8
 
 
