@@ -380,6 +380,7 @@ class UavMonitor(Monitor):
         self.pc0 = self._role_values("photoCount", self._pc_view)
         self._ms_bytes = None if self._ms_view is None else self._ms_view.tobytes()
         self._pc_bytes = None if self._pc_view is None else self._pc_view.tobytes()
+        self._ph_bytes = self._ph_view.tobytes()     # the bytes self.ph0 was made of
         self._air0 = (self.ph0 >= AIRBORNE_PHASES[0]) & (self.ph0 <= AIRBORNE_PHASES[-1])
         self._p0l, self._ph0l = self.p0.tolist(), self.ph0.tolist()
         self._snapshot()
@@ -463,7 +464,12 @@ class UavMonitor(Monitor):
         self._key = key
         p0 = self.p0
         p1 = self._pos_view.astype(float)
-        ph1 = self._ph_view.astype(float)
+        b = self._ph_view.tobytes()
+        if b == self._ph_bytes:     # phases rarely change: reuse ph0 (arrays are never modified once made)
+            ph1 = self.ph0
+        else:
+            ph1 = self._ph_view.astype(float)
+            self._ph_bytes = b
         removed = self._removed                 # not yet modified in this step (_remove() comes later)
         if self._rm_idx.size:                   # a removed UAV stays where it was taken out
             p1[self._rm_idx] = self._rm_pos
@@ -518,7 +524,7 @@ class UavMonitor(Monitor):
         lo, hi = AIRBORNE_PHASES[0], AIRBORNE_PHASES[-1]
         thr = cfg.altitude_threshold
         p0l, ph0l = self._p0l, self._ph0l
-        p1l, ph1l = p1.tolist(), ph1.tolist()
+        p1l, ph1l = p1.tolist(), (ph0l if ph1 is self.ph0 else ph1.tolist())
         rem = self._reml[:]                     # at the start of the step (a copy)
         nu = len(rem)
         sqrt = math.sqrt
