@@ -28,7 +28,10 @@ Cost (docs/uav_monitor.md, "Cost per step"): one ``take`` per buffer type into p
 in which nothing read changed and nothing is checked is an *idle* step (airborne time and track only);
 mission states and photos are looked at only when their bytes changed; up to ``SMALL_FLEET`` UAVs the rest
 of the step runs on Python floats (``_step_small``), above on numpy vectors (``_step_vector``).  Both give
-the same bits as each other and as the plain vectorized algorithm.
+the same bits as each other and as the plain vectorized algorithm.  ``_step_small`` also skips the contact
+and zone checks of steps in which no UAV can have come within reach of another or of a zone since the last
+exact check (clearance minus distance travelled; bound and margins in uavstudy/geometry.py), which is
+nearly every step of a mission: the 4-UAV scaling mission runs the exact pair check on 36 of 2503 steps.
 """
 from __future__ import annotations
 
