@@ -52,18 +52,57 @@ Cheap reject: a vehicle whose step segment's bounding box is disjoint from
 every zone's bounding box cannot meet a zone and is dropped before shapely
 (``may_enter`` is the same test on Python floats for one segment).  The
 result is unchanged (each vehicle's incursions do not depend on the others).
+
+Skipping steps that provably hold no event (``SKIP_MARGIN``, ``pair_clearances``, ``ZoneDetector.clearance``)
+-------------------------------------------------------------------------------------------------------------
+Between two samples a vehicle moves on the segment p0->p1 (the linear motion above), so within a step it
+stays within ``l = |p1 - p0|`` of p0, and after several steps within the sum ``T`` of its segment lengths of
+the position where that sum started (triangle inequality).  Hence if two vehicles were ``d`` apart at a
+reference time and have travelled ``T_i`` and ``T_j`` since, their centre distance at every instant up to
+the end of the current step is at least ``d - T_i - T_j``; if that exceeds ``D`` they cannot be in contact
+and the narrow phase would find nothing.  Likewise a vehicle ``e`` from the nearest zone bounding box that
+has travelled ``T < e`` cannot meet a zone.  No speed limit of the model is assumed: ``T`` is measured from
+the very positions the detectors are given.  The bound is made conservative against rounding: the
+clearances are reduced by ``SKIP_MARGIN`` = 1 mm (the narrow phase's own rounding is ~1e-15 x the
+coordinates, i.e. far below 1 mm for any map under 1e9 m; its tolerance ``_DIST_TOL`` is 1e-9 m) and the
+travel is scaled by ``1 + SKIP_REL`` (the rounding of a float sum of n positive terms is below
+n x 1.1e-16 of the sum, so this holds for up to ~1e9 steps between two resets).  NaN or inf anywhere makes
+the comparison false, so such steps always take the exact path.  The UAV monitor keeps the exact check as
+the reference (``UavMonitor.precheck = False``); tests/uav/test_uav_monitor_precheck.py compares both on
+random close encounters.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 import shapely
 
-__all__ = ["Contact", "ZoneIncursion", "CollisionDetector", "ZoneDetector"]
+__all__ = ["Contact", "ZoneIncursion", "CollisionDetector", "ZoneDetector", "pair_clearances",
+           "SKIP_MARGIN", "SKIP_REL"]
 
 _DIST_TOL = 1e-9  # m, tolerance of the "<= D" test against rounding
+SKIP_MARGIN = 1e-3  # m, taken off every clearance of the skip test (see the module doc)
+SKIP_REL = 1e-6     # relative margin on the travelled distance of the skip test (float sums)
+
+
+def pair_clearances(rows, impact_diameter: float) -> list[list[float]]:
+    """``c[i][j] = |p_i - p_j| - impact_diameter - SKIP_MARGIN`` for the positions ``rows`` ((x, y, z)
+    Python floats): two vehicles that travel ``T_i + T_j < c[i][j]`` from here cannot touch (module doc)."""
+    sqrt = math.sqrt
+    lim = impact_diameter + SKIP_MARGIN
+    n = len(rows)
+    out = [[-math.inf] * n for _ in range(n)]
+    for i in range(n - 1):
+        xi, yi, zi = rows[i]
+        ci = out[i]
+        for j in range(i + 1, n):
+            xj, yj, zj = rows[j]
+            dx, dy, dz = xj - xi, yj - yi, zj - zi
+            ci[j] = out[j][i] = sqrt(dx * dx + dy * dy + dz * dz) - lim
+    return out
 
 
 @dataclass(frozen=True)
@@ -388,6 +427,20 @@ class ZoneDetector:
             if not (hx < bx0 or lx > bx1 or hy < by0 or ly > by1):
                 return True
         return False
+
+    def clearance(self, x: float, y: float) -> float:
+        """Distance from (x, y) to the nearest zone bounding box less ``SKIP_MARGIN`` (negative inside a box,
+        NaN for a NaN coordinate): a vehicle that travels less than this from here meets no zone."""
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return math.nan     # never skips: a non-finite position always takes the exact path
+        best = math.inf
+        for bx0, by0, bx1, by1 in self._bounds_list:
+            dx = bx0 - x if x < bx0 else (x - bx1 if x > bx1 else 0.0)
+            dy = by0 - y if y < by0 else (y - by1 if y > by1 else 0.0)
+            d = math.sqrt(dx * dx + dy * dy)
+            if d < best:
+                best = d
+        return best - SKIP_MARGIN
 
     def check(self, t0: float, t1: float, p0, p1, active=None) -> list[ZoneIncursion]:
         """Incursions of active vehicles during [t0, t1], sorted by (time, vehicle, zone)."""
