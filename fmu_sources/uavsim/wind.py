@@ -197,11 +197,13 @@ class Wind:
         h = t1 - t0
         if h <= 0.0:
             return self.at(t0)
-        m = min(200, max(1, int(math.ceil(h / resolution - 1e-9))))
+        m = math.ceil(h / resolution - 1e-9)          # then clipped to 1 ... 200 samples
+        m = 1 if m < 1 else (200 if m > 200 else m)
         p = self.p
         di = p.decision_interval
-        k0 = int(math.floor((t0 + 0.5 * h / m) / di + 1e-12))
-        k1 = int(math.floor((t0 + (m - 0.5) * h / m) / di + 1e-12))
+        floor = math.floor
+        k0 = floor((t0 + 0.5 * h / m) / di + 1e-12)
+        k1 = floor((t0 + (m - 0.5) * h / m) / di + 1e-12)
         if k0 < 0:
             return self._mean_of_samples(t0, h, m)
         if k1 >= self._next_k:
@@ -220,12 +222,12 @@ class Wind:
         turbulence = p.turbulence
         ux, uy = self._ux, self._uy
         intervals = self._intervals
-        cos, floor, two_pi = math.cos, math.floor, 2.0 * math.pi
+        cos, two_pi = math.cos, 2.0 * math.pi
         sx = sy = sz = 0.0
         level = 0
         for j in range(m):
             t = t0 + (j + 0.5) * h / m
-            k = int(floor(t / di + 1e-12))
+            k = floor(t / di + 1e-12)
             if not occurs[k]:
                 continue                     # at(t) is (0, 0, 0, 0): adding +0.0 to a sum that starts at +0.0
             iv = intervals[k]
