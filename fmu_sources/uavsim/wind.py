@@ -104,6 +104,7 @@ class Wind:
         self._intervals: dict[int, _Interval] = {}
         self._occurs: list[bool] = []        # _occurs[k]: wind in interval k (drawn intervals only)
         self._next_k = 0
+        self._calm = (math.inf, -math.inf)   # a time window in calm intervals only (see mean_over)
         self.n_turb = max(1, int(round(self.p.decision_interval / self.p.turb_dt)))
         d = math.radians(self.p.direction_deg)
         self._ux, self._uy = -math.sin(d), -math.cos(d)   # unit vector the wind blows toward
@@ -197,6 +198,9 @@ class Wind:
         h = t1 - t0
         if h <= 0.0:
             return self.at(t0)
+        lo, hi = self._calm
+        if lo <= t0 and t1 <= hi:
+            return 0.0, 0.0, 0.0, 0          # every sample (in [t0, t1]) lies in a calm interval
         m = math.ceil(h / resolution - 1e-9)          # then clipped to 1 ... 200 samples
         m = 1 if m < 1 else (200 if m > 200 else m)
         p = self.p
@@ -210,6 +214,7 @@ class Wind:
             self._interval(k1)
         occurs = self._occurs
         if not (occurs[k0] if k0 == k1 else any(occurs[k0:k1 + 1])):
+            self._calm = self._calm_window(k0, k1)
             return 0.0, 0.0, 0.0, 0          # calm intervals (most of them): every sample is zero
         # the samples of at(t), written out in one loop (this runs every step of every UAV in wind): the
         # same expressions in the same order, so the same bits as summing at(t) (tests/uav/test_uav_wind.py)
@@ -259,6 +264,22 @@ class Wind:
             sy += along * uy + cross * ux
             sz += up
         return sx / m, sy / m, sz / m, level
+
+    def _calm_window(self, k0: int, k1: int, ahead: int = 64) -> tuple[float, float]:
+        """A time window [a, b] whose every t has floor(t / T + 1e-12) in calm intervals k0 ... kb: the
+        calm intervals k0 ... k1 and those after them (drawn ahead: each interval's numbers are the same
+        whenever it is drawn, the streams draw interval after interval).  The 1e-6 margins exceed the
+        rounding of t / T by far (for k below 1e9), so a step inside the window needs no sampling."""
+        occurs = self._occurs
+        kb = k1
+        while kb - k0 < ahead:
+            if kb + 1 >= self._next_k:
+                self._interval(kb + 1)
+            if occurs[kb + 1]:
+                break
+            kb += 1
+        di = self.p.decision_interval
+        return (k0 + 1e-6) * di, (kb + 1 - 1e-6) * di
 
     def _mean_of_samples(self, t0: float, h: float, m: int) -> tuple[float, float, float, int]:
         """The definition of :meth:`mean_over`: the mean of m midpoint samples of :meth:`at`."""
