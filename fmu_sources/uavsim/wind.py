@@ -265,10 +265,11 @@ class Wind:
             sz += up
         return sx / m, sy / m, sz / m, level
 
-    def _calm_window(self, k0: int, k1: int, ahead: int = 64) -> tuple[float, float]:
+    def _calm_window(self, k0: int, k1: int, ahead: int = 16) -> tuple[float, float]:
         """A time window [a, b] whose every t has floor(t / T + 1e-12) in calm intervals k0 ... kb: the
         calm intervals k0 ... k1 and those after them (drawn ahead: each interval's numbers are the same
-        whenever it is drawn, the streams draw interval after interval).  The 1e-6 margins exceed the
+        whenever it is drawn, the streams draw interval after interval; at most ``ahead`` of them, as each
+        holds its turbulence numbers and a fleet has a wind per UAV).  The 1e-6 margins exceed the
         rounding of t / T by far (for k below 1e9), so a step inside the window needs no sampling."""
         occurs = self._occurs
         kb = k1
