@@ -172,6 +172,8 @@ class Wind:
     def _turbulence(self, iv: _Interval, tau: float):
         p = self.p
         n = min(self.n_turb - 1, int(math.floor(tau / p.turb_dt + 1e-9)))
+        if n == iv.turb_n and iv.turb is not None:
+            return iv.turb                       # the same grid cell as the last sample (most samples)
         sig, L = dryden_low_altitude(iv.speed, p.turb_altitude)
         if iv.turb is None or n < iv.turb_n:     # first use, or time went backwards: recompute
             # start each episode in the stationary distribution N(0, sigma^2)
