@@ -185,6 +185,10 @@ class ZoneMap:
         # zone, which four comparisons tell (the circle's distance test is a function call)
         self._tests = [(cx - r, cy - r, cx + r, cy + r, cx, cy, r) for cx, cy, r in self._circles]
         self._all = [(-math.inf, -math.inf, math.inf, math.inf, cx, cy, r) for cx, cy, r in self._circles]
+        # the box about all those squares: most segments a UAV tests lie outside it, which four comparisons tell
+        # without the loop over the zones
+        self._box = (min(t[0] for t in self._tests), min(t[1] for t in self._tests),
+                     max(t[2] for t in self._tests), max(t[3] for t in self._tests)) if self._tests else None
         self._paper = None        # lazily built visibility graph of the paper's reactive detour
         self._planners: dict[float, ZonePlanner] = {}
 
@@ -199,6 +203,9 @@ class ZoneMap:
         if ax - ax + ay - ay + bx - bx + by - by == 0.0:       # finite end points: the squares first
             lox, hix = (ax, bx) if ax <= bx else (bx, ax)
             loy, hiy = (ay, by) if ay <= by else (by, ay)
+            box = self._box
+            if box is None or hix < box[0] or lox > box[2] or hiy < box[1] or loy > box[3]:
+                return -1
             tests = self._tests
         else:                 # (a NaN or infinite end point goes through the distance test as it always did)
             lox = hix = loy = hiy = 0.0

@@ -102,7 +102,9 @@ class Wind:
         self._rng_gust = np.random.Generator(np.random.PCG64(s_gust))
         self._rng_turb = np.random.Generator(np.random.PCG64(s_turb))
         self._intervals: dict[int, _Interval] = {}
+        self._occurs: list[bool] = []        # _occurs[k]: wind in interval k (drawn intervals only)
         self._next_k = 0
+        self._calm = (math.inf, -math.inf)   # a time window in calm intervals only (see mean_over)
         self.n_turb = max(1, int(round(self.p.decision_interval / self.p.turb_dt)))
         d = math.radians(self.p.direction_deg)
         self._ux, self._uy = -math.sin(d), -math.cos(d)   # unit vector the wind blows toward
@@ -133,6 +135,7 @@ class Wind:
         iv.turb = None
         iv.turb_n = -1
         self._intervals[k] = iv
+        self._occurs.append(iv.occurs)
 
     # ------------------------------------------------------------------ evaluation
     def _episode_length(self) -> float:
@@ -169,6 +172,8 @@ class Wind:
     def _turbulence(self, iv: _Interval, tau: float):
         p = self.p
         n = min(self.n_turb - 1, int(math.floor(tau / p.turb_dt + 1e-9)))
+        if n == iv.turb_n and iv.turb is not None:
+            return iv.turb                       # the same grid cell as the last sample (most samples)
         sig, L = dryden_low_altitude(iv.speed, p.turb_altitude)
         if iv.turb is None or n < iv.turb_n:     # first use, or time went backwards: recompute
             # start each episode in the stationary distribution N(0, sigma^2)
@@ -195,12 +200,92 @@ class Wind:
         h = t1 - t0
         if h <= 0.0:
             return self.at(t0)
-        m = min(200, max(1, int(math.ceil(h / resolution - 1e-9))))
-        di = self.p.decision_interval
-        k0 = int(math.floor((t0 + 0.5 * h / m) / di + 1e-12))
-        k1 = int(math.floor((t0 + (m - 0.5) * h / m) / di + 1e-12))
-        if k0 >= 0 and not any(self._interval(k).occurs for k in range(k0, k1 + 1)):
+        lo, hi = self._calm
+        if lo <= t0 and t1 <= hi:
+            return 0.0, 0.0, 0.0, 0          # every sample (in [t0, t1]) lies in a calm interval
+        m = math.ceil(h / resolution - 1e-9)          # then clipped to 1 ... 200 samples
+        m = 1 if m < 1 else (200 if m > 200 else m)
+        p = self.p
+        di = p.decision_interval
+        floor = math.floor
+        k0 = floor((t0 + 0.5 * h / m) / di + 1e-12)
+        k1 = floor((t0 + (m - 0.5) * h / m) / di + 1e-12)
+        if k0 < 0:
+            return self._mean_of_samples(t0, h, m)
+        if k1 >= self._next_k:
+            self._interval(k1)
+        occurs = self._occurs
+        if not (occurs[k0] if k0 == k1 else any(occurs[k0:k1 + 1])):
+            self._calm = self._calm_window(k0, k1)
             return 0.0, 0.0, 0.0, 0          # calm intervals (most of them): every sample is zero
+        # the samples of at(t), written out in one loop (this runs every step of every UAV in wind): the
+        # same expressions in the same order, so the same bits as summing at(t) (tests/uav/test_uav_wind.py)
+        D = self._episode_length()
+        ramp = p.ramp
+        gusts = p.gusts
+        tg_len = min(p.gust_length, D)
+        gust = gusts and tg_len > 0.0
+        amp = p.gust_amplitude
+        turbulence = p.turbulence
+        ux, uy = self._ux, self._uy
+        intervals = self._intervals
+        cos, two_pi = math.cos, 2.0 * math.pi
+        sx = sy = sz = 0.0
+        level = 0
+        for j in range(m):
+            t = t0 + (j + 0.5) * h / m
+            k = floor(t / di + 1e-12)
+            if not occurs[k]:
+                continue                     # at(t) is (0, 0, 0, 0): adding +0.0 to a sum that starts at +0.0
+            iv = intervals[k]
+            tau = t - k * di
+            if tau < 0.0 or tau >= D:
+                continue                     # outside the episode: (0, 0, 0, 0) as well
+            lv = iv.level
+            if lv > level:
+                level = lv
+            if ramp > 0.0:
+                f = min(1.0, tau / ramp, (D - tau) / ramp)
+            else:
+                f = 1.0
+            U = iv.speed * max(0.0, f)
+            if U <= 0.0:
+                continue
+            along, cross, up = U, 0.0, 0.0
+            f = U / iv.speed
+            if gust:
+                s = tau - (D - tg_len) * iv.gust_start
+                if 0.0 <= s <= tg_len:
+                    along += f * 0.5 * amp * iv.speed * (1.0 - cos(two_pi * s / tg_len))
+            if turbulence:
+                tu = self._turbulence(iv, tau)
+                along += f * float(tu[0])
+                cross += f * float(tu[1])
+                up += f * float(tu[2])
+            sx += along * ux - cross * uy
+            sy += along * uy + cross * ux
+            sz += up
+        return sx / m, sy / m, sz / m, level
+
+    def _calm_window(self, k0: int, k1: int, ahead: int = 16) -> tuple[float, float]:
+        """A time window [a, b] whose every t has floor(t / T + 1e-12) in calm intervals k0 ... kb: the
+        calm intervals k0 ... k1 and those after them (drawn ahead: each interval's numbers are the same
+        whenever it is drawn, the streams draw interval after interval; at most ``ahead`` of them, as each
+        holds its turbulence numbers and a fleet has a wind per UAV).  The 1e-6 margins exceed the
+        rounding of t / T by far (for k below 1e9), so a step inside the window needs no sampling."""
+        occurs = self._occurs
+        kb = k1
+        while kb - k0 < ahead:
+            if kb + 1 >= self._next_k:
+                self._interval(kb + 1)
+            if occurs[kb + 1]:
+                break
+            kb += 1
+        di = self.p.decision_interval
+        return (k0 + 1e-6) * di, (kb + 1 - 1e-6) * di
+
+    def _mean_of_samples(self, t0: float, h: float, m: int) -> tuple[float, float, float, int]:
+        """The definition of :meth:`mean_over`: the mean of m midpoint samples of :meth:`at`."""
         sx = sy = sz = 0.0
         level = 0
         for j in range(m):
