@@ -43,7 +43,8 @@ def build_c(dest: Path) -> dict[str, Path]:
                    ff._input("u", 0.0, "input"), ff._output("y", "a u + b + c sin(w t)")],
         output_deps={"y": ["u"]}, versions_kinds={(2, "cs")}, source=str(HERE / "c" / "Affine.c"),
         saves_state=True)
-    return {m: ff.build_c_fmu(m, dest) for m in ("MassA", "MassB", "Affine")}
+    from fmu_sources.reproducible import make_reproducible
+    return {m: make_reproducible(ff.build_c_fmu(m, dest), derive_guid=False) for m in ("MassA", "MassB", "Affine")}
 
 
 def build_py(dest: Path) -> dict[str, Path]:
