@@ -509,50 +509,15 @@ class PythonFmuSlave(Slave):
 
         if not raws:
             return step
-        if len(raws) == 1:
-            (u0, n0, l0), = raws
 
-            def op(t, h):
-                try:
-                    u0(zip(n0, l0()))
-                except Exception:
-                    if (st := failed()) is not None:
-                        return st
-                calls[index] += 1
-                try:
-                    ok = do_step(t, h)
-                except Exception:
-                    return step_error(t, h)
-                if obj.log_queue:
-                    drain()
-                return OK if ok else DISCARD
-        elif len(raws) == 2:
-            (u0, n0, l0), (u1, n1, l1) = raws
-
-            def op(t, h):
-                try:
-                    u0(zip(n0, l0()))
-                    u1(zip(n1, l1()))
-                except Exception:
-                    if (st := failed()) is not None:
-                        return st
-                calls[index] += 1
-                try:
-                    ok = do_step(t, h)
-                except Exception:
-                    return step_error(t, h)
-                if obj.log_queue:
-                    drain()
-                return OK if ok else DISCARD
-        else:
-            def op(t, h):
-                try:
-                    for u, n, l in raws:
-                        u(zip(n, l()))
-                except Exception:
-                    if (st := failed()) is not None:
-                        return st
-                return step(t, h)
+        def op(t, h):
+            try:
+                for u, n, l in raws:
+                    u(zip(n, l()))
+            except Exception:
+                if (st := failed()) is not None:
+                    return st
+            return step(t, h)
         return op
 
     def bound_step(self):
