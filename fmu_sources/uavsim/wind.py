@@ -131,7 +131,10 @@ class Wind:
         else:
             iv.level, iv.speed = 3, p.speed_strong
         iv.gust_start = float(self._rng_gust.random())
-        iv.noise = self._rng_turb.standard_normal((self.n_turb + 1, 3))   # row 0: initial state
+        # drawn whether or not turbulence is on (the same numbers either way), kept only when it is: a windy
+        # 256-UAV hour would otherwise hold ~220 MB of unused noise
+        noise = self._rng_turb.standard_normal((self.n_turb + 1, 3))     # row 0: initial state
+        iv.noise = noise if p.turbulence else None
         iv.turb = None
         iv.turb_n = -1
         self._intervals[k] = iv
