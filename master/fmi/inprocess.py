@@ -440,16 +440,9 @@ class PythonFmuSlave(Slave):
                 return OK
             return op
         if bound is not None and as_is:
-            def op():
-                try:
-                    bound(tolist())
-                except Exception:
-                    return set_port(typ, port)
-                if obj.log_queue:
-                    drain()
-                return OK
-            return op
-        if bound is not None:
+            def write():
+                bound(tolist())
+        elif bound is not None:
             def write():
                 bound([conv(v) for v in tolist()])
         elif setters is not None and len(setters) == 1:
