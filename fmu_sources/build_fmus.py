@@ -45,6 +45,7 @@ def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
     files = [f"{name}.py"]
     files += sorted(f"uavsim/{p.name}" for p in (src_dir / "uavsim").glob("*.py"))
     files += ["uavsim/kernels.c"]
+    files += sorted(f"uavsim/{p.name}" for p in (src_dir / "uavsim").glob(EXTENSION_GLOB))
     for pkg in EXTRA_PACKAGES.get(name, ()):
         files += sorted(f"{pkg}/{p.name}" for p in (src_dir / pkg).glob("*.py"))
         if (src_dir / pkg / C_SOURCES[pkg]).is_file():
@@ -54,6 +55,41 @@ def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
 
 #: -ffp-contract=off: no fused multiply-add, so the compiled kernels round exactly as the Python twins
 KERNEL_FLAGS = ["-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]
+
+
+#: CPython extension sources of uavsim (uavsim/native.py), each built as <stem>.abi3.so against the stable ABI
+EXTENSION_GLOB = "_*_ext.c"
+LIMITED_API = "0x03090000"
+
+
+def compile_extensions(dest_dir: Path | str, src_dir: Path | str = HERE) -> list[Path]:
+    """Compile every uavsim/_*_ext.c into dest_dir/<stem>.abi3.so (they may #include "kernels.c"); none (and a
+    warning) without a compiler or Python's headers: the FMUs then run the Python twins."""
+    import sysconfig
+    from uavsim.native import SUFFIX
+    include = sysconfig.get_paths().get("include", "")
+    sources = sorted((Path(src_dir) / "uavsim").glob(EXTENSION_GLOB))
+    if not sources:
+        return []
+    if not os.path.isfile(os.path.join(include, "Python.h")):
+        print(f"warning: no Python.h in {include!r}; the FMUs will run the Python twins of the extensions",
+              file=sys.stderr)
+        return []
+    cc = os.environ.get("CC", "gcc")
+    out = []
+    for src in sources:
+        target = Path(dest_dir) / (src.stem + SUFFIX)
+        cmd = [cc, *KERNEL_FLAGS, f"-DPy_LIMITED_API={LIMITED_API}", f"-I{include}", f"-I{src.parent}",
+               "-o", str(target), str(src), "-lm"]
+        try:
+            subprocess.run(cmd, check=True, capture_output=True, text=True)
+        except FileNotFoundError:
+            print(f"warning: no C compiler ({cc}); the FMUs will run the Python twins", file=sys.stderr)
+            return []
+        except subprocess.CalledProcessError as exc:
+            raise SystemExit(f"compiling {src.name} failed: {' '.join(cmd)}\n{exc.stderr}") from None
+        out.append(target)
+    return out
 
 
 def compile_kernels(dest_dir: Path | str, src_dir: Path | str = HERE) -> Path | None:
@@ -131,6 +167,7 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
         if str(src_dir) not in sys.path:
             sys.path.insert(0, str(src_dir))
         compile_kernels(stage / "uavsim", src_dir)
+        compile_extensions(stage / "uavsim", src_dir)
         if "sitlsim" in packages and (stage / "sitlsim" / "physics.c").is_file():
             from sitlsim.physics import compile_library
             compile_library(stage / "sitlsim", stage / "sitlsim" / "physics.c")
