@@ -24,11 +24,12 @@ def disabled() -> bool:
 
 
 def load_extension(name: str, *folders):
-    """The extension module ``name`` (e.g. "_dynamics_ext") from the first of (this package's folder,
-    *folders) that holds ``name.abi3.so`` and can load it; None when none can (the caller's Python twin)."""
+    """The extension module ``name`` (e.g. "_dynamics_ext") from the first of (*folders, this package's
+    folder) that holds ``name.abi3.so`` and can load it; None when none can (the caller's Python twin).
+    An FMU shell names its own resources first: the library built with the FMU matches the sources it bundles."""
     if disabled():
         return None
-    for folder in (_HERE, *map(Path, folders)):
+    for folder in (*map(Path, folders), _HERE):
         path = str(Path(folder) / (name + SUFFIX))
         if path in _loaded:
             if _loaded[path] is not None:
