@@ -15,6 +15,8 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <string.h>
+
 #include "kernels.c"
 
 enum { PREFLIGHT = 0, ON_GROUND = 4 };   /* phases (LANDED is a state slot) */
@@ -52,16 +54,16 @@ static int get_long(PyObject *d, PyObject *key, long *out)
     return !(*out == -1 && PyErr_Occurred());
 }
 
-/* list d[key] of n numbers into out[0..n-1] */
-static int get_list(PyObject *d, PyObject *key, double *out, Py_ssize_t n)
+/* the list d[key] (borrowed) of n numbers, read into out[0..n-1]; NULL: not such a list */
+static PyObject *get_list(PyObject *d, PyObject *key, double *out, Py_ssize_t n)
 {
     PyObject *v = lookup(d, key);
-    if (v == NULL || !PyList_Check(v) || PyList_Size(v) != n) return 0;
+    if (v == NULL || !PyList_CheckExact(v) || PyList_Size(v) != n) return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
         out[i] = PyFloat_AsDouble(PyList_GetItem(v, i));
-        if (out[i] == -1.0 && PyErr_Occurred()) return 0;
+        if (out[i] == -1.0 && PyErr_Occurred()) return NULL;
     }
-    return 1;
+    return v;
 }
 
 /* d[key] = value, stealing the reference to value */
@@ -76,26 +78,69 @@ static int put(PyObject *d, PyObject *key, PyObject *value)
 
 static int put_double(PyObject *d, PyObject *key, double x) { return put(d, key, PyFloat_FromDouble(x)); }
 
-/* d[key] = list of x[0..n-1]: the values replace those of the list d[key] has (as Dynamics._substep updates
- * its lists in place; a new list costs an allocation and the garbage collector's tracking) */
-static int put_list(PyObject *d, PyObject *key, const double *x, Py_ssize_t n)
+/* the same IEEE double, bit for bit (0.0 and -0.0 differ) */
+static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* list[0..n-1] = x, in place, as Dynamics._substep updates its lists (a new list would cost an allocation and the
+ * garbage collector's tracking); an item that keeps its value keeps its float object */
+static int set_list(PyObject *list, const double *x, Py_ssize_t n)
 {
-    PyObject *list = lookup(d, key);
-    int fresh = list == NULL || !PyList_Check(list) || PyList_Size(list) != n;
-    if (fresh && (list = PyList_New(n)) == NULL) return 0;
     for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *f = PyFloat_FromDouble(x[i]);
-        if (f == NULL) { if (fresh) Py_DECREF(list); return 0; }
+        PyObject *old = PyList_GetItem(list, i), *f;
+        if (PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x[i])) continue;
+        if ((f = PyFloat_FromDouble(x[i])) == NULL) return 0;
         PyList_SetItem(list, i, f);
     }
-    return fresh ? put(d, key, list) : 1;
+    return 1;
 }
 
-/* float(obj), as a new reference */
+/* the list d[key], known to be a list of n items, or a new list in d[key] (borrowed; NULL: error) */
+static PyObject *list_of(PyObject *d, PyObject *key, Py_ssize_t n)
+{
+    PyObject *list = lookup(d, key);
+    if (list != NULL && PyList_CheckExact(list) && PyList_Size(list) == n) return list;
+    if (PyErr_Occurred() || (list = PyList_New(n)) == NULL) return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        Py_INCREF(Py_None);
+        PyList_SetItem(list, i, Py_None);
+    }
+    return put(d, key, list) ? list : NULL;
+}
+
+/* d[key] = x, keeping the float object d[key] when it holds x already */
+static int update_double(PyObject *d, PyObject *key, double x)
+{
+    PyObject *old = lookup(d, key);
+    if (old != NULL && PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x)) return 1;
+    return put_double(d, key, x);
+}
+
+/* float(d[key]), as a new reference */
 static PyObject *as_float(PyObject *d, PyObject *key)
 {
     PyObject *v = lookup(d, key);
     return v == NULL ? NULL : PyNumber_Float(v);
+}
+
+/* float(d[key]) into *out (0: error) */
+static int get_float(PyObject *d, PyObject *key, double *out)
+{
+    PyObject *f = as_float(d, key);
+    if (f == NULL) return 0;
+    *out = PyFloat_AsDouble(f);
+    Py_DECREF(f);
+    return 1;
+}
+
+/* (sp_x, sp_y, sp_z) of the shell, as its do_step passes them to Dynamics.step */
+static PyObject *sp_tuple(PyObject *sd)
+{
+    PyObject *x = lookup(sd, k_sp[0]), *y = lookup(sd, k_sp[1]), *z = lookup(sd, k_sp[2]);
+    if (x == NULL || y == NULL || z == NULL) {
+        if (!PyErr_Occurred()) PyErr_SetString(PyExc_AttributeError, "sp_x, sp_y or sp_z");
+        return NULL;
+    }
+    return PyTuple_Pack(3, x, y, z);
 }
 
 /* Python's math.hypot(a, b) */
@@ -110,18 +155,44 @@ static int py_hypot(PyObject *a, PyObject *b, double *out)
 
 /* ------------------------------------------------------------------ the step */
 
-/* One pass of Dynamics._run's loop body through uav_fly: the state in and out of the model's attributes.
- * Returns the sub-step reached (-1: error) and sets *landed. */
-static long fly(PyObject *md, const double *p, long i, long n, double h, long cmd, const double *sp,
-                double wx, double wy, int *landed)
+/* what the shell publishes is read from (borrowed references) */
+typedef struct {
+    PyObject *pos, *vel, *a_cmd, *ready;
+    double w0, w1;
+    long phase;
+} View;
+
+/* the view of a model's state in its __dict__ (0: error) */
+static int read_view(PyObject *md, View *v)
+{
+    PyObject *w = lookup(md, k_wind_m), *phase = lookup(md, k_phase);
+    v->pos = lookup(md, k_pos);
+    v->vel = lookup(md, k_vel);
+    v->a_cmd = lookup(md, k_a_cmd);
+    v->ready = lookup(md, k_ready);
+    if (v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL || w == NULL || phase == NULL
+        || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
+        || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2 || !PyTuple_Check(w) || PyTuple_Size(w) != 3
+        || !PyLong_Check(phase))
+        return 0;
+    v->w0 = PyFloat_AsDouble(PyTuple_GetItem(w, 0));
+    v->w1 = PyFloat_AsDouble(PyTuple_GetItem(w, 1));
+    v->phase = PyLong_AsLong(phase);
+    return !PyErr_Occurred();
+}
+
+/* One pass of Dynamics._run's loop body through uav_fly from sub-step i: the state in and out of the model's
+ * attributes, and *v the view of it.  Returns the sub-step reached (-1: error) and sets *landed. */
+static long fly(PyObject *md, const double *p, long phase, long i, long n, double h, long cmd, const double *sp,
+                double wx, double wy, View *v, int *landed)
 {
     double s[NSTATE], pos[3], vel[3], vt[2], integ[2], hold[2];
-    long phase;
-    PyObject *mode = lookup(md, k_mode);
+    PyObject *mode = lookup(md, k_mode), *pos_l, *vel_l, *vt_l, *integ_l, *hold_l, *a_l;
     int goto_;
-    if (mode == NULL || !get_list(md, k_pos, pos, 3) || !get_list(md, k_vel, vel, 3) || !get_list(md, k_vt, vt, 2)
-        || !get_list(md, k_integ, integ, 2) || !get_list(md, k_hold, hold, 2) || !get_double(md, k_vtz, &s[VTZ])
-        || !get_double(md, k_hold_z, &s[HOLDZ]) || !get_long(md, k_phase, &phase))
+    if (mode == NULL || (pos_l = get_list(md, k_pos, pos, 3)) == NULL || (vel_l = get_list(md, k_vel, vel, 3)) == NULL
+        || (vt_l = get_list(md, k_vt, vt, 2)) == NULL || (integ_l = get_list(md, k_integ, integ, 2)) == NULL
+        || (hold_l = get_list(md, k_hold, hold, 2)) == NULL || (a_l = list_of(md, k_a_cmd, 2)) == NULL
+        || !get_double(md, k_vtz, &s[VTZ]) || !get_double(md, k_hold_z, &s[HOLDZ]))
         return -1;
     goto_ = PyObject_RichCompareBool(mode, str_goto, Py_EQ);
     if (goto_ < 0) return -1;
@@ -131,29 +202,43 @@ static long fly(PyObject *md, const double *p, long i, long n, double h, long cm
     s[I] = (double)i; s[N] = (double)n; s[H] = h; s[CMD] = (double)cmd;
     s[SPX] = sp[0]; s[SPY] = sp[1]; s[SPZ] = sp[2]; s[WX] = wx; s[WY] = wy;
     i = uav_fly(s, p);
-    {
+    {   /* Dynamics._run's assignments */
         const double newpos[3] = {s[PX], s[PY], s[PZ]}, newvel[3] = {s[VX], s[VY], s[VTZ]};
         const double newvt[2] = {s[VTX], s[VTY]}, newinteg[2] = {s[IX], s[IY]}, acmd[2] = {s[AX], s[AY]};
         const double newhold[2] = {s[HX], s[HY]};
         PyObject *m = s[MODE] != 0.0 ? str_goto : str_hold;
         Py_INCREF(m);
-        if (!put_list(md, k_pos, newpos, 3) || !put_list(md, k_vel, newvel, 3) || !put_list(md, k_vt, newvt, 2)
-            || !put_double(md, k_vtz, s[VTZ]) || !put_list(md, k_integ, newinteg, 2)
-            || !put_list(md, k_a_cmd, acmd, 2) || !put(md, k_phase, PyLong_FromLong((long)s[PHASE]))
-            || !put(md, k_mode, m) || !put_list(md, k_hold, newhold, 2) || !put_double(md, k_hold_z, s[HOLDZ]))
+        if (!set_list(pos_l, newpos, 3) || !set_list(vel_l, newvel, 3) || !set_list(vt_l, newvt, 2)
+            || !update_double(md, k_vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
+            || !put(md, k_phase, PyLong_FromLong((long)s[PHASE])) || !put(md, k_mode, m)
+            || !set_list(hold_l, newhold, 2) || !update_double(md, k_hold_z, s[HOLDZ]))
             return -1;
     }
+    v->pos = pos_l; v->vel = vel_l; v->a_cmd = a_l;
+    v->w0 = wx; v->w1 = wy;
+    v->phase = (long)s[PHASE];
+    if ((v->ready = lookup(md, k_ready)) == NULL) return -1;
     *landed = s[LANDED] != 0.0;
     return i;
 }
 
-/* Dynamics.step's phase dispatch, once the inputs are read (1 done, 0 error) */
-static int advance(PyObject *model, PyObject *md, const double *p, long n, double h, long cmd, PyObject *sp,
-                   double wx, double wy)
+/* model._run(n, h, cmd, sp[, i]): the reference code, for the rare sub-steps (0: error) */
+static int run_python(PyObject *model, long n, double h, long cmd, PyObject *sp, long i)
+{
+    PyObject *r = NULL, *ni = PyLong_FromLong(n), *hi = PyFloat_FromDouble(h), *ci = PyLong_FromLong(cmd),
+             *ii = PyLong_FromLong(i);
+    if (ni && hi && ci && ii) r = PyObject_CallMethodObjArgs(model, str_run, ni, hi, ci, sp, ii, NULL);
+    Py_XDECREF(ni); Py_XDECREF(hi); Py_XDECREF(ci); Py_XDECREF(ii);
+    Py_XDECREF(r);
+    return r != NULL;
+}
+
+/* Dynamics.step's phase dispatch, once the inputs are read; fills *v with the view to publish (0: error) */
+static int advance(PyObject *model, PyObject *md, const double *p, long n, double h, long cmd, PyObject *sd,
+                   double wx, double wy, View *v)
 {
     long phase;
     if (!get_long(md, k_phase, &phase)) return 0;
-    if (phase == ON_GROUND && cmd != CMD_TAKEOFF) return 1;            /* on the ground: nothing changes */
     if (phase == PREFLIGHT && cmd != CMD_TAKEOFF && cmd != CMD_GOTO) {  /* only the preflight clock runs */
         const double pt = p[K_PREFLIGHT_TIME] - 1e-9;
         double elapsed;
@@ -165,122 +250,108 @@ static int advance(PyObject *model, PyObject *md, const double *p, long n, doubl
         }
         if (!put_double(md, k_preflight_elapsed, elapsed)) return 0;
         if (ready) { Py_INCREF(Py_True); if (!put(md, k_ready, Py_True)) return 0; }
-        return 1;
-    }
-    if (phase != PREFLIGHT && phase != ON_GROUND) {
+    } else if (phase == PREFLIGHT || (phase == ON_GROUND && cmd == CMD_TAKEOFF)) {
+        /* lift-off: the reference code */
+        PyObject *sp = sp_tuple(sd);
+        int ok = sp != NULL && run_python(model, n, h, cmd, sp, 0);
+        Py_XDECREF(sp);
+        if (!ok) return 0;
+    } else if (phase != ON_GROUND) {     /* flying (on the ground without a takeoff command nothing changes) */
         double spd[3];
         int landed = 0;
         long i;
-        for (int j = 0; j < 3; j++) spd[j] = PyFloat_AsDouble(PyTuple_GetItem(sp, j));
-        i = fly(md, p, 0, n, h, cmd, spd, wx, wy, &landed);
+        for (int j = 0; j < 3; j++)
+            if (!get_float(sd, k_sp[j], &spd[j])) return 0;
+        i = fly(md, p, phase, 0, n, h, cmd, spd, wx, wy, v, &landed);
         if (i < 0) return 0;
-        if (landed) {
-            PyObject *r = PyObject_CallMethodObjArgs(model, str_touch_down, NULL);
-            if (r == NULL) return 0;
-            Py_DECREF(r);
-        }
-        if (i >= n) return 1;
-        /* touched down before the end of the step: the rest (on the ground) in Python, from sub-step i */
+        if (!landed) return 1;
         {
-            PyObject *r, *ni = PyLong_FromLong(n), *hi = PyFloat_FromDouble(h), *ci = PyLong_FromLong(cmd),
-                         *ii = PyLong_FromLong(i);
-            r = (ni && hi && ci && ii) ? PyObject_CallMethodObjArgs(model, str_run, ni, hi, ci, sp, ii, NULL) : NULL;
-            Py_XDECREF(ni); Py_XDECREF(hi); Py_XDECREF(ci); Py_XDECREF(ii);
+            PyObject *r = PyObject_CallMethodObjArgs(model, str_touch_down, NULL), *sp;
+            int ok;
             if (r == NULL) return 0;
             Py_DECREF(r);
-            return 1;
+            /* touched down before the end of the step: the rest (on the ground) in Python, from sub-step i */
+            if (i < n) {
+                sp = sp_tuple(sd);
+                ok = sp != NULL && run_python(model, n, h, cmd, sp, i);
+                Py_XDECREF(sp);
+                if (!ok) return 0;
+            }
         }
     }
-    /* lift-off (from preflight or landed): Dynamics._run, the reference code for it */
-    {
-        PyObject *r, *ni = PyLong_FromLong(n), *hi = PyFloat_FromDouble(h), *ci = PyLong_FromLong(cmd);
-        r = (ni && hi && ci) ? PyObject_CallMethodObjArgs(model, str_run, ni, hi, ci, sp, NULL) : NULL;
-        Py_XDECREF(ni); Py_XDECREF(hi); Py_XDECREF(ci);
-        if (r == NULL) return 0;
-        Py_DECREF(r);
-        return 1;
-    }
+    return read_view(md, v);
 }
 
-/* Dynamics.outputs() into the shell's attributes, as UavDynamics._publish assigns them (1 done, 0 error) */
-static int publish(PyObject *sd, PyObject *md, const double *p)
+/* Dynamics.outputs() of the view into the shell's attributes, as UavDynamics._publish assigns them (0: error) */
+static int publish(PyObject *sd, const double *p, const View *v)
 {
-    PyObject *pos = lookup(md, k_pos), *vel = lookup(md, k_vel), *a = lookup(md, k_a_cmd);
-    PyObject *w = lookup(md, k_wind_m), *phase_o = lookup(md, k_phase);
-    PyObject *ready_o = lookup(md, k_ready), *gx_o, *gy_o, *ax_o, *ay_o, *phase_i, *ready_i;
-    double v0, v1, w0, w1, air, ground, amag;
-    long phase;
+    PyObject *vx = PyList_GetItem(v->vel, 0), *vy = PyList_GetItem(v->vel, 1), *gx, *gy, *phase, *ready;
+    double v0 = PyFloat_AsDouble(vx), v1 = PyFloat_AsDouble(vy), air, ground, amag;
     int ok, push = p[PUSH] != 0.0;
-    if (pos == NULL || vel == NULL || a == NULL || w == NULL || phase_o == NULL || ready_o == NULL
-        || !PyList_Check(pos) || PyList_Size(pos) != 3 || !PyList_Check(vel) || PyList_Size(vel) != 3
-        || !PyList_Check(a) || PyList_Size(a) != 2 || !PyTuple_Check(w) || PyTuple_Size(w) != 3
-        || !PyLong_Check(phase_o))
-        return 0;
-    v0 = PyFloat_AsDouble(PyList_GetItem(vel, 0));
-    v1 = PyFloat_AsDouble(PyList_GetItem(vel, 1));
-    w0 = PyFloat_AsDouble(PyTuple_GetItem(w, 0));
-    w1 = PyFloat_AsDouble(PyTuple_GetItem(w, 1));
-    phase = PyLong_AsLong(phase_o);
     if (PyErr_Occurred()) return 0;
-    if (push && (phase == TAKEOFF || phase == FLY || phase == LAND)) {
-        gx_o = PyFloat_FromDouble(v0 + w0);
-        gy_o = PyFloat_FromDouble(v1 + w1);
+    if (push && (v->phase == TAKEOFF || v->phase == FLY || v->phase == LAND)) {
+        gx = PyFloat_FromDouble(v0 + v->w0);
+        gy = PyFloat_FromDouble(v1 + v->w1);
     } else {
-        gx_o = PyList_GetItem(vel, 0); Py_INCREF(gx_o);
-        gy_o = PyList_GetItem(vel, 1); Py_INCREF(gy_o);
+        gx = vx; Py_INCREF(gx);
+        gy = vy; Py_INCREF(gy);
     }
-    if (gx_o == NULL || gy_o == NULL) { Py_XDECREF(gx_o); Py_XDECREF(gy_o); return 0; }
+    if (gx == NULL || gy == NULL) { Py_XDECREF(gx); Py_XDECREF(gy); return 0; }
     if (push) {
-        ok = py_hypot(PyList_GetItem(vel, 0), PyList_GetItem(vel, 1), &air);
+        ok = py_hypot(vx, vy, &air);
     } else {
-        PyObject *dx = PyFloat_FromDouble(v0 - w0), *dy = PyFloat_FromDouble(v1 - w1);
+        PyObject *dx = PyFloat_FromDouble(v0 - v->w0), *dy = PyFloat_FromDouble(v1 - v->w1);
         ok = dx != NULL && dy != NULL && py_hypot(dx, dy, &air);
         Py_XDECREF(dx); Py_XDECREF(dy);
     }
-    ax_o = PyList_GetItem(a, 0);
-    ay_o = PyList_GetItem(a, 1);
-    ok = ok && py_hypot(gx_o, gy_o, &ground) && py_hypot(ax_o, ay_o, &amag);
-    if (!ok) { Py_DECREF(gx_o); Py_DECREF(gy_o); return 0; }
-    phase_i = PyNumber_Long(phase_o);
-    ready_i = PyNumber_Long(ready_o);
-    for (int j = 0; j < 3; j++) Py_INCREF(PyList_GetItem(pos, j));
-    Py_INCREF(PyList_GetItem(vel, 2));
-    /* math.degrees(x) is x * (180 / pi) */
-    return put(sd, k_x, PyList_GetItem(pos, 0)) && put(sd, k_y, PyList_GetItem(pos, 1))
-        && put(sd, k_z, PyList_GetItem(pos, 2)) && put(sd, k_vx, gx_o) && put(sd, k_vy, gy_o)
-        && put(sd, k_vz, PyList_GetItem(vel, 2)) && put_double(sd, k_airspeed, air)
-        && put_double(sd, k_groundspeed, ground)
-        && put_double(sd, k_tilt, (180.0 / Py_MATH_PI) * atan2(amag, p[K_G]))
-        && put(sd, k_phase, phase_i) && put(sd, k_ready, ready_i);
+    ok = ok && py_hypot(gx, gy, &ground)
+        && py_hypot(PyList_GetItem(v->a_cmd, 0), PyList_GetItem(v->a_cmd, 1), &amag);
+    if (!ok) { Py_DECREF(gx); Py_DECREF(gy); return 0; }
+    phase = PyLong_FromLong(v->phase);
+    ready = PyNumber_Long(v->ready);
+    if (phase == NULL || ready == NULL) { Py_DECREF(gx); Py_DECREF(gy); Py_XDECREF(phase); Py_XDECREF(ready); return 0; }
+    for (int j = 0; j < 3; j++) Py_INCREF(PyList_GetItem(v->pos, j));
+    Py_INCREF(PyList_GetItem(v->vel, 2));
+    /* math.degrees(x) is x * (180 / pi); each put takes over its reference, whatever happens */
+    ok = put(sd, k_x, PyList_GetItem(v->pos, 0));
+    ok &= put(sd, k_y, PyList_GetItem(v->pos, 1));
+    ok &= put(sd, k_z, PyList_GetItem(v->pos, 2));
+    ok &= put(sd, k_vx, gx);
+    ok &= put(sd, k_vy, gy);
+    ok &= put(sd, k_vz, PyList_GetItem(v->vel, 2));
+    ok &= put_double(sd, k_airspeed, air);
+    ok &= put_double(sd, k_groundspeed, ground);
+    ok &= put_double(sd, k_tilt, (180.0 / Py_MATH_PI) * atan2(amag, p[K_G]));
+    ok &= put(sd, k_phase, phase);
+    ok &= put(sd, k_ready, ready);
+    return ok;
 }
 
-/* the inputs of Dynamics.step as UavDynamics.do_step passes them; 0: the Python code must do the step */
-static int read_inputs(PyObject *sd, long *cmd, PyObject **sp, PyObject **wind)
+/* int(cmd) and the wind tuple of Dynamics.step, as UavDynamics.do_step passes them (0: the Python code must do
+ * the step) */
+static int read_inputs(PyObject *sd, long *cmd, PyObject **wind)
 {
     PyObject *c = lookup(sd, k_cmd), *ci;
-    *sp = *wind = NULL;
+    *wind = NULL;
     if (c == NULL || (ci = PyNumber_Long(c)) == NULL) return 0;
     *cmd = PyLong_AsLong(ci);
     Py_DECREF(ci);
-    if (*cmd == -1 && PyErr_Occurred()) return 0;
-    *sp = PyTuple_New(3);
-    *wind = PyTuple_New(3);
-    if (*sp == NULL || *wind == NULL) return 0;
+    if ((*cmd == -1 && PyErr_Occurred()) || (*wind = PyTuple_New(3)) == NULL) return 0;
     for (int j = 0; j < 3; j++) {
-        PyObject *s = as_float(sd, k_sp[j]), *w = as_float(sd, k_wind[j]);
-        if (s) PyTuple_SetItem(*sp, j, s);
-        if (w) PyTuple_SetItem(*wind, j, w);
-        if (s == NULL || w == NULL) return 0;
+        PyObject *w = as_float(sd, k_wind[j]);
+        if (w == NULL) return 0;
+        PyTuple_SetItem(*wind, j, w);
     }
     return 1;
 }
 
 static PyObject *step(PyObject *module, PyObject *args)
 {
-    PyObject *sd, *dt_o, *model, *md = NULL, *nh, *kbuf, *sp = NULL, *wind = NULL;
+    PyObject *sd, *dt_o, *model, *md = NULL, *nh, *kbuf, *wind = NULL;
     const double *p;
     double dt, h, time;
     long n, cmd;
+    View v;
     int ok = 0;
     (void)module;
     if (PyTuple_Size(args) != 2 || !PyDict_Check(sd = PyTuple_GetItem(args, 0))) {
@@ -304,18 +375,15 @@ static PyObject *step(PyObject *module, PyObject *args)
         goto python;
     n = PyLong_AsLong(PyTuple_GetItem(nh, 0));
     h = PyFloat_AsDouble(PyTuple_GetItem(nh, 1));
-    if (PyErr_Occurred() || !get_double(md, k_time, &time) || !read_inputs(sd, &cmd, &sp, &wind)) goto python;
+    if (PyErr_Occurred() || !get_double(md, k_time, &time) || !read_inputs(sd, &cmd, &wind)) goto python;
     p = (const double *)PyBytes_AsString(kbuf);
-    /* from here on the model changes: an error is raised, not retried in Python */
+    /* from here on the model changes: an error is raised (as the Python step raises it), not retried */
     Py_INCREF(wind);
-    if (!put(md, k_wind_m, wind)) goto done;
-    if (!advance(model, md, p, n, h, cmd, sp, PyFloat_AsDouble(PyTuple_GetItem(wind, 0)),
-                 PyFloat_AsDouble(PyTuple_GetItem(wind, 1))))
-        goto done;
-    if (!get_double(md, k_time, &time) || !put_double(md, k_time, time + dt)) goto done;
-    ok = publish(sd, md, p);
-done:
-    Py_XDECREF(md); Py_XDECREF(sp); Py_XDECREF(wind);
+    ok = put(md, k_wind_m, wind)
+        && advance(model, md, p, n, h, cmd, sd, PyFloat_AsDouble(PyTuple_GetItem(wind, 0)),
+                   PyFloat_AsDouble(PyTuple_GetItem(wind, 1)), &v)
+        && put_double(md, k_time, time + dt) && publish(sd, p, &v);
+    Py_DECREF(md); Py_DECREF(wind);
     if (!ok) {
         if (!PyErr_Occurred()) PyErr_SetString(PyExc_RuntimeError, "_dynamics_ext.step: unexpected model state");
         return NULL;
@@ -323,7 +391,7 @@ done:
     Py_RETURN_TRUE;
 python:
     PyErr_Clear();
-    Py_XDECREF(md); Py_XDECREF(sp); Py_XDECREF(wind);
+    Py_XDECREF(md); Py_XDECREF(wind);
     Py_RETURN_FALSE;
 }
 
