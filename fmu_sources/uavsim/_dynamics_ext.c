@@ -297,15 +297,26 @@ static int publish(PyObject *sd, const double *p, const View *v)
         gy = vy; Py_INCREF(gy);
     }
     if (gx == NULL || gy == NULL) { Py_XDECREF(gx); Py_XDECREF(gy); return 0; }
-    if (push) {
+    ok = py_hypot(gx, gy, &ground);
+    /* in still air the air-relative and ground velocities differ at most in the sign of a zero, which hypot
+     * ignores: one call serves both */
+    if (ok && v->w0 == 0.0 && v->w1 == 0.0) {
+        air = ground;
+    } else if (ok && push) {
         ok = py_hypot(vx, vy, &air);
-    } else {
+    } else if (ok) {
         PyObject *dx = PyFloat_FromDouble(v0 - v->w0), *dy = PyFloat_FromDouble(v1 - v->w1);
         ok = dx != NULL && dy != NULL && py_hypot(dx, dy, &air);
         Py_XDECREF(dx); Py_XDECREF(dy);
     }
-    ok = ok && py_hypot(gx, gy, &ground)
-        && py_hypot(PyList_GetItem(v->a_cmd, 0), PyList_GetItem(v->a_cmd, 1), &amag);
+    if (ok) {
+        PyObject *ax = PyList_GetItem(v->a_cmd, 0), *ay = PyList_GetItem(v->a_cmd, 1);
+        double a0 = PyFloat_AsDouble(ax), a1 = PyFloat_AsDouble(ay);
+        if (a0 == 0.0 && a1 == 0.0)      /* no thrust demand (on the ground): hypot is +0.0 */
+            amag = 0.0;
+        else
+            ok = !PyErr_Occurred() && py_hypot(ax, ay, &amag);
+    }
     if (!ok) { Py_DECREF(gx); Py_DECREF(gy); return 0; }
     phase = PyLong_FromLong(v->phase);
     ready = PyNumber_Long(v->ready);

@@ -86,8 +86,8 @@ def random_dynamics_state(rng, takeoff_alt):
     hold = [pos[0], pos[1]] if rng.random() < 0.2 else [rng.uniform(-300.0, 300.0), rng.uniform(-300.0, 300.0)]
     still = rng.random() < 0.15 or phase in (0, 4)
 
-    def u(lo, hi):
-        return 0.0 if still else rng.uniform(lo, hi)
+    def u(lo, hi):          # zeros of both signs: still air and no thrust take shortcuts that must not show
+        return rng.choice([0.0, -0.0]) if still else rng.uniform(lo, hi)
     elapsed = rng.uniform(0.0, 6.0)
     return dict(pos=pos, vel=[u(-12.0, 12.0), u(-12.0, 12.0), u(-3.0, 3.0)], vt=[u(-12.0, 12.0), u(-12.0, 12.0)],
                 vtz=u(-2.5, 2.5), integ=[u(-5.0, 5.0), u(-5.0, 5.0)], hold=hold, hold_z=rng.uniform(0.0, 50.0),
@@ -97,7 +97,7 @@ def random_dynamics_state(rng, takeoff_alt):
 
 
 def random_dynamics_inputs(rng):
-    wind = [rng.uniform(-20.0, 20.0) for _ in range(3)] if rng.random() < 0.8 else [0.0, 0.0, 0.0]
+    wind = [rng.uniform(-20.0, 20.0) if rng.random() < 0.6 else rng.choice([0.0, -0.0]) for _ in range(3)]
     cmd = rng.choice([0, 1, 2, 2, 3, 3, 2.0, 5, -1])
     return dict(cmd=cmd, sp_x=rng.uniform(-400.0, 400.0), sp_y=rng.uniform(-400.0, 400.0),
                 sp_z=rng.uniform(0.0, 60.0), wind_x=wind[0], wind_y=wind[1], wind_z=wind[2])
