@@ -107,11 +107,10 @@ static PyObject *list_of(PyObject *d, PyObject *key, Py_ssize_t n)
     return put(d, key, list) ? list : NULL;
 }
 
-/* d[key] = x, keeping the float object d[key] when it holds x already */
-static int update_double(PyObject *d, PyObject *key, double x)
+/* d[key] = x unless old, the float object d[key] holds, holds x already */
+static int update_double(PyObject *d, PyObject *key, PyObject *old, double x)
 {
-    PyObject *old = lookup(d, key);
-    if (old != NULL && PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x)) return 1;
+    if (PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x)) return 1;
     return put_double(d, key, x);
 }
 
@@ -187,13 +186,17 @@ static long fly(PyObject *md, const double *p, long phase, long i, long n, doubl
                 double wx, double wy, View *v, int *landed)
 {
     double s[NSTATE], pos[3], vel[3], vt[2], integ[2], hold[2];
-    PyObject *mode = lookup(md, k_mode), *pos_l, *vel_l, *vt_l, *integ_l, *hold_l, *a_l;
+    PyObject *mode = lookup(md, k_mode), *vtz = lookup(md, k_vtz), *hold_z = lookup(md, k_hold_z);
+    PyObject *pos_l, *vel_l, *vt_l, *integ_l, *hold_l, *a_l;
     int goto_;
-    if (mode == NULL || (pos_l = get_list(md, k_pos, pos, 3)) == NULL || (vel_l = get_list(md, k_vel, vel, 3)) == NULL
-        || (vt_l = get_list(md, k_vt, vt, 2)) == NULL || (integ_l = get_list(md, k_integ, integ, 2)) == NULL
-        || (hold_l = get_list(md, k_hold, hold, 2)) == NULL || (a_l = list_of(md, k_a_cmd, 2)) == NULL
-        || !get_double(md, k_vtz, &s[VTZ]) || !get_double(md, k_hold_z, &s[HOLDZ]))
+    if (mode == NULL || vtz == NULL || hold_z == NULL || (pos_l = get_list(md, k_pos, pos, 3)) == NULL
+        || (vel_l = get_list(md, k_vel, vel, 3)) == NULL || (vt_l = get_list(md, k_vt, vt, 2)) == NULL
+        || (integ_l = get_list(md, k_integ, integ, 2)) == NULL || (hold_l = get_list(md, k_hold, hold, 2)) == NULL
+        || (a_l = list_of(md, k_a_cmd, 2)) == NULL)
         return -1;
+    s[VTZ] = PyFloat_AsDouble(vtz);
+    s[HOLDZ] = PyFloat_AsDouble(hold_z);
+    if (PyErr_Occurred()) return -1;
     goto_ = PyObject_RichCompareBool(mode, str_goto, Py_EQ);
     if (goto_ < 0) return -1;
     s[PX] = pos[0]; s[PY] = pos[1]; s[PZ] = pos[2]; s[VX] = vel[0]; s[VY] = vel[1];
@@ -209,9 +212,9 @@ static long fly(PyObject *md, const double *p, long phase, long i, long n, doubl
         PyObject *m = s[MODE] != 0.0 ? str_goto : str_hold;
         Py_INCREF(m);
         if (!set_list(pos_l, newpos, 3) || !set_list(vel_l, newvel, 3) || !set_list(vt_l, newvt, 2)
-            || !update_double(md, k_vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
-            || !put(md, k_phase, PyLong_FromLong((long)s[PHASE])) || !put(md, k_mode, m)
-            || !set_list(hold_l, newhold, 2) || !update_double(md, k_hold_z, s[HOLDZ]))
+            || !update_double(md, k_vtz, vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
+            || !put(md, k_phase, PyLong_FromLong((long)s[PHASE])) || (m == mode ? (Py_DECREF(m), 0) : !put(md, k_mode, m))
+            || !set_list(hold_l, newhold, 2) || !update_double(md, k_hold_z, hold_z, s[HOLDZ]))
             return -1;
     }
     v->pos = pos_l; v->vel = vel_l; v->a_cmd = a_l;
