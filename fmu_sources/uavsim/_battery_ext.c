@@ -47,6 +47,14 @@ static int motors_on(PyObject *d, PyObject *key)
     return !overflow && phase >= 1 && phase <= 3;
 }
 
+/* Battery._kbuf holds the power slots, the battery slots and the two OCV tables their length says */
+static int parameters_fit(PyObject *kbuf)
+{
+    const Py_ssize_t size = PyBytes_Size(kbuf) / (Py_ssize_t)sizeof(double);
+    const double *p = (const double *)PyBytes_AsString(kbuf);
+    return size > WPOWER + BM && p[WPOWER + BM] >= 1.0 && size == WPOWER + BTABLE + 2 * (Py_ssize_t)p[WPOWER + BM];
+}
+
 static PyObject *step(PyObject *module, PyObject *args)
 {
     PyObject *sd, *dt_o, *model, *md = NULL, *sub, *nh, *kbuf, *cur_o, *volt_o, *pw_o, *e_o;
@@ -67,7 +75,8 @@ static PyObject *step(PyObject *module, PyObject *args)
     sub = PyDict_GetItemWithError(md, k_sub);
     nh = sub != NULL && PyDict_Check(sub) ? PyDict_GetItemWithError(sub, dt_o) : NULL;
     kbuf = PyDict_GetItemWithError(md, k_kbuf);
-    if (nh == NULL || !PyTuple_Check(nh) || PyTuple_Size(nh) != 2 || kbuf == NULL || !PyBytes_Check(kbuf))
+    if (nh == NULL || !PyTuple_Check(nh) || PyTuple_Size(nh) != 2 || kbuf == NULL || !PyBytes_Check(kbuf)
+        || !parameters_fit(kbuf))
         goto python;
     {
         PyObject *q = PyDict_GetItemWithError(md, k_charge_used), *e = PyDict_GetItemWithError(md, k_energy_used);
