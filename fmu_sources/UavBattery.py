@@ -15,6 +15,7 @@ from uavsim import params as P  # noqa: E402
 from uavsim.battery import Battery, BatteryParams, PowerParams  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.kernels import load as load_kernels  # noqa: E402
+from uavsim.native import load_extension  # noqa: E402
 
 _POWER = [  # name, unit, default, description  (PowerParams fields)
     ("mass", "kg", P.MASS, "take-off mass"),
@@ -74,6 +75,8 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
         self._model = Battery(PowerParams(rotor_count=int(self.rotor_count), **pk),
                               BatteryParams(cells=int(self.cells), **bk),
                               kernels=load_kernels(os.path.join(_HERE, "uavsim")))
+        ext = load_extension("_battery_ext", os.path.join(_HERE, "uavsim"))
+        self._ext = None if ext is None else ext.step   # the whole step in C, or None: the Python code below
 
     def exit_initialization_mode(self):
         self._build()
@@ -87,6 +90,10 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
         self.depleted = int(m.depleted)
 
     def do_step(self, current_time, step_size):
+        ext = self._ext
+        # the extension does this whole step (same results, bit for bit) or, when it returns False, nothing
+        if ext is not None and ext(self.__dict__, step_size):
+            return True
         out = self._model.step_outputs(step_size, self.airspeed, self.vz, int(self.phase))
         if out is not None:       # the model's step returns what _publish would read from it
             (self.soc, self.consumed, self.voltage, self.current, self.power, self.energy_used,

@@ -15,6 +15,7 @@ from uavsim import params as P  # noqa: E402
 from uavsim.dynamics import Dynamics, DynamicsParams  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.kernels import load as load_kernels  # noqa: E402
+from uavsim.native import load_extension  # noqa: E402
 from uavsim.geodesy import EnuFrame  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
@@ -83,6 +84,7 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
         self.par_bool("wind_push", "the wind carries the vehicle, corrected by the position loop only (the paper's "
                                    "'force that pushes the UAV'); false: air velocity in the drag law")
         self._model = None
+        self._ext = None          # _dynamics_ext.step, the whole step in C, or None: the Python code below
         self._frame = None
         self._geo_key = self._geo = None
         self._publish()
@@ -92,6 +94,8 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}
         kw["wind_push"] = bool(self.wind_push)
         self._model = Dynamics(DynamicsParams(**kw), kernels=load_kernels(os.path.join(_HERE, "uavsim")))
+        ext = load_extension("_dynamics_ext", os.path.join(_HERE, "uavsim"))
+        self._ext = None if ext is None else ext.step
         self._frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
 
     def exit_initialization_mode(self):
@@ -127,6 +131,10 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
     alt = property(lambda self: self._geodetic()[2])
 
     def do_step(self, current_time, step_size):
+        ext = self._ext
+        # the extension does this whole step (same results, bit for bit) or, when it returns False, nothing
+        if ext is not None and ext(self.__dict__, step_size):
+            return True
         if self._model is None:
             self._build()
         self._model.step(step_size, int(self.cmd), (self.sp_x, self.sp_y, self.sp_z),

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import struct
 from dataclasses import dataclass, field
 
 from . import kernels as _kernels
@@ -175,6 +176,7 @@ class Battery:
         self._step = (self.kernels or _kernels.load()).make_battery_step()
         self._kparams = (*_power_slots(self.power_params), float(bp.cells), bp.resistance, bp.capacity_c,
                          float(len(bp.ocv_soc)), *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
+        self._kbuf = struct.pack(f"{len(self._kparams)}d", *self._kparams)   # read in place by _battery_ext.c
         self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J

@@ -28,6 +28,7 @@ Commands (input ``cmd``): 0 idle / hold, 1 takeoff, 2 go to setpoint, 3 land.
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass, field
 
 from . import kernels as _kernels
@@ -102,6 +103,9 @@ class Dynamics:
         p = self.params
         self._fly = (self.kernels or _kernels.load()).make_fly()
         self._kparams = self._kernel_params()
+        # the same parameters for the FMU step extension (_dynamics_ext.c): doubles it reads in place, then the
+        # two it needs besides the kernel's
+        self._kbuf = struct.pack(f"{len(self._kparams) + 2}d", *self._kparams, p.preflight_time, p.g)
         self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
         self.time = 0.0
         self.pos = [p.home_x, p.home_y, 0.0]
@@ -211,13 +215,12 @@ class Dynamics:
                 p.land_speed, p.land_alt_low, p.takeoff_altitude, p.drag_k, p.max_horizontal_accel,
                 1.0 if p.wind_push else 0.0)
 
-    def _run(self, n: int, h: float, cmd: int, sp) -> None:
-        """n sub-steps of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
+    def _run(self, n: int, h: float, cmd: int, sp, i: int = 0) -> None:
+        """Sub-steps i .. n-1 of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
         the reference code."""
         kp = self._kparams
         spx, spy, spz = float(sp[0]), float(sp[1]), float(sp[2])
         wx, wy = self.wind[0], self.wind[1]
-        i = 0
         while i < n:
             if self.phase == PREFLIGHT or self.phase == LANDED:
                 self._substep(h, cmd, sp)          # rare: lift-off happens in the reference code

@@ -1,0 +1,448 @@
+/* The whole FMU step of the UavDynamics shell in one call (uavsim/native.py; the Python twin is
+ * fmu_sources/UavDynamics.py do_step -> uavsim.dynamics.Dynamics.step + Dynamics.outputs).
+ *
+ * step(shell_dict, step_size) reads the shell's inputs from its __dict__, advances the shell's Dynamics model
+ * (its state stays in the model's Python attributes, as Dynamics._run leaves them, so FMU get/set state, the
+ * properties and the Python twin see the same object) and writes the published outputs back into __dict__.
+ * The flying sub-steps are uav_fly of kernels.c, the kernel Dynamics._run calls through ctypes; the rare
+ * phases (lift-off, the sub-steps after a touch-down) go back to Dynamics._run.  It returns False without
+ * changing anything when the Python code must do the whole step (no model yet, a step size not seen before,
+ * a value it cannot convert: the Python code then raises the error it always raised).
+ *
+ * Bit-identity: the arithmetic is kernels.c's; the published speeds use Python's own math.hypot (not libm's
+ * hypot: CPython rounds differently), called through the function object.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <string.h>
+
+#include "kernels.c"
+
+enum { PREFLIGHT = 0, ON_GROUND = 4 };   /* phases (LANDED is a state slot) */
+enum { CMD_TAKEOFF = 1 };
+/* Dynamics._kbuf: kernels.c's parameter slots, then these two (uavsim/dynamics.py _kernel_buffer) */
+enum { K_PREFLIGHT_TIME = NPARAM, K_G, NKBUF };
+
+static PyObject *hypot_fn;
+static PyObject *str_goto, *str_hold, *str_run, *str_touch_down, *str_dict;
+/* shell keys */
+static PyObject *k_model, *k_cmd, *k_sp[3], *k_wind[3], *k_x, *k_y, *k_z, *k_vx, *k_vy, *k_vz, *k_airspeed,
+    *k_groundspeed, *k_tilt, *k_phase, *k_ready;
+/* model keys (k_phase and k_ready too) */
+static PyObject *k_sub, *k_kbuf, *k_pos, *k_vel, *k_vt, *k_vtz, *k_integ, *k_hold, *k_hold_z, *k_mode, *k_a_cmd,
+    *k_wind_m, *k_preflight_elapsed, *k_time;
+
+/* ------------------------------------------------------------------ small helpers (0 / NULL: a Python error) */
+
+/* d[key] borrowed, NULL when missing (PyDict_GetItem would also save and restore the error state: slower) */
+static PyObject *lookup(PyObject *d, PyObject *key) { return PyDict_GetItemWithError(d, key); }
+
+static int get_double(PyObject *d, PyObject *key, double *out)
+{
+    PyObject *v = lookup(d, key);
+    if (v == NULL) return 0;
+    *out = PyFloat_AsDouble(v);
+    return !(*out == -1.0 && PyErr_Occurred());
+}
+
+static int get_long(PyObject *d, PyObject *key, long *out)
+{
+    PyObject *v = lookup(d, key);
+    if (v == NULL || !PyLong_Check(v)) return 0;
+    *out = PyLong_AsLong(v);
+    return !(*out == -1 && PyErr_Occurred());
+}
+
+/* the list d[key] (borrowed) of n numbers, read into out[0..n-1]; NULL: not such a list */
+static PyObject *get_list(PyObject *d, PyObject *key, double *out, Py_ssize_t n)
+{
+    PyObject *v = lookup(d, key);
+    if (v == NULL || !PyList_CheckExact(v) || PyList_Size(v) != n) return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        out[i] = PyFloat_AsDouble(PyList_GetItem(v, i));
+        if (out[i] == -1.0 && PyErr_Occurred()) return NULL;
+    }
+    return v;
+}
+
+/* d[key] = value, stealing the reference to value */
+static int put(PyObject *d, PyObject *key, PyObject *value)
+{
+    int rc;
+    if (value == NULL) return 0;
+    rc = PyDict_SetItem(d, key, value);
+    Py_DECREF(value);
+    return rc == 0;
+}
+
+static int put_double(PyObject *d, PyObject *key, double x) { return put(d, key, PyFloat_FromDouble(x)); }
+
+/* the same IEEE double, bit for bit (0.0 and -0.0 differ) */
+static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* list[0..n-1] = x, in place, as Dynamics._substep updates its lists (a new list would cost an allocation and the
+ * garbage collector's tracking); an item that keeps its value keeps its float object */
+static int set_list(PyObject *list, const double *x, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *old = PyList_GetItem(list, i), *f;
+        if (PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x[i])) continue;
+        if ((f = PyFloat_FromDouble(x[i])) == NULL) return 0;
+        PyList_SetItem(list, i, f);
+    }
+    return 1;
+}
+
+/* the list d[key], known to be a list of n items, or a new list in d[key] (borrowed; NULL: error) */
+static PyObject *list_of(PyObject *d, PyObject *key, Py_ssize_t n)
+{
+    PyObject *list = lookup(d, key);
+    if (list != NULL && PyList_CheckExact(list) && PyList_Size(list) == n) return list;
+    if (PyErr_Occurred() || (list = PyList_New(n)) == NULL) return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        Py_INCREF(Py_None);
+        PyList_SetItem(list, i, Py_None);
+    }
+    return put(d, key, list) ? list : NULL;
+}
+
+/* d[key] = x unless old, the float object d[key] holds, holds x already */
+static int update_double(PyObject *d, PyObject *key, PyObject *old, double x)
+{
+    if (PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x)) return 1;
+    return put_double(d, key, x);
+}
+
+/* float(d[key]), as a new reference */
+static PyObject *as_float(PyObject *d, PyObject *key)
+{
+    PyObject *v = lookup(d, key);
+    return v == NULL ? NULL : PyNumber_Float(v);
+}
+
+/* float(d[key]) into *out (0: error) */
+static int get_float(PyObject *d, PyObject *key, double *out)
+{
+    PyObject *f = as_float(d, key);
+    if (f == NULL) return 0;
+    *out = PyFloat_AsDouble(f);
+    Py_DECREF(f);
+    return 1;
+}
+
+/* (sp_x, sp_y, sp_z) of the shell, as its do_step passes them to Dynamics.step */
+static PyObject *sp_tuple(PyObject *sd)
+{
+    PyObject *x = lookup(sd, k_sp[0]), *y = lookup(sd, k_sp[1]), *z = lookup(sd, k_sp[2]);
+    if (x == NULL || y == NULL || z == NULL) {
+        if (!PyErr_Occurred()) PyErr_SetString(PyExc_AttributeError, "sp_x, sp_y or sp_z");
+        return NULL;
+    }
+    return PyTuple_Pack(3, x, y, z);
+}
+
+/* Python's math.hypot(a, b) */
+static int py_hypot(PyObject *a, PyObject *b, double *out)
+{
+    PyObject *r = PyObject_CallFunctionObjArgs(hypot_fn, a, b, NULL);
+    if (r == NULL) return 0;
+    *out = PyFloat_AsDouble(r);
+    Py_DECREF(r);
+    return 1;
+}
+
+/* ------------------------------------------------------------------ the step */
+
+/* what the shell publishes is read from (borrowed references) */
+typedef struct {
+    PyObject *pos, *vel, *a_cmd, *ready;
+    double w0, w1;
+    long phase;
+} View;
+
+/* the view of a model's state in its __dict__ (0: error) */
+static int read_view(PyObject *md, View *v)
+{
+    PyObject *w = lookup(md, k_wind_m), *phase = lookup(md, k_phase);
+    v->pos = lookup(md, k_pos);
+    v->vel = lookup(md, k_vel);
+    v->a_cmd = lookup(md, k_a_cmd);
+    v->ready = lookup(md, k_ready);
+    if (v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL || w == NULL || phase == NULL
+        || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
+        || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2 || !PyTuple_Check(w) || PyTuple_Size(w) != 3
+        || !PyLong_Check(phase))
+        return 0;
+    v->w0 = PyFloat_AsDouble(PyTuple_GetItem(w, 0));
+    v->w1 = PyFloat_AsDouble(PyTuple_GetItem(w, 1));
+    v->phase = PyLong_AsLong(phase);
+    return !PyErr_Occurred();
+}
+
+/* One pass of Dynamics._run's loop body through uav_fly from sub-step i: the state in and out of the model's
+ * attributes, and *v the view of it.  Returns the sub-step reached (-1: error) and sets *landed. */
+static long fly(PyObject *md, const double *p, long phase, long i, long n, double h, long cmd, const double *sp,
+                double wx, double wy, View *v, int *landed)
+{
+    double s[NSTATE], pos[3], vel[3], vt[2], integ[2], hold[2];
+    PyObject *mode = lookup(md, k_mode), *vtz = lookup(md, k_vtz), *hold_z = lookup(md, k_hold_z);
+    PyObject *pos_l, *vel_l, *vt_l, *integ_l, *hold_l, *a_l;
+    int goto_;
+    if (mode == NULL || vtz == NULL || hold_z == NULL || (pos_l = get_list(md, k_pos, pos, 3)) == NULL
+        || (vel_l = get_list(md, k_vel, vel, 3)) == NULL || (vt_l = get_list(md, k_vt, vt, 2)) == NULL
+        || (integ_l = get_list(md, k_integ, integ, 2)) == NULL || (hold_l = get_list(md, k_hold, hold, 2)) == NULL
+        || (a_l = list_of(md, k_a_cmd, 2)) == NULL)
+        return -1;
+    s[VTZ] = PyFloat_AsDouble(vtz);
+    s[HOLDZ] = PyFloat_AsDouble(hold_z);
+    if (PyErr_Occurred()) return -1;
+    goto_ = PyObject_RichCompareBool(mode, str_goto, Py_EQ);
+    if (goto_ < 0) return -1;
+    s[PX] = pos[0]; s[PY] = pos[1]; s[PZ] = pos[2]; s[VX] = vel[0]; s[VY] = vel[1];
+    s[VTX] = vt[0]; s[VTY] = vt[1]; s[IX] = integ[0]; s[IY] = integ[1]; s[AX] = 0.0; s[AY] = 0.0;
+    s[HX] = hold[0]; s[HY] = hold[1]; s[PHASE] = (double)phase; s[MODE] = goto_ ? 1.0 : 0.0; s[LANDED] = 0.0;
+    s[I] = (double)i; s[N] = (double)n; s[H] = h; s[CMD] = (double)cmd;
+    s[SPX] = sp[0]; s[SPY] = sp[1]; s[SPZ] = sp[2]; s[WX] = wx; s[WY] = wy;
+    i = uav_fly(s, p);
+    {   /* Dynamics._run's assignments */
+        const double newpos[3] = {s[PX], s[PY], s[PZ]}, newvel[3] = {s[VX], s[VY], s[VTZ]};
+        const double newvt[2] = {s[VTX], s[VTY]}, newinteg[2] = {s[IX], s[IY]}, acmd[2] = {s[AX], s[AY]};
+        const double newhold[2] = {s[HX], s[HY]};
+        PyObject *m = s[MODE] != 0.0 ? str_goto : str_hold;
+        Py_INCREF(m);
+        if (!set_list(pos_l, newpos, 3) || !set_list(vel_l, newvel, 3) || !set_list(vt_l, newvt, 2)
+            || !update_double(md, k_vtz, vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
+            || !put(md, k_phase, PyLong_FromLong((long)s[PHASE])) || (m == mode ? (Py_DECREF(m), 0) : !put(md, k_mode, m))
+            || !set_list(hold_l, newhold, 2) || !update_double(md, k_hold_z, hold_z, s[HOLDZ]))
+            return -1;
+    }
+    v->pos = pos_l; v->vel = vel_l; v->a_cmd = a_l;
+    v->w0 = wx; v->w1 = wy;
+    v->phase = (long)s[PHASE];
+    if ((v->ready = lookup(md, k_ready)) == NULL) return -1;
+    *landed = s[LANDED] != 0.0;
+    return i;
+}
+
+/* model._run(n, h, cmd, sp[, i]): the reference code, for the rare sub-steps (0: error) */
+static int run_python(PyObject *model, long n, double h, long cmd, PyObject *sp, long i)
+{
+    PyObject *r = NULL, *ni = PyLong_FromLong(n), *hi = PyFloat_FromDouble(h), *ci = PyLong_FromLong(cmd),
+             *ii = PyLong_FromLong(i);
+    if (ni && hi && ci && ii) r = PyObject_CallMethodObjArgs(model, str_run, ni, hi, ci, sp, ii, NULL);
+    Py_XDECREF(ni); Py_XDECREF(hi); Py_XDECREF(ci); Py_XDECREF(ii);
+    Py_XDECREF(r);
+    return r != NULL;
+}
+
+/* Dynamics.step's phase dispatch, once the inputs are read; fills *v with the view to publish (0: error) */
+static int advance(PyObject *model, PyObject *md, const double *p, long n, double h, long cmd, PyObject *sd,
+                   double wx, double wy, View *v)
+{
+    long phase;
+    if (!get_long(md, k_phase, &phase)) return 0;
+    if (phase == PREFLIGHT && cmd != CMD_TAKEOFF && cmd != CMD_GOTO) {  /* only the preflight clock runs */
+        const double pt = p[K_PREFLIGHT_TIME] - 1e-9;
+        double elapsed;
+        int ready = 0;
+        if (!get_double(md, k_preflight_elapsed, &elapsed)) return 0;
+        for (long j = 0; j < n; j++) {
+            elapsed += h;
+            if (elapsed >= pt) ready = 1;
+        }
+        if (!put_double(md, k_preflight_elapsed, elapsed)) return 0;
+        if (ready) { Py_INCREF(Py_True); if (!put(md, k_ready, Py_True)) return 0; }
+    } else if (phase == PREFLIGHT || (phase == ON_GROUND && cmd == CMD_TAKEOFF)) {
+        /* lift-off: the reference code */
+        PyObject *sp = sp_tuple(sd);
+        int ok = sp != NULL && run_python(model, n, h, cmd, sp, 0);
+        Py_XDECREF(sp);
+        if (!ok) return 0;
+    } else if (phase != ON_GROUND) {     /* flying (on the ground without a takeoff command nothing changes) */
+        double spd[3];
+        int landed = 0;
+        long i;
+        for (int j = 0; j < 3; j++)
+            if (!get_float(sd, k_sp[j], &spd[j])) return 0;
+        i = fly(md, p, phase, 0, n, h, cmd, spd, wx, wy, v, &landed);
+        if (i < 0) return 0;
+        if (!landed) return 1;
+        {
+            PyObject *r = PyObject_CallMethodObjArgs(model, str_touch_down, NULL), *sp;
+            int ok;
+            if (r == NULL) return 0;
+            Py_DECREF(r);
+            /* touched down before the end of the step: the rest (on the ground) in Python, from sub-step i */
+            if (i < n) {
+                sp = sp_tuple(sd);
+                ok = sp != NULL && run_python(model, n, h, cmd, sp, i);
+                Py_XDECREF(sp);
+                if (!ok) return 0;
+            }
+        }
+    }
+    return read_view(md, v);
+}
+
+/* Dynamics.outputs() of the view into the shell's attributes, as UavDynamics._publish assigns them (0: error) */
+static int publish(PyObject *sd, const double *p, const View *v)
+{
+    PyObject *vx = PyList_GetItem(v->vel, 0), *vy = PyList_GetItem(v->vel, 1), *gx, *gy, *phase, *ready;
+    double v0 = PyFloat_AsDouble(vx), v1 = PyFloat_AsDouble(vy), air, ground, amag;
+    int ok, push = p[PUSH] != 0.0;
+    if (PyErr_Occurred()) return 0;
+    if (push && (v->phase == TAKEOFF || v->phase == FLY || v->phase == LAND)) {
+        gx = PyFloat_FromDouble(v0 + v->w0);
+        gy = PyFloat_FromDouble(v1 + v->w1);
+    } else {
+        gx = vx; Py_INCREF(gx);
+        gy = vy; Py_INCREF(gy);
+    }
+    if (gx == NULL || gy == NULL) { Py_XDECREF(gx); Py_XDECREF(gy); return 0; }
+    ok = py_hypot(gx, gy, &ground);
+    /* in still air the air-relative and ground velocities differ at most in the sign of a zero, which hypot
+     * ignores: one call serves both */
+    if (ok && v->w0 == 0.0 && v->w1 == 0.0) {
+        air = ground;
+    } else if (ok && push) {
+        ok = py_hypot(vx, vy, &air);
+    } else if (ok) {
+        PyObject *dx = PyFloat_FromDouble(v0 - v->w0), *dy = PyFloat_FromDouble(v1 - v->w1);
+        ok = dx != NULL && dy != NULL && py_hypot(dx, dy, &air);
+        Py_XDECREF(dx); Py_XDECREF(dy);
+    }
+    if (ok) {
+        PyObject *ax = PyList_GetItem(v->a_cmd, 0), *ay = PyList_GetItem(v->a_cmd, 1);
+        double a0 = PyFloat_AsDouble(ax), a1 = PyFloat_AsDouble(ay);
+        if (a0 == 0.0 && a1 == 0.0)      /* no thrust demand (on the ground): hypot is +0.0 */
+            amag = 0.0;
+        else
+            ok = !PyErr_Occurred() && py_hypot(ax, ay, &amag);
+    }
+    if (!ok) { Py_DECREF(gx); Py_DECREF(gy); return 0; }
+    phase = PyLong_FromLong(v->phase);
+    ready = PyNumber_Long(v->ready);
+    if (phase == NULL || ready == NULL) { Py_DECREF(gx); Py_DECREF(gy); Py_XDECREF(phase); Py_XDECREF(ready); return 0; }
+    for (int j = 0; j < 3; j++) Py_INCREF(PyList_GetItem(v->pos, j));
+    Py_INCREF(PyList_GetItem(v->vel, 2));
+    /* math.degrees(x) is x * (180 / pi); each put takes over its reference, whatever happens */
+    ok = put(sd, k_x, PyList_GetItem(v->pos, 0));
+    ok &= put(sd, k_y, PyList_GetItem(v->pos, 1));
+    ok &= put(sd, k_z, PyList_GetItem(v->pos, 2));
+    ok &= put(sd, k_vx, gx);
+    ok &= put(sd, k_vy, gy);
+    ok &= put(sd, k_vz, PyList_GetItem(v->vel, 2));
+    ok &= put_double(sd, k_airspeed, air);
+    ok &= put_double(sd, k_groundspeed, ground);
+    ok &= put_double(sd, k_tilt, (180.0 / Py_MATH_PI) * atan2(amag, p[K_G]));
+    ok &= put(sd, k_phase, phase);
+    ok &= put(sd, k_ready, ready);
+    return ok;
+}
+
+/* int(cmd) and the wind tuple of Dynamics.step, as UavDynamics.do_step passes them (0: the Python code must do
+ * the step) */
+static int read_inputs(PyObject *sd, long *cmd, PyObject **wind)
+{
+    PyObject *c = lookup(sd, k_cmd), *ci;
+    *wind = NULL;
+    if (c == NULL || (ci = PyNumber_Long(c)) == NULL) return 0;
+    *cmd = PyLong_AsLong(ci);
+    Py_DECREF(ci);
+    if ((*cmd == -1 && PyErr_Occurred()) || (*wind = PyTuple_New(3)) == NULL) return 0;
+    for (int j = 0; j < 3; j++) {
+        PyObject *w = as_float(sd, k_wind[j]);
+        if (w == NULL) return 0;
+        PyTuple_SetItem(*wind, j, w);
+    }
+    return 1;
+}
+
+static PyObject *step(PyObject *module, PyObject *args)
+{
+    PyObject *sd, *dt_o, *model, *md = NULL, *nh, *kbuf, *wind = NULL;
+    const double *p;
+    double dt, h, time;
+    long n, cmd;
+    View v;
+    int ok = 0;
+    (void)module;
+    if (PyTuple_Size(args) != 2 || !PyDict_Check(sd = PyTuple_GetItem(args, 0))) {
+        PyErr_SetString(PyExc_TypeError, "step(shell_dict, step_size)");
+        return NULL;
+    }
+    dt_o = PyTuple_GetItem(args, 1);
+    model = lookup(sd, k_model);
+    dt = PyFloat_AsDouble(dt_o);
+    if (model == NULL || model == Py_None || (dt == -1.0 && PyErr_Occurred()) || !(dt > 0.0))
+        goto python;
+    md = PyObject_GetAttr(model, str_dict);
+    if (md == NULL || !PyDict_Check(md)) goto python;
+    {   /* the model's cached sub-division of this step size (a new one: the Python code computes it) */
+        PyObject *sub = lookup(md, k_sub);
+        nh = sub != NULL && PyDict_Check(sub) ? lookup(sub, dt_o) : NULL;
+    }
+    kbuf = lookup(md, k_kbuf);
+    if (nh == NULL || !PyTuple_Check(nh) || PyTuple_Size(nh) != 2 || kbuf == NULL || !PyBytes_Check(kbuf)
+        || PyBytes_Size(kbuf) != NKBUF * (Py_ssize_t)sizeof(double))
+        goto python;
+    n = PyLong_AsLong(PyTuple_GetItem(nh, 0));
+    h = PyFloat_AsDouble(PyTuple_GetItem(nh, 1));
+    if (PyErr_Occurred() || !get_double(md, k_time, &time) || !read_inputs(sd, &cmd, &wind)) goto python;
+    p = (const double *)PyBytes_AsString(kbuf);
+    /* from here on the model changes: an error is raised (as the Python step raises it), not retried */
+    Py_INCREF(wind);
+    ok = put(md, k_wind_m, wind)
+        && advance(model, md, p, n, h, cmd, sd, PyFloat_AsDouble(PyTuple_GetItem(wind, 0)),
+                   PyFloat_AsDouble(PyTuple_GetItem(wind, 1)), &v)
+        && put_double(md, k_time, time + dt) && publish(sd, p, &v);
+    Py_DECREF(md); Py_DECREF(wind);
+    if (!ok) {
+        if (!PyErr_Occurred()) PyErr_SetString(PyExc_RuntimeError, "_dynamics_ext.step: unexpected model state");
+        return NULL;
+    }
+    Py_RETURN_TRUE;
+python:
+    PyErr_Clear();
+    Py_XDECREF(md); Py_XDECREF(wind);
+    Py_RETURN_FALSE;
+}
+
+static PyMethodDef methods[] = {
+    {"step", step, METH_VARARGS,
+     "step(shell_dict, step_size) -> bool: UavDynamics.do_step on the shell's __dict__; False: nothing done, "
+     "run the Python step"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_dynamics_ext", NULL, -1, methods,
+                                       NULL, NULL, NULL, NULL};
+
+static int intern(PyObject **slot, const char *s)
+{
+    *slot = PyUnicode_InternFromString(s);
+    return *slot != NULL;
+}
+
+PyMODINIT_FUNC PyInit__dynamics_ext(void)
+{
+    PyObject *math = PyImport_ImportModule("math");
+    if (math == NULL) return NULL;
+    hypot_fn = PyObject_GetAttrString(math, "hypot");
+    Py_DECREF(math);
+    if (hypot_fn == NULL) return NULL;
+    if (!(intern(&str_goto, "goto") && intern(&str_hold, "hold") && intern(&str_run, "_run")
+          && intern(&str_touch_down, "_touch_down") && intern(&str_dict, "__dict__") && intern(&k_model, "_model")
+          && intern(&k_cmd, "cmd") && intern(&k_sp[0], "sp_x") && intern(&k_sp[1], "sp_y")
+          && intern(&k_sp[2], "sp_z") && intern(&k_wind[0], "wind_x") && intern(&k_wind[1], "wind_y")
+          && intern(&k_wind[2], "wind_z") && intern(&k_x, "x") && intern(&k_y, "y") && intern(&k_z, "z")
+          && intern(&k_vx, "vx") && intern(&k_vy, "vy") && intern(&k_vz, "vz") && intern(&k_airspeed, "airspeed")
+          && intern(&k_groundspeed, "groundspeed") && intern(&k_tilt, "tilt") && intern(&k_phase, "phase")
+          && intern(&k_ready, "ready") && intern(&k_sub, "_sub") && intern(&k_kbuf, "_kbuf")
+          && intern(&k_pos, "pos") && intern(&k_vel, "vel") && intern(&k_vt, "vt") && intern(&k_vtz, "vtz")
+          && intern(&k_integ, "integ") && intern(&k_hold, "hold") && intern(&k_hold_z, "hold_z")
+          && intern(&k_mode, "mode") && intern(&k_a_cmd, "a_cmd") && intern(&k_wind_m, "wind")
+          && intern(&k_preflight_elapsed, "preflight_elapsed") && intern(&k_time, "time")))
+        return NULL;
+    return PyModule_Create(&moduledef);
+}
