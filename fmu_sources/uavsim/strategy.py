@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from array import array
 from dataclasses import dataclass, field
 
 from . import params as P
@@ -505,6 +506,22 @@ class Strategy:
         self.brake_count = 0         # safety-net activations
         self.braking = False
         self.brake_point = (0.0, 0.0)
+        self._fast_consts = self._native_consts()
+
+    def _native_consts(self) -> bytes | None:
+        """The constants of the compiled fast path of the FMU's step (uavsim/_strategy_ext.c, layout C_*): arrival
+        radius, land and return thresholds, look-ahead, brake deceleration (as _planned bounds it), cruise
+        altitude, base, planning flag, zone count, then each zone's bounding box (a segment that misses every box
+        is clear of the zones whatever the test).  None (no fast path) when a value is not a number."""
+        p = self.p
+        try:
+            boxes = [float(v) for poly in self.zones.polys for v in poly.bounds]
+            values = [p.arrival_radius, p.land_threshold, p.return_threshold, p.lookahead,
+                      max(p.brake_accel, 1e-6), p.cruise_altitude, self.home[0], self.home[1],
+                      1.0 if self.planning else 0.0, len(self.zones.polys)]
+            return array("d", [float(v) for v in values] + boxes).tobytes()
+        except (AttributeError, TypeError, ValueError):
+            return None
 
     # -------------------------------------------------------------- helpers
     @property
