@@ -26,7 +26,9 @@
 #include <string.h>
 
 enum { C_RADIUS, C_LAND, C_RETURN, C_LOOKAHEAD, C_BRAKE, C_CRUISE, C_HOME_X, C_HOME_Y, C_PLANNING, C_NZONES,
-       C_BOXES };   /* then 4 doubles (xmin, ymin, xmax, ymax) per zone */
+       C_ZONES };
+/* then one record per zone: its bounding box (xmin, ymin, xmax, ymax), its edge count n (-1: unknown, only the
+ * box tells) and n edges (x0, y0, x1, y1) of all its rings */
 
 enum { PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW, LANDED_BASE, LANDED_AWAY,
        RETURN_CMD, LAND_CMD };
@@ -41,6 +43,7 @@ enum { HANDLED, FB_SHELL, FB_STATE, FB_BATTERY, FB_PHASE, FB_ARRIVAL, FB_LEG, FB
 static const char *outcome_names[NOUTCOMES] = {
     "handled", "shell", "state", "battery", "phase", "arrival", "leg", "path", "zone", "near", "type"};
 static unsigned long long counts[NOUTCOMES];
+static unsigned long long edge_clears;     /* segments found clear of a zone by its edges (its box overlapped) */
 
 /* interned names: the shell's variables and the model's attributes (the same name where the shell publishes a
  * model attribute as it is) */
@@ -112,27 +115,68 @@ static int point(PyObject *p, double *x, double *y)
     return 1;
 }
 
-/* No zone can block the segment a-b: its bounding box, widened by margin, misses every zone's box.
- * (NaN anywhere fails every comparison: not clear.) */
-static int clear_of_zones(const double *c, double ax, double ay, double bx, double by, double margin)
+/* orientation of r about the line p-q (twice the signed area), and a bound on its rounding error (a few ulps of
+ * the products, taken 100 times) */
+static double orient(double px, double py, double qx, double qy, double rx, double ry, double *err)
 {
-    const double lox = (ax < bx ? ax : bx) - margin, hix = (ax < bx ? bx : ax) + margin;
-    const double loy = (ay < by ? ay : by) - margin, hiy = (ay < by ? by : ay) + margin;
+    const double a = (qx - px) * (ry - py), b = (qy - py) * (rx - px);
+    *err = 1e-14 * (fabs(a) + fabs(b));
+    return a - b;
+}
+
+/* The segment a-b keeps more than delta from the zone (record: box, edge count, edges), so it cannot touch its
+ * interior, nor can a segment whose points lie within delta of it.  Certain or declined (0):
+ * - the segment's box widened by delta misses the zone's box; or
+ * - every orientation test is decided with room: an edge end farther than delta from the segment's line and a
+ *   segment end farther than delta from the edge's line (that is |orient| > delta * length + its rounding,
+ *   lengths taken as |dx| + |dy| >= the true ones), so no edge crosses the segment and the segment, whose ends
+ *   are then no nearer than delta to any edge, stays farther than delta from the boundary; and a is outside
+ *   the zone by the even-odd rule over all its rings (a ray from a, with a farther than delta from every edge,
+ *   so the crossing abscissae, exact to a few ulps, are compared with room). */
+static int misses_zone(const double *z, double ax, double ay, double bx, double by, double delta)
+{
+    const double lox = (ax < bx ? ax : bx) - delta, hix = (ax < bx ? bx : ax) + delta;
+    const double loy = (ay < by ? ay : by) - delta, hiy = (ay < by ? by : ay) + delta;
+    const double lab = fabs(bx - ax) + fabs(by - ay);
+    const int n = (int)z[4];
+    const double *e = z + 5;
+    int inside = 0;
+    if (hix < z[0] || lox > z[2] || hiy < z[1] || loy > z[3])
+        return 1;
+    if (n < 1 || !(lab > 0.0))
+        return 0;          /* no edges known, or a point */
+    for (int i = 0; i < n; i++, e += 4) {
+        const double cx = e[0], cy = e[1], dx = e[2], dy = e[3], lcd = fabs(dx - cx) + fabs(dy - cy);
+        double r1, r2, r3, r4;
+        const double o1 = orient(ax, ay, bx, by, cx, cy, &r1), o2 = orient(ax, ay, bx, by, dx, dy, &r2);
+        const double o3 = orient(cx, cy, dx, dy, ax, ay, &r3), o4 = orient(cx, cy, dx, dy, bx, by, &r4);
+        if (!(fabs(o1) > delta * lab + r1 && fabs(o2) > delta * lab + r2 && fabs(o3) > delta * lcd + r3 &&
+              fabs(o4) > delta * lcd + r4))
+            return 0;
+        if ((o1 > 0.0) != (o2 > 0.0) && (o3 > 0.0) != (o4 > 0.0))
+            return 0;      /* they cross: blocked, Python's to handle */
+        if ((cy > ay) != (dy > ay) && ax < cx + (ay - cy) * (dx - cx) / (dy - cy))
+            inside = !inside;
+    }
+    edge_clears += !inside;
+    return !inside;
+}
+
+/* No zone can block the segment a-b (nor the segment Python computes, whose computed end lies within a few ulps
+ * of b): it keeps a margin from every zone, far above those ulps and far below any distance that matters.
+ * (NaN anywhere fails every comparison: not clear.) */
+static int clear_of_zones(const double *c, double ax, double ay, double bx, double by)
+{
+    const double delta = 1e-9 * (1.0 + fabs(ax) + fabs(ay) + fabs(bx) + fabs(by));
     const int n = (int)c[C_NZONES];
-    const double *box = c + C_BOXES;
-    if (!(lox == lox && hix == hix && loy == loy && hiy == hiy))
+    const double *z = c + C_ZONES;
+    if (!(delta < INFINITY))
         return 0;
-    for (int i = 0; i < n; i++, box += 4)
-        if (!(hix < box[0] || lox > box[2] || hiy < box[1] || loy > box[3]))
+    for (int i = 0; i < n; i++, z += 5 + 4 * (z[4] > 0.0 ? (int)z[4] : 0))
+        if (!misses_zone(z, ax, ay, bx, by, delta))
             return 0;
     return 1;
 }
-
-/* Margin for an end point computed here as x + la * u: far above the few ulps by which Python's own value
- * can differ (both of |x| + la magnitude), far below any distance that matters. */
-static double endpoint_margin(double x, double y, double la) { return 1e-9 * (1.0 + fabs(x) + fabs(y) + la); }
-/* Margin for exact end points (taken from the model's objects): only against the zone boxes' own rounding */
-static double exact_margin(double x, double y) { return 1e-12 * (1.0 + fabs(x) + fabs(y)); }
 
 struct step_in {
     double x, y, vx, vy;
@@ -191,12 +235,12 @@ static PyObject *planned(const struct step_in *s, PyObject *goal, int *why)
             *why = FB_NEAR;
             return NULL;
         }
-        if (!clear_of_zones(c, x, y, x + la * vx / gs, y + la * vy / gs, endpoint_margin(x, y, la))) {
+        if (!clear_of_zones(c, x, y, x + la * vx / gs, y + la * vy / gs)) {
             *why = FB_ZONE;
             return NULL;
         }
     }
-    if (!clear_of_zones(c, x, y, wx, wy, exact_margin(x, y) + exact_margin(wx, wy))) {
+    if (!clear_of_zones(c, x, y, wx, wy)) {
         *why = FB_ZONE;
         return NULL;
     }
@@ -227,7 +271,7 @@ static PyObject *reactive(const struct step_in *s, PyObject *goal, int *why)
             *why = FB_ARRIVAL;
             return NULL;
         }
-        if (!clear_of_zones(c, x, y, wx, wy, exact_margin(x, y) + exact_margin(wx, wy))) {
+        if (!clear_of_zones(c, x, y, wx, wy)) {
             *why = FB_ZONE;
             return NULL;
         }
@@ -255,18 +299,18 @@ static PyObject *reactive(const struct step_in *s, PyObject *goal, int *why)
     } else {
         return NULL;
     }
-    if (!clear_of_zones(c, x, y, x + la * ux, y + la * uy, endpoint_margin(x, y, la))) {
+    if (!clear_of_zones(c, x, y, x + la * ux, y + la * uy)) {
         *why = FB_ZONE;
         return NULL;
     }
     /* the segment toward the goal (Strategy._towards): the goal itself within la, else la along the way */
     if (clearly_below(dd, la) || clearly_below(dd, 1e-9)) {
-        if (!clear_of_zones(c, x, y, gx, gy, exact_margin(x, y) + exact_margin(gx, gy))) {
+        if (!clear_of_zones(c, x, y, gx, gy)) {
             *why = FB_ZONE;
             return NULL;
         }
     } else if (clearly_above(dd, la) && clearly_above(dd, 1e-9)) {
-        if (!clear_of_zones(c, x, y, x + la * dx / dd, y + la * dy / dd, endpoint_margin(x, y, la))) {
+        if (!clear_of_zones(c, x, y, x + la * dx / dd, y + la * dy / dd)) {
             *why = FB_ZONE;
             return NULL;
         }
@@ -535,6 +579,15 @@ static PyObject *stats(PyObject *module, PyObject *unused)
         }
         Py_DECREF(v);
     }
+    if (out != NULL) {
+        PyObject *v = PyLong_FromUnsignedLongLong(edge_clears);
+        if (v == NULL || PyDict_SetItemString(out, "edge_clears", v) < 0) {
+            Py_XDECREF(v);
+            Py_DECREF(out);
+            return NULL;
+        }
+        Py_DECREF(v);
+    }
     return out;
 }
 
@@ -543,6 +596,7 @@ static PyObject *reset_stats(PyObject *module, PyObject *unused)
     (void)module;
     (void)unused;
     memset(counts, 0, sizeof counts);
+    edge_clears = 0;
     Py_RETURN_NONE;
 }
 
@@ -550,7 +604,7 @@ static PyMethodDef methods[] = {
     {"step", step, METH_O,
      "step(shell.__dict__) -> True when the step was done here (model and outputs updated), False when nothing "
      "was changed and Python must run it"},
-    {"stats", stats, METH_NOARGS, "counts of the steps done here ('handled') and of each reason to decline"},
+    {"stats", stats, METH_NOARGS, "counts of the steps done here ('handled'), of each reason to decline, and of the segments found clear of a zone by its edges ('edge_clears')"},
     {"reset_stats", reset_stats, METH_NOARGS, "zero the counts"},
     {NULL, NULL, 0, NULL},
 };
