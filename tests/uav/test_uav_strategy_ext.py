@@ -338,14 +338,53 @@ def test_fast_path_declines_a_zone_ahead(ext, shell_module):
     assert m.braking and shell.avoiding == 1
 
 
+def _fly(shell, steps, t0, inputs=None):
+    """Steps of the shell with a vehicle flying to its setpoint at 10 m/s (or the given inputs): the inputs and
+    the outputs of each step."""
+    seen, outs = [], []
+    for k in range(steps):
+        if inputs is None:
+            dx, dy = shell.sp_x - shell.x, shell.sp_y - shell.y
+            d = math.hypot(dx, dy)
+            v = min(10.0, d / 0.1)
+            vx, vy = (v * dx / d, v * dy / d) if d > 0 else (0.0, 0.0)
+            step = dict(x=shell.x + 0.1 * vx, y=shell.y + 0.1 * vy, vx=vx, vy=vy, z=20.0,
+                        phase=2 if shell.cmd == 2 or k > 0 else 1, consumed=0.001 * (t0 + k) * 0.1)
+        else:
+            step = inputs[k]
+        shell.__dict__.update(step)
+        shell.do_step(0.1 * (t0 + k), 0.1)
+        seen.append(step)
+        outs.append(_bits([getattr(shell, n) for n in OUTPUTS]))
+    return seen, outs
+
+
+OUTPUTS = ("cmd", "sp_x", "sp_y", "sp_z", "mission_state", "targets_assigned", "targets_visited", "photo_count",
+           "last_photo_target", "current_target", "avoiding", "avoid_count", "last_photo_time", "last_photo_x",
+           "last_photo_y")
+
+
+def test_fmu_state_round_trip_with_the_fast_path(ext):
+    """FMI get/set state around steps done by the extension: a restored strategy flies on bit for bit the same."""
+    spec = importlib.util.spec_from_file_location("strategy_ext_shell_fast", SRC / "UavStrategy.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    mod._FAST_STEP = ext.step
+    shell = _new_shell(mod, [], True, "B")
+    _fly(shell, 300, 0)
+    state = shell._get_fmu_state()
+    ext.reset_stats()
+    inputs, first = _fly(shell, 600, 300)
+    assert ext.stats()["handled"] > 500 and shell.photo_count > 0
+    shell._set_fmu_state(state)
+    assert _fly(shell, 600, 300, inputs)[1] == first
+
+
 def test_outputs_written_are_plain_attributes(shell_module):
     """The extension writes the shell's __dict__: valid only without properties or __setattr__ on the class."""
     cls = shell_module.UavStrategy
     assert cls.__setattr__ is object.__setattr__
-    outputs = ("cmd", "sp_x", "sp_y", "sp_z", "mission_state", "targets_assigned", "targets_visited",
-               "photo_count", "last_photo_target", "current_target", "avoiding", "avoid_count",
-               "last_photo_time", "last_photo_x", "last_photo_y")
-    assert not any(hasattr(cls, name) for name in outputs)
+    assert not any(hasattr(cls, name) for name in OUTPUTS)
 
 
 def test_consts_layout_matches_the_params():
