@@ -9,10 +9,11 @@
  * - Python's math.hypot is not libm's hypot (they may differ in the last bit), so a distance is only compared
  *   with a threshold here when it is clear of it by a relative margin (SAFE) that no rounding can cross; a
  *   distance close to its threshold is left to Python.
- * - ZoneMap.blocked is not reimplemented: a segment is declared clear only when its bounding box, widened by a
- *   margin covering the rounding of its computed end point, misses the bounding box of every zone polygon
- *   (the consts below), which no correct segment test can call blocked.
- * - Values the step publishes (setpoint, cmd) are copied from the model's own objects, never recomputed.
+ * - ZoneMap.blocked is not reimplemented: a segment is declared clear only when it keeps a margin from every
+ *   zone polygon (misses_zone), far above the rounding of its computed end point, so that no correct segment
+ *   test can call it blocked, whatever its prefilters.
+ * - Values the step publishes (setpoint, cmd) are copied from the model's own objects, never recomputed; every
+ *   number it reads must be an exact float or int (anything else: declined).
  *
  * The step leaves every model attribute as Python would, including model.cmd and model.sp; it writes the
  * outputs that such a step can change (cmd, sp_x, sp_y, sp_z) and, as the shell's _publish, every other
@@ -79,7 +80,7 @@ static PyObject *item(PyObject *d, PyObject *key) { return PyDict_GetItemWithErr
 static int get_double(PyObject *d, PyObject *key, double *out)
 {
     PyObject *v = item(d, key);
-    if (v == NULL || !PyFloat_Check(v))
+    if (v == NULL || !PyFloat_CheckExact(v))
         return 0;
     *out = PyFloat_AsDouble(v);
     return 1;
@@ -95,7 +96,7 @@ static int get_long(PyObject *d, PyObject *key, long *out)
     return !overflow;
 }
 
-/* (x, y) of a 2-sequence of floats (tuple or list), as Python's float() of its items would give */
+/* (x, y) of a tuple or list of two floats (Python unpacks it the same) */
 static int point(PyObject *p, double *x, double *y)
 {
     PyObject *a, *b;
@@ -108,7 +109,7 @@ static int point(PyObject *p, double *x, double *y)
     } else {
         return 0;
     }
-    if (!PyFloat_Check(a) || !PyFloat_Check(b))
+    if (!PyFloat_CheckExact(a) || !PyFloat_CheckExact(b))
         return 0;
     *x = PyFloat_AsDouble(a);
     *y = PyFloat_AsDouble(b);
@@ -490,7 +491,8 @@ static PyObject *step(PyObject *module, PyObject *d)
     s.model = mdict;
     consts = item(mdict, k_consts);
     why = FB_STATE;
-    if (consts == NULL || !PyBytes_Check(consts) || !get_long(mdict, k_state, &state))
+    if (consts == NULL || !PyBytes_Check(consts) || PyBytes_Size(consts) < (Py_ssize_t)(C_ZONES * sizeof(double)) ||
+        !get_long(mdict, k_state, &state))
         goto done;
     s.c = (const double *)PyBytes_AsString(consts);
     planning = s.c[C_PLANNING] != 0.0;
