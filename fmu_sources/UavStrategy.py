@@ -14,6 +14,7 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import mission_encoding as M  # noqa: E402
+from uavsim import native  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.strategy import Strategy, StrategyParams  # noqa: E402
@@ -38,6 +39,11 @@ _STR = [
     ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';' "
                   "(used when n_zones = -1)"),
 ]
+#: the compiled fast path of do_step (uavsim/_strategy_ext.c): does the steps in which nothing happens and
+#: declines, changing nothing, all others; None: Python does every step
+_EXT = native.load_extension("_strategy_ext", os.path.join(_HERE, "uavsim"))
+_FAST_STEP = _EXT.step if _EXT is not None else None
+
 _INDEXED_DESCRIPTIONS = {  # docs/uav_models.md, "Mission data as indexed parameters"
     "n_targets": f"number of targets target_x_k/target_y_k (0..{M.MAX_TARGETS}); -1: use the String 'targets'",
     "n_zones": f"number of zones zone_z_* (0..{M.MAX_ZONES}); -1: use the String 'zones'",
@@ -136,6 +142,8 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
          self.last_photo_time, self.last_photo_x, self.last_photo_y) = self._model.outputs()
 
     def do_step(self, current_time, step_size):
+        if _FAST_STEP is not None and _FAST_STEP(self.__dict__):
+            return True
         if self._model is None:
             self._build()
         if self.command != self._command_taken:

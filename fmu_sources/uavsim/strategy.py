@@ -505,6 +505,23 @@ class Strategy:
         self.brake_count = 0         # safety-net activations
         self.braking = False
         self.brake_point = (0.0, 0.0)
+        self._fast_consts = self._native_consts()
+
+    def _native_consts(self) -> bytes | None:
+        """The constants of the compiled fast path of the FMU's step (uavsim/_strategy_ext.c, layout C_*): arrival
+        radius, land and return thresholds, look-ahead, brake deceleration (as _planned bounds it), cruise
+        altitude, base, planning flag, zone count, then each zone's record (_zone_record).  None (no fast path)
+        when a value is not a number."""
+        from array import array
+        p = self.p
+        try:
+            values = [p.arrival_radius, p.land_threshold, p.return_threshold, p.lookahead,
+                      max(p.brake_accel, 1e-6), p.cruise_altitude, self.home[0], self.home[1],
+                      1.0 if self.planning else 0.0, len(self.zones.polys)]
+            records = [v for poly in self.zones.polys for v in _zone_record(poly)]
+            return array("d", [float(v) for v in values] + records).tobytes()
+        except (AttributeError, TypeError, ValueError):
+            return None
 
     # -------------------------------------------------------------- helpers
     @property
@@ -742,3 +759,21 @@ class Strategy:
         wx, wy = self._avoidance(x, y, vx, vy)
         self.cmd = 2
         self.sp = (float(wx), float(wy), float(p.cruise_altitude))
+
+
+def _zone_record(poly) -> list[float]:
+    """A zone for the compiled fast path (uavsim/_strategy_ext.c): its bounding box, its edge count and the edges
+    (x0, y0, x1, y1) of all its rings, which it uses to tell that a segment stays clear of the zone.  An empty zone
+    (which blocks nothing) gets a box nothing meets; a geometry other than (multi)polygons, edge count -1 (the
+    box only)."""
+    if poly.is_empty:
+        return [math.inf, math.inf, -math.inf, -math.inf, 0.0]
+    rings = []
+    for part in getattr(poly, "geoms", [poly]):
+        if part.geom_type != "Polygon":
+            return [*poly.bounds, -1.0]
+        rings.append(part.exterior.coords)
+        rings.extend(hole.coords for hole in part.interiors)
+    edges = [(x0, y0, x1, y1) for ring in rings for (x0, y0), (x1, y1) in zip(ring, ring[1:])
+             if (x0, y0) != (x1, y1)]
+    return [*poly.bounds, float(len(edges)), *(v for e in edges for v in e)]
