@@ -32,6 +32,9 @@ the same bits as each other and as the plain vectorized algorithm.  ``_step_smal
 and zone checks of steps in which no UAV can have come within reach of another or of a zone since the last
 exact check (clearance minus distance travelled; bound and margins in uavstudy/geometry.py), which is
 nearly every step of a mission: the 4-UAV scaling mission runs the exact pair check on 36 of 2503 steps.
+Such a step, in which nothing is found and no phase, mission state or photo count changed, runs in C
+(``uavstudy/monitor_native.py``, ``monitor_step.c``; the Python path is its twin and fallback): the 4-UAV
+scaling mission takes the Python path on 31 of its 2552 steps.
 """
 from __future__ import annotations
 
@@ -471,7 +474,7 @@ class UavMonitor(Monitor):
         nat = self._native
         if nat is not None:
             code = nat.step(t0, t1)
-            if code == MS_DONE:         # the step of _step_small in which nothing is checked, done in C
+            if code == MS_DONE:         # a step of _step_small that finds nothing, done in C
                 self._ahead = True
                 self.last_time = float(t1)
                 if t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:

@@ -111,13 +111,10 @@ class NativeStep:
         self.scratch = np.zeros(5 * n)
         self._keep = []     # everything C points at stays alive with this object
         groups = (_Group * len(hot))()
-        self._prevs, self.hot_outs = [], []
         for g, (buf, idx, out) in zip(groups, hot):
             idx = np.ascontiguousarray(idx, dtype=np.int64)
-            prev = out.copy()
-            self._keep += [buf, idx]
-            self._prevs.append(prev)
-            self.hot_outs.append(out)
+            prev = out.copy()       # what the monitor gathered at attach
+            self._keep += [buf, idx, out, prev]
             lo_ = hi_ = 0
             if np.shares_memory(out, pos_view):
                 lo_ = (pos_view.ctypes.data - out.ctypes.data) // out.itemsize
