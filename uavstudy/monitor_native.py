@@ -171,9 +171,13 @@ class NativeStep:
 
 def native_step(n: int, hot, pos_view, **kw) -> NativeStep | None:
     """A NativeStep (keywords: NativeStep's), or None when the Python path must run (disabled, no compiler,
-    too many UAVs, positions not float64)."""
+    too many UAVs, positions not float64, a buffer that is not a contiguous numeric array)."""
     if disabled() or n > MAX_UAVS or pos_view.dtype != np.float64:
         return None
+    for buf, _idx, out in hot:
+        if not (isinstance(buf, np.ndarray) and buf.flags.c_contiguous and buf.dtype.kind in "biuf"
+                and buf.dtype == out.dtype):
+            return None
     lib, _why = library()
     if lib is None:
         return None
