@@ -10,8 +10,9 @@ shared with C; ``NativeStep.pull``/``push`` copy it to and from the monitor's Py
 step.
 
 Like ``master.algorithms.native_loop``, the source is compiled on first use with the system's C compiler
-into the per-user cache and loaded with ctypes; without a compiler (or with ``UAVSTUDY_PURE_PYTHON=1``)
-the monitor runs the Python path, with the same results.
+into the per-user cache: as a CPython extension module (``monitor_step_ext.c``) when Python's headers are
+installed, else as a plain library called through ctypes (~0.6 us more per call); without a compiler (or
+with ``UAVSTUDY_PURE_PYTHON=1``) the monitor runs the Python path, with the same results.
 """
 from __future__ import annotations
 
@@ -29,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 SOURCE = Path(__file__).with_name("monitor_step.c")
+EXT_SOURCE = Path(__file__).with_name("monitor_step_ext.c")
 MS_DONE, MS_PYTHON, MS_IDLE = 0, 1, 2
 MAX_UAVS = 64       # the C step's fixed list of checked UAVs
 
@@ -56,33 +58,79 @@ def _cache_dir() -> Path:
     return cache_root() / "uav-monitor"
 
 
-@functools.cache
-def library():
-    """(the loaded library, None) or (None, why it is not available)."""
-    source = SOURCE.read_bytes()
-    flags = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared"]
-    key = hashlib.sha256(source + " ".join(flags).encode() + sys.platform.encode()).hexdigest()[:16]
-    target = _cache_dir() / f"monitor_step-{key}.so"
-    if not target.is_file():
-        cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-        if not cc:
-            return None, "no C compiler found ($CC, cc, gcc)"
-        try:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(suffix=".so", dir=target.parent)
-            os.close(fd)
-            proc = subprocess.run([cc, *flags, "-o", tmp, str(SOURCE), "-lm"], capture_output=True, text=True)
-            if proc.returncode != 0:
-                os.unlink(tmp)
-                first = (proc.stderr.strip().splitlines() or ["(no message)"])[0]
-                return None, f"the C compiler failed: {first}"
-            os.replace(tmp, target)      # atomic: parallel workers compiling at once all end with a whole file
-        except OSError as exc:
-            return None, f"cannot compile the monitor step: {exc}"
-    lib = ctypes.PyDLL(str(target))     # the GIL stays held: a call is far shorter than a release
+FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared"]
+
+
+def _compile(source: Path, stem: str, suffix: str, extra: list, key_text: bytes) -> tuple[Path | None, str | None]:
+    """Compile ``source`` into the cache once (keyed by the sources, flags, platform): (path, None) or
+    (None, why not)."""
+    key = hashlib.sha256(key_text + " ".join(FLAGS + extra).encode() + sys.platform.encode()).hexdigest()[:16]
+    target = _cache_dir() / f"{stem}-{key}{suffix}"
+    if target.is_file():
+        return target, None
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        return None, "no C compiler found ($CC, cc, gcc)"
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(suffix=suffix, dir=target.parent)
+        os.close(fd)
+        proc = subprocess.run([cc, *FLAGS, *extra, "-o", tmp, str(source), "-lm"], capture_output=True, text=True)
+        if proc.returncode != 0:
+            os.unlink(tmp)
+            first = (proc.stderr.strip().splitlines() or ["(no message)"])[0]
+            return None, f"the C compiler failed: {first}"
+        os.replace(tmp, target)      # atomic: parallel workers compiling at once all end with a whole file
+    except OSError as exc:
+        return None, f"cannot compile the monitor step: {exc}"
+    return target, None
+
+
+def _extension():
+    """The extension module (monitor_step_ext.c) for this interpreter, or (None, why not)."""
+    import importlib.machinery
+    import importlib.util
+    import sysconfig
+    include = sysconfig.get_paths().get("include", "")
+    if not os.path.isfile(os.path.join(include, "Python.h")):
+        return None, f"no Python.h in {include!r}"
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    path, why = _compile(EXT_SOURCE, "monitor_step_ext", suffix, [f"-I{include}", f"-I{SOURCE.parent}"],
+                         SOURCE.read_bytes() + EXT_SOURCE.read_bytes() + suffix.encode() + include.encode())
+    if path is None:
+        return None, why
+    try:
+        loader = importlib.machinery.ExtensionFileLoader("_monitor_step_ext", str(path))
+        spec = importlib.util.spec_from_file_location("_monitor_step_ext", str(path), loader=loader)
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
+    except (ImportError, OSError) as exc:
+        return None, f"cannot load the monitor step: {exc}"
+    return module, None
+
+
+def ctypes_step():
+    """``ms_step`` through ctypes (no Python headers needed): (callable, None) or (None, why not)."""
+    path, why = _compile(SOURCE, "monitor_step", ".so", [], SOURCE.read_bytes())
+    if path is None:
+        return None, why
+    lib = ctypes.PyDLL(str(path))     # the GIL stays held: a call is far shorter than a release
     lib.ms_step.argtypes = [c_void_p, c_double, c_double]
     lib.ms_step.restype = ctypes.c_int
-    return lib, None
+    return lib.ms_step, None
+
+
+@functools.cache
+def step_function():
+    """``ms_step`` as a callable (state address, t0, t1) -> MS_* code: the extension module if Python's
+    headers are at hand, else through ctypes; (callable, None), or (None, why neither)."""
+    module, why_ext = _extension()
+    if module is not None:
+        return module.step, None
+    fn, why = ctypes_step()
+    if fn is not None:
+        return fn, None
+    return None, f"{why_ext}; {why}"
 
 
 def _addr(a: np.ndarray) -> int:
@@ -96,7 +144,7 @@ class NativeStep:
     ``F`` holds the float rows dist, dist_xy, ftime, trav, ztrav, zclear, phase and ``I`` the integer rows
     took_off, removed, zfails, idle_fly (a mask) of _step_small's Python lists: one conversion each way."""
 
-    def __init__(self, lib, n: int, hot: list, pos_view: np.ndarray, *, lo: float, hi: float, thr: float,
+    def __init__(self, fn, n: int, hot: list, pos_view: np.ndarray, *, lo: float, hi: float, thr: float,
                  grow: float, radius: float, lim: float, margin: float, refresh_every: int, zone_boxes):
         """``hot``: the monitor's (buffer, index array, out array) per buffer type; ``pos_view`` the (n, 3)
         float64 view of one of the out arrays that holds the positions; the rest as the Python path has
@@ -131,7 +179,7 @@ class NativeStep:
         s.lo, s.hi, s.thr, s.grow, s.radius, s.lim, s.margin = lo, hi, thr, grow, radius, lim, margin
         self._clear_from = None     # the Python matrix self.clear was copied from
         self._n_removed = 0
-        self.step = functools.partial(lib.ms_step, ctypes.addressof(s))
+        self.step = functools.partial(fn, ctypes.addressof(s))
 
     # -- the Python path's state <-> C -----------------------------------------------------------
     def push(self, m) -> None:
@@ -178,7 +226,7 @@ def native_step(n: int, hot, pos_view, **kw) -> NativeStep | None:
         if not (isinstance(buf, np.ndarray) and buf.flags.c_contiguous and buf.dtype.kind in "biuf"
                 and buf.dtype == out.dtype):
             return None
-    lib, _why = library()
-    if lib is None:
+    fn, _why = step_function()
+    if fn is None:
         return None
-    return NativeStep(lib, n, hot, pos_view, **kw)
+    return NativeStep(fn, n, hot, pos_view, **kw)

@@ -18,8 +18,8 @@ D = 2.6
 ZONE = [(300.0, -20.0), (340.0, -20.0), (340.0, 10.0), (300.0, 10.0)]
 NAMES = [f"u{k}" for k in range(6)]
 
-if monitor_native.library()[0] is None:
-    pytest.skip(f"no C step: {monitor_native.library()[1]}", allow_module_level=True)
+if monitor_native.step_function()[0] is None:
+    pytest.skip(f"no C step: {monitor_native.step_function()[1]}", allow_module_level=True)
 
 
 def _unit(v):
@@ -138,8 +138,15 @@ def _run(seed, mode, each_step=None):
     return mon, ctx, codes
 
 
-@pytest.mark.parametrize("seeds", [range(0, 12), range(12, 24)])
-def test_c_step_equals_the_python_step_bit_for_bit_after_every_step(seeds):
+@pytest.mark.parametrize("seeds,backend", [(range(0, 12), "default"), (range(12, 24), "default"),
+                                           (range(24, 30), "ctypes")])
+def test_c_step_equals_the_python_step_bit_for_bit_after_every_step(seeds, backend, monkeypatch):
+    """Both ways of calling the C step: the extension module when Python's headers are there (the default
+    here), and ctypes (the fallback)."""
+    if backend == "ctypes":
+        fn = monitor_native.ctypes_step()
+        assert fn[0] is not None, fn[1]
+        monkeypatch.setattr(monitor_native, "step_function", lambda: fn)
     done = 0
     for seed in seeds:
         ref = []
