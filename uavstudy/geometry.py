@@ -69,7 +69,10 @@ travel is scaled by ``1 + SKIP_REL`` (the rounding of a float sum of n positive 
 n x 1.1e-16 of the sum, so this holds for up to ~1e9 steps between two resets).  NaN or inf anywhere makes
 the comparison false, so such steps always take the exact path.  The UAV monitor keeps the exact check as
 the reference (``UavMonitor.precheck = False``); tests/uav/test_uav_monitor_precheck.py compares both on
-random close encounters.
+random close encounters.  ``uavstudy/monitor_step.c`` repeats these tests, ``pair_clearances``,
+``ZoneDetector.clearance`` / ``may_enter`` and the broad phase of ``CollisionDetector.check_few`` in C, with
+the same operations: a change here must be made there too (tests/uav/test_uav_monitor_native.py compares
+them bit for bit).
 """
 from __future__ import annotations
 

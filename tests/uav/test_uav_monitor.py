@@ -448,6 +448,7 @@ def test_landing_markers_are_hollow_and_the_base_on_top(tmp_path):
     assert END_MARKERS["landed"][0]["facecolors"] == "none" and END_MARKERS["forced"][0]["facecolors"] == "none"
     mon, ctx = make(["a", "b"], targets=[(50, 0)])
     fly(mon, ctx, lambda n, t: (0.0, 0.0, 0.0), phases=lambda n, t: 4, steps=2)
+    mon.sync()                      # the Python lists are current (the C step may be ahead of them)
     mon._took_off[0] = True         # a flew and landed on its pad, at the base
     import matplotlib.figure
     seen = {}
