@@ -153,13 +153,17 @@ def _inline_get(ns: dict, i: int, j: int, g) -> list[str]:
     ns[f"O{i}"], ns[f"W{i}"] = g.obj, g.drain
     ns[f"F{s}"], ns[f"A{s}"], ns[f"B{s}"], ns[f"P{s}"], ns[f"Q{s}"] = g.fetch, g.arg, g.buf, g.pack_into, g.retry
     fetch = _FETCH[g.kind].format(s=s, i=i)
-    if g.names is not None and g.kind != "single":
-        # the keys read from the instance's __dict__ one by one, as the itemgetter would, without its tuple
-        keys = "".join(f"A{s}[{k!r}], " for k in g.names)
-        fetch = f"P{s}(B{s}, 0, {keys})" if g.kind == "pack" else f"B{s}[:] = ({keys})"
-    return ["try:", "    " + fetch, "except Exception:",
-            f"    if (st := Q{s}()) > 1: _fail_handling({i}, 'getting outputs', st, t + H{i})",
-            "else:", f"    if O{i}.log_queue: W{i}()"]
+    lines = ["try:", None, "except Exception:",
+             f"    if (st := Q{s}()) > 1: _fail_handling({i}, 'getting outputs', st, t + H{i})"]
+    if g.names is None:
+        lines[1] = "    " + fetch
+        return lines + ["else:", f"    if O{i}.log_queue: W{i}()"]
+    # the keys read from the instance's __dict__ one by one, as the itemgetter would, without its tuple; no code of
+    # the FMU runs, so nothing can have been logged
+    keys = "".join(f"A{s}[{k!r}], " for k in g.names)
+    lines[1] = "    " + {"single": f"B{s}[0] = A{s}[{g.names[0]!r}]", "pack": f"P{s}(B{s}, 0, {keys})",
+                         "assign": f"B{s}[:] = ({keys})"}[g.kind]
+    return lines
 
 
 _LIST_USE = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\b")
