@@ -184,13 +184,14 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         ns[f"_out{typ}"] = out[typ]
     params = "".join(f", V{typ}" for typ in lists)
     if len(chunks) == 1:
-        src = _function("step", head + chunks[0])
+        sources = [_function("step", head + chunks[0])]
     else:
-        src = "".join(_function(f"_part{k}", c, params) for k, c in enumerate(chunks))
-        src += _function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))])
-    exec(compile(src, name, "exec"), ns)
+        sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
+        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
+    for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
+        exec(compile(src, name, "exec"), ns)
     fn = ns["step"]
-    fn.source = src
+    fn.source = "".join(sources)
     return fn
 
 
