@@ -7,9 +7,11 @@ components changes.
 
 An in-process slave whose cycle and getters describe themselves (``op.inline``: fmi/inprocess.py
 ``InlineCycle``, ``InlineGet``) gets their calls written into the step itself: its inputs' updates, its doStep and
-its output fetches run in the step's own frame instead of one Python frame per op. What happens when one of them
-raises is the op's own handling, called from here (retried through the reporting path, logged, reported with the
-same status), and the status is acted on after the ``try``, as it was after the op returned.
+its output fetches run in the step's own frame instead of one Python frame per op (where a shell keeps its variables
+as plain instance attributes, as stores into and loads from its ``__dict__``). What happens when one of them raises
+is the op's own handling, called from here (retried through the reporting path, logged, reported with the same
+status); the step's status is acted on after its ``try``, a setter's or getter's in its ``except`` clause, with the
+caught exception kept out of the report (it never showed: the op had handled it before the report was raised).
 
 A large system's step is split into chunks of about ``CHUNK_LINES`` lines, each a function the step calls:
 compiling one huge function costs far more memory than compiling the same lines as many small ones.
