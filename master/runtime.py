@@ -231,6 +231,9 @@ class Runtime:
         self.init_ports = [[] for _ in range(n)]
         self.xfer = [[] for _ in range(n)]
         self.init_xfer = [[] for _ in range(n)]
+        # per step input port: the positions in out[its type] whose values it is set to, when it takes them as
+        # they are (a plain copy or the output buffer itself; None after a conversion or mapping)
+        self.write_sources = [[] for _ in range(n)]
         for i, slave in enumerate(self.slaves):
             staged = []
             for t in BASE_TYPES:
@@ -261,6 +264,8 @@ class Runtime:
                     f, o = self.factor[t][a:b], self.offset[t][a:b]
                     affine = t == "Real" and (np.any(f != 1.0) or np.any(o != 0.0))
                     maps = [(k, ln.mapping) for k, ln in enumerate(links) if ln.mapping]
+                    if kind == "step":
+                        self.write_sources[i].append(None if affine or maps else [int(p) for p in src])
                     if not affine and not maps and np.all(np.diff(src) == 1):
                         # the inputs are a contiguous run of outputs: the setter reads the output buffer itself
                         view = self.out[t][src[0]:src[0] + len(src)]

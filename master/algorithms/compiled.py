@@ -4,17 +4,32 @@ The generated function calls, per component, prebound callables (FMI getters/set
 reference and buffer pointers fixed, the doStep with its instance fixed): no loops over lists, no tuple
 unpacking, no dictionary look-ups and no allocation per step. It is rebuilt only when the set of active
 components changes.
+
+An in-process slave whose cycle and getters describe themselves (``op.inline``: fmi/inprocess.py
+``InlineCycle``, ``InlineGet``) gets their calls written into the step itself: its inputs' updates, its doStep and
+its output fetches run in the step's own frame instead of one Python frame per op (where a shell keeps its variables
+as plain instance attributes, as stores into and loads from its ``__dict__``). What happens when one of them raises
+is the op's own handling, called from here (retried through the reporting path, logged, reported with the same
+status); the step's status is acted on after its ``try``, a setter's or getter's in its ``except`` clause, with the
+caught exception kept out of the report (it never showed: the op had handled it before the report was raised).
+
+A large system's step is split into chunks of about ``CHUNK_LINES`` lines, each a function the step calls:
+compiling one huge function costs far more memory than compiling the same lines as many small ones.
 """
 from __future__ import annotations
+
+import re
+
+CHUNK_LINES = 400
 
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     from ctypes import c_double
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
-    uses_ct = False
-    body: list[str] = []
-    tail: list[str] = []
+    ns["_fail_handling"] = _failer(rt, in_handler=True)
+    body: list[list[str]] = []     # per component, its lines (each block one unit of a chunk)
+    tail: list[list[str]] = []
     active = [i for i in order if rt.active[i]]
     for i in active:
         k = rt.multiple[i]
@@ -22,52 +37,180 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
         ns[f"H{i}"] = h * k
         raw = rt.slaves[i].raw_step
         cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
+        due = [] if k == 1 else [f"if n % {k} == 0:"]
+        inline = getattr(cycle, "inline", None)
+        # Jacobi: the inputs of an inline cycle taken from the step's lists of the output values (no copy into
+        # the input buffers, no list made per port), when every one is an output's value as it is
+        sources = rt.write_sources[i] if inline is not None and not gauss_seidel else [None]
+        from_lists = all(p is not None for p in sources)
+        lines = []
+        for j, x in enumerate(() if from_lists else transfers):
+            ns[f"x{i}_{j}"] = x
+            lines.append(f"x{i}_{j}()")
         if raw is not None:
             ns[f"d{i}"] = raw
             ns[f"CH{i}"] = c_double(h * k)
-            call = f"d{i}(ct, CH{i}, 1)"
-            uses_ct = True
-        else:
-            ns[f"d{i}"] = step
-            call = f"d{i}(t, H{i})"
-        due = [] if k == 1 else [f"if n % {k} == 0:"]
-        ind = "    " * (2 if due else 1)
-        lines = []
-        for j, x in enumerate(transfers):
-            ns[f"x{i}_{j}"] = x
-            lines.append(f"{ind}x{i}_{j}()")
-        if cycle is not None:
-            # inputs and step in one call (an in-process slave: see Slave.bound_cycle), which counts the step
-            ns[f"c{i}"] = cycle
-            lines.append(f"{ind}if (st := c{i}(t, H{i})) > 1: _cycle_failed({i}, st, t)")
-        else:
             for j, s in enumerate(setters):
                 ns[f"s{i}_{j}"] = s
-                lines.append(f"{ind}if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-            lines.append(f"{ind}_calls[{i}] += 1")
-            lines.append(f"{ind}if (st := {call}) > 1: _step_failed({i}, st, t)")
+                lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+            lines.append(f"_calls[{i}] += 1")
+            lines.append(f"if (st := d{i}(ct, CH{i}, 1)) > 1: _step_failed({i}, st, t)")
+        elif inline is not None:
+            values = None
+            if from_lists:
+                values = [_listed(typ, p) for (typ, _), p in zip(rt.write_ports[i], sources)]
+            lines += _inline_cycle(ns, i, inline, values)
+            if from_lists and transfers:
+                ns[f"R{i}"] = _with_transfers(transfers, inline.sets_failed)
+        elif cycle is not None:
+            # inputs and step in one call (an in-process slave: see Slave.bound_cycle), which counts the step
+            ns[f"c{i}"] = cycle
+            lines.append(f"if (st := c{i}(t, H{i})) > 1: _cycle_failed({i}, st, t)")
+        else:
+            ns[f"d{i}"] = step
+            for j, s in enumerate(setters):
+                ns[f"s{i}_{j}"] = s
+                lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+            lines.append(f"_calls[{i}] += 1")
+            lines.append(f"if (st := d{i}(t, H{i})) > 1: _step_failed({i}, st, t)")
         gets = []
         for j, g in enumerate(getters):
+            if getattr(g, "inline", None) is not None:
+                gets += _inline_get(ns, i, j, g.inline)
+                continue
             ns[f"g{i}_{j}"] = g
-            gets.append(f"{ind}if (st := g{i}_{j}()) > 1: _fail({i}, 'getting outputs', st, t + H{i})")
+            gets.append(f"if (st := g{i}_{j}()) > 1: _fail({i}, 'getting outputs', st, t + H{i})")
         if gauss_seidel:
             lines += gets
-        body += ["    " + d for d in due] + lines
+        body.append(_under(due, lines))
         if not gauss_seidel and gets:
             # Jacobi: nobody reads a value produced in this step, so all outputs are fetched after all steps
-            tail += ["    " + d for d in due] + gets
+            tail.append(_under(due, gets))
         if publish is not None:
             ns[f"p{i}"] = publish
-            tail.append(f"    if (n + 1) % {k} == 0: p{i}()")
-    head = ["    ct = _D(t)"] if uses_ct else []
-    src = "def step(n, t):\n" + "\n".join(head + body + tail or ["    pass"]) + "\n"
-    exec(compile(src, f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>", "exec"), ns)
-    fn = ns["step"]
-    fn.source = src
+            tail.append([f"if (n + 1) % {k} == 0: p{i}()"])
+    name = f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>"
+    fn = _assemble(ns, body + tail, name, rt.out)
     return fn
 
 
-def _failer(rt):
+def _under(due: list[str], lines: list[str]) -> list[str]:
+    """``lines`` under the condition of a component on a step multiple (if any)."""
+    return due + ["    " + ln for ln in lines] if due else lines
+
+
+def _listed(typ: str, positions: list[int]) -> list[str]:
+    """The expressions of the values at ``positions`` of the step's list of out[typ] (see ``_assemble``)."""
+    return [f"V{typ}[{p}]" for p in positions]
+
+
+def _with_transfers(transfers, sets_failed):
+    """The retry of inputs taken from the lists: their buffers, which the reporting path sets them from, filled
+    first (the step skipped the copies)."""
+    def retry():
+        for x in transfers:
+            x()
+        return sets_failed()
+    return retry
+
+
+def _inline_cycle(ns: dict, i: int, c, values: list[list[str]] | None = None) -> list[str]:
+    """The lines of an in-process slave's inputs and doStep (the cycle op's calls, see ``InlineCycle``);
+    ``values``: per input port, the expressions of its values (default: its buffer's ``tolist()``)."""
+    ns[f"O{i}"], ns[f"W{i}"], ns[f"D{i}"], ns[f"E{i}"] = c.obj, c.drain, c.do_step, c.step_error
+    lines = []
+    if c.sets:
+        ns[f"R{i}"] = c.sets_failed
+        lines.append("try:")
+        attrs = getattr(c.obj, "__dict__", None)
+        direct = attrs is not None and all(u == attrs.update for u, _, _ in c.sets)
+        if direct:
+            # update(zip(names, values)) on the instance's __dict__ is a store of each value under its name, in
+            # order: written as such, without the call, the zip and its pairs
+            ns[f"S{i}"] = attrs
+        for j, (update, names, tolist) in enumerate(c.sets):
+            ns[f"U{i}_{j}"], ns[f"N{i}_{j}"], ns[f"L{i}_{j}"] = update, names, tolist
+            if direct and values is not None:
+                lines += [f"    S{i}[{n!r}] = {e}" for n, e in zip(names, values[j])]
+            elif direct:
+                lines.append(f"    {''.join(f'S{i}[{n!r}], ' for n in names)}= L{i}_{j}()")
+            elif values is not None:
+                lines.append(f"    U{i}_{j}(zip(N{i}_{j}, ({''.join(e + ', ' for e in values[j])})))")
+            else:
+                lines.append(f"    U{i}_{j}(zip(N{i}_{j}, L{i}_{j}()))")
+        lines += ["except Exception:", f"    if st := R{i}(): _fail_handling({i}, 'setting inputs', st, t)"]
+    lines += [f"_calls[{i}] += 1",
+              "try:", f"    st = 0 if D{i}(t, H{i}) else 2", "except Exception:", f"    st = E{i}(t, H{i})",
+              f"if O{i}.log_queue: W{i}()",
+              f"if st: _step_failed({i}, st, t)"]
+    return lines
+
+
+_FETCH = {"single": "B{s}[0] = F{s}(A{s})", "pack": "P{s}(B{s}, 0, *F{s}(A{s}))", "assign": "B{s}[:] = F{s}(A{s})"}
+
+
+def _inline_get(ns: dict, i: int, j: int, g) -> list[str]:
+    """The lines of one output port's fetch (``InlineGet``); the status of a retry is acted on as the op's was."""
+    s = f"{i}_{j}"
+    ns[f"O{i}"], ns[f"W{i}"] = g.obj, g.drain
+    ns[f"F{s}"], ns[f"A{s}"], ns[f"B{s}"], ns[f"P{s}"], ns[f"Q{s}"] = g.fetch, g.arg, g.buf, g.pack_into, g.retry
+    fetch = _FETCH[g.kind].format(s=s, i=i)
+    lines = ["try:", None, "except Exception:",
+             f"    if (st := Q{s}()) > 1: _fail_handling({i}, 'getting outputs', st, t + H{i})"]
+    if g.names is None:
+        lines[1] = "    " + fetch
+        return lines + ["else:", f"    if O{i}.log_queue: W{i}()"]
+    # the keys read from the instance's __dict__ one by one, as the itemgetter would, without its tuple; no code of
+    # the FMU runs, so nothing can have been logged
+    keys = "".join(f"A{s}[{k!r}], " for k in g.names)
+    lines[1] = "    " + {"single": f"B{s}[0] = A{s}[{g.names[0]!r}]", "pack": f"P{s}(B{s}, 0, {keys})",
+                         "assign": f"B{s}[:] = ({keys})"}[g.kind]
+    return lines
+
+
+_LIST_USE = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\b")
+
+
+def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
+    """``def step(n, t)`` running ``blocks`` in order: one function, or chunks of it that the step calls."""
+    chunks: list[list[str]] = [[]]
+    for b in blocks:
+        if chunks[-1] and len(chunks[-1]) + len(b) > CHUNK_LINES:
+            chunks.append([])
+        chunks[-1].extend(b)
+    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
+    # changes before the tail, which comes after every input is set)
+    lists = sorted({m.group(1) for b in blocks for ln in b for m in _LIST_USE.finditer(ln)})
+    head = [f"V{typ} = _out{typ}.tolist()" for typ in lists]
+    for typ in lists:
+        ns[f"_out{typ}"] = out[typ]
+    params = "".join(f", V{typ}" for typ in lists)
+    if len(chunks) == 1:
+        sources = [_function("step", head + chunks[0])]
+    else:
+        sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
+        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
+    for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
+        exec(compile(src, name, "exec"), ns)
+    fn = ns["step"]
+    fn.source = "".join(sources)
+    return fn
+
+
+def _function(fname: str, lines: list[str], params: str = "") -> str:
+    head = ["ct = _D(t)"] if any("(ct, " in ln for ln in lines) else []     # one c_double of t for the raw steps
+    return f"def {fname}(n, t{params}):\n" + "".join(f"    {ln}\n" for ln in head + lines or ["pass"])
+
+
+def _failer(rt, in_handler: bool = False):
+    """``fail(i, what, status, t)`` raising slave i's error; ``in_handler``: for a call from an ``except`` clause of
+    the step, whose exception the error does not show as its context (the op's report never did: it came after
+    the op had handled the exception and returned)."""
+    if in_handler:
+        def fail_handling(i, what, status, t):
+            raise rt.slaves[i].fail(what, status, t) from None
+        return fail_handling
+
     def fail(i, what, status, t):
         raise rt.slaves[i].fail(what, status, t)
     return fail

@@ -19,22 +19,54 @@ sys.modules.
 from __future__ import annotations
 
 import builtins
+import functools
 import hashlib
 import importlib
 import importlib.machinery
 import importlib.util
+import operator
 import struct
 import sys
 import threading
 import traceback
 from functools import lru_cache
 from pathlib import Path
+from typing import Callable, NamedTuple
 
 from ..errors import FmuError
 from .logsink import STATUS_LEVEL
 from .slave import DISCARD, ERROR, FATAL, OK, SET_FAILED, WARNING, Port, Slave
 
 _CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
+
+
+class InlineCycle(NamedTuple):
+    """What a cycle op (``bound_cycle``) does, for a compiled step that writes the same calls into its own code
+    (no Python frame per component): ``sets`` (update, names, tolist) each called as update(zip(names,
+    tolist())); after one raised, ``sets_failed()`` sets the ports again through the reporting path and gives the
+    failing port's status (0: they all went through); ``do_step(t, h)`` true is OK, false Discard; after it
+    raised, ``step_error(t, h)`` logs and gives the status; ``obj.log_queue`` is drained by ``drain()``."""
+    sets: tuple
+    sets_failed: Callable
+    do_step: Callable
+    step_error: Callable
+    obj: object
+    drain: Callable
+
+
+class InlineGet(NamedTuple):
+    """What a getter op (``bound_get`` of a slave with ``get_raw``) does, for the compiled step: ``kind``
+    "single" is buf[0] = fetch(arg), "pack" pack_into(buf, 0, *fetch(arg)), "assign" buf[:] = fetch(arg); after
+    it raised, ``retry()`` reads through the reporting path and gives the status."""
+    kind: str
+    fetch: Callable
+    arg: object
+    names: tuple | None         # when ``arg`` is the instance's __dict__: the keys ``fetch`` reads, in order
+    buf: object
+    pack_into: Callable | None
+    retry: Callable
+    obj: object
+    drain: Callable
 
 
 def is_pythonfmu(fmu) -> bool:
@@ -342,38 +374,44 @@ class PythonFmuSlave(Slave):
         raw = self._bound("get_raw", typ, vrs) if as_is else None
         if raw is not None:
             fetch, single = raw
+            retry = functools.partial(get_port, typ, port)
+            fetch, src, keys = self._from_dict(fetch)
             if single:
                 def op():
                     try:
-                        buf[0] = fetch(obj)
+                        buf[0] = fetch(src)
                     except Exception:
                         return get_port(typ, port)        # again through the reporting path
                     if obj.log_queue:
                         drain()
                     return OK
+                op.inline = InlineGet("single", fetch, src, keys, buf, None, retry, obj, drain)
             elif buf.flags.c_contiguous and buf.flags.writeable and buf.dtype.isnative:
                 # struct writes the values into the buffer's memory in one C loop (numpy's assignment from a
                 # tuple converts value by value); a value struct does not take as is raises, and the reporting
                 # path below stores it through numpy as before
                 pack_into = struct.Struct(f"@{len(buf)}{buf.dtype.char}").pack_into
+                mem = memoryview(buf).cast("B")     # the same memory, a cheaper buffer to ask for than numpy's
 
                 def op():
                     try:
-                        pack_into(buf, 0, *fetch(obj))
+                        pack_into(mem, 0, *fetch(src))
                     except Exception:
                         return get_port(typ, port)
                     if obj.log_queue:
                         drain()
                     return OK
+                op.inline = InlineGet("pack", fetch, src, keys, mem, pack_into, retry, obj, drain)
             else:
                 def op():
                     try:
-                        buf[:] = fetch(obj)
+                        buf[:] = fetch(src)
                     except Exception:
                         return get_port(typ, port)
                     if obj.log_queue:
                         drain()
                     return OK
+                op.inline = InlineGet("assign", fetch, src, keys, buf, None, retry, obj, drain)
             return op
         read = self._reader(typ, vrs, buf, conv)
 
@@ -387,6 +425,19 @@ class PythonFmuSlave(Slave):
                 drain()
             return OK
         return op
+
+    def _from_dict(self, fetch):
+        """(fetch, what it is called with, the keys it reads or None): an attrgetter of plain instance attributes becomes an itemgetter of the
+        same names on the instance's __dict__ (the attribute look-up without its search of the class for a
+        descriptor: the same values, as the shell's ``set_raw`` writes them there); else ``fetch`` on the instance."""
+        obj = self.obj
+        if type(fetch) is not operator.attrgetter or type(obj).__getattribute__ is not object.__getattribute__:
+            return fetch, obj, None
+        names = fetch.__reduce__()[1]
+        d = obj.__dict__
+        if not all(type(n) is str and n in d and not hasattr(type(obj), n) for n in names):
+            return fetch, obj, None
+        return operator.itemgetter(*names), d, tuple(names)
 
     def _reader(self, typ, vrs, buf, conv):
         """A function filling ``buf`` with the values of ``vrs``: the slave's own fast accessor where it has
@@ -500,7 +551,12 @@ class PythonFmuSlave(Slave):
                 drain()
             return OK if ok else DISCARD
 
+        def sets_failed():
+            st = failed()
+            return 0 if st is None else st - SET_FAILED
+
         if not raws:
+            step.inline = InlineCycle((), sets_failed, do_step, step_error, obj, drain)
             return step
 
         def op(t, h):
@@ -511,6 +567,7 @@ class PythonFmuSlave(Slave):
                 if (st := failed()) is not None:
                     return st
             return step(t, h)
+        op.inline = InlineCycle(tuple(raws), sets_failed, do_step, step_error, obj, drain)
         return op
 
     def bound_step(self):
