@@ -18,16 +18,13 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import hashlib
 import os
-import shutil
-import subprocess
-import sys
-import tempfile
 from ctypes import POINTER, Structure, c_double, c_int64, c_void_p
 from pathlib import Path
 
 import numpy as np
+
+from master.native_build import compile_cached, compile_extension
 
 SOURCE = Path(__file__).with_name("monitor_step.c")
 EXT_SOURCE = Path(__file__).with_name("monitor_step_ext.c")
@@ -53,65 +50,18 @@ def disabled() -> bool:
     return os.environ.get("UAVSTUDY_PURE_PYTHON", "") not in ("", "0")
 
 
-def _cache_dir() -> Path:
-    from master.fmi.cache import cache_root
-    return cache_root() / "uav-monitor"
-
-
 FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared"]
-
-
-def _compile(source: Path, stem: str, suffix: str, extra: list, key_text: bytes) -> tuple[Path | None, str | None]:
-    """Compile ``source`` into the cache once (keyed by the sources, flags, platform): (path, None) or
-    (None, why not)."""
-    key = hashlib.sha256(key_text + " ".join(FLAGS + extra).encode() + sys.platform.encode()).hexdigest()[:16]
-    target = _cache_dir() / f"{stem}-{key}{suffix}"
-    if target.is_file():
-        return target, None
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if not cc:
-        return None, "no C compiler found ($CC, cc, gcc)"
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=suffix, dir=target.parent)
-        os.close(fd)
-        proc = subprocess.run([cc, *FLAGS, *extra, "-o", tmp, str(source), "-lm"], capture_output=True, text=True)
-        if proc.returncode != 0:
-            os.unlink(tmp)
-            first = (proc.stderr.strip().splitlines() or ["(no message)"])[0]
-            return None, f"the C compiler failed: {first}"
-        os.replace(tmp, target)      # atomic: parallel workers compiling at once all end with a whole file
-    except OSError as exc:
-        return None, f"cannot compile the monitor step: {exc}"
-    return target, None
+CACHE = "uav-monitor"
 
 
 def _extension():
     """The extension module (monitor_step_ext.c) for this interpreter, or (None, why not)."""
-    import importlib.machinery
-    import importlib.util
-    import sysconfig
-    include = sysconfig.get_paths().get("include", "")
-    if not os.path.isfile(os.path.join(include, "Python.h")):
-        return None, f"no Python.h in {include!r}"
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    path, why = _compile(EXT_SOURCE, "monitor_step_ext", suffix, [f"-I{include}", f"-I{SOURCE.parent}"],
-                         SOURCE.read_bytes() + EXT_SOURCE.read_bytes() + suffix.encode() + include.encode())
-    if path is None:
-        return None, why
-    try:
-        loader = importlib.machinery.ExtensionFileLoader("_monitor_step_ext", str(path))
-        spec = importlib.util.spec_from_file_location("_monitor_step_ext", str(path), loader=loader)
-        module = importlib.util.module_from_spec(spec)
-        loader.exec_module(module)
-    except (ImportError, OSError) as exc:
-        return None, f"cannot load the monitor step: {exc}"
-    return module, None
+    return compile_extension(EXT_SOURCE, "_monitor_step_ext", CACHE, FLAGS, depends=SOURCE.read_bytes())
 
 
 def ctypes_step():
     """``ms_step`` through ctypes (no Python headers needed): (callable, None) or (None, why not)."""
-    path, why = _compile(SOURCE, "monitor_step", ".so", [], SOURCE.read_bytes())
+    path, why = compile_cached(SOURCE, "monitor_step", CACHE, FLAGS, what="the monitor step")
     if path is None:
         return None, why
     lib = ctypes.PyDLL(str(path))     # the GIL stays held: a call is far shorter than a release

@@ -26,12 +26,6 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import hashlib
-import os
-import shutil
-import subprocess
-import sys
-import tempfile
 import time
 from ctypes import POINTER, Structure, c_double, c_longlong, c_void_p
 from pathlib import Path
@@ -39,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import interrupts
+from ..native_build import compile_cached
 from ..fmi.slave import WARNING
 
 SOURCE = Path(__file__).with_name("native_loop.c")
@@ -79,34 +74,13 @@ class _Loop(Structure):
                 ("rows", c_void_p), ("busy", c_void_p)]
 
 
-def _cache_dir() -> Path:
-    from ..fmi.cache import cache_root
-    return cache_root() / "native-loop"
-
-
 @functools.cache
 def library():
     """(the loaded library, None) or (None, why it is not available)."""
-    source = SOURCE.read_bytes()
-    flags = ["-O2", "-ffp-contract=off", "-fPIC", "-shared"]
-    key = hashlib.sha256(source + " ".join(flags).encode() + sys.platform.encode()).hexdigest()[:16]
-    target = _cache_dir() / f"native_loop-{key}.so"
-    if not target.is_file():
-        cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-        if not cc:
-            return None, "no C compiler found ($CC, cc, gcc)"
-        try:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(suffix=".so", dir=target.parent)
-            os.close(fd)
-            proc = subprocess.run([cc, *flags, "-o", tmp, str(SOURCE), "-lm"], capture_output=True, text=True)
-            if proc.returncode != 0:
-                os.unlink(tmp)
-                first = (proc.stderr.strip().splitlines() or ["(no message)"])[0]
-                return None, f"the C compiler failed: {first}"
-            os.replace(tmp, target)      # atomic: parallel workers compiling at once all end with a whole file
-        except OSError as exc:
-            return None, f"cannot compile the native loop: {exc}"
+    target, why = compile_cached(SOURCE, "native_loop", "native-loop", ["-O2", "-ffp-contract=off", "-fPIC", "-shared"],
+                                 what="the native loop")
+    if target is None:
+        return None, why
     # PyDLL: the GIL stays held, as for the master's own FMI calls (fmpy_adapter.Library.raw)
     lib = ctypes.PyDLL(str(target))
     lib.cm_run.argtypes = [POINTER(_Loop), c_longlong, c_longlong, c_longlong, ctypes.c_int]

@@ -133,9 +133,11 @@ grid:
   param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
 run:
   stop_time: 3.0
-  step: 0.0005
+  step: 0.0001
   csv: false
 """
+# 30000 steps a run: long enough (~0.5 s) that the campaign cannot finish its remaining runs between the second
+# record and the interrupt, even on a fast master
 
 
 def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
