@@ -162,10 +162,43 @@ def _seg_point_dist(ax, ay, bx, by, px, py) -> float:
     return math.hypot(px - ax - u * dx, py - ay - u * dy)
 
 
-class ZoneMap:
-    """Restricted zones (shapely polygons): segment tests and the paper's reactive detours."""
+def _zone_key(zones, margin) -> tuple:
+    """The zones and margin by their exact bits (``float.hex``: -0.0 and 0.0 stay apart), as a cache key."""
+    return (float(margin).hex(), tuple(tuple((float(x).hex(), float(y).hex()) for x, y in z) for z in zones))
 
-    def __init__(self, zones, margin: float = P.AVOID_MARGIN):
+
+class ZoneMap:
+    """Restricted zones (shapely polygons): segment tests and the paper's reactive detours.
+
+    ``ZoneMap(zones, margin)`` hands out one map per zones and margin in a process: a campaign worker flies
+    the same area run after run and every UAV of a run has the same zones, and the map's polygons, detour
+    graph and planners (``planner``: a visibility graph per clearance) are functions of them alone, built
+    when first needed and never changed after, so the FMU state of a strategy (a deep copy) shares it too."""
+
+    _BUILT: dict[tuple, "ZoneMap"] = {}
+    _MAX_BUILT = 64
+
+    def __new__(cls, zones=None, margin: float = P.AVOID_MARGIN):
+        if zones is None:       # a copy or an unpickled map: its attributes follow
+            return super().__new__(cls)
+        zones = [list(z) for z in zones]
+        key = _zone_key(zones, margin)
+        built = ZoneMap._BUILT.get(key)
+        if built is None or type(built) is not cls:
+            built = super().__new__(cls)
+            built._build(zones, margin)
+            if len(ZoneMap._BUILT) >= ZoneMap._MAX_BUILT:
+                ZoneMap._BUILT.clear()
+            ZoneMap._BUILT[key] = built
+        return built
+
+    def __init__(self, zones=None, margin: float = P.AVOID_MARGIN):
+        pass            # built by __new__ (once per zones and margin)
+
+    def __deepcopy__(self, memo):
+        return self     # shared and never changed (its prepared geometries could not be copied anyway)
+
+    def _build(self, zones, margin):
         import shapely
         from shapely.geometry import Polygon
         from shapely.prepared import prep

@@ -5,6 +5,8 @@ annotations, so libcosim and OMSimulator pick the same step without extra option
 """
 from __future__ import annotations
 
+import hashlib
+import io
 import os
 import shutil
 import zipfile
@@ -14,6 +16,7 @@ from pathlib import Path
 from lxml import etree
 
 from . import xsd
+from .archive import remember_written
 from .connection_extrapolation import write_connection_order
 from .settings_annotations import OUR_NS, OUR_TYPE
 
@@ -209,14 +212,22 @@ class SspBuilder:
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
         if path.suffix.lower() == ".ssp":
             path.parent.mkdir(parents=True, exist_ok=True)
+            files = {"SystemStructure.ssd": ssd_bytes, **{f"resources/{name}": data for name, data in ssv_bytes.items()}}
+            fmus = {arc: _fmu_content(src) for arc, src in sorted(members.items())}
+            buf = io.BytesIO()
+            with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
+                for arc, data in files.items():
+                    zf.writestr(_zinfo(arc), data)
+                for arc, (data, _) in fmus.items():
+                    zf.writestr(_zinfo(arc), data)
             tmp = path.with_suffix(".ssp.tmp")
-            with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as zf:
-                zf.writestr(_zinfo("SystemStructure.ssd"), ssd_bytes)
-                for name, data in ssv_bytes.items():
-                    zf.writestr(_zinfo(f"resources/{name}"), data)
-                for arc, src in sorted(members.items()):
-                    zf.writestr(_zinfo(arc), _fmu_bytes(src))
+            archive = buf.getbuffer()
+            with open(tmp, "wb") as fh:
+                fh.write(archive)
             os.replace(tmp, path)
+            remember_written(path, hashlib.sha256(archive).hexdigest(), files,
+                             {arc: (sha, data) for arc, (data, sha) in fmus.items()})
+            archive.release()
         else:
             if path.exists():
                 shutil.rmtree(path)
@@ -229,20 +240,21 @@ class SspBuilder:
         return path
 
 
-_FMU_BYTES: dict[tuple, bytes] = {}
+_FMU_BYTES: dict[tuple, tuple[bytes, str]] = {}
 
 
-def _fmu_bytes(src: Path) -> bytes:
-    """An FMU's bytes, read once per process while the file is unchanged: a campaign writes the same FMUs into
-    every run's archive."""
+def _fmu_content(src: Path) -> tuple[bytes, str]:
+    """An FMU's bytes and their SHA-256, read once per process while the file is unchanged: a campaign writes
+    the same FMUs into every run's archive."""
     st = src.stat()
     key = (str(src.resolve()), st.st_mtime_ns, st.st_size)
-    data = _FMU_BYTES.get(key)
-    if data is None:
+    content = _FMU_BYTES.get(key)
+    if content is None:
         if len(_FMU_BYTES) >= 32:
             _FMU_BYTES.clear()
-        data = _FMU_BYTES[key] = src.read_bytes()
-    return data
+        data = src.read_bytes()
+        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest())
+    return content
 
 
 def _zinfo(name):
