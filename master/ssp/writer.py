@@ -5,6 +5,7 @@ annotations, so libcosim and OMSimulator pick the same step without extra option
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import io
 import os
@@ -53,6 +54,53 @@ class _Comp:
     ssv: str | None = None     # put parameters in resources/<name>.ssv instead of inline
 
 
+# (id of a model description, the parameters set) -> (the description, kept alive for its id; its connectors):
+# a campaign worker writes the same FMUs with the same parameter names into every run's SSD, and going through
+# a strategy FMU's thousand variables for its few dozen connectors cost more than the rest of its component
+_CONNECTORS: dict[tuple, tuple[object, tuple]] = {}
+_MAX_CONNECTORS = 256
+
+
+def _described_connectors(md, params: dict) -> tuple:
+    """(name, kind, type, unit) of every input and output of the FMU, and of the parameters in ``params``."""
+    key = (id(md), frozenset(params))
+    hit = _CONNECTORS.get(key)
+    if hit is not None and hit[0] is md:
+        return hit[1]
+    connectors = []
+    for v in md.modelVariables:
+        if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
+            t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
+            if t.startswith(("Int", "UInt")):
+                t = "Integer"
+            connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
+    if len(_CONNECTORS) >= _MAX_CONNECTORS:
+        _CONNECTORS.clear()
+    _CONNECTORS[key] = (md, tuple(connectors))
+    return _CONNECTORS[key][1]
+
+
+# connectors -> their ssd:Connectors element, under a root declaring the SSD's namespaces (a copy taken into an
+# SSD declares none of its own): a campaign's runs write the same components' connectors again and again
+_CONNECTORS_XML: dict[tuple, etree._Element] = {}
+
+
+def _connectors_element(connectors: tuple) -> etree._Element:
+    conns = _CONNECTORS_XML.get(connectors)
+    if conns is None:
+        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
+        conns = etree.SubElement(holder, _q("ssd", "Connectors"))
+        for cname, kind, typ, unit in connectors:
+            c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
+            t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
+            if unit and typ == "Real":
+                t.set("unit", unit)
+        if len(_CONNECTORS_XML) >= _MAX_CONNECTORS:
+            _CONNECTORS_XML.clear()
+        _CONNECTORS_XML[connectors] = conns
+    return conns
+
+
 @dataclass
 class SspBuilder:
     name: str
@@ -78,14 +126,7 @@ class SspBuilder:
         params = dict(params or {})
         if connectors is None:
             from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
-            md = load_fmu(fmu_path).md
-            connectors = []
-            for v in md.modelVariables:
-                if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
-                    t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
-                    if t.startswith(("Int", "UInt")):
-                        t = "Integer"
-                    connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
+            connectors = _described_connectors(load_fmu(fmu_path).md, params)
         typed = {}
         kinds = {c[0]: c[2] for c in connectors}
         for k, v in params.items():
@@ -147,12 +188,7 @@ class SspBuilder:
         for comp in self.components:
             el = etree.SubElement(elements, _q("ssd", "Component"), name=comp.name,
                                   type="application/x-fmu-sharedlibrary", source=f"resources/{fmu_names[comp.name]}")
-            conns = etree.SubElement(el, _q("ssd", "Connectors"))
-            for cname, kind, typ, unit in comp.connectors:
-                c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
-                t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
-                if unit and typ == "Real":
-                    t.set("unit", unit)
+            el.append(copy.deepcopy(_connectors_element(tuple(comp.connectors))))
             if comp.params:
                 pbs = etree.SubElement(el, _q("ssd", "ParameterBindings"))
                 if comp.ssv:
