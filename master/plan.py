@@ -135,15 +135,15 @@ class ComponentVariables(Mapping):
 
     __slots__ = ("component", "_described", "_made")
 
-    def __init__(self, component: str, described: dict[str, Var], made: dict[str, Var] | None = None):
+    def __init__(self, component: str, described: dict[str, Var]):
         self.component = component
         self._described = described
-        self._made: dict[str, Var] = {} if made is None else made
+        self._made: dict[str, Var] = {}
 
     def __getitem__(self, name: str) -> Var:
         v = self._made.get(name)
         if v is None:
-            v = self._made[name] = replace(self._described[name], component=self.component)
+            v = self._made[name] = _renamed(self._described[name], self.component)
         return v
 
     def __contains__(self, name) -> bool:
@@ -162,25 +162,27 @@ class ComponentVariables(Mapping):
         return self._described
 
 
-# model description -> (the description, kept alive for its id; its variables, component ""; component name ->
-# the Vars made for it): a campaign worker plans the same FMUs under the same component names run after run, and
-# an FMU with a thousand variables costs milliseconds to describe.  A Var is frozen, so runs share them.
-_VARIABLES: dict[int, tuple[object, dict[str, Var], dict[str, dict[str, Var]]]] = {}
-_MAX_NAMED = 4096           # component names whose Vars are kept per description (a fleet of 1000 UAVs: 4 each)
+def _renamed(v: Var, component: str) -> Var:
+    """``replace(v, component=component)`` without dataclasses.replace's field-by-field construction (a run makes
+    a few hundred of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
+    out = object.__new__(Var)
+    d = out.__dict__
+    d.update(v.__dict__)
+    d["component"] = component
+    return out
+
+
+# model description -> (the description, kept alive for its id; its variables, component ""): a campaign worker
+# plans the same FMUs run after run, and an FMU with a thousand variables costs milliseconds to describe
+_VARIABLES: dict[int, tuple[object, dict[str, Var]]] = {}
 
 
 def _component_variables(comp: str, fmu: LoadedFmu) -> ComponentVariables:
     """Every variable by name; an FMI 3.0 array also as its elements."""
     cached = _VARIABLES.get(id(fmu.md))
     if cached is None or cached[0] is not fmu.md:
-        cached = _VARIABLES[id(fmu.md)] = (fmu.md, _describe_variables("", fmu), {})
-    named = cached[2]
-    made = named.get(comp)
-    if made is None:
-        if len(named) >= _MAX_NAMED:
-            named.clear()
-        made = named[comp] = {}
-    return ComponentVariables(comp, cached[1], made)
+        cached = _VARIABLES[id(fmu.md)] = (fmu.md, _describe_variables("", fmu))
+    return ComponentVariables(comp, cached[1])
 
 
 def _describe_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
