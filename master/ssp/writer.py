@@ -101,6 +101,24 @@ def _connectors_element(connectors: tuple) -> etree._Element:
     return conns
 
 
+# (name, type) of each parameter -> their ssv:Parameters element without values (as _connectors_element)
+_PARAMETERS_XML: dict[tuple, etree._Element] = {}
+
+
+def _parameters_element(named_types: tuple) -> etree._Element:
+    ps = _PARAMETERS_XML.get(named_types)
+    if ps is None:
+        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
+        ps = etree.SubElement(holder, _q("ssv", "Parameters"))
+        for var, t in named_types:
+            p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
+            etree.SubElement(p, _q("ssv", t))
+        if len(_PARAMETERS_XML) >= _MAX_CONNECTORS:
+            _PARAMETERS_XML.clear()
+        _PARAMETERS_XML[named_types] = ps
+    return ps
+
+
 @dataclass
 class SspBuilder:
     name: str
@@ -173,10 +191,10 @@ class SspBuilder:
             pset = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]}, **attrs)
         else:
             pset = etree.SubElement(values_parent, _q("ssv", "ParameterSet"), **attrs)
-        ps = etree.SubElement(pset, _q("ssv", "Parameters"))
-        for var, (t, v) in comp.params.items():
-            p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
-            etree.SubElement(p, _q("ssv", t), value=_fmt(v))
+        ps = copy.deepcopy(_parameters_element(tuple((var, t) for var, (t, _) in comp.params.items())))
+        for p, (_, v) in zip(ps, comp.params.values()):
+            p[0].set("value", _fmt(v))
+        pset.append(ps)
         return pset
 
     def ssd_tree(self, fmu_names: dict[str, str]):

@@ -272,3 +272,38 @@ def test_a_table_that_does_not_hold_the_indexed_names_registers_one_by_one(monke
     later = cls(instance_name="b", resources=".", visible=False)
     assert "target_x_1" in calls and len(calls) > 1000
     assert _state(later) == _state(first)
+
+
+def _params_by_hand(builder, values_parent, comp):
+    """SspBuilder._params element by element (before the cached template)."""
+    q = writer._q
+    attrs = {"version": "1.0", "name": builder.parameter_set or f"{comp.name}-parameters"}
+    if values_parent is None:
+        pset = etree.Element(q("ssv", "ParameterSet"), nsmap={"ssv": writer.NS["ssv"]}, **attrs)
+    else:
+        pset = etree.SubElement(values_parent, q("ssv", "ParameterSet"), **attrs)
+    ps = etree.SubElement(pset, q("ssv", "Parameters"))
+    for var, (t, v) in comp.params.items():
+        p = etree.SubElement(ps, q("ssv", "Parameter"), name=var)
+        etree.SubElement(p, q("ssv", t), value=writer._fmt(v))
+    return pset
+
+
+@pytest.mark.parametrize("inline", [True, False])
+def test_parameter_values_serialise_as_built_element_by_element(inline):
+    rng = random.Random(4)
+    b = writer.SspBuilder("t")
+    for k in range(30):
+        params = {f"p{j}": rng.choice([rng.random() * 10 ** rng.randint(-9, 9), rng.randint(-5, 5), True,
+                                       'a&b<"c"\n\td', b"\x00\xff", -0.0])
+                  for j in rng.sample(range(12), rng.randint(0, 12))}
+        b.add_component(f"c{k % 3}", ROOT / "fmus" / "UavBattery.fmu", connectors=[], params=params)
+        comp = b.components[-1]
+
+        def holder():
+            root = etree.Element(writer._q("ssd", "SystemStructureDescription"), nsmap=dict(writer.NS))
+            return root, etree.SubElement(root, writer._q("ssd", "ParameterValues"))
+        (r1, v1), (r2, v2) = holder(), holder()
+        ours = b._params(v1 if inline else None, comp)
+        ref = _params_by_hand(b, v2 if inline else None, comp)
+        assert etree.tostring(r1 if inline else ours) == etree.tostring(r2 if inline else ref)
