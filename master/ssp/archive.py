@@ -139,6 +139,20 @@ def _written(path: Path) -> _Written | None:
     return None
 
 
+# SSD files unpacked from archives this process wrote -> their signature: the writer validated their tree
+# against the SSP schema before it serialised it, so reading them need not validate them again
+_VALIDATED: dict[str, tuple] = {}
+
+
+def schema_checked(ssd_path: Path) -> bool:
+    """Is ``ssd_path`` an SSD unpacked from an archive this process wrote (and validated), still as written?"""
+    sig = _VALIDATED.get(os.path.abspath(ssd_path))
+    try:
+        return sig is not None and _signature(os.stat(ssd_path)) == sig
+    except OSError:
+        return False
+
+
 def _unpack_written(w: _Written) -> Path:
     """The folder that unpacking the archive ``w`` gives (as ``_extract_ssp``), from the members as written."""
     tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-"))
@@ -147,6 +161,10 @@ def _unpack_written(w: _Written) -> Path:
             target = tmp / name
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_bytes(data)
+            if name == SSD_NAME:
+                if len(_VALIDATED) >= _MAX_WRITTEN:
+                    _VALIDATED.clear()
+                _VALIDATED[os.path.abspath(target)] = _signature(os.stat(target))
         for name, (sha, data) in w.fmus.items():
             target = tmp / name
             if not _place_fmu(sha, lambda out: out.write(data), target):

@@ -307,3 +307,22 @@ def test_parameter_values_serialise_as_built_element_by_element(inline):
         ours = b._params(v1 if inline else None, comp)
         ref = _params_by_hand(b, v2 if inline else None, comp)
         assert etree.tostring(r1 if inline else ours) == etree.tostring(r2 if inline else ref)
+
+
+def test_only_the_ssd_as_written_skips_the_schema(tmp_path, chain_fmus, monkeypatch):
+    """The writer validated the SSD it wrote: reading it back need not.  Changed since, it is validated."""
+    from master.errors import ScenarioError
+    from master.ssp.parser import read_ssd
+    monkeypatch.setenv("COSIM_MASTER_CACHE", str(tmp_path / "cache"))
+    ssp = _chain(tmp_path, 2.0, chain_fmus)
+    src = open_scenario(ssp)
+    try:
+        assert archive.schema_checked(src.ssd_path)
+        read_ssd(src.ssd_path, src.root)
+        text = src.ssd_path.read_bytes()
+        src.ssd_path.write_bytes(text.replace(b'<ssd:System name="chain"', b'<ssd:System name="chain" bogus="1"', 1))
+        assert not archive.schema_checked(src.ssd_path)
+        with pytest.raises(ScenarioError, match="does not conform to the SSP schema"):
+            read_ssd(src.ssd_path, src.root)
+    finally:
+        src.close()
