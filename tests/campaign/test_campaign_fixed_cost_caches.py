@@ -41,24 +41,49 @@ def _fresh_map(zones, margin):
 
 
 # --------------------------------------------------------------------------------------------- ZoneMap
-def test_one_zone_map_per_zones_and_margin():
+def _reused(zones, margin) -> bool:
+    """Does ZoneMap(zones, margin) hand out a map built before (the one just let go)?"""
+    first = ZoneMap(zones, margin)
+    kept = id(first)
+    del first
+    return id(ZoneMap(zones, margin)) == kept
+
+
+def test_a_zone_map_let_go_is_reused_for_the_same_zones_and_margin():
+    assert _reused([SQUARE], 3.0)
+    assert _reused([[tuple(p) for p in SQUARE]], 3)             # the same zones given anew
+    # a map held (by a strategy) is not handed out again: each strategy of a run has its own
     a = ZoneMap([SQUARE], 3.0)
-    assert ZoneMap([list(SQUARE)], 3.0) is a                    # the same zones given anew
-    assert ZoneMap([SQUARE], 3.5) is not a                      # the margin is part of the key
-    assert ZoneMap([SQUARE[:3]], 3.0) is not a                  # so is every vertex
-    moved = [SQUARE[0], (60.0, -5.0 + 2 ** -40), *SQUARE[2:]]
-    assert ZoneMap([moved], 3.0) is not a                       # to the last bit
-    signed = [(-0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]
-    assert ZoneMap([signed], 3.0) is not ZoneMap([[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]], 3.0)
-    assert ZoneMap([], 3.0) is not a and not ZoneMap([], 3.0)
+    b = ZoneMap([SQUARE], 3.0)
+    assert b is not a and ZoneMap([SQUARE], 3.0) not in (a, b)
+
+
+@pytest.mark.parametrize("other", [
+    ([SQUARE], 3.5),                                            # the margin is part of the key
+    ([SQUARE[:3]], 3.0),                                        # so is every vertex
+    ([[SQUARE[0], (60.0, -5.0 + 2 ** -40), *SQUARE[2:]]], 3.0),  # to the last bit
+    ([[(-0.0, -5.0), *SQUARE[1:]]], 3.0),
+    ([], 3.0),
+])
+def test_a_zone_map_is_not_reused_for_other_zones_or_margins(other):
+    base = [[(0.0, -5.0), *SQUARE[1:]]]
+    first = ZoneMap(base, 3.0)
+    kept = id(first)
+    del first
+    assert id(ZoneMap(*other)) != kept
 
 
 def test_a_shared_zone_map_answers_as_a_fresh_one():
     rng = random.Random(5)
     zones = [[(x + 30.0 * k, y + 20.0 * k) for x, y in SQUARE] for k in range(3)]
+    first = ZoneMap(zones, 2.0)
+    for margin in (4.0, 2.0, 7.5):           # planners of other margins built first on the map
+        first.plan((0.0, 0.0), (150.0, 90.0), margin)
+    first.detour((0.0, 0.0), (150.0, 90.0))
+    kept = id(first)
+    del first
     shared = ZoneMap(zones, 2.0)
-    for margin in (4.0, 2.0, 7.5):           # planners of other margins built first on the shared map
-        shared.plan((0.0, 0.0), (150.0, 90.0), margin)
+    assert id(shared) == kept
     fresh = _fresh_map(zones, 2.0)
     for _ in range(200):
         a = (rng.uniform(-20, 200), rng.uniform(-40, 120))
@@ -69,10 +94,14 @@ def test_a_shared_zone_map_answers_as_a_fresh_one():
         assert shared.plan(a, b, margin) == fresh.plan(a, b, margin)
 
 
-def test_the_fmu_state_of_a_strategy_shares_its_zone_map():
+def test_the_fmu_state_of_a_strategy_keeps_its_zone_map():
     from uavsim.fmi import _copy
     zm = ZoneMap([SQUARE], 3.0)
-    assert _copy({"zones": zm}, {})["zones"] is zm      # a deep copy (FMU state) keeps the shared map
+    state = _copy({"zones": zm}, {})
+    assert state["zones"] is zm                 # a deep copy (FMU state) keeps the map ...
+    kept = id(zm)
+    del zm
+    assert id(ZoneMap([SQUARE], 3.0)) != kept   # ... and holds it: not handed to another strategy
 
 
 # ------------------------------------------------------------------------------------- record patterns
