@@ -14,6 +14,9 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
 
+Measured on 2026-11-27 (the fixed part of a run: caches of what runs of one structure share, summary CSVs
+without pandas): see bench/results/campaign_2026-11-27.md.
+
 Measured on 2026-11-23 (``rules: paper``, 5 m/s): see bench/results/campaign_2026-11-23.md -- where a
 warm worker's run spends its CPU (the step loop ~80 %, FMU instantiation ~8 %, the rest ~10 %), the
 worker caches added that day, and the full campaign before/after on a shared machine.

@@ -49,6 +49,12 @@ _INDEXED_DESCRIPTIONS = {  # docs/uav_models.md, "Mission data as indexed parame
     "n_zones": f"number of zones zone_z_* (0..{M.MAX_ZONES}); -1: use the String 'zones'",
 }
 
+# the indexed parameters' names and start values: set in one update by every instance after the first (a
+# thousand one-by-one registrations were the costliest part of a campaign run's FMU instantiation)
+_INDEXED_DEFAULTS = {name: (M.NOT_GIVEN if name in _INDEXED_DESCRIPTIONS else 0) if typ == "Integer" else 0.0
+                     for name, typ in M.parameter_names()}
+_INDEXED_NAMES = tuple(_INDEXED_DEFAULTS)
+
 
 class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
@@ -107,6 +113,9 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
     def _register_indexed_mission(self):
         """The targets and zones as scalar Integer/Real parameters (uavsim/mission_encoding.py), which
         every master applies (not all apply String parameters)."""
+        if self._run_in_table(_INDEXED_NAMES):      # a later instance: the class's first one registered them
+            self.__dict__.update(_INDEXED_DEFAULTS)
+            return
         for name, typ in M.parameter_names():
             if typ == "Integer":
                 default = M.NOT_GIVEN if name in _INDEXED_DESCRIPTIONS else 0

@@ -143,7 +143,7 @@ class ComponentVariables(Mapping):
     def __getitem__(self, name: str) -> Var:
         v = self._made.get(name)
         if v is None:
-            v = self._made[name] = replace(self._described[name], component=self.component)
+            v = self._made[name] = _renamed(self._described[name], self.component)
         return v
 
     def __contains__(self, name) -> bool:
@@ -154,6 +154,22 @@ class ComponentVariables(Mapping):
 
     def __len__(self) -> int:
         return len(self._described)
+
+    @property
+    def described(self) -> dict[str, Var]:
+        """The FMU's variables with no component (shared by every component of the FMU, never modified): what
+        a per-process cache may key on by identity."""
+        return self._described
+
+
+def _renamed(v: Var, component: str) -> Var:
+    """``replace(v, component=component)`` without dataclasses.replace's field-by-field construction (a run makes
+    a few hundred of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
+    out = object.__new__(Var)
+    d = out.__dict__
+    d.update(v.__dict__)
+    d["component"] = component
+    return out
 
 
 # model description -> (the description, kept alive for its id; its variables, component ""): a campaign worker

@@ -394,6 +394,112 @@ def summary_frame(uavs: list[dict], total: dict):
     return frame
 
 
+# ------------------------------------------------------------------------------- the two CSVs without pandas
+# A campaign run writes photos.csv and summary.csv of a few rows each, and building the pandas frames for them
+# cost more than the rest of the run's outputs.  Their twins below give pandas' bytes for the values the
+# monitor makes (str, int, float, bool, None): each column's cells are what DataFrame(rows) and to_csv(index=
+# False) hand to the csv module (the dtype pandas infers, numpy's float formatting, empty cells for missing
+# values), written by the csv module with pandas' dialect.  Any other value, or a case whose pandas outcome is
+# an error, makes them decline (nothing written) and the frame is built as before
+# (tests/campaign/test_campaign_outputs_csv.py compares both on thousands of random tables).
+_PLAIN_TYPES = frozenset((str, int, float, bool, type(None)))
+
+
+def _column_cells(values: list, as_int64: bool = False) -> list | None:
+    """The cells of a column of ``values`` (from dicts, as pandas infers it; ``as_int64``: then ``astype("Int64")``),
+    or None when the twin does not cover them."""
+    kinds = {type(v) for v in values}
+    if not kinds <= _PLAIN_TYPES:
+        return None
+    missing = [v is None or (type(v) is float and v != v) for v in values]
+    numeric = kinds - {type(None)}
+    if as_int64:
+        return _int64_cells(values, missing, numeric)
+    if not numeric or str in numeric or bool in numeric and numeric != {bool}:
+        # an object column: the values themselves (the csv module formats them), missing ones empty
+        return ["" if na else v for v, na in zip(values, missing)]
+    if numeric == {bool}:
+        return ["" if na else str(v) for v, na in zip(values, missing)]
+    if numeric == {int} and not any(missing):
+        return [str(v) for v in values] if all(-2 ** 63 <= v < 2 ** 63 for v in values) else None
+    # float64: numpy's shortest round-trip text, as pandas' astype(str); missing values empty
+    if any(type(v) is int and abs(v) > 2 ** 53 for v in values):
+        return None
+    text = np.array([math.nan if na else float(v) for v, na in zip(values, missing)], dtype=np.float64).astype(str)
+    return ["" if na else t for t, na in zip(text.tolist(), missing)]
+
+
+def _int64_cells(values: list, missing: list, numeric: set) -> list | None:
+    """The cells of a column that pandas infers and then casts to its nullable Int64."""
+    if not numeric <= {int, float}:
+        return None
+    out = []
+    for v, na in zip(values, missing):
+        if na:
+            out.append("")
+        elif type(v) is int:
+            if numeric == {float, int} and abs(v) > 2 ** 53:
+                return None     # through float64 first: pandas' rounding, or its error
+            if not -2 ** 63 <= v < 2 ** 63:
+                return None
+            out.append(str(v))
+        elif v.is_integer() and abs(v) <= 2 ** 53:
+            out.append(str(int(v)))
+        else:
+            return None         # pandas refuses the cast, with its own error message
+    return out
+
+
+def _write_csv(path: Path, columns: list[str], cells: list[list]) -> None:
+    """Rows of ``cells`` (one list per column) under ``columns``, with pandas' to_csv dialect."""
+    import csv
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n", delimiter=",", quotechar='"', quoting=csv.QUOTE_MINIMAL,
+                       doublequote=True, escapechar=None)
+        w.writerow(columns)
+        w.writerows(zip(*cells))
+
+
+def write_summary_csv(uavs: list[dict], total: dict, path: Path) -> bool:
+    """summary.csv as ``summary_frame(uavs, total).to_csv(path, index=False)`` writes it; False (nothing
+    written) when the values are not all of the plain kinds the twin covers."""
+    columns = SUMMARY_COLUMNS + TOTAL_COLUMNS
+    rows = [{c: u.get(c) for c in SUMMARY_COLUMNS} for u in uavs]
+    rows.append({**{c: total.get(c) for c in columns}, "uav": TOTAL_ROW})
+    cells = []
+    for c in columns:
+        col = _column_cells([r.get(c) for r in rows], as_int64=c in COUNT_COLUMNS)
+        if col is None:
+            return False
+        cells.append(col)
+    _write_csv(path, columns, cells)
+    return True
+
+
+def write_photos_csv(mon, path: Path) -> bool:
+    """photos.csv as ``photos_frame(mon, None).to_csv(path, index=False)`` writes it from the monitor's own
+    photo records; False (nothing written) for values the twin does not cover."""
+    cfg = mon.cfg
+    rows = [(spec.name, p["target"], p["time"], p["x"], p["y"], p.get("z", math.nan))
+            for spec, rec in zip(cfg.uavs, mon.records) for p in rec.photos]
+    columns = ["uav", "target", "time", "x", "y", "lat", "lon"]
+    if not rows:
+        _write_csv(path, columns, [[] for _ in columns])
+        return True
+    if any(type(r[2]) is not float or r[2] != r[2] or type(r[0]) is not str for r in rows) or \
+            any(type(v) not in (int, float) for r in rows for v in r[3:6]):
+        return False            # NaN times sort last in pandas; other kinds take the frame
+    cells = [_column_cells([r[k] for r in rows]) for k in range(5)]
+    if any(c is None for c in cells):
+        return False
+    z = np.array([0.0 if v != v else float(v) for v in (r[5] for r in rows)], dtype=float)
+    lat, lon, _ = to_geodetic(cfg.origin, np.array([float(r[3]) for r in rows]), np.array([float(r[4]) for r in rows]), z)
+    cells += [_column_cells(np.atleast_1d(lat).tolist()), _column_cells(np.atleast_1d(lon).tolist())]
+    order = sorted(range(len(rows)), key=lambda i: (rows[i][2], rows[i][0]))     # stable, as pandas' lexsort
+    _write_csv(path, columns, [[col[i] for i in order] for col in cells])
+    return True
+
+
 # ------------------------------------------------------------------------------- map
 def _nice(length: float) -> float:
     if not length > 0:
@@ -633,12 +739,14 @@ def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict
     except Exception as exc:   # noqa: BLE001 - one failed output must not stop the others
         errors.append(f"trajectory.csv: {type(exc).__name__}: {exc}")
     try:
-        photos_frame(mon, df).to_csv(out_dir / "photos.csv", index=False)
+        if df is not None or mon.ctx is None or not write_photos_csv(mon, out_dir / "photos.csv"):
+            photos_frame(mon, df).to_csv(out_dir / "photos.csv", index=False)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"photos.csv: {type(exc).__name__}: {exc}")
     df = None       # the recorded columns are not needed further (a large fleet's are tens of MB)
     try:
-        summary_frame(uavs, total).to_csv(out_dir / "summary.csv", index=False)
+        if not write_summary_csv(uavs, total, out_dir / "summary.csv"):
+            summary_frame(uavs, total).to_csv(out_dir / "summary.csv", index=False)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"summary.csv: {type(exc).__name__}: {exc}")
     try:

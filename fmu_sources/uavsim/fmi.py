@@ -394,6 +394,19 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
         d["_n_registered"] = n + 1
         return True
 
+    def _run_in_table(self, names: tuple) -> bool:
+        """True when the class's shared table holds ``names`` as the variables registered next, which are then
+        taken as registered (a shell with a thousand parameters sets their defaults itself, in one update)."""
+        table = type(self).__dict__.get("_var_table")
+        if not table:
+            return False
+        d = self.__dict__
+        n = d.get("_n_registered", 0)
+        if table.names[n:n + len(names)] != names:
+            return False        # registered one by one, which names the first difference
+        d["_n_registered"] = n + len(names)
+        return True
+
     def register_variable(self, var, nested: bool = True):
         if not self._in_table(var.name):
             super().register_variable(var, nested)

@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import sys
 from dataclasses import dataclass, field
 
 from . import params as P
@@ -162,10 +163,59 @@ def _seg_point_dist(ax, ay, bx, by, px, py) -> float:
     return math.hypot(px - ax - u * dx, py - ay - u * dy)
 
 
-class ZoneMap:
-    """Restricted zones (shapely polygons): segment tests and the paper's reactive detours."""
+def _unheld(maps: list):
+    """The first of ``maps`` that nothing but the list refers to, or None."""
+    for i in range(len(maps)):
+        if sys.getrefcount(maps[i]) == 2:       # the list's reference and getrefcount's argument
+            return maps[i]
+    return None
 
-    def __init__(self, zones, margin: float = P.AVOID_MARGIN):
+
+def _zone_key(zones, margin) -> tuple:
+    """The zones and margin by their exact bits (``float.hex``: -0.0 and 0.0 stay apart), as a cache key."""
+    return (float(margin).hex(), tuple(tuple((float(x).hex(), float(y).hex()) for x, y in z) for z in zones))
+
+
+class ZoneMap:
+    """Restricted zones (shapely polygons): segment tests and the paper's reactive detours.
+
+    ``ZoneMap(zones, margin)`` reuses a map of the same zones (to the bit) and margin that no one holds any
+    more: a campaign worker flies the same areas run after run, and a map's polygons, detour graph and planners
+    (``planner``: a visibility graph per clearance) are functions of the zones and margin alone, built when
+    first needed and never changed after.  A map in use is never handed out again (the strategies of one run
+    each build their own), so no two strategies query one map's prepared geometries at once (threaded steps);
+    the FMU state of a strategy (a deep copy) keeps its map."""
+
+    _BUILT: dict[tuple, list] = {}       # zones and margin -> the maps built for them
+    _MAX_BUILT = 64                       # zone sets kept
+    _MAX_MAPS = 64                        # maps kept per zone set (a fleet's strategies each hold one)
+
+    def __new__(cls, zones=None, margin: float = P.AVOID_MARGIN):
+        if zones is None:       # a copy or an unpickled map: its attributes follow
+            return super().__new__(cls)
+        zones = [list(z) for z in zones]
+        key = (cls, _zone_key(zones, margin))
+        maps = ZoneMap._BUILT.get(key)
+        if maps is None:
+            if len(ZoneMap._BUILT) >= ZoneMap._MAX_BUILT:
+                ZoneMap._BUILT.clear()
+            maps = ZoneMap._BUILT[key] = []
+        free = _unheld(maps)
+        if free is not None:
+            return free
+        built = super().__new__(cls)
+        built._build(zones, margin)
+        if len(maps) < ZoneMap._MAX_MAPS:
+            maps.append(built)
+        return built
+
+    def __init__(self, zones=None, margin: float = P.AVOID_MARGIN):
+        pass            # built (or reused) by __new__
+
+    def __deepcopy__(self, memo):
+        return self     # never changed after it is built (its prepared geometries could not be copied anyway)
+
+    def _build(self, zones, margin):
         import shapely
         from shapely.geometry import Polygon
         from shapely.prepared import prep

@@ -7,6 +7,7 @@ long runs and every flushed block is on disk if the run fails later. ``finish`` 
 from __future__ import annotations
 
 import fnmatch
+import functools
 import re
 from pathlib import Path
 
@@ -33,23 +34,55 @@ def select_variables(plan, patterns: list[str] | None, connected_outputs: list[V
     """Default: every connected output. Patterns (shell-style, on 'component.variable') select more or others."""
     if not patterns:
         return list(connected_outputs)
-    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables; a
-    # pattern is also taken literally, so that an array element (``m.y[2]``) names itself, not a [set]
-    match = re.compile("|".join(f"(?:{fnmatch.translate(p)})|(?:{re.escape(p)}\\Z)" for p in patterns)).match
+    match = _pattern_matcher(tuple(patterns))
     chosen, seen = [], set()
     for comp, vars_ in plan.variables.items():
         prefix = comp + "."
-        for name in vars_:          # by name: the plan makes a Var only for what is asked for (plan.ComponentVariables)
+        for name in _matching_names(match, comp, vars_):
             q = prefix + name
-            if q in seen or not match(q):
+            if q in seen:
                 continue
-            v = vars_[name]
-            # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
-            if v.type not in ARROW_TYPES or v.is_array:
-                continue
-            chosen.append(v)
+            chosen.append(vars_[name])
             seen.add(q)
     return chosen
+
+
+@functools.lru_cache(maxsize=16)
+def _pattern_matcher(patterns: tuple):
+    # one regular expression for all patterns (fnmatchcase semantics): a fleet has thousands of variables; a
+    # pattern is also taken literally, so that an array element (``m.y[2]``) names itself, not a [set]
+    return re.compile("|".join(f"(?:{fnmatch.translate(p)})|(?:{re.escape(p)}\\Z)" for p in patterns)).match
+
+
+# (matcher, component name, id of the FMU's shared description) -> (that description, kept alive for its id;
+# the recordable names it matches): a campaign worker records the same patterns of the same FMUs in run after
+# run, and matching a strategy FMU's thousand names was most of a run's setup time
+_MATCHED: dict[tuple, tuple[dict, list[str]]] = {}
+_MAX_MATCHED = 4096
+
+
+def _matching_names(match, comp: str, vars_) -> list[str]:
+    """The recordable variables of one component whose qualified name ``match`` takes, in the FMU's order."""
+    described = getattr(vars_, "described", None)      # a plain mapping (input tables) is matched every time
+    key = (match, comp, id(described))
+    hit = _MATCHED.get(key) if described is not None else None
+    if hit is not None and hit[0] is described:
+        return hit[1]
+    prefix = comp + "."
+    names = []
+    for name in vars_:          # by name: the plan makes a Var only for what is asked for (plan.ComponentVariables)
+        if not match(prefix + name):
+            continue
+        v = vars_[name] if described is None else described[name]
+        # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
+        if v.type not in ARROW_TYPES or v.is_array:
+            continue
+        names.append(name)
+    if described is not None:
+        if len(_MATCHED) >= _MAX_MATCHED:
+            _MATCHED.clear()
+        _MATCHED[key] = (described, names)
+    return names
 
 
 # The numeric block is float64, 8 bytes a cell (a supervised run keeps it in shared memory). Real, int32 and

@@ -64,21 +64,29 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> bool:
     instead of a fresh file: a campaign unpacks the same FMUs from every run's archive, and the FMU cache
     (``master.fmi.cache``) knows a file it has hashed by its path and mtime, so it neither hashes nor unpacks the
     FMU again.  False (extract it as usual) where links cannot be made."""
-    from ..fmi.cache import cache_root
     h = hashlib.sha256()
     with zf.open(info) as fh:            # reading to the end checks the member's CRC, as extract() does
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
-    sha = h.hexdigest()
+
+    def copy(out):
+        with zf.open(info) as fh:
+            shutil.copyfileobj(fh, out, 1 << 20)
+    return _place_fmu(h.hexdigest(), copy, tmp / info.filename)
+
+
+def _place_fmu(sha: str, copy, link: Path) -> bool:
+    """Link ``link`` to the stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them
+    when there is none yet); False where links cannot be made."""
+    from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     kept = store / f"{sha}.fmu"
-    link = tmp / info.filename
     try:
         if not kept.is_file():
             store.mkdir(parents=True, exist_ok=True)
             part = store / f".{sha}.{os.getpid()}.tmp"
-            with zf.open(info) as fh, open(part, "wb") as out:
-                shutil.copyfileobj(fh, out, 1 << 20)
+            with open(part, "wb") as out:
+                copy(out)
             os.replace(part, kept)          # whole or absent, whichever process wins
         link.parent.mkdir(parents=True, exist_ok=True)
         if link.is_symlink():               # a member named twice: the later one counts, as with extract()
@@ -89,6 +97,83 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> bool:
             link.unlink()
         return False
     return True
+
+
+@dataclass
+class _Written:
+    """An archive this process wrote: what it holds, and the file it was written to."""
+    stat: tuple             # (device, inode, size, mtime, ctime) right after it was written
+    sha256: str             # of the archive's bytes
+    files: dict             # member name -> bytes (SSD, parameter files)
+    fmus: dict              # member name -> (SHA-256, bytes)
+
+
+# archives written by this process (master.ssp.writer) by absolute path: a campaign run writes its archive and
+# opens it right away, and reading it back meant unpacking and hashing a megabyte of FMUs it had just written.
+# The file's identity and times are the key's second half: a file changed or replaced since is read as usual.
+_WRITTEN: dict[str, _Written] = {}
+_MAX_WRITTEN = 8
+
+
+def _signature(st: os.stat_result) -> tuple:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def remember_written(path: Path, sha256: str, files: dict, fmus: dict) -> None:
+    """Note the archive just written to ``path`` (its SHA-256 and members; FMU members with their SHA-256)."""
+    if len(_WRITTEN) >= _MAX_WRITTEN:
+        _WRITTEN.clear()
+    _WRITTEN[os.path.abspath(path)] = _Written(_signature(os.stat(path)), sha256, dict(files), dict(fmus))
+
+
+def _written(path: Path) -> _Written | None:
+    """What this process wrote to ``path``, if the file is still the one it wrote."""
+    w = _WRITTEN.get(os.path.abspath(path))
+    if w is None:
+        return None
+    try:
+        if _signature(os.stat(path)) == w.stat:
+            return w
+    except OSError:
+        pass
+    return None
+
+
+# SSD files unpacked from archives this process wrote -> their signature: the writer validated their tree
+# against the SSP schema before it serialised it, so reading them need not validate them again
+_VALIDATED: dict[str, tuple] = {}
+
+
+def schema_checked(ssd_path: Path) -> bool:
+    """Is ``ssd_path`` an SSD unpacked from an archive this process wrote (and validated), still as written?"""
+    sig = _VALIDATED.get(os.path.abspath(ssd_path))
+    try:
+        return sig is not None and _signature(os.stat(ssd_path)) == sig
+    except OSError:
+        return False
+
+
+def _unpack_written(w: _Written) -> Path:
+    """The folder that unpacking the archive ``w`` gives (as ``_extract_ssp``), from the members as written."""
+    tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-"))
+    try:
+        for name, data in w.files.items():
+            target = tmp / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)
+            if name == SSD_NAME:
+                if len(_VALIDATED) >= _MAX_WRITTEN:
+                    _VALIDATED.clear()
+                _VALIDATED[os.path.abspath(target)] = _signature(os.stat(target))
+        for name, (sha, data) in w.fmus.items():
+            target = tmp / name
+            if not _place_fmu(sha, lambda out: out.write(data), target):
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(data)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ScenarioError(f"cannot unpack the SSP archive: {exc}", file=tmp) from None
+    return tmp
 
 
 def _not_an_ssp(path: Path) -> None:
@@ -115,7 +200,8 @@ def open_scenario(path: str | os.PathLike, ssd_name: str | None = None) -> Scena
         return ScenarioSource(path, ssd, path)
     if path.suffix.lower() == ".ssd":
         return ScenarioSource(path, path, path.parent)
-    tmp = _extract_ssp(path)
+    written = _written(path)
+    tmp = _unpack_written(written) if written is not None else _extract_ssp(path)
     ssd = tmp / (ssd_name or SSD_NAME)
     if not ssd.is_file():
         shutil.rmtree(tmp, ignore_errors=True)
@@ -124,6 +210,9 @@ def open_scenario(path: str | os.PathLike, ssd_name: str | None = None) -> Scena
 
 
 def file_sha256(path: str | os.PathLike) -> str:
+    written = _written(Path(path))
+    if written is not None:
+        return written.sha256
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):

@@ -12,6 +12,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
+from .archive import schema_checked
 from .connection_extrapolation import read_connection_order
 from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
                     SystemModel, Transformation, Unit)
@@ -385,7 +386,7 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     if _local(top) != "SystemStructureDescription":
         raise ScenarioError(f"root element is {_local(top)!r}, expected ssd:SystemStructureDescription",
                             file=shown_as, line=top.sourceline)
-    if validate:
+    if validate and not schema_checked(ssd_path):
         xsd.validate(tree, "ssd", shown_as)
     reader.read_units(_child(top, "Units"), shown_as)
     system = _child(top, "System")

@@ -5,6 +5,9 @@ annotations, so libcosim and OMSimulator pick the same step without extra option
 """
 from __future__ import annotations
 
+import copy
+import hashlib
+import io
 import os
 import shutil
 import zipfile
@@ -14,6 +17,7 @@ from pathlib import Path
 from lxml import etree
 
 from . import xsd
+from .archive import remember_written
 from .connection_extrapolation import write_connection_order
 from .settings_annotations import OUR_NS, OUR_TYPE
 
@@ -50,6 +54,71 @@ class _Comp:
     ssv: str | None = None     # put parameters in resources/<name>.ssv instead of inline
 
 
+# (id of a model description, the parameters set) -> (the description, kept alive for its id; its connectors):
+# a campaign worker writes the same FMUs with the same parameter names into every run's SSD, and going through
+# a strategy FMU's thousand variables for its few dozen connectors cost more than the rest of its component
+_CONNECTORS: dict[tuple, tuple[object, tuple]] = {}
+_MAX_CONNECTORS = 256
+
+
+def _described_connectors(md, params: dict) -> tuple:
+    """(name, kind, type, unit) of every input and output of the FMU, and of the parameters in ``params``."""
+    key = (id(md), frozenset(params))
+    hit = _CONNECTORS.get(key)
+    if hit is not None and hit[0] is md:
+        return hit[1]
+    connectors = []
+    for v in md.modelVariables:
+        if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
+            t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
+            if t.startswith(("Int", "UInt")):
+                t = "Integer"
+            connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
+    if len(_CONNECTORS) >= _MAX_CONNECTORS:
+        _CONNECTORS.clear()
+    _CONNECTORS[key] = (md, tuple(connectors))
+    return _CONNECTORS[key][1]
+
+
+# connectors -> their ssd:Connectors element, under a root declaring the SSD's namespaces (a copy taken into an
+# SSD declares none of its own): a campaign's runs write the same components' connectors again and again
+_CONNECTORS_XML: dict[tuple, etree._Element] = {}
+
+
+def _connectors_element(connectors: tuple) -> etree._Element:
+    conns = _CONNECTORS_XML.get(connectors)
+    if conns is None:
+        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
+        conns = etree.SubElement(holder, _q("ssd", "Connectors"))
+        for cname, kind, typ, unit in connectors:
+            c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
+            t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
+            if unit and typ == "Real":
+                t.set("unit", unit)
+        if len(_CONNECTORS_XML) >= _MAX_CONNECTORS:
+            _CONNECTORS_XML.clear()
+        _CONNECTORS_XML[connectors] = conns
+    return conns
+
+
+# (name, type) of each parameter -> their ssv:Parameters element without values (as _connectors_element)
+_PARAMETERS_XML: dict[tuple, etree._Element] = {}
+
+
+def _parameters_element(named_types: tuple) -> etree._Element:
+    ps = _PARAMETERS_XML.get(named_types)
+    if ps is None:
+        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
+        ps = etree.SubElement(holder, _q("ssv", "Parameters"))
+        for var, t in named_types:
+            p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
+            etree.SubElement(p, _q("ssv", t))
+        if len(_PARAMETERS_XML) >= _MAX_CONNECTORS:
+            _PARAMETERS_XML.clear()
+        _PARAMETERS_XML[named_types] = ps
+    return ps
+
+
 @dataclass
 class SspBuilder:
     name: str
@@ -75,14 +144,7 @@ class SspBuilder:
         params = dict(params or {})
         if connectors is None:
             from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
-            md = load_fmu(fmu_path).md
-            connectors = []
-            for v in md.modelVariables:
-                if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
-                    t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
-                    if t.startswith(("Int", "UInt")):
-                        t = "Integer"
-                    connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
+            connectors = _described_connectors(load_fmu(fmu_path).md, params)
         typed = {}
         kinds = {c[0]: c[2] for c in connectors}
         for k, v in params.items():
@@ -129,10 +191,10 @@ class SspBuilder:
             pset = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]}, **attrs)
         else:
             pset = etree.SubElement(values_parent, _q("ssv", "ParameterSet"), **attrs)
-        ps = etree.SubElement(pset, _q("ssv", "Parameters"))
-        for var, (t, v) in comp.params.items():
-            p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
-            etree.SubElement(p, _q("ssv", t), value=_fmt(v))
+        ps = copy.deepcopy(_parameters_element(tuple((var, t) for var, (t, _) in comp.params.items())))
+        for p, (_, v) in zip(ps, comp.params.values()):
+            p[0].set("value", _fmt(v))
+        pset.append(ps)
         return pset
 
     def ssd_tree(self, fmu_names: dict[str, str]):
@@ -144,12 +206,7 @@ class SspBuilder:
         for comp in self.components:
             el = etree.SubElement(elements, _q("ssd", "Component"), name=comp.name,
                                   type="application/x-fmu-sharedlibrary", source=f"resources/{fmu_names[comp.name]}")
-            conns = etree.SubElement(el, _q("ssd", "Connectors"))
-            for cname, kind, typ, unit in comp.connectors:
-                c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
-                t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
-                if unit and typ == "Real":
-                    t.set("unit", unit)
+            el.append(copy.deepcopy(_connectors_element(tuple(comp.connectors))))
             if comp.params:
                 pbs = etree.SubElement(el, _q("ssd", "ParameterBindings"))
                 if comp.ssv:
@@ -209,14 +266,22 @@ class SspBuilder:
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
         if path.suffix.lower() == ".ssp":
             path.parent.mkdir(parents=True, exist_ok=True)
+            files = {"SystemStructure.ssd": ssd_bytes, **{f"resources/{name}": data for name, data in ssv_bytes.items()}}
+            fmus = {arc: _fmu_content(src) for arc, src in sorted(members.items())}
+            buf = io.BytesIO()
+            with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
+                for arc, data in files.items():
+                    zf.writestr(_zinfo(arc), data)
+                for arc, (data, _) in fmus.items():
+                    zf.writestr(_zinfo(arc), data)
             tmp = path.with_suffix(".ssp.tmp")
-            with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as zf:
-                zf.writestr(_zinfo("SystemStructure.ssd"), ssd_bytes)
-                for name, data in ssv_bytes.items():
-                    zf.writestr(_zinfo(f"resources/{name}"), data)
-                for arc, src in sorted(members.items()):
-                    zf.writestr(_zinfo(arc), _fmu_bytes(src))
+            archive = buf.getbuffer()
+            with open(tmp, "wb") as fh:
+                fh.write(archive)
             os.replace(tmp, path)
+            remember_written(path, hashlib.sha256(archive).hexdigest(), files,
+                             {arc: (sha, data) for arc, (data, sha) in fmus.items()})
+            archive.release()
         else:
             if path.exists():
                 shutil.rmtree(path)
@@ -229,20 +294,21 @@ class SspBuilder:
         return path
 
 
-_FMU_BYTES: dict[tuple, bytes] = {}
+_FMU_BYTES: dict[tuple, tuple[bytes, str]] = {}
 
 
-def _fmu_bytes(src: Path) -> bytes:
-    """An FMU's bytes, read once per process while the file is unchanged: a campaign writes the same FMUs into
-    every run's archive."""
+def _fmu_content(src: Path) -> tuple[bytes, str]:
+    """An FMU's bytes and their SHA-256, read once per process while the file is unchanged: a campaign writes
+    the same FMUs into every run's archive."""
     st = src.stat()
     key = (str(src.resolve()), st.st_mtime_ns, st.st_size)
-    data = _FMU_BYTES.get(key)
-    if data is None:
+    content = _FMU_BYTES.get(key)
+    if content is None:
         if len(_FMU_BYTES) >= 32:
             _FMU_BYTES.clear()
-        data = _FMU_BYTES[key] = src.read_bytes()
-    return data
+        data = src.read_bytes()
+        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest())
+    return content
 
 
 def _zinfo(name):

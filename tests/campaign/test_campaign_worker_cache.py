@@ -18,11 +18,14 @@ import pytest
 from master.campaign.execute import execute_run
 from master.campaign.runner import make_task
 from master.campaign.spec import load_campaign
+from master.observers import recording
+from master.ssp import archive
 from master.ssp.archive import open_scenario
 from master.ssp.writer import SspBuilder
 from uavstudy import build, campaign_kind
 from uavstudy.build import FMU_FILES, default_fmu_dir, layout_key
 from uavstudy.scenario import load_scenario_yaml
+from uavsim.strategy import ZoneMap
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -81,6 +84,9 @@ def _files(folder: Path) -> dict:
 def test_a_worker_that_ran_other_runs_writes_what_a_fresh_process_writes(tmp_path):
     build._LAYOUTS.clear()          # this process may have run other tests' campaigns
     campaign_kind._BASES.clear()
+    ZoneMap._BUILT.clear()
+    recording._MATCHED.clear()
+    archive._WRITTEN.clear()
     path = tmp_path / "camp.yaml"
     path.write_text(CAMPAIGN)
     camp = load_campaign(path)
@@ -95,6 +101,8 @@ def test_a_worker_that_ran_other_runs_writes_what_a_fresh_process_writes(tmp_pat
     for r in before:
         assert execute_run(make_task(camp, r, warm_out))["outcome"] == "completed"
     assert len(build._LAYOUTS) == 3 and len(campaign_kind._BASES) == 2     # what the target run finds
+    # ... and the zone maps of the zones runs' areas, the record selections, the archives written
+    assert ZoneMap._BUILT and recording._MATCHED and len(archive._WRITTEN) == 3
     warm = execute_run(make_task(camp, target, warm_out))
     assert warm["outcome"] == "completed"
 
