@@ -140,13 +140,23 @@ run:
 # record and the interrupt, even on a fast master
 
 
+def _default_sigint():
+    """The child as a shell would start it: SIGINT neither ignored nor blocked, whatever this test process inherited
+    (a test runner's worker may run with SIGINT ignored, and exec keeps an ignored signal ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path, SLOW)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    mine = {k: v for k, v in (line.split(":", 1) for line in Path("/proc/self/status").read_text().splitlines()
+                              if line.startswith(("SigIgn", "SigBlk")))} if Path("/proc/self/status").exists() else {}
     p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=_default_sigint)
     t0 = time.monotonic()
     deadline = t0 + 60
     while time.monotonic() < deadline and len(list((out / "runs").glob("*.json"))) < 2:
@@ -155,7 +165,8 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     p.send_signal(signal.SIGINT)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 1, (f"SIGINT sent after {waited:.2f} s with {seen} records; "
-                               f"{len(list((out / 'runs').glob('*.json')))} at the end; {stdout!r} {stderr!r}")
+                               f"{len(list((out / 'runs').glob('*.json')))} at the end; this process: {mine} "
+                               f"{signal.getsignal(signal.SIGINT)!r}; {stdout!r} {stderr!r}")
     assert "Interrupted" in stdout
     records = list((out / "runs").glob("*.json"))
     assert 2 <= len(records) < 12
