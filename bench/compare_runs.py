@@ -15,13 +15,21 @@ from pathlib import Path
 
 VOLATILE = {"wall_time_s", "finished_at", "worker", "scenario", "platform", "python", "package_version",
             "code_sha256", "inputs_sha256", "inputs", "used", "campaign_file", "runs_per_min", "elapsed_s",
-            "traceback", "timing", "supervised", "products", "native_loop"}   # how the run was executed and filed, not results
+            "traceback", "timing", "supervised", "products", "native_loop",   # how the run was executed and filed
+            # the FMU and run-archive hashes name the code that ran (any rebuild changes them), not what it computed
+            "sha256", "scenario_sha256"}
 SKIP_FILES = {"fmu.log", "map.png", "report.md", "progress.json", "invocations.jsonl"}
+
+
+def _fmu_hashes(key, value) -> bool:
+    """A campaign record's ``fmus``: component -> the SHA-256 of its FMU (run.json's entries hold more, and only
+    their ``sha256`` is left out)."""
+    return key == "fmus" and isinstance(value, dict) and all(isinstance(v, str) for v in value.values())
 
 
 def _clean(o):
     if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items() if k not in VOLATILE}
+        return {k: _clean(v) for k, v in o.items() if k not in VOLATILE and not _fmu_hashes(k, v)}
     if isinstance(o, list):
         return [_clean(v) for v in o]
     return o
