@@ -74,10 +74,16 @@ def _described_connectors(md, params: dict) -> tuple:
             if t.startswith(("Int", "UInt")):
                 t = "Integer"
             connectors.append((v.name, v.causality, t, getattr(v, "unit", None)))
-    if len(_CONNECTORS) >= _MAX_CONNECTORS:
-        _CONNECTORS.clear()
-    _CONNECTORS[key] = (md, tuple(connectors))
-    return _CONNECTORS[key][1]
+    return _keep(_CONNECTORS, key, (md, tuple(connectors)))[1]
+
+
+def _keep(cache: dict, key, value):
+    """``value`` stored under ``key`` in one of the writer's caches, which are emptied when full (a campaign uses a
+    handful of entries; anything else would grow without bound)."""
+    if len(cache) >= _MAX_CONNECTORS:
+        cache.clear()
+    cache[key] = value
+    return value
 
 
 # connectors -> their ssd:Connectors element, under a root declaring the SSD's namespaces (a copy taken into an
@@ -95,9 +101,7 @@ def _connectors_element(connectors: tuple) -> etree._Element:
             t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
             if unit and typ == "Real":
                 t.set("unit", unit)
-        if len(_CONNECTORS_XML) >= _MAX_CONNECTORS:
-            _CONNECTORS_XML.clear()
-        _CONNECTORS_XML[connectors] = conns
+        _keep(_CONNECTORS_XML, connectors, conns)
     return conns
 
 
@@ -113,9 +117,7 @@ def _parameters_element(named_types: tuple) -> etree._Element:
         for var, t in named_types:
             p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
             etree.SubElement(p, _q("ssv", t))
-        if len(_PARAMETERS_XML) >= _MAX_CONNECTORS:
-            _PARAMETERS_XML.clear()
-        _PARAMETERS_XML[named_types] = ps
+        _keep(_PARAMETERS_XML, named_types, ps)
     return ps
 
 
