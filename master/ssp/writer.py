@@ -86,39 +86,38 @@ def _keep(cache: dict, key, value):
     return value
 
 
-# connectors -> their ssd:Connectors element, under a root declaring the SSD's namespaces (a copy taken into an
-# SSD declares none of its own): a campaign's runs write the same components' connectors again and again
-_CONNECTORS_XML: dict[tuple, etree._Element] = {}
+def _template(cache: dict, key, tag: str, fill) -> etree._Element:
+    """The element ``tag`` that ``fill`` completes, built once per ``key`` under a root declaring the SSD's namespaces
+    (a copy taken into an SSD declares none of its own): a campaign's runs write the same components again and again."""
+    element = cache.get(key)
+    if element is None:
+        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
+        element = etree.SubElement(holder, tag)
+        fill(element)
+        _keep(cache, key, element)
+    return element
+
+
+_CONNECTORS_XML: dict[tuple, etree._Element] = {}    # connectors -> their ssd:Connectors element
+_PARAMETERS_XML: dict[tuple, etree._Element] = {}    # (name, type) of each parameter -> ssv:Parameters without values
 
 
 def _connectors_element(connectors: tuple) -> etree._Element:
-    conns = _CONNECTORS_XML.get(connectors)
-    if conns is None:
-        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
-        conns = etree.SubElement(holder, _q("ssd", "Connectors"))
+    def fill(conns):
         for cname, kind, typ, unit in connectors:
             c = etree.SubElement(conns, _q("ssd", "Connector"), name=cname, kind=kind)
             t = etree.SubElement(c, _q("ssc", typ if typ != "Enumeration" else "Integer"))
             if unit and typ == "Real":
                 t.set("unit", unit)
-        _keep(_CONNECTORS_XML, connectors, conns)
-    return conns
-
-
-# (name, type) of each parameter -> their ssv:Parameters element without values (as _connectors_element)
-_PARAMETERS_XML: dict[tuple, etree._Element] = {}
+    return _template(_CONNECTORS_XML, connectors, _q("ssd", "Connectors"), fill)
 
 
 def _parameters_element(named_types: tuple) -> etree._Element:
-    ps = _PARAMETERS_XML.get(named_types)
-    if ps is None:
-        holder = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=dict(NS))
-        ps = etree.SubElement(holder, _q("ssv", "Parameters"))
+    def fill(ps):
         for var, t in named_types:
             p = etree.SubElement(ps, _q("ssv", "Parameter"), name=var)
             etree.SubElement(p, _q("ssv", t))
-        _keep(_PARAMETERS_XML, named_types, ps)
-    return ps
+    return _template(_PARAMETERS_XML, named_types, _q("ssv", "Parameters"), fill)
 
 
 @dataclass
