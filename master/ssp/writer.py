@@ -77,6 +77,24 @@ def _described_connectors(md, params: dict) -> tuple:
     return _keep(_CONNECTORS, key, (md, tuple(connectors)))[1]
 
 
+# (FMU file, its identity and times) -> its model description: a fleet's builder adds the same few FMUs dozens of
+# times, and the FMU cache's own look-up resolves the path each time
+_DESCRIPTIONS: dict[tuple, object] = {}
+
+
+def _description(fmu_path: Path):
+    from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
+    try:
+        st = fmu_path.stat()
+    except OSError:
+        return load_fmu(fmu_path).md       # says why
+    key = (str(fmu_path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+    md = _DESCRIPTIONS.get(key)
+    if md is None:
+        md = _keep(_DESCRIPTIONS, key, load_fmu(fmu_path).md)
+    return md
+
+
 def _keep(cache: dict, key, value):
     """``value`` stored under ``key`` in one of the writer's caches, which are emptied when full (a campaign uses a
     handful of entries; anything else would grow without bound)."""
@@ -144,8 +162,7 @@ class SspBuilder:
         fmu_path = Path(fmu_path)
         params = dict(params or {})
         if connectors is None:
-            from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
-            connectors = _described_connectors(load_fmu(fmu_path).md, params)
+            connectors = _described_connectors(_description(fmu_path), params)
         typed = {}
         kinds = {c[0]: c[2] for c in connectors}
         for k, v in params.items():
@@ -247,10 +264,12 @@ class SspBuilder:
     def write(self, path) -> Path:
         """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder."""
         path = Path(path)
-        fmu_names, seen = {}, {}
+        fmu_names, seen, resolved = {}, {}, {}
         for comp in self.components:
             # instances of the same FMU share one archive member
-            key = str(comp.fmu.resolve())
+            key = resolved.get(comp.fmu)
+            if key is None:
+                key = resolved[comp.fmu] = str(comp.fmu.resolve())
             if key not in seen:
                 base = comp.fmu.name
                 taken = set(seen.values())
