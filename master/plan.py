@@ -248,14 +248,14 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     if unknown:
         raise ScenarioError(f"implementation given for unknown component{'s' if len(unknown) > 1 else ''} "
                             f"{', '.join(unknown)}", file=shown_as, element="implementation")
-    key = _plan_key(model, shown_as, lenient, implementation, inputs)
+    key, loaded = _plan_key(model, shown_as, lenient, implementation, inputs)
     known = _PLANS.get(key) if key is not None else None
     if known is None:
         fmus, variables, feed, units, links = _plan_structure(model, shown_as, lenient, implementation, inputs)
         if key is not None:
             _keep_plan(key, fmus, variables, feed, units, links)
     else:
-        fmus, variables, feed, units, links = known.for_run(model, shown_as, lenient)
+        fmus, variables, feed, units, links = known.for_run(model, loaded)
     plan = Plan(model, shown_as, fmus, links, [], feed, variables)
     _add_parameters(plan, model, units, allow_nonfinite)
     add_overrides(plan, params, allow_nonfinite)
@@ -336,8 +336,8 @@ class _PlanStructure:
     units: dict
     links: tuple
 
-    def for_run(self, model: SystemModel, shown_as: str, lenient: bool):
-        loaded = _loaded_fmus(model, shown_as, lenient)
+    def for_run(self, model: SystemModel, loaded: dict):
+        """The run's own plan parts, with its FMUs (``loaded``: by file, as _plan_key loaded them)."""
         fmus = {name: dataclasses.replace(loaded[comp.fmu_path], kind=self.kinds[name])
                 for name, comp in model.components.items()}
         return fmus, dict(self.variables), _copied_feedthrough(self.feedthrough), dict(self.units), \
@@ -359,22 +359,24 @@ def _loaded_fmus(model: SystemModel, shown_as: str, lenient: bool) -> dict:
     return loaded
 
 
-def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: dict | None, inputs) -> tuple | None:
+def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: dict | None,
+              inputs) -> tuple[tuple | None, dict]:
     """What the value-free part of the plan depends on: the structure, the FMUs by content, the options that
-    change it, and the units (a parameter set may define some).  None: not to be reused (the model was not read
-    for it, an input file or table is read per run, or an FMU fails to load: the full plan says why)."""
+    change it, and the units (a parameter set may define some); with the FMUs loaded to find their contents.
+    None: not to be reused (the model was not read for it, an input file or table is read per run, or an FMU
+    fails to load: the full plan says why)."""
     if model.structure is None or inputs is not None:
-        return None
+        return None, {}
     if any(comp.type == CSV_SOURCE_TYPE for comp in model.components.values()):
-        return None
+        return None, {}
     try:
         loaded = _loaded_fmus(model, shown_as, lenient)
     except CosimError:
-        return None
+        return None, {}
     fmus = tuple((name, loaded[comp.fmu_path].sha256, (implementation or {}).get(name) or comp.implementation)
                  for name, comp in model.components.items())
     units = tuple((name, u.name, u.factor, u.offset, u.exponents) for name, u in model.units.items())
-    return model.structure, fmus, bool(lenient), units
+    return (model.structure, fmus, bool(lenient), units), loaded
 
 
 def _keep_plan(key: tuple, fmus: dict, variables: dict, feed: dict, units: dict, links: list) -> None:

@@ -165,15 +165,48 @@ def _unpack_written(w: _Written) -> Path:
                 if len(_VALIDATED) >= _MAX_WRITTEN:
                     _VALIDATED.clear()
                 _VALIDATED[os.path.abspath(target)] = _signature(os.stat(target))
-        for name, (sha, data) in w.fmus.items():
-            target = tmp / name
-            if not _place_fmu(sha, lambda out: out.write(data), target):
-                target.parent.mkdir(parents=True, exist_ok=True)
-                target.write_bytes(data)
+        if not _link_shared_resources(w, tmp):
+            for name, (sha, data) in w.fmus.items():
+                target = tmp / name
+                if not _place_fmu(sha, lambda out: out.write(data), target):
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    target.write_bytes(data)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         raise ScenarioError(f"cannot unpack the SSP archive: {exc}", file=tmp) from None
     return tmp
+
+
+def _link_shared_resources(w: _Written, tmp: Path) -> bool:
+    """When the archive's resources folder holds its FMUs and nothing else (a campaign run's archive): link it to one
+    folder of links to those FMUs (``<FMU cache>/resources/<hash of the members>``) made once for all the runs
+    with the same FMUs, instead of linking every FMU again for each run.  False where that cannot be done."""
+    names = sorted(w.fmus)
+    if not names or set(w.files) != {SSD_NAME} or any(n.count("/") != 1 or not n.startswith("resources/")
+                                                      for n in names):
+        return False
+    from ..fmi.cache import cache_root
+    key = hashlib.sha256(repr([(n, w.fmus[n][0]) for n in names]).encode()).hexdigest()
+    shared = cache_root() / "resources" / key
+    try:
+        if not shared.is_dir():
+            part = shared.with_name(f".{key}.{os.getpid()}.tmp")
+            shutil.rmtree(part, ignore_errors=True)
+            for name in names:
+                sha, data = w.fmus[name]
+                if not _place_fmu(sha, lambda out: out.write(data), part / name.split("/", 1)[1]):
+                    shutil.rmtree(part, ignore_errors=True)
+                    return False
+            try:
+                os.rename(part, shared)         # whole or absent; another process may have won
+            except OSError:
+                shutil.rmtree(part, ignore_errors=True)
+                if not shared.is_dir():
+                    return False
+        os.symlink(shared, tmp / "resources")
+    except OSError:
+        return False
+    return True
 
 
 def _not_an_ssp(path: Path) -> None:
