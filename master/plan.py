@@ -672,16 +672,18 @@ def _connection_type_error(src: Var, dst: Var) -> str | None:
     return mismatch if src.type != dst.type else None
 
 
+_INTEGER_SSP = ("Integer", "Enumeration")
+#: the SSP value types a variable of each base type takes
+_COMPATIBLE = {"Real": ("Real",), "Integer": _INTEGER_SSP, "Int64": _INTEGER_SSP, "UInt64": _INTEGER_SSP,
+               "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}
+
+
 def _check_value(v: Var, value, ssp_type, origin, where):
-    file = origin.rsplit(":", 1)[0]
-    integer = ("Integer", "Enumeration")
-    compatible = {"Real": ("Real",), "Integer": integer, "Int64": integer, "UInt64": integer,
-                  "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}
     if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
         return value
-    if ssp_type not in compatible.get(v.type, ()):
-        raise ScenarioError(f"a {ssp_type} value cannot be given to {v.qualified} of type {v.fmi_type}", file=file,
-                            element=where, line=_line(origin))
+    if ssp_type not in _COMPATIBLE.get(v.type, ()):
+        raise ScenarioError(f"a {ssp_type} value cannot be given to {v.qualified} of type {v.fmi_type}",
+                            file=origin.rsplit(":", 1)[0], element=where, line=_line(origin))
     return value
 
 
