@@ -130,6 +130,7 @@ def test_runs_of_one_structure_with_other_values_give_the_results_of_fresh_runs(
 def test_a_run_sees_neither_the_values_nor_the_changes_of_an_earlier_run(tmp_path, test_fmus):
     ssp = _gain_chain(tmp_path / "a.ssp", test_fmus, 2.0, 3.0)
     want = _views(ssp)
+    assert _views(ssp, reuse_structure=True) == want        # kept: the run below is handed the kept parts
     p1 = prepare(ssp, reuse_structure=True, params={"g1.k": 9.0}, seed=5)
     m, pl = p1.model, p1.plan
     # everything a later phase could change in place
