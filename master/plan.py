@@ -380,10 +380,10 @@ def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: 
 
 
 def _keep_plan(key: tuple, fmus: dict, variables: dict, feed: dict, units: dict, links: list) -> None:
+    if len(_PLANS) >= _MAX_PLANS:
+        _PLANS.clear()          # emptied when full (a campaign plans a handful of systems): no order to keep
     _PLANS[key] = _PlanStructure({name: f.kind for name, f in fmus.items()}, dict(variables),
                                  _copied_feedthrough(feed), dict(units), tuple(_clone(ln) for ln in links))
-    if len(_PLANS) > _MAX_PLANS:
-        del _PLANS[next(iter(_PLANS))]        # the oldest
 
 
 def _clone(obj):

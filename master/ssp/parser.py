@@ -466,9 +466,9 @@ _MAX_PARAMETER_SETS = 512
 
 
 def _keep_parameters(key: tuple, read: tuple) -> tuple:
+    if len(_PARAMETER_SETS) >= _MAX_PARAMETER_SETS:
+        _PARAMETER_SETS.clear()     # emptied when full, as the other caches of a worker
     _PARAMETER_SETS[key] = read
-    if len(_PARAMETER_SETS) > _MAX_PARAMETER_SETS:
-        del _PARAMETER_SETS[next(iter(_PARAMETER_SETS))]      # the oldest
     return read
 
 
@@ -520,9 +520,9 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     if known is None:
         connections = reader.flatten_connections()
         if key is not None and reader.components:
+            if len(_STRUCTURES) >= _MAX_STRUCTURES:
+                _STRUCTURES.clear()
             known = _STRUCTURES[key] = _Structure(top_units, _frozen(reader.components), tuple(connections))
-            if len(_STRUCTURES) > _MAX_STRUCTURES:
-                del _STRUCTURES[next(iter(_STRUCTURES))]      # the oldest
             reader.components = {name: copy.copy(c) for name, c in known.components.items()}
     if known is not None:
         connections = [_clone(c) for c in known.connections]

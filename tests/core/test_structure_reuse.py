@@ -219,7 +219,7 @@ def test_the_caches_are_bounded(tmp_path, test_fmus, monkeypatch):
         _views(ssp, reuse_structure=True)
         assert len(parser._STRUCTURES) <= 3 and len(plan_mod._PLANS) <= 3
         assert len(parser._PARAMETER_SETS) <= 4 and len(writer._TREES) <= 2
-    assert len(parser._STRUCTURES) == 3
+    assert parser._STRUCTURES and plan_mod._PLANS          # still kept after emptying
 
 
 def test_a_single_run_keeps_nothing(tmp_path, test_fmus):
@@ -272,21 +272,84 @@ def test_a_kept_tree_takes_the_values_of_components_in_ssv_files(tmp_path, test_
     assert b'value="2.5"' in kept.read("resources/g1.ssv")
 
 
-# ------------------------------------------------------------------------ a written archive's resources
-def test_a_written_archive_opens_onto_shared_links_to_its_fmus(tmp_path, test_fmus):
-    from master.ssp.archive import open_scenario
-    ssp = _gain_chain(tmp_path / "a.ssp", test_fmus, 2.0, 3.0)
-    other = _gain_chain(tmp_path / "b.ssp", test_fmus, 4.0, 3.0)
-    a, b = open_scenario(ssp), open_scenario(other)
+# --------------------------------------------------------------------------- archives opened before
+def _layout(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): (p.is_symlink(), p.read_bytes() if p.is_file() else None)
+            for p in sorted(folder.rglob("*"))}
+
+
+@pytest.fixture
+def opened_archive(tmp_path, test_fmus, monkeypatch):
+    """A chain archive this process did not write (as a campaign over a shipped SSP), with its own FMU store."""
+    from master.ssp import archive
+    monkeypatch.setenv("COSIM_MASTER_CACHE", str(tmp_path / "cache"))
+    archive._OPENED.clear()
+    written = _gain_chain(tmp_path / "written.ssp", test_fmus, 2.0, 3.0)
+    with zipfile.ZipFile(written) as zf, zipfile.ZipFile(tmp_path / "shipped.ssp", "w") as out:
+        out.writestr("resources/", b"")                            # a folder entry, as some zip tools write
+        for info in zf.infolist():
+            out.writestr(info, zf.read(info))
+    yield tmp_path / "shipped.ssp"
+    archive._OPENED.clear()
+
+
+def test_an_archive_opened_before_opens_as_its_extraction_without_reading_its_fmus(opened_archive, monkeypatch):
+    from master.ssp import archive
+    import hashlib
+    first = archive.open_scenario(opened_archive)
+    extracted = archive._extract_ssp(opened_archive)
+    reads = []
+    link = archive._link_fmu
+    monkeypatch.setattr(archive, "_link_fmu", lambda *a: reads.append(1) or link(*a))
+    again = archive.open_scenario(opened_archive)
     try:
-        with zipfile.ZipFile(ssp) as zf:
-            members = sorted(n for n in zf.namelist() if n.startswith("resources/"))
-            for name in members:
-                assert (a.root / name).read_bytes() == zf.read(name)
-        assert sorted(f"resources/{p.name}" for p in (a.root / "resources").iterdir()) == members
-        shared = (a.root / "resources").resolve()
-        assert shared != a.root / "resources" and shared == (b.root / "resources").resolve()
+        assert _layout(again.root) == _layout(first.root) == _layout(extracted)
+        assert not reads
+        want = hashlib.sha256(opened_archive.read_bytes()).hexdigest()
+        assert archive.file_sha256(opened_archive) == want == archive.file_sha256(opened_archive)
+        assert archive._OPENED[str(opened_archive)].sha256 == want
     finally:
-        a.close()
-        b.close()
-    assert not a.root.exists() and sorted(f"resources/{p.name}" for p in shared.iterdir()) == members
+        for src in (first, again):
+            src.close()
+        shutil.rmtree(extracted)
+
+
+def test_an_archive_changed_since_it_was_opened_is_read_again(opened_archive, tmp_path):
+    import hashlib
+    import os
+    from master.ssp import archive
+    assert _views(opened_archive)[0]["parameters"][1][3] == "2.0"
+    archive.file_sha256(opened_archive)
+    data = opened_archive.read_bytes()
+    st = opened_archive.stat()
+    changed = _rewritten(opened_archive, tmp_path / "changed.ssp", b'value="2.0"', b'value="7.0"').read_bytes()
+    assert changed != data and len(changed) == len(data)
+    opened_archive.write_bytes(changed)
+    os.utime(opened_archive, ns=(st.st_atime_ns, st.st_mtime_ns))     # only the change time tells
+    assert archive.file_sha256(opened_archive) == hashlib.sha256(changed).hexdigest()
+    assert _views(opened_archive)[0]["parameters"][1][3] == "7.0"
+
+
+def _rewritten(ssp: Path, to: Path, old: bytes, new: bytes) -> Path:
+    """A copy of the archive with ``old`` replaced by ``new`` in its SSD."""
+    with zipfile.ZipFile(ssp) as zf:
+        members = [(info, zf.read(info)) for info in zf.infolist()]
+    with zipfile.ZipFile(to, "w") as out:
+        for info, data in members:
+            out.writestr(info, data.replace(old, new) if info.filename == "SystemStructure.ssd" else data)
+    return to
+
+
+def test_an_archive_opened_before_is_validated_again(opened_archive, tmp_path):
+    bad = _rewritten(opened_archive, tmp_path / "bad.ssp", b"<ssd:Elements>", b'<ssd:Elements bogus="1">')
+    for _ in range(2):
+        with pytest.raises(ScenarioError, match="schema"):
+            prepare(bad)
+
+
+def test_an_fmu_gone_from_the_store_is_unpacked_from_the_archive_again(opened_archive, tmp_path):
+    from master.fmi.cache import cache_root
+    want = _views(opened_archive)
+    for kept in (cache_root() / "archived").glob("*.fmu"):
+        kept.unlink()
+    assert _views(opened_archive) == want
