@@ -286,7 +286,8 @@ def opened_archive(tmp_path, test_fmus, monkeypatch):
     archive._OPENED.clear()
     written = _gain_chain(tmp_path / "written.ssp", test_fmus, 2.0, 3.0)
     with zipfile.ZipFile(written) as zf, zipfile.ZipFile(tmp_path / "shipped.ssp", "w") as out:
-        out.writestr("resources/", b"")                            # a folder entry, as some zip tools write
+        out.writestr("resources/", b"")                            # folder entries, as some zip tools write
+        out.writestr("documentation/", b"")                        # (this one stays empty)
         for info in zf.infolist():
             out.writestr(info, zf.read(info))
     yield tmp_path / "shipped.ssp"
