@@ -264,7 +264,8 @@ class _Reader:
                 key = (path, prefix, pset.sourceline, etree.tostring(pset))
                 read = _PARAMETER_SETS.get(key)
                 if read is None:
-                    read = _keep_parameters(key, tuple(self.read_parameters(pset, path, prefix, None, True, pset_shown)))
+                    read = _keep_parameters(key, tuple(self.read_parameters(pset, path, prefix, None, True,
+                                                                            pset_shown)))
             else:
                 read = self.read_parameters(pset, path, prefix, mapping, is_component, pset_shown)
             for comp, var, typ, value, line, unit in read:

@@ -282,8 +282,8 @@ class SspBuilder:
                     list(self.step_multiples.items()), self.record, list(self.algorithm_options.items()),
                     self.parameter_set, list(self.units.items()), self.connections)
         return (repr(settings), bool(self.annotations),
-                tuple((c.name, fmu_names[c.name], tuple(c.connectors), tuple((var, t) for var, (t, _) in c.params.items()),
-                       c.ssv) for c in self.components))
+                tuple((c.name, fmu_names[c.name], tuple(c.connectors),
+                       tuple((var, t) for var, (t, _) in c.params.items()), c.ssv) for c in self.components))
 
     def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict]:
         """The SSD, validated and serialised, and the .ssv files' roots.  A tree of the same shape written before
