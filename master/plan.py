@@ -348,6 +348,7 @@ class _PlanStructure:
 # worker plans the same system against the same FMUs run after run, with other parameter values
 _PLANS: dict[tuple, _PlanStructure] = {}
 _MAX_PLANS = 32
+_MAX_KEPT_LINKS = 100_000       # links of all kept plans (4 UAVs: ~60; 256 UAVs: ~4000)
 
 
 def _loaded_fmus(model: SystemModel, shown_as: str, lenient: bool) -> dict:
@@ -380,8 +381,10 @@ def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: 
 
 
 def _keep_plan(key: tuple, fmus: dict, variables: dict, feed: dict, units: dict, links: list) -> None:
-    if len(_PLANS) >= _MAX_PLANS:
+    if len(_PLANS) >= _MAX_PLANS or sum(len(p.links) for p in _PLANS.values()) + len(links) > _MAX_KEPT_LINKS:
         _PLANS.clear()          # emptied when full (a campaign plans a handful of systems): no order to keep
+    if len(links) > _MAX_KEPT_LINKS:
+        return
     _PLANS[key] = _PlanStructure({name: f.kind for name, f in fmus.items()}, dict(variables),
                                  _copied_feedthrough(feed), dict(units), tuple(_clone(ln) for ln in links))
 

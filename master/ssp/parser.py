@@ -416,11 +416,13 @@ class _Structure:
     units: dict                 # the SSD's top-level units (a parameter set may add its own)
     components: dict            # name -> Component, fmu_path as the first run found it
     connections: tuple
+    size: int                   # connectors and connections: what bounds the cache
 
 
 # structure key -> _Structure: a campaign worker reads the same system with other parameter values run after run
 _STRUCTURES: dict[str, _Structure] = {}
 _MAX_STRUCTURES = 32
+_MAX_KEPT_SIZE = 100_000        # connectors and connections of all kept structures (4 UAVs: ~700; 256: ~45 000)
 #: top-level parts of an SSD that a run reads again (run settings, plugin data), not part of its structure
 _RUN_PARTS = ("DefaultExperiment", "Annotations")
 
@@ -464,12 +466,17 @@ def _following(el):
 # parameter sets of a campaign's runs are the same from run to run (the values are immutable: numbers, strings)
 _PARAMETER_SETS: dict[tuple, tuple] = {}
 _MAX_PARAMETER_SETS = 512
+_MAX_PARAMETER_BYTES = 16 << 20     # of the kept sets' XML
+_parameter_bytes = [0]
 
 
 def _keep_parameters(key: tuple, read: tuple) -> tuple:
-    if len(_PARAMETER_SETS) >= _MAX_PARAMETER_SETS:
+    if len(_PARAMETER_SETS) >= _MAX_PARAMETER_SETS or _parameter_bytes[0] + len(key[3]) > _MAX_PARAMETER_BYTES:
         _PARAMETER_SETS.clear()     # emptied when full, as the other caches of a worker
-    _PARAMETER_SETS[key] = read
+        _parameter_bytes[0] = 0
+    if len(key[3]) <= _MAX_PARAMETER_BYTES:
+        _PARAMETER_SETS[key] = read
+        _parameter_bytes[0] += len(key[3])
     return read
 
 
@@ -479,6 +486,19 @@ def _clone(obj):
     out = object.__new__(type(obj))
     out.__dict__.update(obj.__dict__)
     return out
+
+
+def _size(components: dict, connections) -> int:
+    return sum(len(c.connectors) for c in components.values()) + len(connections)
+
+
+def _keep_structure(key: str, known: _Structure) -> _Structure:
+    """``known`` kept under ``key`` unless it alone is over the bound; the cache emptied when full."""
+    if len(_STRUCTURES) >= _MAX_STRUCTURES or sum(s.size for s in _STRUCTURES.values()) + known.size > _MAX_KEPT_SIZE:
+        _STRUCTURES.clear()
+    if known.size <= _MAX_KEPT_SIZE:
+        _STRUCTURES[key] = known
+    return known
 
 
 def _frozen(components: dict) -> dict:
@@ -521,9 +541,8 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     if known is None:
         connections = reader.flatten_connections()
         if key is not None and reader.components:
-            if len(_STRUCTURES) >= _MAX_STRUCTURES:
-                _STRUCTURES.clear()
-            known = _STRUCTURES[key] = _Structure(top_units, _frozen(reader.components), tuple(connections))
+            known = _keep_structure(key, _Structure(top_units, _frozen(reader.components), tuple(connections),
+                                                    _size(reader.components, connections)))
             reader.components = {name: copy.copy(c) for name, c in known.components.items()}
     if known is not None:
         connections = [_clone(c) for c in known.connections]

@@ -96,6 +96,13 @@ def _description(fmu_path: Path):
     return md
 
 
+def _keep_tree(key: tuple, tree, slots: list, size: int) -> None:
+    if len(_TREES) >= _MAX_TREES or sum(t[2] for t in _TREES.values()) + size > _MAX_TREE_BYTES:
+        _TREES.clear()
+    if size <= _MAX_TREE_BYTES:
+        _TREES[key] = (tree, slots, size)
+
+
 def _keep(cache: dict, key, value):
     """``value`` stored under ``key`` in one of the writer's caches, which are emptied when full (a campaign uses a
     handful of entries; anything else would grow without bound)."""
@@ -121,7 +128,8 @@ def _template(cache: dict, key, tag: str, fill) -> etree._Element:
 # same system with other values run after run, and building the tree cost more than serialising it
 _TREES: dict[tuple, tuple] = {}
 _TREE_LOCK = threading.Lock()
-_MAX_TREES = 16         # a fleet's tree is a few MB; a campaign worker cycles through a handful of systems
+_MAX_TREES = 16         # a campaign worker cycles through a handful of systems
+_MAX_TREE_BYTES = 8 << 20   # serialised SSDs of all kept trees (4 UAVs: 160 kB; 256 UAVs: ~10 MB, not kept)
 _KEEP_TREES = True      # tests compare with trees built afresh
 _CONNECTORS_XML: dict[tuple, etree._Element] = {}    # connectors -> their ssd:Connectors element
 _PARAMETERS_XML: dict[tuple, etree._Element] = {}    # (name, type) of each parameter -> ssv:Parameters without values
@@ -295,14 +303,14 @@ class SspBuilder:
             if kept is None or not _KEEP_TREES:
                 slots: list = []
                 tree, ssv_files = self._build_tree(fmu_names, slots)
-                if len(_TREES) >= _MAX_TREES:
-                    _TREES.clear()
-                _TREES[key] = (tree, slots)
             else:
-                tree, slots = kept
+                tree, slots, _ = kept
                 ssv_files = self._fill(tree, slots)
             xsd.validate(tree, "ssd", str(path))
-            return etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True), ssv_files
+            ssd = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+            if kept is None or not _KEEP_TREES:
+                _keep_tree(key, tree, slots, len(ssd))
+            return ssd, ssv_files
 
     def _fill(self, tree, slots: list) -> dict:
         """Put this builder's values and annotations into a kept tree of its shape; returns the .ssv files' roots."""
