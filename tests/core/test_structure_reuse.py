@@ -224,7 +224,7 @@ def test_the_caches_are_bounded(tmp_path, test_fmus, monkeypatch):
 
 def test_what_is_over_the_size_bounds_is_not_kept(tmp_path, test_fmus, monkeypatch):
     ssp = _gain_chain(tmp_path / "a.ssp", test_fmus, 2.0, 3.0)
-    monkeypatch.setattr(parser, "_MAX_KEPT_SIZE", 5)            # the chain: 6 connectors and 3 connections
+    monkeypatch.setattr(parser, "_MAX_KEPT_SIZE", 11)           # the chain: 9 connectors and 3 connections
     monkeypatch.setattr(plan_mod, "_MAX_KEPT_LINKS", 2)         # 3 links
     monkeypatch.setattr(parser, "_MAX_PARAMETER_BYTES", 100)    # each set's XML is longer
     monkeypatch.setattr(writer, "_MAX_TREE_BYTES", 1000)        # the SSD is longer
@@ -233,7 +233,7 @@ def test_what_is_over_the_size_bounds_is_not_kept(tmp_path, test_fmus, monkeypat
     want = _views(ssp)
     assert _views(ssp, reuse_structure=True) == want == _views(ssp, reuse_structure=True)
     assert not parser._STRUCTURES and not plan_mod._PLANS and not parser._PARAMETER_SETS and not writer._TREES
-    monkeypatch.setattr(parser, "_MAX_KEPT_SIZE", 9)
+    monkeypatch.setattr(parser, "_MAX_KEPT_SIZE", 12)
     monkeypatch.setattr(plan_mod, "_MAX_KEPT_LINKS", 3)
     monkeypatch.setattr(parser, "_MAX_PARAMETER_BYTES", 10_000)
     monkeypatch.setattr(writer, "_MAX_TREE_BYTES", 100_000)
