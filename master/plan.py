@@ -376,7 +376,7 @@ def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: 
         return None, {}
     fmus = tuple((name, loaded[comp.fmu_path].sha256, (implementation or {}).get(name) or comp.implementation)
                  for name, comp in model.components.items())
-    units = tuple((name, u.name, u.factor, u.offset, u.exponents) for name, u in model.units.items())
+    units = repr([(name, u.name, u.factor, u.offset, u.exponents) for name, u in model.units.items()])  # -0.0
     return (model.structure, fmus, bool(lenient), units), loaded
 
 
