@@ -99,6 +99,8 @@ class Options:
     mavlink: list[str] | None = None                  # live stream to these MAVLink addresses (master/live.py)
     mavlink_rate: float = 10.0                        # position and attitude messages per simulated second
     realtime: float | None = None                     # simulated s per wall s (None: as fast as it goes)
+    reuse_structure: bool = False                     # a system this process has read before is read and planned
+                                                      # again for its values only (campaign workers)
 
 
 @dataclass
@@ -113,12 +115,16 @@ class Prepared:
 
 
 def prepare(scenario, *, params: dict | None = None, seed: int | None = None, allow_nonfinite: bool = False,
-            lenient: bool = False, implementation: dict | None = None, inputs=None) -> Prepared:
+            lenient: bool = False, implementation: dict | None = None, inputs=None,
+            reuse_structure: bool = False) -> Prepared:
+    """``reuse_structure``: the SSD's structure, and the plan's part that does not depend on parameter values,
+    are taken from this process's earlier runs of the same structure and FMUs (``parser.structure_key``,
+    ``plan._plan_key``) when there are any; the run's values are read and applied as always."""
     scenario = Path(scenario)
     shown_as = str(scenario)
     src = open_scenario(scenario)
     try:
-        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root)
+        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root, reuse_structure=reuse_structure)
         plan = build_plan(model, shown_as, allow_nonfinite=allow_nonfinite, lenient=lenient,
                           implementation=implementation, inputs=inputs)
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
@@ -189,7 +195,8 @@ class Execution:
         if self.scenario.is_file():
             meta["scenario_sha256"] = file_sha256(self.scenario)
         self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed, allow_nonfinite=o.allow_nonfinite,
-                                    lenient=o.lenient, implementation=o.implementation, inputs=o.inputs)
+                                    lenient=o.lenient, implementation=o.implementation, inputs=o.inputs,
+                                    reuse_structure=o.reuse_structure)
         model, plan, shown_as = p.model, p.plan, p.shown_as
         st = self.settings = resolve_settings(
             model, shown_as, start_time=o.start_time, stop_time=o.stop_time, step=o.step, algorithm=o.algorithm,

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from .errors import ScenarioError
+from .errors import CosimError, ScenarioError
 from .fmi.cache import LoadedFmu, load_fmu
 from .fmi.factory import choose_kind
 from .fmi.slave import INTEGER_BASES, OBJECT_FILL, array_shape, base_type
@@ -149,6 +149,9 @@ class ComponentVariables(Mapping):
     def __contains__(self, name) -> bool:
         return name in self._described
 
+    def get(self, name, default=None):
+        return self[name] if name in self._described else default
+
     def __iter__(self):
         return iter(self._described)
 
@@ -245,6 +248,23 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     if unknown:
         raise ScenarioError(f"implementation given for unknown component{'s' if len(unknown) > 1 else ''} "
                             f"{', '.join(unknown)}", file=shown_as, element="implementation")
+    key, loaded = _plan_key(model, shown_as, lenient, implementation, inputs)
+    known = _PLANS.get(key) if key is not None else None
+    if known is None:
+        fmus, variables, feed, units, links = _plan_structure(model, shown_as, lenient, implementation, inputs)
+        if key is not None:
+            _keep_plan(key, fmus, variables, feed, units, links)
+    else:
+        fmus, variables, feed, units, links = known.for_run(model, loaded)
+    plan = Plan(model, shown_as, fmus, links, [], feed, variables)
+    _add_parameters(plan, model, units, allow_nonfinite)
+    add_overrides(plan, params, allow_nonfinite)
+    return plan
+
+
+def _plan_structure(model: SystemModel, shown_as: str, lenient: bool, implementation: dict | None, inputs):
+    """The part of a plan its parameter values do not change: the FMUs (and the kind each component runs as),
+    every component's variables and output dependencies, the units and the links, all checked."""
     fmus: dict[str, LoadedFmu] = {}
     variables: dict[str, dict[str, Var]] = {}
     feed: dict[str, dict[str, set | None]] = {}
@@ -271,7 +291,12 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
             raise ScenarioError(f"input {key} is the end of two connections (from {seen[key].src.qualified} and "
                                 f"{ln.src.qualified})", file=shown_as, element=f"Connection -> {key}", line=ln.line)
         seen[key] = ln
-    plan = Plan(model, shown_as, fmus, links, [], feed, variables)
+    return fmus, variables, feed, units, links
+
+
+def _add_parameters(plan: Plan, model: SystemModel, units: dict, allow_nonfinite: bool) -> None:
+    """The SSD's parameter values, checked against their variables (and converted to their units)."""
+    variables = plan.variables
     for pv in model.parameters:
         v = variables.get(pv.component, {}).get(pv.variable)
         where = f"Parameter {pv.component}.{pv.variable}"
@@ -299,8 +324,82 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
                                     file=pv.origin.rsplit(":", 1)[0], element=where, line=_line(pv.origin))
             value = conv[0] * value + conv[1]
         plan.params.append((v, value, pv.origin))
-    add_overrides(plan, params, allow_nonfinite)
-    return plan
+
+
+@dataclass(frozen=True)
+class _PlanStructure:
+    """The value-free part of a plan (:func:`_plan_structure`) kept for later runs of the same structure and FMUs;
+    never handed out itself: each run gets its own links, dependency sets and dictionaries."""
+    kinds: dict             # component -> the FMI kind it runs as
+    variables: dict         # component -> ComponentVariables (read-only mappings of frozen Vars)
+    feedthrough: dict
+    units: dict
+    links: tuple
+
+    def for_run(self, model: SystemModel, loaded: dict):
+        """The run's own plan parts, with its FMUs (``loaded``: by file, as _plan_key loaded them)."""
+        fmus = {name: dataclasses.replace(loaded[comp.fmu_path], kind=self.kinds[name])
+                for name, comp in model.components.items()}
+        return fmus, dict(self.variables), _copied_feedthrough(self.feedthrough), dict(self.units), \
+            [_clone(ln) for ln in self.links]
+
+
+# (structure key, each component's FMU content and kind asked for, lenient, units) -> _PlanStructure: a campaign
+# worker plans the same system against the same FMUs run after run, with other parameter values
+_PLANS: dict[tuple, _PlanStructure] = {}
+_MAX_PLANS = 32
+_MAX_KEPT_LINKS = 100_000       # links of all kept plans (4 UAVs: ~60; 256 UAVs: ~4000)
+
+
+def _loaded_fmus(model: SystemModel, shown_as: str, lenient: bool) -> dict:
+    """Each FMU file of the model, loaded (once per file: a fleet's components share a few)."""
+    loaded = {}
+    for comp in model.components.values():
+        if comp.fmu_path not in loaded:
+            loaded[comp.fmu_path] = load_fmu(comp.fmu_path, shown_source(shown_as, comp.source), lenient=lenient)
+    return loaded
+
+
+def _plan_key(model: SystemModel, shown_as: str, lenient: bool, implementation: dict | None,
+              inputs) -> tuple[tuple | None, dict]:
+    """What the value-free part of the plan depends on: the structure, the FMUs by content, the options that
+    change it, and the units (a parameter set may define some); with the FMUs loaded to find their contents.
+    None: not to be reused (the model was not read for it, an input file or table is read per run, or an FMU
+    fails to load: the full plan says why)."""
+    if model.structure is None or inputs is not None:
+        return None, {}
+    if any(comp.type == CSV_SOURCE_TYPE for comp in model.components.values()):
+        return None, {}
+    try:
+        loaded = _loaded_fmus(model, shown_as, lenient)
+    except CosimError:
+        return None, {}
+    fmus = tuple((name, loaded[comp.fmu_path].sha256, (implementation or {}).get(name) or comp.implementation)
+                 for name, comp in model.components.items())
+    units = repr([(name, u.name, u.factor, u.offset, u.exponents) for name, u in model.units.items()])  # -0.0
+    return (model.structure, fmus, bool(lenient), units), loaded
+
+
+def _keep_plan(key: tuple, fmus: dict, variables: dict, feed: dict, units: dict, links: list) -> None:
+    if len(_PLANS) >= _MAX_PLANS or sum(len(p.links) for p in _PLANS.values()) + len(links) > _MAX_KEPT_LINKS:
+        _PLANS.clear()          # emptied when full (a campaign plans a handful of systems): no order to keep
+    if len(links) > _MAX_KEPT_LINKS:
+        return
+    _PLANS[key] = _PlanStructure({name: f.kind for name, f in fmus.items()}, dict(variables),
+                                 _copied_feedthrough(feed), dict(units), tuple(_clone(ln) for ln in links))
+
+
+def _clone(obj):
+    """A shallow copy of a plain dataclass instance (copy.copy's reduce protocol cost more than the rest of a reused
+    plan)."""
+    out = object.__new__(type(obj))
+    out.__dict__.update(obj.__dict__)
+    return out
+
+
+def _copied_feedthrough(feed: dict) -> dict:
+    return {comp: {out: None if deps is None else set(deps) for out, deps in outs.items()}
+            for comp, outs in feed.items()}
 
 
 def _fmu_component(name: str, comp: Component, implementation: str, shown_as: str, lenient: bool):
@@ -576,16 +675,18 @@ def _connection_type_error(src: Var, dst: Var) -> str | None:
     return mismatch if src.type != dst.type else None
 
 
+_INTEGER_SSP = ("Integer", "Enumeration")
+#: the SSP value types a variable of each base type takes
+_COMPATIBLE = {"Real": ("Real",), "Integer": _INTEGER_SSP, "Int64": _INTEGER_SSP, "UInt64": _INTEGER_SSP,
+               "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}
+
+
 def _check_value(v: Var, value, ssp_type, origin, where):
-    file = origin.rsplit(":", 1)[0]
-    integer = ("Integer", "Enumeration")
-    compatible = {"Real": ("Real",), "Integer": integer, "Int64": integer, "UInt64": integer,
-                  "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}
     if v.type == "Integer" and v.fmi_type == "Enumeration" and ssp_type == "Enumeration":
         return value
-    if ssp_type not in compatible.get(v.type, ()):
-        raise ScenarioError(f"a {ssp_type} value cannot be given to {v.qualified} of type {v.fmi_type}", file=file,
-                            element=where, line=_line(origin))
+    if ssp_type not in _COMPATIBLE.get(v.type, ()):
+        raise ScenarioError(f"a {ssp_type} value cannot be given to {v.qualified} of type {v.fmi_type}",
+                            file=origin.rsplit(":", 1)[0], element=where, line=_line(origin))
     return value
 
 

@@ -12,6 +12,7 @@ import difflib
 import functools
 import hashlib
 import json
+import pickle
 from pathlib import Path
 
 import yaml
@@ -116,21 +117,21 @@ def layout_seed(campaign_seed: int, rep: int) -> int:
     return int(digest[:8], 16) & 0x7FFFFFFF
 
 
-#: a worker's parsed base scenarios by the SHA-256 of their bytes: a campaign has one or two base files and
-#: hundreds of runs, and parsing the YAML cost more than copying the parsed mapping
-_BASES: dict[str, object] = {}
+#: a worker's parsed base scenarios by the SHA-256 of their bytes, pickled: a campaign has one or two base files
+#: and hundreds of runs, and parsing the YAML (or deep-copying the parsed mapping) cost more than unpickling it
+_BASES: dict[str, bytes] = {}
 _MAX_BASES = 16
 
 
 def _base_data(sha: str, raw: bytes):
     """A fresh copy of the parsed base scenario (each run modifies its own)."""
-    data = _BASES.get(sha)
-    if data is None:
+    pickled = _BASES.get(sha)
+    if pickled is None:
         data = yamlio.load(raw.decode("utf-8"))
         if len(_BASES) >= _MAX_BASES:
             _BASES.clear()
-        _BASES[sha] = data
-    return copy.deepcopy(data)
+        _BASES[sha] = pickled = pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)
+    return pickle.loads(pickled)
 
 
 class UavKind(ScenarioKind):

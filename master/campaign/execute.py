@@ -92,6 +92,7 @@ def execute_run(task: dict) -> dict:
         kw = {k: opts[k] for k in ("start_time", "record_interval", "record", "log_level", "step_multiples",
                                    *ALGORITHM_RUN_OPTIONS) if k in opts}
         kw["options_source"] = "campaign"
+        kw["reuse_structure"] = True        # a worker runs the same few systems with other values
         kw.setdefault("log_level", "error")
         kw["write_csv"] = bool(opts.get("csv", True))
         kind = SCENARIO_KINDS.get(task["kind"])

@@ -33,7 +33,10 @@ class ScenarioSource:
             self.tempdir = None
 
 
-def _extract_ssp(path: Path) -> Path:
+def _extract_ssp(path: Path, seen: dict | None = None) -> Path:
+    """Unpack the archive into a temporary folder.  ``seen`` (when given) gets what a later opening needs to lay the
+    same folder out again without the archive: {"files": name -> bytes (None: a folder), "fmus": name -> (SHA-256,
+    None)}, or stays empty when an FMU could not be linked or the other members are large."""
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as exc:
@@ -49,21 +52,36 @@ def _extract_ssp(path: Path) -> Path:
             if not str(target).startswith(str(tmp.resolve()) + os.sep) and target != tmp.resolve():
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise ScenarioError(f"archive member escapes the archive: {name}", file=path)
+        files, fmus, size = {}, {}, 0
         try:
             for info in zf.infolist():
-                if info.is_dir() or not info.filename.lower().endswith(".fmu") or not _link_fmu(zf, info, tmp):
-                    zf.extract(info, tmp)
+                linked = None
+                if not info.is_dir() and info.filename.lower().endswith(".fmu"):
+                    linked = _link_fmu(zf, info, tmp)
+                    if linked:
+                        fmus[info.filename] = (linked, None)
+                        continue
+                zf.extract(info, tmp)
+                size += info.file_size
+                if linked is not None:
+                    size = _MAX_REMEMBERED_BYTES + 1        # an FMU of its own: lay it out from the archive
+                elif info.is_dir():
+                    files[info.filename] = None
+                elif size <= _MAX_REMEMBERED_BYTES:
+                    files[info.filename] = (tmp / info.filename).read_bytes()
         except (zipfile.BadZipFile, OSError, EOFError) as exc:
             shutil.rmtree(tmp, ignore_errors=True)
             raise ScenarioError(f"corrupt SSP archive: {exc}", file=path) from None
+    if seen is not None and size <= _MAX_REMEMBERED_BYTES:
+        seen.update(files=files, fmus=fmus)
     return tmp
 
 
-def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> bool:
+def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> str | None:
     """Put an FMU member in place as a link to one copy per content (``<FMU cache>/archived/<sha256>.fmu``)
     instead of a fresh file: a campaign unpacks the same FMUs from every run's archive, and the FMU cache
     (``master.fmi.cache``) knows a file it has hashed by its path and mtime, so it neither hashes nor unpacks the
-    FMU again.  False (extract it as usual) where links cannot be made."""
+    FMU again.  Returns the member's SHA-256; None (extract it as usual) where links cannot be made."""
     h = hashlib.sha256()
     with zf.open(info) as fh:            # reading to the end checks the member's CRC, as extract() does
         for chunk in iter(lambda: fh.read(1 << 20), b""):
@@ -72,7 +90,8 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> bool:
     def copy(out):
         with zf.open(info) as fh:
             shutil.copyfileobj(fh, out, 1 << 20)
-    return _place_fmu(h.hexdigest(), copy, tmp / info.filename)
+    sha = h.hexdigest()
+    return sha if _place_fmu(sha, copy, tmp / info.filename) else None
 
 
 def _place_fmu(sha: str, copy, link: Path) -> bool:
@@ -101,11 +120,12 @@ def _place_fmu(sha: str, copy, link: Path) -> bool:
 
 @dataclass
 class _Written:
-    """An archive this process wrote: what it holds, and the file it was written to."""
+    """An archive this process wrote (or opened before): what it holds, and the file it was written to."""
     stat: tuple             # (device, inode, size, mtime, ctime) right after it was written
-    sha256: str             # of the archive's bytes
-    files: dict             # member name -> bytes (SSD, parameter files)
-    fmus: dict              # member name -> (SHA-256, bytes)
+    sha256: str | None      # of the archive's bytes (None: not hashed yet)
+    files: dict             # member name -> bytes (SSD, parameter files; None: a folder)
+    fmus: dict              # member name -> (SHA-256, bytes; None: in the store of linked FMUs only)
+    validated: bool = True  # the writer validated its SSD (an archive only opened before: not known)
 
 
 # archives written by this process (master.ssp.writer) by absolute path: a campaign run writes its archive and
@@ -124,6 +144,39 @@ def remember_written(path: Path, sha256: str, files: dict, fmus: dict) -> None:
     if len(_WRITTEN) >= _MAX_WRITTEN:
         _WRITTEN.clear()
     _WRITTEN[os.path.abspath(path)] = _Written(_signature(os.stat(path)), sha256, dict(files), dict(fmus))
+
+
+# archives this process opened (not written) by absolute path: a campaign over one SSP archive opens it for every
+# run, and each opening read and hashed its FMUs again to link them.  Kept when every FMU member could be linked
+# to the store and the other members are small; keyed by the file's identity and times as _WRITTEN.
+_OPENED: dict[str, _Written] = {}
+_MAX_REMEMBERED_BYTES = 4 << 20
+
+
+def _opened(path: Path) -> _Written | None:
+    """What this process found in ``path`` when it opened it before, if the file is still that one and its FMUs are
+    still in the store."""
+    w = _OPENED.get(os.path.abspath(path))
+    if w is None or not _unchanged(path, w):
+        return None
+    from ..fmi.cache import cache_root
+    store = cache_root() / "archived"
+    if not all((store / f"{sha}.fmu").is_file() for sha, _ in w.fmus.values()):
+        return None
+    return w
+
+
+def _remember_opened(path: Path, st: os.stat_result, seen: dict) -> None:
+    if len(_OPENED) >= _MAX_WRITTEN:
+        _OPENED.clear()
+    _OPENED[os.path.abspath(path)] = _Written(_signature(st), None, seen["files"], seen["fmus"], validated=False)
+
+
+def _unchanged(path: Path, w: _Written) -> bool:
+    try:
+        return _signature(os.stat(path)) == w.stat
+    except OSError:
+        return False
 
 
 def _written(path: Path) -> _Written | None:
@@ -159,15 +212,20 @@ def _unpack_written(w: _Written) -> Path:
     try:
         for name, data in w.files.items():
             target = tmp / name
+            if data is None:
+                target.mkdir(parents=True, exist_ok=True)
+                continue
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_bytes(data)
-            if name == SSD_NAME:
+            if name == SSD_NAME and w.validated:
                 if len(_VALIDATED) >= _MAX_WRITTEN:
                     _VALIDATED.clear()
                 _VALIDATED[os.path.abspath(target)] = _signature(os.stat(target))
         for name, (sha, data) in w.fmus.items():
             target = tmp / name
             if not _place_fmu(sha, lambda out: out.write(data), target):
+                if data is None:
+                    raise OSError(f"{name} is no longer in the store of linked FMUs")
                 target.parent.mkdir(parents=True, exist_ok=True)
                 target.write_bytes(data)
     except OSError as exc:
@@ -200,8 +258,20 @@ def open_scenario(path: str | os.PathLike, ssd_name: str | None = None) -> Scena
         return ScenarioSource(path, ssd, path)
     if path.suffix.lower() == ".ssd":
         return ScenarioSource(path, path, path.parent)
-    written = _written(path)
-    tmp = _unpack_written(written) if written is not None else _extract_ssp(path)
+    written = _written(path) or _opened(path)
+    tmp = None
+    if written is not None:
+        try:
+            tmp = _unpack_written(written)
+        except ScenarioError:
+            if written.validated:
+                raise
+            _OPENED.pop(os.path.abspath(path), None)       # unpacked from the archive itself below
+    if tmp is None:
+        st, seen = os.stat(path), {}
+        tmp = _extract_ssp(path, seen)
+        if seen and _signature(os.stat(path)) == _signature(st):     # not changed while it was read
+            _remember_opened(path, st, seen)
     ssd = tmp / (ssd_name or SSD_NAME)
     if not ssd.is_file():
         shutil.rmtree(tmp, ignore_errors=True)
@@ -213,8 +283,14 @@ def file_sha256(path: str | os.PathLike) -> str:
     written = _written(Path(path))
     if written is not None:
         return written.sha256
+    opened = _OPENED.get(os.path.abspath(path))
+    if opened is not None and opened.sha256 is not None and _unchanged(Path(path), opened):
+        return opened.sha256
+    st = os.stat(path)
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
+    if opened is not None and opened.stat == _signature(st) == _signature(os.stat(path)):
+        opened.sha256 = h.hexdigest()
     return h.hexdigest()

@@ -101,3 +101,4 @@ class SystemModel:
     stop_time: float | None = None
     settings: MasterSettings = field(default_factory=MasterSettings)
     annotations: dict[str, object] = field(default_factory=dict)  # type -> lxml element, for plugins
+    structure: str | None = None     # the structure key when read to be reused (parser.read_ssd), else None

@@ -5,7 +5,11 @@ XSD validation is applied where a schema exists (SSP 1.x).
 """
 from __future__ import annotations
 
+import copy
+import hashlib
+from dataclasses import dataclass, replace
 from pathlib import Path
+from types import MappingProxyType
 from urllib.parse import unquote, urlparse
 
 from lxml import etree
@@ -82,6 +86,7 @@ class _Reader:
         self.system_connectors: set = set()   # nodes that are connectors of (sub)systems
         self.parameters: list[ParameterValue] = []
         self.annotations: dict[str, object] = {}
+        self.reuse_values = False             # parameter sets read before are not parsed again (_PARAMETER_SETS)
 
     def shown(self, path: Path) -> str:
         try:
@@ -123,9 +128,12 @@ class _Reader:
         return out
 
     # -- systems -------------------------------------------------------------------------
-    def read_system(self, sys_el, prefix: str, shown_as: str, ssd_dir: Path):
-        for name in self.read_connectors(sys_el, shown_as):
-            self.system_connectors.add((prefix.rstrip("."), name))
+    def read_system(self, sys_el, prefix: str, shown_as: str, ssd_dir: Path, known: dict | None = None):
+        """``known``: the components of this very structure, read before (``_Structure``): only what a run may
+        change is read again (where the FMUs are, the parameter values, the annotations), in the same order."""
+        if known is None:
+            for name in self.read_connectors(sys_el, shown_as):
+                self.system_connectors.add((prefix.rstrip("."), name))
         elements = _child(sys_el, "Elements")
         names = set()
         if elements is not None:
@@ -140,13 +148,15 @@ class _Reader:
                 names.add(name)
                 path = f"{prefix}{name}"
                 if kind == "System":
-                    self.read_system(el, path + ".", shown_as, ssd_dir)
+                    self.read_system(el, path + ".", shown_as, ssd_dir, known)
                     self.read_bindings(el, path + ".", shown_as, ssd_dir, is_component=False)
+                elif known is not None:
+                    self.place_component(el, known[path], shown_as, ssd_dir)
                 else:
                     self.read_component(el, path, shown_as, ssd_dir)
         self.read_bindings(sys_el, prefix, shown_as, ssd_dir, is_component=False)
         conns = _child(sys_el, "Connections")
-        if conns is not None:
+        if conns is not None and known is None:
             for c in _children(conns, "Connection"):
                 self.read_connection(c, prefix, names, shown_as)
         ann = _child(sys_el, "Annotations")
@@ -163,15 +173,25 @@ class _Reader:
                                 f"{CSV_SOURCE_TYPE})", file=shown_as, element=where, line=el.sourceline)
         if not source:
             raise ScenarioError("component has no source", file=shown_as, element=where, line=el.sourceline)
+        fmu_path = self.component_file(source, ctype, where, el, shown_as, ssd_dir)
+        comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline,
+                         el.get("implementation", "any"))
+        self.components[path] = comp
+        self.read_bindings(el, path, shown_as, ssd_dir, is_component=True)
+
+    def place_component(self, el, known: Component, shown_as, ssd_dir):
+        """A component of a structure read before: the run's own copy, with its file where this run has it."""
+        fmu_path = self.component_file(known.source, known.type, f"Component {known.name}", el, shown_as, ssd_dir)
+        self.components[known.name] = replace(known, fmu_path=fmu_path)
+        self.read_bindings(el, known.name, shown_as, ssd_dir, is_component=True)
+
+    def component_file(self, source, ctype, where, el, shown_as, ssd_dir) -> Path:
         fmu_path = self.resolve_source(source, ssd_dir)
         if not fmu_path.is_file():
             what = "input table" if ctype == CSV_SOURCE_TYPE else "FMU"
             raise ScenarioError(f"{what} {source!r} not found in the scenario", file=shown_as, element=where,
                                 line=el.sourceline)
-        comp = Component(path, source, fmu_path, ctype, self.read_connectors(el, shown_as), el.sourceline,
-                         el.get("implementation", "any"))
-        self.components[path] = comp
-        self.read_bindings(el, path, shown_as, ssd_dir, is_component=True)
+        return fmu_path
 
     def resolve_source(self, source: str, base_dir: Path) -> Path:
         parsed = urlparse(source)
@@ -240,29 +260,42 @@ class _Reader:
                                         element=f"ParameterBinding of {path or 'system'}", line=pb.sourceline)
             mapping = self.read_mapping(pb, shown_as, ssd_dir)
             self.read_units(_child(pset, "Units"), pset_shown)
-            params = _child(pset, "Parameters")
-            for p in (_children(params, "Parameter") if params is not None else []):
-                name = prefix + p.get("name")
-                value_el = next((t for t in p if _local(t) in SSP_TYPES), None)
-                if value_el is None:
-                    continue
-                typ = _local(value_el)
-                raw = value_el.get("value")
-                if typ == "Enumeration":
-                    raw = value_el.get("value")
-                value = self.convert_value(typ, raw, pset_shown, p)
-                unit = value_el.get("unit")
-                target, trans = name, None
-                if mapping is not None and name in mapping:
-                    target, trans = mapping[name]
-                    if trans is not None and trans.kind == "linear" and typ == "Real":
-                        value = trans.factor * value + trans.offset
-                    elif trans is not None and trans.kind == "map":
-                        value = self.convert_value(typ, trans.mapping.get(raw, raw), pset_shown, p)
-                comp, var = self.resolve_parameter_target(path, target, is_component, pset_shown, p)
-                pv = ParameterValue(comp, var, typ, value, f"{pset_shown}:{p.sourceline}")
+            if mapping is None and is_component and self.reuse_values:
+                key = (path, prefix, pset.sourceline, etree.tostring(pset))
+                read = _PARAMETER_SETS.get(key)
+                if read is None:
+                    read = _keep_parameters(key, tuple(self.read_parameters(pset, path, prefix, None, True,
+                                                                            pset_shown)))
+            else:
+                read = self.read_parameters(pset, path, prefix, mapping, is_component, pset_shown)
+            for comp, var, typ, value, line, unit in read:
+                pv = ParameterValue(comp, var, typ, value, f"{pset_shown}:{line}")
                 pv.unit = unit
                 self.parameters.append(pv)
+
+    def read_parameters(self, pset, path, prefix, mapping, is_component, pset_shown):
+        """(component, variable, type, value, source line, unit) of each parameter of the set."""
+        params = _child(pset, "Parameters")
+        for p in (_children(params, "Parameter") if params is not None else []):
+            name = prefix + p.get("name")
+            value_el = next((t for t in p if _local(t) in SSP_TYPES), None)
+            if value_el is None:
+                continue
+            typ = _local(value_el)
+            raw = value_el.get("value")
+            if typ == "Enumeration":
+                raw = value_el.get("value")
+            value = self.convert_value(typ, raw, pset_shown, p)
+            unit = value_el.get("unit")
+            target, trans = name, None
+            if mapping is not None and name in mapping:
+                target, trans = mapping[name]
+                if trans is not None and trans.kind == "linear" and typ == "Real":
+                    value = trans.factor * value + trans.offset
+                elif trans is not None and trans.kind == "map":
+                    value = self.convert_value(typ, trans.mapping.get(raw, raw), pset_shown, p)
+            comp, var = self.resolve_parameter_target(path, target, is_component, pset_shown, p)
+            yield comp, var, typ, value, p.sourceline, unit
 
     def read_mapping(self, pb, shown_as, ssd_dir):
         pm = _child(pb, "ParameterMapping")
@@ -376,8 +409,107 @@ def _compose(first: Transformation | None, second: Transformation | None) -> Tra
     raise ScenarioError("cannot chain a linear and a mapping transformation through a system connector")
 
 
-def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True) -> SystemModel:
-    """Read and validate an SSD; ``shown_root`` is how the scenario is named in messages."""
+@dataclass(frozen=True)
+class _Structure:
+    """What an SSD's structure key determines: read once, shared by every run of that structure (never modified:
+    a run gets copies of the components and connections, and the connectors as read-only mappings)."""
+    units: dict                 # the SSD's top-level units (a parameter set may add its own)
+    components: dict            # name -> Component, fmu_path as the first run found it
+    connections: tuple
+    size: int                   # connectors and connections: what bounds the cache
+
+
+# structure key -> _Structure: a campaign worker reads the same system with other parameter values run after run
+_STRUCTURES: dict[str, _Structure] = {}
+_MAX_STRUCTURES = 32
+_MAX_KEPT_SIZE = 100_000        # connectors and connections of all kept structures (4 UAVs: ~700; 256: ~45 000)
+#: top-level parts of an SSD that a run reads again (run settings, plugin data), not part of its structure
+_RUN_PARTS = ("DefaultExperiment", "Annotations")
+
+
+def structure_key(top) -> str:
+    """The SHA-256 of everything in the SSD but its values: inline ParameterValues (the parameter files' contents
+    are read per run anyway), the DefaultExperiment and the top-level annotations.  The source lines of what the
+    values were are part of it, since the components and connections read keep their lines for messages."""
+    h = hashlib.sha256(repr((top.tag, sorted(top.attrib.items()), top.sourceline)).encode())
+    for child in top:
+        if _local(child) in _RUN_PARTS:
+            h.update(b"\0run part\0")
+            continue
+        taken = [(pv.getparent(), pv) for pv in child.iter("{*}ParameterValues")]
+        lines, places = [], []
+        for parent, pv in taken:
+            after = _following(pv)
+            lines.append((pv.sourceline, after.sourceline if after is not None else None))
+            places.append(parent.index(pv))
+            parent.remove(pv)           # with its tail: the lines it spanned are in ``lines``
+        try:
+            h.update(repr((child.sourceline, lines)).encode())
+            h.update(etree.tostring(child))
+        finally:
+            for (parent, pv), index in zip(reversed(taken), reversed(places)):
+                parent.insert(index, pv)
+    return h.hexdigest()
+
+
+def _following(el):
+    """The next element after ``el`` and everything in it, in document order (None at the end)."""
+    while el is not None:
+        nxt = el.getnext()
+        if nxt is not None:
+            return nxt
+        el = el.getparent()
+    return None
+
+
+# (component, prefix, source line, the ParameterSet element's bytes) -> what read_parameters read from it: most
+# parameter sets of a campaign's runs are the same from run to run (the values are immutable: numbers, strings)
+_PARAMETER_SETS: dict[tuple, tuple] = {}
+_MAX_PARAMETER_SETS = 512
+_MAX_PARAMETER_BYTES = 16 << 20     # of the kept sets' XML
+_parameter_bytes = [0]
+
+
+def _keep_parameters(key: tuple, read: tuple) -> tuple:
+    if len(_PARAMETER_SETS) >= _MAX_PARAMETER_SETS or _parameter_bytes[0] + len(key[3]) > _MAX_PARAMETER_BYTES:
+        _PARAMETER_SETS.clear()     # emptied when full, as the other caches of a worker
+        _parameter_bytes[0] = 0
+    if len(key[3]) <= _MAX_PARAMETER_BYTES:
+        _PARAMETER_SETS[key] = read
+        _parameter_bytes[0] += len(key[3])
+    return read
+
+
+def _clone(obj):
+    """A shallow copy of a plain dataclass instance (faster than copy.copy, which a run would call for every
+    connection)."""
+    out = object.__new__(type(obj))
+    out.__dict__.update(obj.__dict__)
+    return out
+
+
+def _size(components: dict, connections) -> int:
+    return sum(len(c.connectors) for c in components.values()) + len(connections)
+
+
+def _keep_structure(key: str, known: _Structure) -> _Structure:
+    """``known`` kept under ``key`` unless it alone is over the bound; the cache emptied when full."""
+    if len(_STRUCTURES) >= _MAX_STRUCTURES or sum(s.size for s in _STRUCTURES.values()) + known.size > _MAX_KEPT_SIZE:
+        _STRUCTURES.clear()
+    if known.size <= _MAX_KEPT_SIZE:
+        _STRUCTURES[key] = known
+    return known
+
+
+def _frozen(components: dict) -> dict:
+    return {name: replace(c, connectors=MappingProxyType(dict(c.connectors))) for name, c in components.items()}
+
+
+def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True,
+             reuse_structure: bool = False) -> SystemModel:
+    """Read and validate an SSD; ``shown_root`` is how the scenario is named in messages.  ``reuse_structure``:
+    an SSD whose structure (:func:`structure_key`) this process has read before reads only its values again, and
+    the model says its key (``SystemModel.structure``) for the plan to reuse its part too."""
     ssd_path = Path(ssd_path)
     reader = _Reader(ssd_path, Path(root), shown_root)
     shown_as = reader.shown(ssd_path)
@@ -388,19 +520,35 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
                             file=shown_as, line=top.sourceline)
     if validate and not schema_checked(ssd_path):
         xsd.validate(tree, "ssd", shown_as)
-    reader.read_units(_child(top, "Units"), shown_as)
+    reader.reuse_values = reuse_structure
+    key = structure_key(top) if reuse_structure else None
+    known = _STRUCTURES.get(key) if key is not None else None
+    if known is not None:
+        reader.units = {name: copy.copy(u) for name, u in known.units.items()}
+    else:
+        reader.read_units(_child(top, "Units"), shown_as)
+    top_units = {name: copy.copy(u) for name, u in reader.units.items()}    # the cache's own
     system = _child(top, "System")
     if system is None:
         raise ScenarioError("no ssd:System element", file=shown_as)
-    reader.read_system(system, "", shown_as, ssd_path.parent)
+    reader.read_system(system, "", shown_as, ssd_path.parent, known.components if known is not None else None)
     top_ann = _child(top, "Annotations")
     if top_ann is not None:
         for a in _children(top_ann, "Annotation"):
             reader.annotations.setdefault(a.get("type"), a)
     model = SystemModel(top.get("name", system.get("name", "system")), ssd_path, Path(root),
                         top.get("version", "1.0"))
+    if known is None:
+        connections = reader.flatten_connections()
+        if key is not None and reader.components:
+            known = _keep_structure(key, _Structure(top_units, _frozen(reader.components), tuple(connections),
+                                                    _size(reader.components, connections)))
+            reader.components = {name: copy.copy(c) for name, c in known.components.items()}
+    if known is not None:
+        connections = [_clone(c) for c in known.connections]
+    model.structure = key
     model.components = reader.components
-    model.connections = reader.flatten_connections()
+    model.connections = connections
     model.parameters = reader.parameters
     model.units = reader.units
     model.annotations = reader.annotations

@@ -10,6 +10,7 @@ import hashlib
 import io
 import os
 import shutil
+import threading
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,6 +78,31 @@ def _described_connectors(md, params: dict) -> tuple:
     return _keep(_CONNECTORS, key, (md, tuple(connectors)))[1]
 
 
+# (FMU file, its identity and times) -> its model description: a fleet's builder adds the same few FMUs dozens of
+# times, and the FMU cache's own look-up resolves the path each time
+_DESCRIPTIONS: dict[tuple, object] = {}
+
+
+def _description(fmu_path: Path):
+    from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
+    try:
+        st = fmu_path.stat()
+    except OSError:
+        return load_fmu(fmu_path).md       # says why
+    key = (str(fmu_path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+    md = _DESCRIPTIONS.get(key)
+    if md is None:
+        md = _keep(_DESCRIPTIONS, key, load_fmu(fmu_path).md)
+    return md
+
+
+def _keep_tree(key: tuple, tree, slots: list, size: int) -> None:
+    if len(_TREES) >= _MAX_TREES or sum(t[2] for t in _TREES.values()) + size > _MAX_TREE_BYTES:
+        _TREES.clear()
+    if size <= _MAX_TREE_BYTES:
+        _TREES[key] = (tree, slots, size)
+
+
 def _keep(cache: dict, key, value):
     """``value`` stored under ``key`` in one of the writer's caches, which are emptied when full (a campaign uses a
     handful of entries; anything else would grow without bound)."""
@@ -98,6 +124,13 @@ def _template(cache: dict, key, tag: str, fill) -> etree._Element:
     return element
 
 
+# the shape of an SSD (SspBuilder._shape) -> its tree and the elements holding its inline values: a campaign writes the
+# same system with other values run after run, and building the tree cost more than serialising it
+_TREES: dict[tuple, tuple] = {}
+_TREE_LOCK = threading.Lock()
+_MAX_TREES = 16         # a campaign worker cycles through a handful of systems
+_MAX_TREE_BYTES = 8 << 20   # serialised SSDs of all kept trees (4 UAVs: 160 kB; 256 UAVs: ~10 MB, not kept)
+_KEEP_TREES = True      # tests compare with trees built afresh
 _CONNECTORS_XML: dict[tuple, etree._Element] = {}    # connectors -> their ssd:Connectors element
 _PARAMETERS_XML: dict[tuple, etree._Element] = {}    # (name, type) of each parameter -> ssv:Parameters without values
 
@@ -144,8 +177,7 @@ class SspBuilder:
         fmu_path = Path(fmu_path)
         params = dict(params or {})
         if connectors is None:
-            from ..fmi.cache import load_fmu       # unpacked and read once per process and FMU content
-            connectors = _described_connectors(load_fmu(fmu_path).md, params)
+            connectors = _described_connectors(_description(fmu_path), params)
         typed = {}
         kinds = {c[0]: c[2] for c in connectors}
         for k, v in params.items():
@@ -184,9 +216,9 @@ class SspBuilder:
             alg = etree.SubElement(osp, _q("osp", "Algorithm"))
             etree.SubElement(alg, _q("osp", "FixedStepAlgorithm"), baseStepSize=_fmt(float(self.step)))
 
-    def _params(self, values_parent, comp: _Comp):
+    def _params(self, values_parent, comp: _Comp, slots: list | None = None):
         """Inline under values_parent, or (None) as the root of an .ssv file; libcosim's parser matches the
-        literal 'ssv:' prefix, so the file root declares it."""
+        literal 'ssv:' prefix, so the file root declares it.  ``slots``: gets the elements holding the values."""
         attrs = {"version": "1.0", "name": self.parameter_set or f"{comp.name}-parameters"}
         if values_parent is None:
             pset = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]}, **attrs)
@@ -195,10 +227,17 @@ class SspBuilder:
         ps = copy.deepcopy(_parameters_element(tuple((var, t) for var, (t, _) in comp.params.items())))
         for p, (_, v) in zip(ps, comp.params.values()):
             p[0].set("value", _fmt(v))
+        if slots is not None:
+            slots.append([p[0] for p in ps])
         pset.append(ps)
         return pset
 
     def ssd_tree(self, fmu_names: dict[str, str]):
+        return self._build_tree(fmu_names, None)
+
+    def _build_tree(self, fmu_names: dict[str, str], slots: list | None):
+        """The SSD's tree and the .ssv files' roots; ``slots`` gets, per component with inline values, the
+        elements that hold them."""
         root = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap={k: v for k, v in NS.items()},
                              version="1.0", name=self.name)
         system = etree.SubElement(root, _q("ssd", "System"), name=self.name)
@@ -216,7 +255,7 @@ class SspBuilder:
                 else:
                     pb = etree.SubElement(pbs, _q("ssd", "ParameterBinding"))
                     pv = etree.SubElement(pb, _q("ssd", "ParameterValues"))
-                    self._params(pv, comp)
+                    self._params(pv, comp, slots)
         if self.connections:
             cs = etree.SubElement(system, _q("ssd", "Connections"))
             for a, x, b, y, factor, offset, sup, order in self.connections:
@@ -244,13 +283,58 @@ class SspBuilder:
                 anns.append(a)
         return etree.ElementTree(root), ssv_files
 
+    def _shape(self, fmu_names: dict[str, str]) -> tuple:
+        """Everything the SSD's tree is made of but the inline parameter values and the top-level annotations (the
+        numbers as repr: 0.0 and -0.0 are equal keys, but not the same text)."""
+        settings = (self.name, self.start, self.stop, self.step, self.algorithm, self.record_interval,
+                    list(self.step_multiples.items()), self.record, list(self.algorithm_options.items()),
+                    self.parameter_set, list(self.units.items()), self.connections)
+        return (repr(settings), bool(self.annotations),
+                tuple((c.name, fmu_names[c.name], tuple(c.connectors),
+                       tuple((var, t) for var, (t, _) in c.params.items()), c.ssv) for c in self.components))
+
+    def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict]:
+        """The SSD, validated and serialised, and the .ssv files' roots.  A tree of the same shape written before
+        (a campaign's runs of one system) gets this builder's values and annotations instead of being built again;
+        it is validated and serialised as a new one would be."""
+        key = self._shape(fmu_names)
+        with _TREE_LOCK:        # the kept trees are changed in place (Dask workers may run threads)
+            kept = _TREES.get(key)
+            if kept is None or not _KEEP_TREES:
+                slots: list = []
+                tree, ssv_files = self._build_tree(fmu_names, slots)
+            else:
+                tree, slots, _ = kept
+                ssv_files = self._fill(tree, slots)
+            xsd.validate(tree, "ssd", str(path))
+            ssd = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+            if kept is None or not _KEEP_TREES:
+                _keep_tree(key, tree, slots, len(ssd))
+            return ssd, ssv_files
+
+    def _fill(self, tree, slots: list) -> dict:
+        """Put this builder's values and annotations into a kept tree of its shape; returns the .ssv files' roots."""
+        inline = (comp for comp in self.components if comp.params and not comp.ssv)
+        for comp, elements in zip(inline, slots):
+            for el, (_, v) in zip(elements, comp.params.values()):
+                el.set("value", _fmt(v))
+        if self.annotations:
+            anns = tree.getroot()[-1]           # the top-level ssd:Annotations, written last
+            for old in list(anns):
+                anns.remove(old)
+            for a in self.annotations:
+                anns.append(a)
+        return {comp.ssv: self._params(None, comp) for comp in self.components if comp.params and comp.ssv}
+
     def write(self, path) -> Path:
         """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder."""
         path = Path(path)
-        fmu_names, seen = {}, {}
+        fmu_names, seen, resolved = {}, {}, {}
         for comp in self.components:
             # instances of the same FMU share one archive member
-            key = str(comp.fmu.resolve())
+            key = resolved.get(comp.fmu)
+            if key is None:
+                key = resolved[comp.fmu] = str(comp.fmu.resolve())
             if key not in seen:
                 base = comp.fmu.name
                 taken = set(seen.values())
@@ -259,9 +343,7 @@ class SspBuilder:
                     name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
                 seen[key] = name
             fmu_names[comp.name] = seen[key]
-        tree, ssv_files = self.ssd_tree(fmu_names)
-        xsd.validate(tree, "ssd", str(path))
-        ssd_bytes = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+        ssd_bytes, ssv_files = self._ssd_bytes(fmu_names, path)
         ssv_bytes = {name: etree.tostring(etree.ElementTree(el), xml_declaration=True, encoding="UTF-8",
                                           pretty_print=True) for name, el in ssv_files.items()}
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
