@@ -168,10 +168,12 @@ class Runtime:
     def _held_slots(self, t: str, pos: int) -> list[tuple[int, object]]:
         """Slots after the read values of type ``t`` for the unconnected elements of connected array inputs,
         holding the value given to the element (a parameter) or its start value; returns (slot, value)."""
-        given = {v.qualified: value for v, value, _ in self.plan.params}
+        given = None            # built when a held element needs it: most systems have none
         held = []
         for ln in self._input_links:
             if ln.src is None and ln.dst.type == t:
+                if given is None:
+                    given = {v.qualified: value for v, value, _ in self.plan.params}
                 whole = self.plan.variables[ln.dst.component][ln.dst.array]
                 value = given[whole.qualified][ln.dst.index] if whole.qualified in given else ln.dst.start
                 self._held_pos[id(ln)] = pos + len(held)
@@ -311,8 +313,22 @@ class Runtime:
             self.changed = True
 
     def apply_start_values(self, start: float):
-        for v, value, origin in self.plan.params:
-            slave = self.slaves[self.index[v.component]]
+        """The plan's parameters and start values, in its order. A slave that sets values of one type in one call
+        (``Slave.set_values``) gets each type's in one; the others, and a batch it declines, one value per call."""
+        params = self.plan.params
+        batches: dict[tuple[int, str], list[int]] = {}      # (slave, type) -> positions in params, in order
+        index = self.index
+        for k, (v, _, _) in enumerate(params):
+            batches.setdefault((index[v.component], v.type), []).append(k)
+        one_by_one = set()
+        for (i, typ), ks in batches.items():
+            slave = self.slaves[i]
+            if not slave.set_values(typ, [params[k][0].vr for k in ks], [params[k][1] for k in ks]):
+                one_by_one.update(ks)
+        for k, (v, value, origin) in enumerate(params):
+            if k not in one_by_one:
+                continue
+            slave = self.slaves[index[v.component]]
             st = slave.set_value(v.type, v.vr, value)
             if st > WARNING:
                 raise slave.fail(f"setting {v.name}={value!r} ({origin})", st, start)

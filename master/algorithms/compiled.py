@@ -191,10 +191,27 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
         sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
     for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
-        exec(compile(src, name, "exec"), ns)
+        exec(_code(src, name), ns)
     fn = ns["step"]
     fn.source = "".join(sources)
     return fn
+
+
+#: compiled step sources, by (source, name): the runs of one structure generate the same text (every value it
+#: uses is a name bound in the run's own namespace), and compiling it was most of a step's build. A code object is
+#: immutable, so sharing it between runs changes nothing they do. Bounded: emptied when full.
+_CODE_CACHE: dict = {}
+CODE_CACHE_SIZE = 64
+
+
+def _code(src: str, name: str):
+    key = (src, name)
+    code = _CODE_CACHE.get(key)
+    if code is None:
+        if len(_CODE_CACHE) >= CODE_CACHE_SIZE:
+            _CODE_CACHE.clear()
+        code = _CODE_CACHE[key] = compile(src, name, "exec")
+    return code
 
 
 def _function(fname: str, lines: list[str], params: str = "") -> str:

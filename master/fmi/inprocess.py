@@ -235,6 +235,17 @@ def load_slave_module(resources: str, module_name: str):
     return module, clashes
 
 
+def _shell_bind(obj, op, typ, vrs):
+    """``obj.cosim_bind(op, typ, vrs)`` (see ``PythonFmuSlave._bound``), or None."""
+    bind = getattr(obj, "cosim_bind", None)
+    if bind is None:
+        return None
+    try:
+        return bind(op, typ, list(vrs))
+    except Exception:       # noqa: BLE001 - an optional shortcut: the FMI functions remain
+        return None
+
+
 class PythonFmuSlave(Slave):
     kind = "CoSimulation (in process)"
 
@@ -310,8 +321,23 @@ class PythonFmuSlave(Slave):
         st, _ = self._call(f"set_{typ.lower()}", fn, [vr], [_CONVERT[typ](value)])
         return st
 
+    def set_values(self, typ, vrs, values) -> bool:
+        """In one update of the instance's __dict__ when the shell binds plain attributes for them (``set_raw``,
+        see bound_set): set_<type>([vr], [value]) one by one stores the same converted values under the same
+        names in the same order, and such stores run no code of the FMU (nothing to log, nothing to fail)."""
+        raw = _shell_bind(self.obj, "set_raw", typ, vrs) if typ in _CONVERT else None
+        if raw is None:
+            return False
+        update, names = raw
+        conv = _CONVERT[typ]
+        try:
+            update(zip(names, [conv(v) for v in values]))
+        except Exception:           # noqa: BLE001 - one by one, which sets them all again or fails as before
+            return False
+        return True
+
     def make_port(self, typ, vrs, buf):
-        port = Port(vrs, buf, None)
+        port = Port(vrs, buf, None, native=False)
         port.extra = [int(v) for v in port.vrs]
         return port
 
@@ -356,13 +382,7 @@ class PythonFmuSlave(Slave):
     def _bound(self, op, typ, vrs):
         """The slave's own fast accessor, if its class offers ``cosim_bind(op, typ, vrs)`` (documented in
         docs/architecture.md: a function equivalent to get_<typ>(vrs) / set_<typ>(vrs, values))."""
-        bind = getattr(self.obj, "cosim_bind", None)
-        if bind is None:
-            return None
-        try:
-            return bind(op, typ, list(vrs))
-        except Exception:       # noqa: BLE001 - an optional shortcut: the FMI functions remain
-            return None
+        return _shell_bind(self.obj, op, typ, vrs)
 
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]

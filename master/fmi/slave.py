@@ -65,17 +65,20 @@ SET_FAILED = 256
 
 
 class Port:
-    """A set of value references of one base type bound to a buffer slice of the master."""
+    """A set of value references of one base type bound to a buffer slice of the master. ``native`` false: a
+    slave that calls no C function (in process, a table) gets no ctypes pointers, whose casts were the larger
+    part of binding a run's ports."""
     __slots__ = ("vrs", "buf", "n", "vr_ptr", "buf_ptr", "extra")
 
-    def __init__(self, vrs, buf, ctype):
-        from ctypes import POINTER, c_uint
+    def __init__(self, vrs, buf, ctype, native: bool = True):
         self.vrs = np.ascontiguousarray(vrs, dtype=np.uint32)
         self.buf = buf
         self.n = len(self.vrs)
-        self.vr_ptr = self.vrs.ctypes.data_as(POINTER(c_uint))
-        self.buf_ptr = buf.ctypes.data_as(POINTER(ctype)) if ctype is not None else None
-        self.extra = None
+        self.vr_ptr = self.buf_ptr = self.extra = None
+        if native:
+            from ctypes import POINTER, c_uint
+            self.vr_ptr = self.vrs.ctypes.data_as(POINTER(c_uint))
+            self.buf_ptr = buf.ctypes.data_as(POINTER(ctype)) if ctype is not None else None
 
 
 class Slave(abc.ABC):
@@ -124,6 +127,12 @@ class Slave(abc.ABC):
     @abc.abstractmethod
     def set_value(self, typ: str, vr: int, value) -> int:
         """One value (start values, parameters); returns the FMI status."""
+
+    def set_values(self, typ: str, vrs: list[int], values: list) -> bool:
+        """Optional: set ``values`` (start values, parameters) in one call, exactly as ``set_value`` one after the
+        other would, where nothing else can tell the difference (no side effect, no status, no message). True:
+        all are set; False: none is, and the caller sets them one by one (which reports a failing one)."""
+        return False
 
     @abc.abstractmethod
     def make_port(self, typ: str, vrs, buf: np.ndarray) -> Port: ...
