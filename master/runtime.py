@@ -264,11 +264,13 @@ class Runtime:
                     vrs = [ln.dst.vr for ln in links]
                     src = self.src[t][a:b]
                     f, o = self.factor[t][a:b], self.offset[t][a:b]
-                    affine = t == "Real" and (np.any(f != 1.0) or np.any(o != 0.0))
+                    # these few values tested as Python numbers: numpy's calls cost more than the tests
+                    positions = src.tolist()
+                    affine = t == "Real" and (any(x != 1.0 for x in f.tolist()) or any(x != 0.0 for x in o.tolist()))
                     maps = [(k, ln.mapping) for k, ln in enumerate(links) if ln.mapping]
                     if kind == "step":
-                        self.write_sources[i].append(None if affine or maps else [int(p) for p in src])
-                    if not affine and not maps and np.all(np.diff(src) == 1):
+                        self.write_sources[i].append(None if affine or maps else positions)
+                    if not affine and not maps and all(q - p == 1 for p, q in zip(positions, positions[1:])):
                         # the inputs are a contiguous run of outputs: the setter reads the output buffer itself
                         view = self.out[t][src[0]:src[0] + len(src)]
                         ports[i].append((t, slave.make_port(t, vrs, view)))
@@ -278,11 +280,12 @@ class Runtime:
                     xfer[i].append((t, self.out[t], src, view, f if affine else None, o, maps))
             self.staging[i] = staged or None
 
-    def fast_ops(self, i: int):
-        """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None)."""
+    def fast_ops(self, i: int, setters: bool = True):
+        """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None);
+        ``setters`` false: None for the setters (a step that sets the inputs another way need not bind them)."""
         slave = self.slaves[i]
         transfers = [self._transfer_op(entry) for entry in self.xfer[i]]
-        setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]]
+        setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]] if setters else None
         getters = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
         publish = functools.partial(self.publish, i) if self.staging[i] else None
         return transfers, setters, slave.bound_step(), getters, publish

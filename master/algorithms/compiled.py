@@ -33,10 +33,11 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     active = [i for i in order if rt.active[i]]
     for i in active:
         k = rt.multiple[i]
-        transfers, setters, step, getters, publish = rt.fast_ops(i)
         ns[f"H{i}"] = h * k
         raw = rt.slaves[i].raw_step
         cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
+        # a cycle sets the inputs itself: the setters are bound only for the other two ways
+        transfers, setters, step, getters, publish = rt.fast_ops(i, setters=cycle is None)
         due = [] if k == 1 else [f"if n % {k} == 0:"]
         inline = getattr(cycle, "inline", None)
         # Jacobi: the inputs of an inline cycle taken from the step's lists of the output values (no copy into
@@ -180,7 +181,7 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         chunks[-1].extend(b)
     # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
     # changes before the tail, which comes after every input is set)
-    lists = sorted({m.group(1) for b in blocks for ln in b for m in _LIST_USE.finditer(ln)})
+    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
     head = [f"V{typ} = _out{typ}.tolist()" for typ in lists]
     for typ in lists:
         ns[f"_out{typ}"] = out[typ]

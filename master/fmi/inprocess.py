@@ -70,8 +70,22 @@ class InlineGet(NamedTuple):
 
 
 def is_pythonfmu(fmu) -> bool:
-    return (fmu.md.coSimulation is not None and (fmu.unzip_dir / "resources" / "slavemodule.txt").is_file()
+    return (fmu.md.coSimulation is not None and _slave_module_text(fmu.unzip_dir) is not None
             and (fmu.md.generationTool or "").lower().startswith("pythonfmu"))
+
+
+_module_texts: dict[str, str | None] = {}      # unpacked FMU folder -> its resources/slavemodule.txt or None
+
+
+def _slave_module_text(unzip_dir) -> str | None:
+    """The text of the FMU's resources/slavemodule.txt (None: it has none), read once per unpacked folder: a
+    folder is named by its archive's SHA-256 (fmi/cache.py), so what it holds does not change, and every
+    component of every run made the same path look-ups and read again."""
+    key = str(unzip_dir)
+    if key not in _module_texts:
+        path = Path(key, "resources", "slavemodule.txt")
+        _module_texts[key] = path.read_text() if path.is_file() else None
+    return _module_texts[key]
 
 
 def _slave_class(module, model_identifier):
@@ -251,9 +265,11 @@ class PythonFmuSlave(Slave):
 
     def __init__(self, name, fmu, log, shown_as):
         super().__init__(name, fmu, log, shown_as)
-        resources = fmu.unzip_dir / "resources"
-        self.resources = str(resources)
-        module_name = (resources / "slavemodule.txt").read_text().splitlines()[0].strip()
+        self.resources = str(Path(fmu.unzip_dir, "resources"))
+        text = _slave_module_text(fmu.unzip_dir)
+        if text is None:        # gone since is_pythonfmu looked: read it to raise what reading it raised
+            text = Path(self.resources, "slavemodule.txt").read_text()
+        module_name = text.splitlines()[0].strip()
         try:
             module, clashes = load_slave_module(self.resources, module_name)
         except Exception as exc:
