@@ -365,8 +365,10 @@ class PythonFmuSlave(Slave):
 
     def set_port(self, typ, port) -> int:
         conv = _CONVERT[typ]
+        # tolist(): the buffer's values as Python numbers (numpy's scalars, which iterating gives, convert to the
+        # same ones, one call each)
         st, _ = self._call(f"set_{typ.lower()}", getattr(self.obj, f"set_{typ.lower()}"), port.extra,
-                           [conv(v) for v in port.buf])
+                           [conv(v) for v in port.buf.tolist()])
         return st
 
     def do_step(self, t, h) -> int:
