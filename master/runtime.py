@@ -236,6 +236,7 @@ class Runtime:
         # per step input port: the positions in out[its type] whose values it is set to, when it takes them as
         # they are (a plain copy or the output buffer itself; None after a conversion or mapping)
         self.write_sources = [[] for _ in range(n)]
+        self._getters = [None] * n       # bound once where the slave allows it in initialization (``_step_getters``)
         for i, slave in enumerate(self.slaves):
             staged = []
             for t in BASE_TYPES:
@@ -286,9 +287,36 @@ class Runtime:
         slave = self.slaves[i]
         transfers = [self._transfer_op(entry) for entry in self.xfer[i]]
         setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]] if setters else None
-        getters = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
+        getters = self._step_getters(i) or [slave.bound_get(t, port) for t, port in self.read_ports[i]]
         publish = functools.partial(self.publish, i) if self.staging[i] else None
         return transfers, setters, slave.bound_step(), getters, publish
+
+    def _step_getters(self, i: int) -> list | None:
+        """Slave i's bound getters of the values read after every step, bound once and shared by the initialization
+        and the compiled step, when the slave's bound getters do what ``get_port`` does in initialization mode too
+        (``Slave.bound_get_in_init``); else None."""
+        if not self.slaves[i].bound_get_in_init:
+            return None
+        ops = self._getters[i]
+        if ops is None:
+            slave = self.slaves[i]
+            ops = self._getters[i] = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
+        return ops
+
+    def _read_outputs(self, i: int, t: float):
+        """``get_outputs`` through the bound getters where the slave has them in initialization."""
+        ops = self._step_getters(i)
+        if ops is None:
+            return self.get_outputs(i, t)
+        slave = self.slaves[i]
+        for op, (typ, _) in zip(ops, self.read_ports[i]):
+            st = op()
+            if st > WARNING:
+                raise slave.fail(f"getting outputs ({typ})", st, t)
+        for op, _, typ in self._sample_ops[i]:
+            st = op()
+            if st > WARNING:
+                raise slave.fail(f"getting outputs ({typ})", st, t)
 
     def bind_samples(self):
         """Bind the reads of the recorded-only variables (after instantiation; see :meth:`read_samples`)."""
@@ -383,7 +411,7 @@ class Runtime:
             self._at(PHASE_INITIALIZE, i)
             slave.enter_init(start)
         for i in order:
-            self.get_outputs(i, start)
+            self._read_outputs(i, start)
             if self.staging[i]:
                 self.publish(i)
         limit = max_iterations if has_algebraic_loop else len(order) + 2
@@ -399,7 +427,7 @@ class Runtime:
                     st = slave.set_port(typ, port)
                     if st > WARNING:
                         raise slave.fail(f"setting connected parameters ({typ})", st, start)
-                self.get_outputs(i, start)
+                self._read_outputs(i, start)
                 if self.staging[i]:
                     self.publish(i)
             if all(_same(before[t], self.out[t], tolerance) for t in BASE_TYPES):
@@ -412,7 +440,7 @@ class Runtime:
             self._at(PHASE_INITIALIZE, i)
             slave.exit_init(start)
         for i in order:
-            self.get_outputs(i, start)
+            self._read_outputs(i, start)
             if self.staging[i]:
                 self.publish(i)
 

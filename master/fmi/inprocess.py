@@ -262,6 +262,7 @@ def _shell_bind(obj, op, typ, vrs):
 
 class PythonFmuSlave(Slave):
     kind = "CoSimulation (in process)"
+    bound_get_in_init = True     # the same get_<type> values in any mode (a raising fetch retries through get_port)
 
     def __init__(self, name, fmu, log, shown_as):
         super().__init__(name, fmu, log, shown_as)

@@ -89,6 +89,9 @@ class Slave(abc.ABC):
     """
     kind = "CoSimulation"
     can_save_state = False
+    # its bound getters (``bound_get``) may read in initialization mode, where they do what ``get_port`` does (not
+    # so for FMI 1.0, whose get_port forgives a refusal before initialization)
+    bound_get_in_init = False
     error_status = OK       # the worst status above Discard a call returned: FMI allows no Terminate after Error
 
     def __init__(self, name: str, fmu: LoadedFmu, log: LogSink, shown_as: str):
