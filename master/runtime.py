@@ -344,18 +344,22 @@ class Runtime:
             self.changed = True
 
     def apply_start_values(self, start: float):
-        """The plan's parameters and start values, in its order. A slave that sets values of one type in one call
-        (``Slave.set_values``) gets each type's in one; the others, and a batch it declines, one value per call."""
+        """The plan's parameters and start values, in its order. A slave that takes every one of its values in one
+        call per type (``Slave.values_setter``) gets them so; the others one value per call, in the plan's order
+        (a slave that declines one type gets all of its values that way: a setter with code of its own then sees
+        the others as one by one would)."""
         params = self.plan.params
-        batches: dict[tuple[int, str], list[int]] = {}      # (slave, type) -> positions in params, in order
         index = self.index
+        by_slave: dict[int, dict[str, list[int]]] = {}      # slave -> type -> positions in params, in order
         for k, (v, _, _) in enumerate(params):
-            batches.setdefault((index[v.component], v.type), []).append(k)
+            by_slave.setdefault(index[v.component], {}).setdefault(v.type, []).append(k)
         one_by_one = set()
-        for (i, typ), ks in batches.items():
+        for i, by_type in by_slave.items():
             slave = self.slaves[i]
-            if not slave.set_values(typ, [params[k][0].vr for k in ks], [params[k][1] for k in ks]):
-                one_by_one.update(ks)
+            puts = [(slave.values_setter(typ, [params[k][0].vr for k in ks]), ks) for typ, ks in by_type.items()]
+            if not (all(put is not None for put, _ in puts)
+                    and all(put([params[k][1] for k in ks]) for put, ks in puts)):
+                one_by_one.update(k for ks in by_type.values() for k in ks)
         for k, (v, value, origin) in enumerate(params):
             if k not in one_by_one:
                 continue

@@ -338,20 +338,23 @@ class PythonFmuSlave(Slave):
         st, _ = self._call(f"set_{typ.lower()}", fn, [vr], [_CONVERT[typ](value)])
         return st
 
-    def set_values(self, typ, vrs, values) -> bool:
-        """In one update of the instance's __dict__ when the shell binds plain attributes for them (``set_raw``,
-        see bound_set): set_<type>([vr], [value]) one by one stores the same converted values under the same
-        names in the same order, and such stores run no code of the FMU (nothing to log, nothing to fail)."""
+    def values_setter(self, typ, vrs):
+        """One update of the instance's __dict__ when the shell binds plain attributes for them (``set_raw``, see
+        bound_set): set_<type>([vr], [value]) one by one stores the same converted values under the same names in
+        the same order, and such stores run no code of the FMU (nothing to log, nothing to fail)."""
         raw = _shell_bind(self.obj, "set_raw", typ, vrs) if typ in _CONVERT else None
         if raw is None:
-            return False
+            return None
         update, names = raw
         conv = _CONVERT[typ]
-        try:
-            update(zip(names, [conv(v) for v in values]))
-        except Exception:           # noqa: BLE001 - one by one, which sets them all again or fails as before
-            return False
-        return True
+
+        def put(values) -> bool:
+            try:
+                update(zip(names, [conv(v) for v in values]))
+            except Exception:       # noqa: BLE001 - one by one, which sets them all again or fails as before
+                return False
+            return True
+        return put
 
     def make_port(self, typ, vrs, buf):
         port = Port(vrs, buf, None, native=False)

@@ -131,11 +131,12 @@ class Slave(abc.ABC):
     def set_value(self, typ: str, vr: int, value) -> int:
         """One value (start values, parameters); returns the FMI status."""
 
-    def set_values(self, typ: str, vrs: list[int], values: list) -> bool:
-        """Optional: set ``values`` (start values, parameters) in one call, exactly as ``set_value`` one after the
-        other would, where nothing else can tell the difference (no side effect, no status, no message). True:
-        all are set; False: none is, and the caller sets them one by one (which reports a failing one)."""
-        return False
+    def values_setter(self, typ: str, vrs: list[int]):
+        """Optional: a function ``put(values) -> bool`` setting ``vrs`` (start values, parameters) in one call, as
+        ``set_value`` one after the other would where nothing else can tell the difference (no code of the FMU runs,
+        no status, no message); False: it stored nothing, set them one by one (which reports a failing one). None:
+        the slave has no such function for these (asking changes nothing)."""
+        return None
 
     @abc.abstractmethod
     def make_port(self, typ: str, vrs, buf: np.ndarray) -> Port: ...

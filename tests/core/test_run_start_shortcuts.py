@@ -1,6 +1,6 @@
 """The shortcuts of a run's start (Execution.initialize), each of which must leave what a run does unchanged: the
 step's code shared by the runs of one structure (compiled.py ``_code``), start values set in one update per slave
-and type (``Slave.set_values``), in-process ports without ctypes pointers."""
+and type (``Slave.values_setter``), in-process ports without ctypes pointers."""
 from pathlib import Path
 
 import pytest
@@ -78,7 +78,7 @@ def _after_start_values(monkeypatch, batched: bool, params: dict):
         seen.update({name: _variable_values(s.obj) for name, s in zip(rt.names, rt.slaves)})
     monkeypatch.setattr(Runtime, "apply_start_values", spy)
     if not batched:
-        monkeypatch.setattr(PythonFmuSlave, "set_values", lambda self, typ, vrs, values: False)
+        monkeypatch.setattr(PythonFmuSlave, "values_setter", lambda self, typ, vrs: None)
     with Execution(FOUR, output=None, params=params, **KW) as ex:
         ex.simulate_until()
         frame = ex.memory_table().to_pandas()
@@ -102,19 +102,43 @@ def test_start_values_in_one_update_equal_one_by_one(monkeypatch):
     assert frame_a.equals(frame_b)
 
 
-def test_a_batch_the_shell_cannot_take_is_set_one_by_one(monkeypatch):
-    # a value reference without a plain attribute (here: one that does not exist) makes set_values decline, and the
-    # one-by-one path reports the failing variable as before
+def test_a_batch_the_shell_cannot_take_is_set_one_by_one():
+    # a value reference without a plain attribute (here: one that does not exist) gets no setter; one with it stores
+    # the converted values in order (the later of two values of one variable wins)
     ex = Execution(FOUR, output=None, **KW)
     try:
         ex.initialize()
         slave = ex.rt.slaves[ex.rt.index["uav1_dyn"]]
-        assert slave.set_values("Real", [10 ** 6], [1.0]) is False
+        assert slave.values_setter("Real", [10 ** 6]) is None
         mass = ex.prepared.plan.variables["uav1_dyn"]["mass"]
-        assert slave.set_values("Real", [mass.vr, mass.vr], [3, 4.5]) is True
+        assert slave.values_setter("Real", [mass.vr, mass.vr])([3, 4.5]) is True
         assert slave.obj.mass == 4.5 and type(slave.obj.mass) is float
+        assert slave.values_setter("Real", [mass.vr])([2]) is True and repr(slave.obj.mass) == "2.0"
     finally:
         ex.close()
+
+
+def test_a_slave_with_a_declined_type_gets_all_its_values_one_by_one(monkeypatch):
+    # its Integer values have no setter: its Real values go one by one too, in the plan's order, with the others'
+    calls = []
+    orig_setter, orig_value = PythonFmuSlave.values_setter, PythonFmuSlave.set_value
+
+    def setter(self, typ, vrs):
+        return None if (self.name == "uav1_strat" and typ == "Integer") else orig_setter(self, typ, vrs)
+
+    def set_value(self, typ, vr, value):
+        calls.append((self.name, typ))
+        return orig_value(self, typ, vr, value)
+    monkeypatch.setattr(PythonFmuSlave, "values_setter", setter)
+    monkeypatch.setattr(PythonFmuSlave, "set_value", set_value)
+    ex = Execution(FOUR, output=None, **KW)
+    try:
+        ex.initialize()
+    finally:
+        ex.close()
+    mine = [q for q in ex.prepared.plan.params if q[0].component == "uav1_strat"]
+    assert calls == [("uav1_strat", v.type) for v, _, _ in mine]
+    assert {t for _, t in calls} >= {"Integer", "Real", "String"}
 
 
 def test_in_process_ports_have_no_ctypes_pointers():
