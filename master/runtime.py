@@ -168,10 +168,12 @@ class Runtime:
     def _held_slots(self, t: str, pos: int) -> list[tuple[int, object]]:
         """Slots after the read values of type ``t`` for the unconnected elements of connected array inputs,
         holding the value given to the element (a parameter) or its start value; returns (slot, value)."""
-        given = {v.qualified: value for v, value, _ in self.plan.params}
+        given = None            # built when a held element needs it: most systems have none
         held = []
         for ln in self._input_links:
             if ln.src is None and ln.dst.type == t:
+                if given is None:
+                    given = {v.qualified: value for v, value, _ in self.plan.params}
                 whole = self.plan.variables[ln.dst.component][ln.dst.array]
                 value = given[whole.qualified][ln.dst.index] if whole.qualified in given else ln.dst.start
                 self._held_pos[id(ln)] = pos + len(held)
@@ -234,6 +236,7 @@ class Runtime:
         # per step input port: the positions in out[its type] whose values it is set to, when it takes them as
         # they are (a plain copy or the output buffer itself; None after a conversion or mapping)
         self.write_sources = [[] for _ in range(n)]
+        self._getters = [None] * n       # bound once where the slave allows it in initialization (``_step_getters``)
         for i, slave in enumerate(self.slaves):
             staged = []
             for t in BASE_TYPES:
@@ -262,11 +265,13 @@ class Runtime:
                     vrs = [ln.dst.vr for ln in links]
                     src = self.src[t][a:b]
                     f, o = self.factor[t][a:b], self.offset[t][a:b]
-                    affine = t == "Real" and (np.any(f != 1.0) or np.any(o != 0.0))
+                    # these few values tested as Python numbers: numpy's calls cost more than the tests
+                    positions = src.tolist()
+                    affine = t == "Real" and (any(x != 1.0 for x in f.tolist()) or any(x != 0.0 for x in o.tolist()))
                     maps = [(k, ln.mapping) for k, ln in enumerate(links) if ln.mapping]
                     if kind == "step":
-                        self.write_sources[i].append(None if affine or maps else [int(p) for p in src])
-                    if not affine and not maps and np.all(np.diff(src) == 1):
+                        self.write_sources[i].append(None if affine or maps else positions)
+                    if not affine and not maps and all(q - p == 1 for p, q in zip(positions, positions[1:])):
                         # the inputs are a contiguous run of outputs: the setter reads the output buffer itself
                         view = self.out[t][src[0]:src[0] + len(src)]
                         ports[i].append((t, slave.make_port(t, vrs, view)))
@@ -276,14 +281,42 @@ class Runtime:
                     xfer[i].append((t, self.out[t], src, view, f if affine else None, o, maps))
             self.staging[i] = staged or None
 
-    def fast_ops(self, i: int):
-        """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None)."""
+    def fast_ops(self, i: int, setters: bool = True):
+        """Callables for the compiled step of slave i: (transfers, setters, step, getters, publish or None);
+        ``setters`` false: None for the setters (a step that sets the inputs another way need not bind them)."""
         slave = self.slaves[i]
         transfers = [self._transfer_op(entry) for entry in self.xfer[i]]
-        setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]]
-        getters = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
+        setters = [slave.bound_set(t, port) for t, port in self.write_ports[i]] if setters else None
+        getters = self._step_getters(i) or [slave.bound_get(t, port) for t, port in self.read_ports[i]]
         publish = functools.partial(self.publish, i) if self.staging[i] else None
         return transfers, setters, slave.bound_step(), getters, publish
+
+    def _step_getters(self, i: int) -> list | None:
+        """Slave i's bound getters of the values read after every step, bound once and shared by the initialization
+        and the compiled step, when the slave's bound getters do what ``get_port`` does in initialization mode too
+        (``Slave.bound_get_in_init``); else None."""
+        if not self.slaves[i].bound_get_in_init:
+            return None
+        ops = self._getters[i]
+        if ops is None:
+            slave = self.slaves[i]
+            ops = self._getters[i] = [slave.bound_get(t, port) for t, port in self.read_ports[i]]
+        return ops
+
+    def _read_outputs(self, i: int, t: float):
+        """``get_outputs`` through the bound getters where the slave has them in initialization."""
+        ops = self._step_getters(i)
+        if ops is None:
+            return self.get_outputs(i, t)
+        slave = self.slaves[i]
+        for op, (typ, _) in zip(ops, self.read_ports[i]):
+            st = op()
+            if st > WARNING:
+                raise slave.fail(f"getting outputs ({typ})", st, t)
+        for op, _, typ in self._sample_ops[i]:
+            st = op()
+            if st > WARNING:
+                raise slave.fail(f"getting outputs ({typ})", st, t)
 
     def bind_samples(self):
         """Bind the reads of the recorded-only variables (after instantiation; see :meth:`read_samples`)."""
@@ -311,8 +344,26 @@ class Runtime:
             self.changed = True
 
     def apply_start_values(self, start: float):
-        for v, value, origin in self.plan.params:
-            slave = self.slaves[self.index[v.component]]
+        """The plan's parameters and start values, in its order. A slave that takes every one of its values in one
+        call per type (``Slave.values_setter``) gets them so; the others one value per call, in the plan's order
+        (a slave that declines one type gets all of its values that way: a setter with code of its own then sees
+        the others as one by one would)."""
+        params = self.plan.params
+        index = self.index
+        by_slave: dict[int, dict[str, list[int]]] = {}      # slave -> type -> positions in params, in order
+        for k, (v, _, _) in enumerate(params):
+            by_slave.setdefault(index[v.component], {}).setdefault(v.type, []).append(k)
+        one_by_one = set()
+        for i, by_type in by_slave.items():
+            slave = self.slaves[i]
+            puts = [(slave.values_setter(typ, [params[k][0].vr for k in ks]), ks) for typ, ks in by_type.items()]
+            if not (all(put is not None for put, _ in puts)
+                    and all(put([params[k][1] for k in ks]) for put, ks in puts)):
+                one_by_one.update(k for ks in by_type.values() for k in ks)
+        for k, (v, value, origin) in enumerate(params):
+            if k not in one_by_one:
+                continue
+            slave = self.slaves[index[v.component]]
             st = slave.set_value(v.type, v.vr, value)
             if st > WARNING:
                 raise slave.fail(f"setting {v.name}={value!r} ({origin})", st, start)
@@ -364,7 +415,7 @@ class Runtime:
             self._at(PHASE_INITIALIZE, i)
             slave.enter_init(start)
         for i in order:
-            self.get_outputs(i, start)
+            self._read_outputs(i, start)
             if self.staging[i]:
                 self.publish(i)
         limit = max_iterations if has_algebraic_loop else len(order) + 2
@@ -380,7 +431,7 @@ class Runtime:
                     st = slave.set_port(typ, port)
                     if st > WARNING:
                         raise slave.fail(f"setting connected parameters ({typ})", st, start)
-                self.get_outputs(i, start)
+                self._read_outputs(i, start)
                 if self.staging[i]:
                     self.publish(i)
             if all(_same(before[t], self.out[t], tolerance) for t in BASE_TYPES):
@@ -393,7 +444,7 @@ class Runtime:
             self._at(PHASE_INITIALIZE, i)
             slave.exit_init(start)
         for i in order:
-            self.get_outputs(i, start)
+            self._read_outputs(i, start)
             if self.staging[i]:
                 self.publish(i)
 

@@ -77,11 +77,12 @@ class _VarTable:
     modelDescription.xml lists, without per-instance getter/setter closures), their names in value-reference
     order, and per type the attribute read (get) and written (set) for each value reference."""
 
-    __slots__ = ("vars", "names", "tables")
+    __slots__ = ("vars", "names", "tables", "plain")
 
     def __init__(self, variables):
         self.vars = variables
         self.names = tuple(v.name for v in variables.values())
+        self.plain = {}          # names -> all plain instance attributes (UnitsMixin._plain)
         self.tables = {}
         for cls in (Real, Integer, Boolean, String):
             vrs = [vr for vr, v in variables.items() if isinstance(v, cls)]
@@ -350,10 +351,25 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
         one is a plain instance attribute (no property, no __setattr__)."""
         put = self._vr_tables()[cls][1]
         names = tuple(put.get(vr) for vr in vrs)
-        if (not names or type(self).__setattr__ is not object.__setattr__
-                or not all(a.__class__ is str and not hasattr(type(self), a) for a in names)):
+        if not names or type(self).__setattr__ is not object.__setattr__ or not self._plain(names):
             return None
         return self.__dict__.update, names
+
+    def _plain(self, names: tuple) -> bool:
+        """Every one of ``names`` is a str the class does not define (no property or other descriptor): a plain
+        instance attribute. The answer depends on the class alone, so instances sharing a table ask it once per
+        tuple (a strategy's start values name a thousand parameters)."""
+        table = _table_of(self)
+        known = table.plain if table is not None else None
+        if known is not None and names in known:
+            return known[names]
+        cls = type(self)
+        plain = all(a.__class__ is str and not hasattr(cls, a) for a in names)
+        if known is not None:
+            if len(known) >= 256:
+                known.clear()
+            known[names] = plain
+        return plain
 
     def get_real(self, vrs):
         return self._get(Real, float, vrs, "get_real")

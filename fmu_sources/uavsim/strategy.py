@@ -245,6 +245,14 @@ class ZoneMap:
     def __bool__(self):
         return bool(self.polys)
 
+    def records(self) -> list[float]:
+        """Every zone's record for the compiled fast path (``_zone_record``), made once per map (its polygons never
+        change): each strategy that flies these zones again would make the same list."""
+        made = self.__dict__.get("_records")
+        if made is None:
+            made = self._records = [v for poly in self.polys for v in _zone_record(poly)]
+        return made
+
     def blocked(self, a, b) -> int:
         """Index of the first zone whose interior the segment a-b crosses, or -1."""
         ax, ay = float(a[0]), float(a[1])
@@ -568,7 +576,7 @@ class Strategy:
             values = [p.arrival_radius, p.land_threshold, p.return_threshold, p.lookahead,
                       max(p.brake_accel, 1e-6), p.cruise_altitude, self.home[0], self.home[1],
                       1.0 if self.planning else 0.0, len(self.zones.polys)]
-            records = [v for poly in self.zones.polys for v in _zone_record(poly)]
+            records = self.zones.records()
             return array("d", [float(v) for v in values] + records).tobytes()
         except (AttributeError, TypeError, ValueError):
             return None

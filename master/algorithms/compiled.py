@@ -33,10 +33,11 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     active = [i for i in order if rt.active[i]]
     for i in active:
         k = rt.multiple[i]
-        transfers, setters, step, getters, publish = rt.fast_ops(i)
         ns[f"H{i}"] = h * k
         raw = rt.slaves[i].raw_step
         cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
+        # a cycle sets the inputs itself: the setters are bound only for the other two ways
+        transfers, setters, step, getters, publish = rt.fast_ops(i, setters=cycle is None)
         due = [] if k == 1 else [f"if n % {k} == 0:"]
         inline = getattr(cycle, "inline", None)
         # Jacobi: the inputs of an inline cycle taken from the step's lists of the output values (no copy into
@@ -180,7 +181,7 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         chunks[-1].extend(b)
     # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
     # changes before the tail, which comes after every input is set)
-    lists = sorted({m.group(1) for b in blocks for ln in b for m in _LIST_USE.finditer(ln)})
+    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
     head = [f"V{typ} = _out{typ}.tolist()" for typ in lists]
     for typ in lists:
         ns[f"_out{typ}"] = out[typ]
@@ -191,10 +192,27 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
         sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
     for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
-        exec(compile(src, name, "exec"), ns)
+        exec(_code(src, name), ns)
     fn = ns["step"]
     fn.source = "".join(sources)
     return fn
+
+
+#: compiled step sources, by (source, name): the runs of one structure generate the same text (every value it
+#: uses is a name bound in the run's own namespace), and compiling it was most of a step's build. A code object is
+#: immutable, so sharing it between runs changes nothing they do. Bounded: emptied when full.
+_CODE_CACHE: dict = {}
+CODE_CACHE_SIZE = 64
+
+
+def _code(src: str, name: str):
+    key = (src, name)
+    code = _CODE_CACHE.get(key)
+    if code is None:
+        if len(_CODE_CACHE) >= CODE_CACHE_SIZE:
+            _CODE_CACHE.clear()
+        code = _CODE_CACHE[key] = compile(src, name, "exec")
+    return code
 
 
 def _function(fname: str, lines: list[str], params: str = "") -> str:

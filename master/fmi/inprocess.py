@@ -70,8 +70,22 @@ class InlineGet(NamedTuple):
 
 
 def is_pythonfmu(fmu) -> bool:
-    return (fmu.md.coSimulation is not None and (fmu.unzip_dir / "resources" / "slavemodule.txt").is_file()
+    return (fmu.md.coSimulation is not None and _slave_module_text(fmu.unzip_dir) is not None
             and (fmu.md.generationTool or "").lower().startswith("pythonfmu"))
+
+
+_module_texts: dict[str, str | None] = {}      # unpacked FMU folder -> its resources/slavemodule.txt or None
+
+
+def _slave_module_text(unzip_dir) -> str | None:
+    """The text of the FMU's resources/slavemodule.txt (None: it has none), read once per unpacked folder: a
+    folder is named by its archive's SHA-256 (fmi/cache.py), so what it holds does not change, and every
+    component of every run made the same path look-ups and read again."""
+    key = str(unzip_dir)
+    if key not in _module_texts:
+        path = Path(key, "resources", "slavemodule.txt")
+        _module_texts[key] = path.read_text() if path.is_file() else None
+    return _module_texts[key]
 
 
 def _slave_class(module, model_identifier):
@@ -235,14 +249,28 @@ def load_slave_module(resources: str, module_name: str):
     return module, clashes
 
 
+def _shell_bind(obj, op, typ, vrs):
+    """``obj.cosim_bind(op, typ, vrs)`` (see ``PythonFmuSlave._bound``), or None."""
+    bind = getattr(obj, "cosim_bind", None)
+    if bind is None:
+        return None
+    try:
+        return bind(op, typ, list(vrs))
+    except Exception:       # noqa: BLE001 - an optional shortcut: the FMI functions remain
+        return None
+
+
 class PythonFmuSlave(Slave):
     kind = "CoSimulation (in process)"
+    bound_get_in_init = True     # the same get_<type> values in any mode (a raising fetch retries through get_port)
 
     def __init__(self, name, fmu, log, shown_as):
         super().__init__(name, fmu, log, shown_as)
-        resources = fmu.unzip_dir / "resources"
-        self.resources = str(resources)
-        module_name = (resources / "slavemodule.txt").read_text().splitlines()[0].strip()
+        self.resources = str(Path(fmu.unzip_dir, "resources"))
+        text = _slave_module_text(fmu.unzip_dir)
+        if text is None:        # gone since is_pythonfmu looked: read it to raise what reading it raised
+            text = Path(self.resources, "slavemodule.txt").read_text()
+        module_name = text.splitlines()[0].strip()
         try:
             module, clashes = load_slave_module(self.resources, module_name)
         except Exception as exc:
@@ -310,8 +338,26 @@ class PythonFmuSlave(Slave):
         st, _ = self._call(f"set_{typ.lower()}", fn, [vr], [_CONVERT[typ](value)])
         return st
 
+    def values_setter(self, typ, vrs):
+        """One update of the instance's __dict__ when the shell binds plain attributes for them (``set_raw``, see
+        bound_set): set_<type>([vr], [value]) one by one stores the same converted values under the same names in
+        the same order, and such stores run no code of the FMU (nothing to log, nothing to fail)."""
+        raw = _shell_bind(self.obj, "set_raw", typ, vrs) if typ in _CONVERT else None
+        if raw is None:
+            return None
+        update, names = raw
+        conv = _CONVERT[typ]
+
+        def put(values) -> bool:
+            try:
+                update(zip(names, [conv(v) for v in values]))
+            except Exception:       # noqa: BLE001 - one by one, which sets them all again or fails as before
+                return False
+            return True
+        return put
+
     def make_port(self, typ, vrs, buf):
-        port = Port(vrs, buf, None)
+        port = Port(vrs, buf, None, native=False)
         port.extra = [int(v) for v in port.vrs]
         return port
 
@@ -323,8 +369,10 @@ class PythonFmuSlave(Slave):
 
     def set_port(self, typ, port) -> int:
         conv = _CONVERT[typ]
+        # tolist(): the buffer's values as Python numbers (numpy's scalars, which iterating gives, convert to the
+        # same ones, one call each)
         st, _ = self._call(f"set_{typ.lower()}", getattr(self.obj, f"set_{typ.lower()}"), port.extra,
-                           [conv(v) for v in port.buf])
+                           [conv(v) for v in port.buf.tolist()])
         return st
 
     def do_step(self, t, h) -> int:
@@ -356,13 +404,7 @@ class PythonFmuSlave(Slave):
     def _bound(self, op, typ, vrs):
         """The slave's own fast accessor, if its class offers ``cosim_bind(op, typ, vrs)`` (documented in
         docs/architecture.md: a function equivalent to get_<typ>(vrs) / set_<typ>(vrs, values))."""
-        bind = getattr(self.obj, "cosim_bind", None)
-        if bind is None:
-            return None
-        try:
-            return bind(op, typ, list(vrs))
-        except Exception:       # noqa: BLE001 - an optional shortcut: the FMI functions remain
-            return None
+        return _shell_bind(self.obj, op, typ, vrs)
 
     def bound_get(self, typ, port):
         obj, buf, vrs, conv = self.obj, port.buf, port.extra, _CONVERT[typ]

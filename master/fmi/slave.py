@@ -65,17 +65,20 @@ SET_FAILED = 256
 
 
 class Port:
-    """A set of value references of one base type bound to a buffer slice of the master."""
+    """A set of value references of one base type bound to a buffer slice of the master. ``native`` false: a
+    slave that calls no C function (in process, a table) gets no ctypes pointers, whose casts were the larger
+    part of binding a run's ports."""
     __slots__ = ("vrs", "buf", "n", "vr_ptr", "buf_ptr", "extra")
 
-    def __init__(self, vrs, buf, ctype):
-        from ctypes import POINTER, c_uint
+    def __init__(self, vrs, buf, ctype, native: bool = True):
         self.vrs = np.ascontiguousarray(vrs, dtype=np.uint32)
         self.buf = buf
         self.n = len(self.vrs)
-        self.vr_ptr = self.vrs.ctypes.data_as(POINTER(c_uint))
-        self.buf_ptr = buf.ctypes.data_as(POINTER(ctype)) if ctype is not None else None
-        self.extra = None
+        self.vr_ptr = self.buf_ptr = self.extra = None
+        if native:
+            from ctypes import POINTER, c_uint
+            self.vr_ptr = self.vrs.ctypes.data_as(POINTER(c_uint))
+            self.buf_ptr = buf.ctypes.data_as(POINTER(ctype)) if ctype is not None else None
 
 
 class Slave(abc.ABC):
@@ -86,6 +89,9 @@ class Slave(abc.ABC):
     """
     kind = "CoSimulation"
     can_save_state = False
+    # its bound getters (``bound_get``) may read in initialization mode, where they do what ``get_port`` does (not
+    # so for FMI 1.0, whose get_port forgives a refusal before initialization)
+    bound_get_in_init = False
     error_status = OK       # the worst status above Discard a call returned: FMI allows no Terminate after Error
 
     def __init__(self, name: str, fmu: LoadedFmu, log: LogSink, shown_as: str):
@@ -124,6 +130,13 @@ class Slave(abc.ABC):
     @abc.abstractmethod
     def set_value(self, typ: str, vr: int, value) -> int:
         """One value (start values, parameters); returns the FMI status."""
+
+    def values_setter(self, typ: str, vrs: list[int]):
+        """Optional: a function ``put(values) -> bool`` setting ``vrs`` (start values, parameters) in one call, as
+        ``set_value`` one after the other would where nothing else can tell the difference (no code of the FMU runs,
+        no status, no message); False: it stored nothing, set them one by one (which reports a failing one). None:
+        the slave has no such function for these (asking changes nothing)."""
+        return None
 
     @abc.abstractmethod
     def make_port(self, typ: str, vrs, buf: np.ndarray) -> Port: ...

@@ -181,7 +181,7 @@ class CsvSourceSlave(Slave):
     def make_port(self, typ, vrs, buf) -> Port:
         """The port's columns side by side (a row per table row, in the buffer's type) and which of them are
         interpolated linearly."""
-        port = Port(vrs, buf, None)
+        port = Port(vrs, buf, None, native=False)
         cols = [self.columns[int(vr)] for vr in port.vrs]
         values = np.array([c.values for c in cols], dtype=buf.dtype).T.copy()
         port.extra = (values, np.array([c.linear for c in cols], dtype=bool))
