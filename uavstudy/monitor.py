@@ -484,9 +484,12 @@ class UavMonitor(Monitor):
             if code == MS_DONE:         # a step of _step_small that finds nothing, done in C
                 self._ahead = True
                 self.last_time = float(t1)
-                if t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
-                    self._p_track = nat.p0.copy()
-                    self._track(t1, self._p_track, self.ph0)
+                track_t = self.track_t
+                if t1 - track_t[-1] >= TRACK_INTERVAL - 1e-9:      # a track point: _track's appends, inline
+                    p = self._p_track = nat.p0.copy()
+                    track_t.append(float(t1))
+                    self.track_p.append(p)
+                    self.track_phase.append(self.ph0)
                 else:
                     self._p_track = None
                 # no fleet-done check: it would read what the last Python step's check read (phases, removals and
