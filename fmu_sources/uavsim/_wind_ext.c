@@ -70,21 +70,28 @@ typedef struct {
     int gust, turbulence;
 } Model;
 
+/* Wind._calm: the window (lo, hi) of calm steps */
+static int calm_of(PyObject *md, double *lo, double *hi)
+{
+    PyObject *calm = PyDict_GetItemWithError(md, k_calm);
+    return calm != NULL && PyTuple_Check(calm) && PyTuple_Size(calm) == 2
+        && exact_double(PyTuple_GetItem(calm, 0), lo) && exact_double(PyTuple_GetItem(calm, 1), hi);
+}
+
 static int read_model(PyObject *md, PyObject *pd, Model *w)
 {
-    PyObject *calm = PyDict_GetItemWithError(md, k_calm), *nk = PyDict_GetItemWithError(md, k_next_k);
+    PyObject *nk = PyDict_GetItemWithError(md, k_next_k);
     double duration, gust_length;
     int overflow;
     w->md = md;
     w->occurs = PyDict_GetItemWithError(md, k_occurs);
     w->intervals = PyDict_GetItemWithError(md, k_intervals);
-    if (calm == NULL || !PyTuple_Check(calm) || PyTuple_Size(calm) != 2 || nk == NULL || !PyLong_CheckExact(nk)
+    if (!calm_of(md, &w->lo, &w->hi) || nk == NULL || !PyLong_CheckExact(nk)
         || w->occurs == NULL || !PyList_Check(w->occurs) || w->intervals == NULL || !PyDict_Check(w->intervals))
         return 0;
     w->next_k = PyLong_AsLongLongAndOverflow(nk, &overflow);
     if (overflow || (w->next_k == -1 && PyErr_Occurred()) || PyList_Size(w->occurs) < w->next_k) return 0;
-    if (!exact_double(PyTuple_GetItem(calm, 0), &w->lo) || !exact_double(PyTuple_GetItem(calm, 1), &w->hi)
-        || !get_double(pd, k_decision_interval, &w->di) || !get_double(pd, k_duration, &duration)
+    if (!get_double(pd, k_decision_interval, &w->di) || !get_double(pd, k_duration, &duration)
         || !get_double(pd, k_ramp, &w->ramp) || !get_double(pd, k_gust_length, &gust_length)
         || !get_double(pd, k_gust_amplitude, &w->amp) || !get_double(md, k_ux, &w->ux)
         || !get_double(md, k_uy, &w->uy))
@@ -220,6 +227,14 @@ static int windy_mean(const Model *w, double t0, double h, long m, double out[3]
     return 1;
 }
 
+/* mean_over's first exits, calm window included: 1 when the step lies in the calm window (most steps: nothing
+ * else is read then), 0 otherwise (mean_over decides) */
+static int in_calm_window(PyObject *md, double t0, double t1)
+{
+    double h = t1 - t0, lo, hi;
+    return isfinite(h) && isfinite(t0) && h > 0.0 && calm_of(md, &lo, &hi) && lo <= t0 && t1 <= hi;
+}
+
 /* Wind.mean_over(t0, t1) with probability > 0: DONE with the mean and level (and *set_calm with the calm window
  * to store), DECLINED when Python must do it */
 static int mean_over(const Model *w, double t0, double t1, double out[3], long *level, int *set_calm, double calm[2])
@@ -282,8 +297,8 @@ static int shell_step(PyObject *sd, double ct, double h)
         || (p = PyDict_GetItemWithError(md, k_p)) == NULL || (pd = PyObject_GetAttr(p, k_dict)) == NULL
         || !PyDict_Check(pd) || !get_double(pd, k_probability, &prob))
         goto done;
-    if (!(prob > 0.0)) {
-        rc = DONE;                             /* no episode can occur: calm */
+    if (!(prob > 0.0) || in_calm_window(md, t0, t1)) {
+        rc = DONE;                             /* no episode can occur, or a calm step: zeros */
     } else {
         if (!read_model(md, pd, &w)) goto done;
         rc = mean_over(&w, t0, t1, wind, &level, &set_calm, calm);
