@@ -14,6 +14,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import params as P  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
+from uavsim.native import load_extension  # noqa: E402
 from uavsim.wind import Wind, WindParams  # noqa: E402
 
 _PARAMS = [  # name, unit, default, description
@@ -63,6 +64,8 @@ class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
         self.out_int("wind_level", "0 none, 1 weak, 2 moderate, 3 strong")
         self._model = None
         self._t = 0.0
+        ext = load_extension("_wind_ext", os.path.join(_HERE, "uavsim"))
+        self._ext = None if ext is None else ext.step   # the whole step in C, or None: the Python code below
 
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS}
@@ -88,6 +91,11 @@ class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
         self.wind_level = int(lvl)
 
     def do_step(self, current_time, step_size):
+        ext = self._ext
+        # the extension does this whole step (same results, bit for bit) or, when it returns False (a random draw,
+        # turbulence, no model yet ...), nothing
+        if ext is not None and ext(self.__dict__, current_time, step_size):
+            return True
         if self._model is None:
             self._build()
         self._publish(current_time + step_size, step_size)

@@ -335,6 +335,14 @@ class UavMonitor(Monitor):
             v[~have] = np.nan
         return v
 
+    def _value(self, role, k) -> float | None:
+        """UAV k's value of a role now, ``_read(role)[k]`` without reading the other UAVs' (NaN if it lacks the
+        role; None if every UAV does)."""
+        typ, idx, have = self._roles.get(role, (None, None, None))
+        if typ is None:
+            return None
+        return float(self.ctx.buffer(typ)[idx[k]]) if have[k] else math.nan
+
     def _setup_hot(self, ctx) -> None:
         """Index arrays of the values read after every step (positions, phase, mission state, photo count):
         per buffer type ONE index array and ONE preallocated array that ``np.take`` fills, with views per
@@ -378,6 +386,7 @@ class UavMonitor(Monitor):
         self.ctx = ctx
         self.start = self.last_time = float(start)
         self._roles = {r: self._index(ctx, r) for r in REQUIRED_ROLES + OPTIONAL_ROLES}
+        self._partial = {r for r, (typ, _, have) in self._roles.items() if typ is not None and not have.all()}
         types = {self._roles[r][0] for r in ("x", "y", "z")}
         if len(types) != 1:
             raise ScenarioError("x, y and z of the UAVs must have one type", file=self.shown_as,
@@ -410,16 +419,14 @@ class UavMonitor(Monitor):
             self._native.push(self)
         self._ahead = False         # the C state is newer than the Python lists (UavMonitor.sync pulls it)
         self._p_track = self.p0     # the positions array idle steps put in the track
-        self._end_check = False     # _stop_if_fleet_done may have to look after a step
 
     def _role_values(self, role, raw) -> np.ndarray | None:
         """The float values of a role from its hot view (what ``_read`` gives: NaN for UAVs without it)."""
         if raw is None:
             return None
         v = raw.astype(float)
-        have = self._roles[role][2]
-        if not have.all():
-            v[~have] = np.nan
+        if role in self._partial:
+            v[~self._roles[role][2]] = np.nan
         return v
 
     def _track(self, t, p, ph, force=False):
@@ -477,13 +484,17 @@ class UavMonitor(Monitor):
             if code == MS_DONE:         # a step of _step_small that finds nothing, done in C
                 self._ahead = True
                 self.last_time = float(t1)
-                if t1 - self.track_t[-1] >= TRACK_INTERVAL - 1e-9:
-                    self._p_track = nat.p0.copy()
-                    self._track(t1, self._p_track, self.ph0)
+                track_t = self.track_t
+                if t1 - track_t[-1] >= TRACK_INTERVAL - 1e-9:      # a track point: _track's appends, inline
+                    p = self._p_track = nat.p0.copy()
+                    track_t.append(float(t1))
+                    self.track_p.append(p)
+                    self.track_phase.append(self.ph0)
                 else:
                     self._p_track = None
-                if self._end_check:     # what it reads is as after the last Python step, took_off aside,
-                    self._stop_if_fleet_done(self.ph0)     # which changes for flying UAVs only: same answer
+                # no fleet-done check: it would read what the last Python step's check read (phases, removals and
+                # mission states are unchanged, took_off changes for flying UAVs only, which have not landed), so
+                # it would answer as that one did, whose stop request, if any, stays requested
                 return
             if code == MS_IDLE:         # the idle step below, done in C (airborne time)
                 self._ahead = True
@@ -540,9 +551,8 @@ class UavMonitor(Monitor):
                 self._ms_bytes = b
                 ms1 = self._role_values("missionState", self._ms_view)
                 changed = np.flatnonzero(~removed & (ms1 != self.ms0) & ~np.isnan(ms1))
-                cons = self._read("consumed")
                 for k in changed:
-                    self._mission_event(k, t0, int(ms1[k]), p0[k], None if cons is None else float(cons[k]))
+                    self._mission_event(k, t0, int(ms1[k]), p0[k], self._value("consumed", k))
                 self.ms0 = ms1
         if self._pc_view is not None:
             b = self._pc_view.tobytes()
@@ -557,9 +567,7 @@ class UavMonitor(Monitor):
             self._step_small(t0, t1, p0, p1, ph1)
         else:
             self._step_vector(t0, t1, p0, p1, ph1)
-        self._end_check = self.cfg.end_when_done and bool(self._rm_idx.size or PHASE_LANDED in
-                                                          (self._ph0l if self._small else ph1))
-        if self._end_check:
+        if self.cfg.end_when_done and (self._rm_idx.size or PHASE_LANDED in (self._ph0l if self._small else ph1)):
             self._stop_if_fleet_done(ph1)
 
     def _stop_if_fleet_done(self, ph1) -> None:
@@ -793,15 +801,11 @@ class UavMonitor(Monitor):
                     MISSION_DETAIL.get(state, ""), consumed)
 
     def _photo(self, k, count, t, pos):
-        vals = {r: self._read(r) for r in PHOTO_ROLES}
-        tgt = vals["lastPhotoTarget"]
-        tt = vals["lastPhotoTime"]
-        x = vals["lastPhotoX"]
-        y = vals["lastPhotoY"]
-        photo = {"target": int(tgt[k]) if tgt is not None and not np.isnan(tgt[k]) else -1,
-                 "time": round(float(tt[k]) if tt is not None else float(t), 9),
-                 "x": float(x[k]) if x is not None else float(pos[0]),
-                 "y": float(y[k]) if y is not None else float(pos[1]),
+        tgt, tt, x, y = (self._value(r, k) for r in PHOTO_ROLES)
+        photo = {"target": int(tgt) if tgt is not None and not math.isnan(tgt) else -1,
+                 "time": round(tt if tt is not None else float(t), 9),
+                 "x": x if x is not None else float(pos[0]),
+                 "y": y if y is not None else float(pos[1]),
                  "z": float(pos[2])}
         if count > 1:   # more than one photo within one step: only the last one's details are known
             photo["missed_before"] = count - 1

@@ -36,7 +36,8 @@ Gust and turbulence are scaled by the ramp factor U(t)/U_k, so the wind is conti
 Determinism: all random numbers for interval k are drawn when interval k is first entered, from
 three independent PCG64 streams (episode, gust, turbulence) spawned from SeedSequence(seed) (with
 ``stream`` >= 0, from SeedSequence((seed, stream + 1)): one independent wind per UAV of a fleet); the
-same numbers are drawn whether or not turbulence/gusts are enabled.  The output at time t is a
+same numbers are drawn whether or not turbulence/gusts are enabled (the turbulence stream, which feeds
+nothing else, only when turbulence is).  The output at time t is a
 function of t only (turbulence is held piecewise-constant on the turb_dt grid), hence identical
 for any master step size.
 """
@@ -131,10 +132,10 @@ class Wind:
         else:
             iv.level, iv.speed = 3, p.speed_strong
         iv.gust_start = float(self._rng_gust.random())
-        # drawn whether or not turbulence is on (the same numbers either way), kept only when it is: a windy
-        # 256-UAV hour would otherwise hold ~220 MB of unused noise
-        noise = self._rng_turb.standard_normal((self.n_turb + 1, 3))     # row 0: initial state
-        iv.noise = noise if p.turbulence else None
+        # the turbulence stream feeds nothing else, so without turbulence it is not drawn at all (most of the cost
+        # of a draw; interval k's episode and gust numbers are the same either way), and a windy 256-UAV hour holds
+        # no ~220 MB of unused noise (row 0 of the noise: the initial state)
+        iv.noise = self._rng_turb.standard_normal((self.n_turb + 1, 3)) if p.turbulence else None
         iv.turb = None
         iv.turb_n = -1
         self._intervals[k] = iv
