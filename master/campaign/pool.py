@@ -158,12 +158,14 @@ class WorkerPool:
                         self.crashes += 1
                         w.kill()
                         workers.remove(w)
-                    on_result(rec)
+                    # the next task first: the parent's bookkeeping of this record (an fsync'ed write, the
+                    # progress bar) would otherwise keep the worker idle
                     if queue:
                         if dead:
                             w = self._new()
                             workers.append(w)
                         w.send(queue.popleft())
+                    on_result(rec)
         finally:
             for w in workers:
                 if w.task is None:
