@@ -50,11 +50,21 @@ def _pdeathsig():
         pass
 
 
+def _warm_up():
+    """Import the master's run path before the first task comes: a pool started early (``WorkerPool.start``)
+    does this on a core that would wait for the parent planning the campaign."""
+    try:
+        import master.runner  # noqa: F401
+    except Exception:   # noqa: BLE001 - the first task reports what is wrong
+        pass
+
+
 def _worker_main(conn, parent_pid: int):
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _pdeathsig()
     if os.getppid() != parent_pid:     # the parent died before prctl took effect
         return
+    _warm_up()
     while True:
         try:
             task = conn.recv()
@@ -112,19 +122,43 @@ class WorkerPool:
         self.ctx = mp.get_context(start_method)
         self.started_workers = 0
         self.crashes = 0
+        self._ready: list[_Worker] = []
 
     def _new(self) -> _Worker:
         self.started_workers += 1
         return _Worker(self.ctx, self.started_workers)
+
+    def start(self) -> None:
+        """Start the workers before the tasks are known: their interpreters start and import the master while
+        the caller still plans (``run`` uses them; ``close`` stops those it did not need)."""
+        while len(self._ready) < self.n:
+            self._ready.append(self._new())
+
+    def close(self) -> None:
+        """Stop the workers started by ``start`` that no ``run`` took."""
+        while self._ready:
+            self._ready.pop().stop()
+
+    def _first(self, task: dict) -> _Worker:
+        """A worker started early, or a new one, running ``task``."""
+        while self._ready:
+            w = self._ready.pop(0)
+            try:
+                w.send(task)
+                return w
+            except (BrokenPipeError, OSError):     # it died while waiting: its task would be blamed on this one
+                w.kill()
+        w = self._new()
+        w.send(task)
+        return w
 
     def run(self, tasks: Iterable[dict], on_result: Callable[[dict], None]) -> None:
         queue = deque(tasks)
         workers: list[_Worker] = []
         try:
             for _ in range(min(self.n, len(queue))):
-                w = self._new()
-                workers.append(w)
-                w.send(queue.popleft())
+                workers.append(self._first(queue.popleft()))
+            self.close()
             while any(w.task is not None for w in workers):
                 busy = [w for w in workers if w.task is not None]
                 waitables = [w.conn for w in busy] + [w.proc.sentinel for w in busy]
@@ -167,6 +201,7 @@ class WorkerPool:
                         w.send(queue.popleft())
                     on_result(rec)
         finally:
+            self.close()
             for w in workers:
                 if w.task is None:
                     w.stop()

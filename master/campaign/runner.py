@@ -238,6 +238,24 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
     missing runs it accepts run now (the others stay pending).
     """
     t_start = time.perf_counter()
+    pool = None
+    if not scheduler:
+        # the local workers start now: their interpreters and imports take a core that would otherwise wait
+        # while the campaign is loaded and planned here
+        from .pool import WorkerPool
+        pool = WorkerPool(int(workers) if workers else _default_workers())
+        pool.start()
+    try:
+        s = _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter, pool)
+    finally:
+        if pool is not None:
+            pool.close()
+    s.run_time_s = time.perf_counter() - t_start
+    return s
+
+
+def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter,
+                  pool) -> CampaignSummary:
     camp = load_campaign(path)
     out = Path(output) if output is not None else Path("results") / camp.name
     out = out.resolve()
@@ -293,8 +311,7 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
                 if scheduler:
                     _run_dask(scheduler, tasks, on_result)
                 else:
-                    from .pool import WorkerPool
-                    pool = WorkerPool(n_workers, timeout=camp.options.get("timeout"))
+                    pool.n, pool.timeout = n_workers, camp.options.get("timeout")
                     try:
                         pool.run(tasks, on_result)
                     finally:
@@ -318,7 +335,6 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
         except KeyboardInterrupt:
             s.interrupted = True
         _cleanup_orphans(out, camp)
-    s.run_time_s = time.perf_counter() - t_start
     return s
 
 
