@@ -135,9 +135,10 @@ class WorkerPool:
             self._ready.append(self._new())
 
     def close(self) -> None:
-        """Stop the workers started by ``start`` that no ``run`` took."""
+        """Stop the workers started by ``start`` that no ``run`` took: killed, as they hold nothing yet (a polite
+        stop would wait for their start-up imports)."""
         while self._ready:
-            self._ready.pop().stop()
+            self._ready.pop().kill()
 
     def _first(self, task: dict) -> _Worker:
         """A worker started early, or a new one, running ``task``."""
