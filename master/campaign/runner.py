@@ -313,7 +313,7 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
                 else:
                     pool.n, pool.timeout = n_workers, camp.options.get("timeout")
                     try:
-                        pool.run(tasks, on_result)
+                        pool.run(tasks, on_result, wait=False)     # they exit while the table is written
                     finally:
                         s.worker_restarts = pool.crashes
         except KeyboardInterrupt:

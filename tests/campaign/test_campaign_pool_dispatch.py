@@ -91,3 +91,23 @@ def test_close_stops_early_workers_no_run_took():
     procs = [w.proc for w in p._ready]
     p.close()
     assert not any(proc.is_alive() for proc in procs)
+
+
+def test_a_worker_without_more_work_is_let_go_before_the_last_record(tasks, monkeypatch):
+    asked = []
+    real = pool_mod._Worker.ask_to_stop
+
+    def ask_to_stop(self):
+        asked.append(self.proc.name)
+        return real(self)
+    monkeypatch.setattr(pool_mod._Worker, "ask_to_stop", ask_to_stop)
+    booked = []
+    p = WorkerPool(2)
+    p.run(tasks[:3], lambda rec: booked.append(len(asked)), wait=False)
+    # the worker that finished first while the queue was empty exits during the other's last run
+    assert booked == [0, 1, 2]      # let go at its own record, before the third run reported
+    procs = [w.proc for w in p._leaving]
+    assert len(procs) == 2
+    p.close()
+    assert not p._leaving and not any(proc.is_alive() for proc in procs)
+    assert not mp.active_children()
