@@ -146,3 +146,93 @@ def final_values(out_dir) -> dict:
         elif isinstance(v, (int, float)):
             out[name] = v if not (isinstance(v, float) and not math.isfinite(v)) else None
     return out
+
+
+# ------------------------------------------------------------------------------- small CSVs without pandas
+# A campaign run writes events.csv, photos.csv and summary.csv of a few rows each, and building pandas frames
+# for them cost more than the rest of the run's outputs (and a worker's start-up paid ~0.2 s to import pandas
+# for them).  The twin below gives pandas' bytes for the values monitors make (str, int, float, bool, None): each column's cells are what DataFrame(rows) and to_csv(index=
+# False) hand to the csv module (the dtype pandas infers, numpy's float formatting, empty cells for missing
+# values), written by the csv module with pandas' dialect.  Any other value, or a case whose pandas outcome is
+# an error, makes them decline (nothing written) and the frame is built as before
+# (tests/campaign/test_campaign_outputs_csv.py and tests/core/test_events_csv.py compare both on thousands
+# of random tables).
+_CSV_PLAIN_TYPES = frozenset((str, int, float, bool, type(None)))
+
+
+def csv_column_cells(values: list, as_int64: bool = False) -> list | None:
+    """The cells of a column of ``values`` (from dicts, as pandas infers it; ``as_int64``: then ``astype("Int64")``),
+    or None when the twin does not cover them."""
+    kinds = {type(v) for v in values}
+    if not kinds <= _CSV_PLAIN_TYPES:
+        return None
+    missing = [v is None or (type(v) is float and v != v) for v in values]
+    numeric = kinds - {type(None)}
+    if as_int64:
+        return _int64_cells(values, missing, numeric)
+    if not numeric or str in numeric or bool in numeric and numeric != {bool}:
+        # an object column: the values themselves (the csv module formats them), missing ones empty
+        return ["" if na else v for v, na in zip(values, missing)]
+    if numeric == {bool}:
+        return ["" if na else str(v) for v, na in zip(values, missing)]
+    if numeric == {int} and not any(missing):
+        return [str(v) for v in values] if all(-2 ** 63 <= v < 2 ** 63 for v in values) else None
+    # float64: numpy's shortest round-trip text, as pandas' astype(str); missing values empty
+    if any(type(v) is int and abs(v) > 2 ** 53 for v in values):
+        return None
+    import numpy as np
+    text = np.array([math.nan if na else float(v) for v, na in zip(values, missing)], dtype=np.float64).astype(str)
+    return ["" if na else t for t, na in zip(text.tolist(), missing)]
+
+
+def _int64_cells(values: list, missing: list, numeric: set) -> list | None:
+    """The cells of a column that pandas infers and then casts to its nullable Int64."""
+    if not numeric <= {int, float}:
+        return None
+    out = []
+    for v, na in zip(values, missing):
+        if na:
+            out.append("")
+        elif type(v) is int:
+            if numeric == {float, int} and abs(v) > 2 ** 53:
+                return None     # through float64 first: pandas' rounding, or its error
+            if not -2 ** 63 <= v < 2 ** 63:
+                return None
+            out.append(str(v))
+        elif v.is_integer() and abs(v) <= 2 ** 53:
+            out.append(str(int(v)))
+        else:
+            return None         # pandas refuses the cast, with its own error message
+    return out
+
+
+def write_csv_cells(path: Path, columns: list[str], cells: list[list]) -> None:
+    """Rows of ``cells`` (one list per column) under ``columns``, with pandas' to_csv dialect."""
+    import csv
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n", delimiter=",", quotechar='"', quoting=csv.QUOTE_MINIMAL,
+                       doublequote=True, escapechar=None)
+        w.writerow(columns)
+        w.writerows(zip(*cells))
+
+
+
+def write_events_csv(events: list[dict], path) -> bool:
+    """events.csv as ``pandas.DataFrame(events).to_csv(path, index=False)`` writes it (the columns in the order
+    their keys first appear, a key missing from an event an empty cell); False (nothing written) when the
+    values are not all of the plain kinds the twin covers."""
+    columns: dict = {}
+    for e in events:
+        if type(e) is not dict:
+            return False
+        columns.update(dict.fromkeys(e))
+    if not events or not all(type(c) is str for c in columns):
+        return False
+    cells = []
+    for c in columns:
+        col = csv_column_cells([e.get(c) for e in events])
+        if col is None:
+            return False
+        cells.append(col)
+    write_csv_cells(Path(path), list(columns), cells)
+    return True

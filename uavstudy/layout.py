@@ -14,6 +14,7 @@ free and the restricted-zones variant of one repetition share their targets and 
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -78,10 +79,10 @@ def random_zones(rng: np.random.Generator, count: int, targets: np.ndarray) -> l
     """``count`` rotated rectangles clear of the targets and the base, chosen among ZONE_CANDIDATES random ones
     by the number of strategy A and B legs they cross (the shipped area's zones were placed on flight legs)."""
     import shapely
-    from shapely.geometry import LineString, Point, Polygon
+    from shapely.geometry import Point, Polygon
     if count == 0:
         return []
-    legs = [LineString(leg) for leg in _tour_legs(targets)]
+    legs = shapely.linestrings(_tour_legs(targets))
     tpts = shapely.points(targets) if len(targets) else None
     cands: list[tuple[int, int, Polygon]] = []
     for draw in range(MAX_DRAWS):
@@ -99,7 +100,7 @@ def random_zones(rng: np.random.Generator, count: int, targets: np.ndarray) -> l
             continue
         if tpts is not None and float(shapely.distance(poly, tpts).min()) < ZONE_TARGET_CLEARANCE:
             continue
-        cands.append((-sum(poly.intersects(leg) for leg in legs), len(cands), poly))
+        cands.append((-int(np.count_nonzero(shapely.intersects(poly, legs))), len(cands), poly))
     chosen: list = []
     for _score, _k, poly in sorted(cands, key=lambda c: (c[0], c[1])):
         if all(poly.distance(q) >= ZONE_SPACING for q in chosen):
@@ -112,15 +113,28 @@ def random_zones(rng: np.random.Generator, count: int, targets: np.ndarray) -> l
             for i, p in enumerate(chosen)]
 
 
+@functools.lru_cache(maxsize=64)
+def _random_area(seed: int, n_targets: int, n_zones: int) -> tuple:
+    """The targets and zones drawn from ``seed`` (read-only arrays): a campaign flies every repetition's area in
+    all its cells (any fleet size, strategy, wind), and drawing the zones is most of a run's layout cost."""
+    s_targets, s_zones, _ = np.random.SeedSequence(seed).spawn(3)
+    targets = np.round(random_targets(np.random.default_rng(s_targets), n_targets), 3)
+    zones = random_zones(np.random.default_rng(s_zones), n_zones, targets)
+    for a in (targets, *(z["polygon"] for z in zones)):
+        a.flags.writeable = False
+    return targets, tuple((z["name"], z["polygon"]) for z in zones)
+
+
 def realize(scn) -> Layout:
-    """The layout of a loaded scenario (``uavstudy.scenario.UavScenario``), scaled by its ``area_scale``."""
+    """The layout of a loaded scenario (``uavstudy.scenario.UavScenario``), scaled by its ``area_scale``.
+    A random layout's arrays are read-only (shared with later calls); its zones list and dicts are its own."""
     n = int(scn.n_uavs)
     if scn.layout == "random":
-        s_targets, s_zones, s_order = np.random.SeedSequence(int(scn.layout_seed)).spawn(3)
-        targets = np.round(random_targets(np.random.default_rng(s_targets), len(scn.targets)), 3)
-        zones = random_zones(np.random.default_rng(s_zones), len(scn.zones), targets)
-        order = tuple(int(k) for k in np.random.default_rng(s_order).permutation(n))
-        layout_id = f"random-{int(scn.layout_seed)}"
+        seed = int(scn.layout_seed)
+        targets, area_zones = _random_area(seed, len(scn.targets), len(scn.zones))
+        zones = [{"name": name, "polygon": polygon} for name, polygon in area_zones]
+        order = tuple(int(k) for k in np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]).permutation(n))
+        layout_id = f"random-{seed}"
     else:
         targets, zones, order, layout_id = scn.targets_enu(), scn.zones_enu(), tuple(range(n)), "fixed"
     f = float(scn.area_scale)

@@ -49,6 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
+from master.results import csv_column_cells, write_csv_cells
+
 from .geodetic import to_geodetic
 from .names import (FINAL_STATES, MISSION_EVENTS, NO_TARGETS, PHASE_LANDED, PHASE_NAMES, TOTAL_ROW,
                     TRAJECTORY_ROLES, UAV_COLLISION, ZONE_COLLISION)
@@ -396,68 +398,11 @@ def summary_frame(uavs: list[dict], total: dict):
 
 # ------------------------------------------------------------------------------- the two CSVs without pandas
 # A campaign run writes photos.csv and summary.csv of a few rows each, and building the pandas frames for them
-# cost more than the rest of the run's outputs.  Their twins below give pandas' bytes for the values the
-# monitor makes (str, int, float, bool, None): each column's cells are what DataFrame(rows) and to_csv(index=
-# False) hand to the csv module (the dtype pandas infers, numpy's float formatting, empty cells for missing
-# values), written by the csv module with pandas' dialect.  Any other value, or a case whose pandas outcome is
-# an error, makes them decline (nothing written) and the frame is built as before
+# cost more than the rest of the run's outputs: master.results' pandas twin writes pandas' bytes for them, or
+# declines (nothing written) and the frame is built as before
 # (tests/campaign/test_campaign_outputs_csv.py compares both on thousands of random tables).
-_PLAIN_TYPES = frozenset((str, int, float, bool, type(None)))
-
-
-def _column_cells(values: list, as_int64: bool = False) -> list | None:
-    """The cells of a column of ``values`` (from dicts, as pandas infers it; ``as_int64``: then ``astype("Int64")``),
-    or None when the twin does not cover them."""
-    kinds = {type(v) for v in values}
-    if not kinds <= _PLAIN_TYPES:
-        return None
-    missing = [v is None or (type(v) is float and v != v) for v in values]
-    numeric = kinds - {type(None)}
-    if as_int64:
-        return _int64_cells(values, missing, numeric)
-    if not numeric or str in numeric or bool in numeric and numeric != {bool}:
-        # an object column: the values themselves (the csv module formats them), missing ones empty
-        return ["" if na else v for v, na in zip(values, missing)]
-    if numeric == {bool}:
-        return ["" if na else str(v) for v, na in zip(values, missing)]
-    if numeric == {int} and not any(missing):
-        return [str(v) for v in values] if all(-2 ** 63 <= v < 2 ** 63 for v in values) else None
-    # float64: numpy's shortest round-trip text, as pandas' astype(str); missing values empty
-    if any(type(v) is int and abs(v) > 2 ** 53 for v in values):
-        return None
-    text = np.array([math.nan if na else float(v) for v, na in zip(values, missing)], dtype=np.float64).astype(str)
-    return ["" if na else t for t, na in zip(text.tolist(), missing)]
-
-
-def _int64_cells(values: list, missing: list, numeric: set) -> list | None:
-    """The cells of a column that pandas infers and then casts to its nullable Int64."""
-    if not numeric <= {int, float}:
-        return None
-    out = []
-    for v, na in zip(values, missing):
-        if na:
-            out.append("")
-        elif type(v) is int:
-            if numeric == {float, int} and abs(v) > 2 ** 53:
-                return None     # through float64 first: pandas' rounding, or its error
-            if not -2 ** 63 <= v < 2 ** 63:
-                return None
-            out.append(str(v))
-        elif v.is_integer() and abs(v) <= 2 ** 53:
-            out.append(str(int(v)))
-        else:
-            return None         # pandas refuses the cast, with its own error message
-    return out
-
-
-def _write_csv(path: Path, columns: list[str], cells: list[list]) -> None:
-    """Rows of ``cells`` (one list per column) under ``columns``, with pandas' to_csv dialect."""
-    import csv
-    with open(path, "w", encoding="utf-8", newline="") as fh:
-        w = csv.writer(fh, lineterminator="\n", delimiter=",", quotechar='"', quoting=csv.QUOTE_MINIMAL,
-                       doublequote=True, escapechar=None)
-        w.writerow(columns)
-        w.writerows(zip(*cells))
+_column_cells = csv_column_cells
+_write_csv = write_csv_cells
 
 
 def write_summary_csv(uavs: list[dict], total: dict, path: Path) -> bool:

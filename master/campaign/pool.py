@@ -50,11 +50,21 @@ def _pdeathsig():
         pass
 
 
+def _warm_up():
+    """Import the master's run path before the first task comes: a pool started early (``WorkerPool.start``)
+    does this on a core that would wait for the parent planning the campaign."""
+    try:
+        import master.runner  # noqa: F401
+    except Exception:   # noqa: BLE001 - the first task reports what is wrong
+        pass
+
+
 def _worker_main(conn, parent_pid: int):
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _pdeathsig()
     if os.getppid() != parent_pid:     # the parent died before prctl took effect
         return
+    _warm_up()
     while True:
         try:
             task = conn.recv()
@@ -85,13 +95,11 @@ class _Worker:
         self.started = time.monotonic()
         self.conn.send(task)
 
-    def stop(self, timeout: float = 2.0):
+    def ask_to_stop(self):
         try:
             self.conn.send(None)
         except (BrokenPipeError, OSError):
             pass
-        self.proc.join(timeout)
-        self.kill()
 
     def kill(self):
         if self.proc.is_alive():
@@ -112,19 +120,61 @@ class WorkerPool:
         self.ctx = mp.get_context(start_method)
         self.started_workers = 0
         self.crashes = 0
+        self._ready: list[_Worker] = []
+        self._leaving: list[_Worker] = []
 
     def _new(self) -> _Worker:
         self.started_workers += 1
         return _Worker(self.ctx, self.started_workers)
 
-    def run(self, tasks: Iterable[dict], on_result: Callable[[dict], None]) -> None:
+    def start(self) -> None:
+        """Start the workers before the tasks are known: their interpreters start and import the master while
+        the caller still plans (``run`` uses them; ``close`` stops those it did not need)."""
+        while len(self._ready) < self.n:
+            self._ready.append(self._new())
+
+    def close(self, timeout: float = 2.0) -> None:
+        """Stop the workers started by ``start`` that no ``run`` took (killed, as they hold nothing yet: a polite
+        stop would wait for their start-up imports) and wait for those ``run`` let go."""
+        self._kill_spares()
+        deadline = time.monotonic() + timeout
+        while self._leaving:
+            w = self._leaving.pop()
+            w.proc.join(max(0.0, deadline - time.monotonic()))
+            w.kill()
+
+    def _kill_spares(self) -> None:
+        while self._ready:
+            self._ready.pop().kill()
+
+    def _let_go(self, w: _Worker) -> None:
+        """No more work for ``w``: it exits now (interpreter teardown, its FMU temp folders: ~0.2 s) while the
+        others finish their runs; ``close`` waits for it."""
+        w.ask_to_stop()
+        self._leaving.append(w)
+
+    def _first(self, task: dict) -> _Worker:
+        """A worker started early, or a new one, running ``task``."""
+        while self._ready:
+            w = self._ready.pop(0)
+            try:
+                w.send(task)
+                return w
+            except (BrokenPipeError, OSError):     # it died while waiting: its task would be blamed on this one
+                w.kill()
+        w = self._new()
+        w.send(task)
+        return w
+
+    def run(self, tasks: Iterable[dict], on_result: Callable[[dict], None], wait: bool = True) -> None:
+        """``wait``: return once every worker has exited (else ``close`` waits for them: the caller may go on,
+        e.g. write the table, while they exit; they write nothing more)."""
         queue = deque(tasks)
         workers: list[_Worker] = []
         try:
             for _ in range(min(self.n, len(queue))):
-                w = self._new()
-                workers.append(w)
-                w.send(queue.popleft())
+                workers.append(self._first(queue.popleft()))
+            self._kill_spares()
             while any(w.task is not None for w in workers):
                 busy = [w for w in workers if w.task is not None]
                 waitables = [w.conn for w in busy] + [w.proc.sentinel for w in busy]
@@ -158,15 +208,23 @@ class WorkerPool:
                         self.crashes += 1
                         w.kill()
                         workers.remove(w)
-                    on_result(rec)
+                    # the next task first: the parent's bookkeeping of this record (an fsync'ed write, the
+                    # progress bar) would otherwise keep the worker idle
                     if queue:
                         if dead:
                             w = self._new()
                             workers.append(w)
                         w.send(queue.popleft())
+                    elif not dead:
+                        workers.remove(w)
+                        self._let_go(w)
+                    on_result(rec)
         finally:
             for w in workers:
                 if w.task is None:
-                    w.stop()
+                    self._let_go(w)
                 else:
                     w.kill()      # interrupted: its run is not reported
+            self._kill_spares()
+            if wait:
+                self.close()

@@ -109,11 +109,13 @@ class CampaignSummary:
 
 
 # --------------------------------------------------------------------------------------------- tasks
-def make_task(camp: Campaign, r: RunSpec, out: Path) -> dict:
-    """The plain-data task a worker needs (picklable for process pipes and Dask)."""
+def make_task(camp: Campaign, r: RunSpec, out: Path, inputs_sha256: str | None = None) -> dict:
+    """The plain-data task a worker needs (picklable for process pipes and Dask); ``inputs_sha256``: the run's
+    fingerprint when the caller has it already (it is recomputed from the inputs otherwise)."""
     return {"campaign": camp.name, "run_id": r.run_id, "index": r.index, "params": r.params, "rep": r.rep,
             "seed": r.seed, "campaign_seed": camp.seed, "kind": camp.kind, "scenario": str(r.scenario),
-            "options": r.options, "overrides": r.overrides, "inputs": r.inputs, "inputs_sha256": r.inputs_sha256,
+            "options": r.options, "overrides": r.overrides, "inputs": r.inputs,
+            "inputs_sha256": inputs_sha256 or r.inputs_sha256,
             "out_dir": str(out / "runs" / r.run_id), "campaign_dir": str(out), "keep": camp.keep}
 
 
@@ -162,8 +164,9 @@ def _changed_inputs(expected: dict, used: dict | None) -> list[str]:
     return out
 
 
-def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False):
-    """Sort the campaign's runs into done / to-run by their records; returns (done, todo, summary)."""
+def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False, fingerprints: dict | None = None):
+    """Sort the campaign's runs into done / to-run by their records; returns (done, todo, summary).
+    ``fingerprints``: run_id -> inputs_sha256, when the caller has them (else each is computed from the inputs)."""
     s = CampaignSummary(camp.name, out, total=len(camp.runs))
     runs_dir = out / "runs"
     done, todo = [], []
@@ -178,7 +181,7 @@ def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False):
             s.unreadable += 1
             todo.append(r)
             continue
-        if rec.get("inputs_sha256") != r.inputs_sha256:
+        if rec.get("inputs_sha256") != (fingerprints[r.run_id] if fingerprints else r.inputs_sha256):
             s.stale += 1
             for why in rec.get("inputs_changed") or _stale_reasons(rec.get("inputs") or {}, r.inputs):
                 reasons[why if not rec.get("inputs_changed") else f"{why} during the run"] += 1
@@ -235,22 +238,43 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
     missing runs it accepts run now (the others stay pending).
     """
     t_start = time.perf_counter()
+    pool = None
+    if not scheduler:
+        # the local workers start now: their interpreters and imports take a core that would otherwise wait
+        # while the campaign is loaded and planned here
+        from .pool import WorkerPool
+        pool = WorkerPool(int(workers) if workers else _default_workers())
+        pool.start()
+    try:
+        s = _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter, pool)
+    finally:
+        if pool is not None:
+            pool.close()
+    s.run_time_s = time.perf_counter() - t_start
+    return s
+
+
+def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter,
+                  pool) -> CampaignSummary:
     camp = load_campaign(path)
     out = Path(output) if output is not None else Path("results") / camp.name
     out = out.resolve()
     (out / "runs").mkdir(parents=True, exist_ok=True)
     with _Lock(out):
-        _atomic_write(out / "campaign.json", json.dumps(camp.manifest(), indent=1))
+        manifest = camp.manifest()
+        # a run's fingerprint is a hash of its canonical inputs: computed once here, not for every plan and task
+        fingerprints = {r["run_id"]: r["inputs_sha256"] for r in manifest["runs"]}
+        _atomic_write(out / "campaign.json", json.dumps(manifest, indent=1))
         _atomic_write(out / "campaign.yaml", camp.text)
         for p in (out / "runs").glob(".*.tmp*"):
             p.unlink(missing_ok=True)
-        done, todo, s = plan_campaign(camp, out, retry_failed)
+        done, todo, s = plan_campaign(camp, out, retry_failed, fingerprints)
         s.skipped = len(done)
         if run_filter is not None:
             todo = [r for r in todo if run_filter(r)]
         if max_runs is not None:
             todo = todo[:max(0, int(max_runs))]
-        tasks = [make_task(camp, r, out) for r in todo]
+        tasks = [make_task(camp, r, out, fingerprints[r.run_id]) for r in todo]
         n_workers = 0 if scheduler else max(1, min(int(workers) if workers else _default_workers(), max(1, len(tasks))))
         s.workers, s.scheduler = n_workers, scheduler
         bar = None
@@ -261,8 +285,11 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
         counts = Counter()
 
         by_id = {t["run_id"]: t for t in tasks}
+        warm_table = []
 
         def on_result(rec: dict):
+            if not warm_table:
+                warm_table.append(_import_table_modules_meanwhile())
             if rec.get("outcome") not in ("completed", "failed"):
                 counts["not_recorded"] += 1     # interrupted inside the run: not a finished run
                 return
@@ -274,8 +301,9 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
             _atomic_write(out / "runs" / f"{rec['run_id']}.json", json.dumps(rec, indent=1, default=str))
             counts[rec["outcome"]] += 1
             if bar is not None:
+                if rec["outcome"] == "failed":     # set_postfix redraws the bar: only when the count changes
+                    bar.set_postfix(failed=counts["failed"], refresh=False)
                 bar.update(1)
-                bar.set_postfix(failed=counts["failed"])
 
         t_run = time.perf_counter()
         try:
@@ -283,10 +311,9 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
                 if scheduler:
                     _run_dask(scheduler, tasks, on_result)
                 else:
-                    from .pool import WorkerPool
-                    pool = WorkerPool(n_workers, timeout=camp.options.get("timeout"))
+                    pool.n, pool.timeout = n_workers, camp.options.get("timeout")
                     try:
-                        pool.run(tasks, on_result)
+                        pool.run(tasks, on_result, wait=False)     # they exit while the table is written
                     finally:
                         s.worker_restarts = pool.crashes
         except KeyboardInterrupt:
@@ -298,7 +325,7 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
         s.ran_now = counts["completed"] + counts["failed"]
         s.failed_now = counts["failed"]
         # final state from disk (the records are the truth)
-        done2, todo2, _ = plan_campaign(camp, out, False)
+        done2, todo2, _ = plan_campaign(camp, out, False, fingerprints)
         s.completed = sum(1 for _, rec in done2 if rec.get("outcome") == "completed")
         s.failed = sum(1 for _, rec in done2 if rec.get("outcome") == "failed")
         s.pending = len(todo2)
@@ -308,8 +335,24 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
         except KeyboardInterrupt:
             s.interrupted = True
         _cleanup_orphans(out, camp)
-    s.run_time_s = time.perf_counter() - t_start
     return s
+
+
+def _import_table_modules_meanwhile():
+    """Import what write_table needs (pandas, pyarrow.parquet: ~0.3 s) in a thread while the runs go on: after
+    the last run every core waits for the table.  Started with the first record, once the workers' own start-up
+    is over.  The import lock makes write_table wait for an import still in progress."""
+    import threading
+
+    def imports():
+        try:
+            import pandas  # noqa: F401
+            import pyarrow.parquet  # noqa: F401
+        except Exception:   # noqa: BLE001 - write_table will report it
+            pass
+    t = threading.Thread(target=imports, name="cosim-campaign-table-imports", daemon=True)
+    t.start()
+    return t
 
 
 def _cleanup_orphans(out: Path, camp: Campaign):

@@ -124,6 +124,23 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
+class DeferredBlock:
+    """A block of rows whose Arrow table is built when a sink asks for it: a campaign run keeps its rows in
+    memory (``sinks: [memory]``) and never reads them, and building the table was most of its recording's
+    cost at close.  Holds its own copy of the rows (the recording's block is reused)."""
+    __slots__ = ("schema", "block", "str_rows")
+
+    def __init__(self, schema: pa.Schema, block: np.ndarray, str_rows: list[list]):
+        self.schema, self.block, self.str_rows = schema, block.copy(), str_rows
+
+    @property
+    def num_rows(self) -> int:
+        return len(self.block)
+
+    def table(self) -> pa.Table:
+        return block_table(self.schema, self.block, self.str_rows)
+
+
 # A block (and so a Parquet row group) holds at most MAX_BLOCK_ROWS rows and about BLOCK_BYTES of cells: a
 # narrow table gets long row groups (few, cheap to read), a wide one short blocks, so that the block, its
 # Arrow copy and the writer's buffers stay a few tens of MB whatever the fleet (a fixed 4096 rows of a 256-UAV
@@ -223,7 +240,10 @@ class Recording(Observer):
     def flush(self) -> None:
         if getattr(self, "fill", 0) == 0:
             return
-        table = self._table()
+        if self.group.defers:
+            table = DeferredBlock(self.schema, self.block[: self.fill], self.str_rows)
+        else:
+            table = self._table()
         # the rows are consumed before they are written: whatever happens below, no row is written twice
         self.fill = 0
         self.str_rows = []

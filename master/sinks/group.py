@@ -65,6 +65,12 @@ class SinkGroup:
         for s in self.open_sinks:
             s.open(self.out_dir, schema)
 
+    @property
+    def defers(self) -> bool:
+        """True when every open sink takes a block whose table is built on demand
+        (``master.observers.recording.DeferredBlock``): none of them writes it out."""
+        return bool(self.open_sinks) and all(getattr(s, "takes_deferred", False) for s in self.open_sinks)
+
     def write(self, table) -> None:
         if self.failure is not None:
             return

@@ -10,6 +10,7 @@ from .base import Sink
 @SINKS.register("memory")
 class MemorySink(Sink):
     needs_folder = False
+    takes_deferred = True       # blocks may come as DeferredBlock: their tables are built when read
 
     def open(self, out_dir, schema):
         super().open(out_dir, schema)
@@ -25,4 +26,5 @@ class MemorySink(Sink):
         del self.blocks[mark:]
 
     def table(self) -> pa.Table:
+        self.blocks = [b if isinstance(b, pa.Table) else b.table() for b in self.blocks]
         return pa.concat_tables(self.blocks) if self.blocks else self.schema.empty_table()
