@@ -40,7 +40,7 @@ from .observers.base import ObserverContext
 from .observers.pacing import Pacer
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
-from .results import claim_output_folder, products
+from .results import claim_output_folder, products, write_events_csv
 from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
 from .sinks import SINKS
@@ -515,9 +515,10 @@ def _steps_to(start: float, h: float, t: float) -> int:
 def write_run_files(out_dir: Path, meta: dict, events: list) -> None:
     """events.csv (when there are events) and run.json, each replaced atomically."""
     if events:
-        import pandas as pd
         tmp = out_dir / "events.csv.tmp"
-        pd.DataFrame(events).to_csv(tmp, index=False)
+        if not write_events_csv(events, tmp):       # values the pandas twin does not cover
+            import pandas as pd
+            pd.DataFrame(events).to_csv(tmp, index=False)
         os.replace(tmp, out_dir / "events.csv")
     meta["products"] = products(out_dir)
     tmp = out_dir / "run.json.tmp"
