@@ -14,6 +14,10 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
 
+Measured on 2026-11-27, afternoon (structure parsed and planned once per worker, init shortcuts, the wind's step
+in C, the pool's dispatch): 336 runs in 18.4-19.9 s against 22.1-24.0 s before, alternating; see
+bench/results/campaign_2026-11-27b.md.
+
 Measured on 2026-11-27 (the fixed part of a run: caches of what runs of one structure share, summary CSVs
 without pandas): see bench/results/campaign_2026-11-27.md.
 
