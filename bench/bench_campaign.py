@@ -67,6 +67,7 @@ sys.path.insert(0, str(ROOT))
 from master.campaign.execute import execute_run  # noqa: E402
 from master.campaign.runner import make_task, run_campaign  # noqa: E402
 from master.campaign.spec import load_campaign  # noqa: E402
+from phase_timer import PhaseTimer  # noqa: E402
 
 PAPER = ROOT / "ssp" / "campaigns" / "paper.yaml"
 
@@ -162,38 +163,14 @@ def phase_breakdown(n_runs: int, stop_time: float | None = None) -> None:
     from master.scenario_kinds import SCENARIO_KINDS
     camp = load_campaign(PAPER)
     kind_cls = type(SCENARIO_KINDS.get(camp.kind))
-    spent: dict = defaultdict(float)
-    clock = time.process_time
-
-    def timed(owner, name, label):
-        fn = getattr(owner, name)
-
-        def wrapper(*a, **k):
-            t0 = clock()
-            try:
-                return fn(*a, **k)
-            finally:
-                spent[label] += clock() - t0
-        setattr(owner, name, wrapper)
-        return fn
-
-    originals = [(kind_cls, "prepare_run", timed(kind_cls, "prepare_run", "build")),
-                 (ex.Execution, "setup", timed(ex.Execution, "setup", "load")),
-                 (ex.Execution, "simulate_until", timed(ex.Execution, "simulate_until", "loop")),
-                 (ex.Execution, "close", timed(ex.Execution, "close", "outputs"))]
-    originals += [(rtm.Runtime, name, timed(rtm.Runtime, name, f"init: {label}")) for label, _, name in INIT_PARTS]
-    init = ex.Execution.initialize
-
-    def initialize(self):       # setup counts as load, the rest as init
-        if not self._set_up:
-            self.setup()
-        t0 = clock()
-        try:
-            return init(self)
-        finally:
-            spent["init"] += clock() - t0
-    originals.append((ex.Execution, "initialize", init))
-    ex.Execution.initialize = initialize
+    timer = PhaseTimer()
+    spent, clock = timer.spent, timer.clock
+    for owner, name, label in ((kind_cls, "prepare_run", "build"), (ex.Execution, "setup", "load"),
+                               (ex.Execution, "simulate_until", "loop"), (ex.Execution, "close", "outputs")):
+        timer.wrap(owner, name, label)
+    for label, _, name in INIT_PARTS:
+        timer.wrap(rtm.Runtime, name, f"init: {label}")
+    timer.wrap_initialize(ex.Execution, "init")     # setup counts as load, the rest as init
     every = max(1, len(camp.runs) // n_runs)
     runs = [camp.runs[i * every] for i in range(n_runs)]
     tmp = Path(tempfile.mkdtemp(prefix="bench-campaign-phases-"))
@@ -212,8 +189,7 @@ def phase_breakdown(n_runs: int, stop_time: float | None = None) -> None:
             steps += round((rec.get("last_time") or 0.0) / rec.get("step_size", 1.0))
         wall = time.perf_counter() - t_wall
     finally:
-        for owner, name, fn in originals:
-            setattr(owner, name, fn)
+        timer.restore()
         shutil.rmtree(tmp, ignore_errors=True)
     spent["bookkeeping"] = total_cpu - sum(spent[p] for p, _ in PHASES if p != "bookkeeping")
     spent["init: instantiate FMUs, ports"] -= spent["init: bind sampled reads"]

@@ -23,8 +23,6 @@ import gc
 import shutil
 import sys
 import tempfile
-import time
-from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -36,6 +34,7 @@ import master.runtime as runtime  # noqa: E402
 from master.campaign.execute import execute_run  # noqa: E402
 from master.campaign.runner import make_task  # noqa: E402
 from master.campaign.spec import load_campaign  # noqa: E402
+from phase_timer import PhaseTimer  # noqa: E402
 
 PAPER = ROOT / "ssp" / "campaigns" / "paper.yaml"
 PARTS = [(runtime.Runtime, name, f"Runtime.{name}") for name in
@@ -45,34 +44,11 @@ PARTS += [(runtime, "make_slave", "make_slave"), (algorithms.Algorithm, "prepare
 
 
 def measure(n_runs: int, rounds: int, stop_time: float, no_gc: bool) -> dict:
-    spent: dict = defaultdict(float)
-    clock = time.process_time
-
-    def timed(owner, name, label):
-        fn = getattr(owner, name)
-
-        def wrapper(*a, **k):
-            t0 = clock()
-            try:
-                return fn(*a, **k)
-            finally:
-                spent[label] += clock() - t0
-        setattr(owner, name, wrapper)
-        return fn
-
-    originals = [(owner, name, timed(owner, name, label)) for owner, name, label in PARTS]
-    init = execution.Execution.initialize
-
-    def initialize(self):
-        if not self._set_up:
-            self.setup()
-        t0 = clock()
-        try:
-            return init(self)
-        finally:
-            spent["Execution.initialize"] += clock() - t0
-    execution.Execution.initialize = initialize
-    originals.append((execution.Execution, "initialize", init))
+    timer = PhaseTimer()
+    spent = timer.spent
+    for owner, name, label in PARTS:
+        timer.wrap(owner, name, label)
+    timer.wrap_initialize(execution.Execution, "Execution.initialize")
     camp = load_campaign(PAPER)
     every = max(1, len(camp.runs) // n_runs)
     runs = [camp.runs[i * every] for i in range(n_runs)] * rounds
@@ -91,8 +67,7 @@ def measure(n_runs: int, rounds: int, stop_time: float, no_gc: bool) -> dict:
                 raise SystemExit(f"run {r.index} did not complete: {rec.get('error')}")
     finally:
         gc.enable()
-        for owner, name, fn in originals:
-            setattr(owner, name, fn)
+        timer.restore()
         shutil.rmtree(tmp, ignore_errors=True)
     return {k: v / len(runs) * 1000 for k, v in spent.items()}
 

@@ -16,8 +16,9 @@ import shutil
 import sys
 import tempfile
 import time
-from collections import defaultdict
 from pathlib import Path
+
+from phase_timer import PhaseTimer
 
 ROOT = Path.cwd()      # the checkout whose campaign and code are measured (run it from there)
 PAPER = ROOT / "ssp" / "campaigns" / "paper.yaml"
@@ -37,21 +38,11 @@ def main(argv=None) -> int:
     from master.scenario_kinds import SCENARIO_KINDS
     camp = load_campaign(PAPER)
     kind_cls = type(SCENARIO_KINDS.get(camp.kind))
-    spent: dict = defaultdict(float)
-    clock = time.thread_time     # this thread only: a finished run's background threads (sinks) are not build or load
-
-    def timed(owner, name, label):
-        fn = getattr(owner, name)
-
-        def wrapper(*a, **k):
-            t0 = clock()
-            try:
-                return fn(*a, **k)
-            finally:
-                spent[label] += clock() - t0
-        setattr(owner, name, wrapper)
-    timed(kind_cls, "prepare_run", "build")
-    timed(ex.Execution, "setup", "load")
+    # this thread only: a finished run's background threads (sinks) are not build or load
+    timer = PhaseTimer(time.thread_time)
+    spent = timer.spent
+    timer.wrap(kind_cls, "prepare_run", "build")
+    timer.wrap(ex.Execution, "setup", "load")
     runs = camp.runs[args.start::args.stride][:args.runs]
     tmp = Path(tempfile.mkdtemp(prefix="bench-structure-"))
     print(f"{len(runs)} runs (every {args.stride}th from {args.start}), stop time 1 s; load average "
