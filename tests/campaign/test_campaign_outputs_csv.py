@@ -9,15 +9,12 @@ from types import SimpleNamespace
 
 import pytest
 
+from awkward_values import awkward_float
+
 from uavstudy import outputs as O
 
 COLUMNS = O.SUMMARY_COLUMNS + O.TOTAL_COLUMNS
 STRINGS = ["success", "uav_collision", "x, y", 'say "hi"', "two\nlines", "", "é"]
-
-
-def _float(rng):
-    return rng.choice([rng.uniform(-1e4, 1e4), rng.random() * 10.0 ** rng.randint(-30, 30), float(rng.randint(-9, 9)),
-                       -0.0, 0.1 + 0.2, 1e16, 1e-5, 2.0 ** 53, 123456789.125, math.nan])
 
 
 def _value(rng, kind):
@@ -28,9 +25,9 @@ def _value(rng, kind):
     if kind == "count":         # what a count column holds: ints, or the same as floats
         return rng.choice([rng.randint(0, 40), float(rng.randint(0, 40))])
     if kind == "float":
-        return _float(rng)
+        return awkward_float(rng)
     if kind == "intfloat":
-        return rng.choice([rng.randint(-100, 100), _float(rng)])
+        return rng.choice([rng.randint(-100, 100), awkward_float(rng)])
     if kind == "bool":
         return rng.random() < 0.5
     if kind == "str":

@@ -9,22 +9,19 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from awkward_values import awkward_float
+
 from master.results import write_events_csv
 
 KEYS = ["time", "type", "event", "uav", "other", "x", "y", "lat", "distance", "consumed", "detail"]
 STRINGS = ["takeoff", "uav_collision", "x, y", 'say "hi"', "two\nlines", "", "é"]
 
 
-def _float(rng):
-    return rng.choice([rng.uniform(-1e4, 1e4), rng.random() * 10.0 ** rng.randint(-30, 30), float(rng.randint(-9, 9)),
-                       -0.0, 0.1 + 0.2, 1e16, 1e-5, 2.0 ** 53, 123456789.125, math.nan])
-
-
 def _value(rng, kind):
     if rng.random() < 0.15:
         return None
-    return {"int": lambda: rng.randint(-10 ** 6, 10 ** 6), "float": lambda: _float(rng),
-            "intfloat": lambda: rng.choice([rng.randint(-100, 100), _float(rng)]),
+    return {"int": lambda: rng.randint(-10 ** 6, 10 ** 6), "float": lambda: awkward_float(rng),
+            "intfloat": lambda: rng.choice([rng.randint(-100, 100), awkward_float(rng)]),
             "bool": lambda: rng.random() < 0.5, "str": lambda: rng.choice(STRINGS),
             "mixed": lambda: rng.choice([3, -1.5, True, "a,b", math.nan, 2 ** 70, 2 ** 60, 0.5])}[kind]()
 

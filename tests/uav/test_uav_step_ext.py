@@ -6,13 +6,11 @@ import random
 import shutil
 import struct
 from collections import Counter
-from pathlib import Path
 
 import pytest
 from build_script import build_fmus_module, load_shell
+from shipped_extension_runs import run_with_and_without_extensions
 
-import master
-from master.fmi.inprocess import PythonFmuSlave
 
 NAMES = ("_dynamics_ext", "_battery_ext")
 DYN_OUT = ("x", "y", "z", "vx", "vy", "vz", "airspeed", "groundspeed", "tilt", "phase", "ready", "lat", "lon", "alt")
@@ -234,23 +232,7 @@ def test_pure_python_switch_disables_the_extensions(monkeypatch):
 
 def test_shipped_fmus_run_identically_with_and_without_the_extensions(tmp_path, monkeypatch):
     # the FMUs as shipped (their own compiled extensions) against UAVSIM_PURE_PYTHON=1, in-process, 4 UAVs
-    ssp = Path(__file__).resolve().parents[2] / "ssp" / "paper_zones_4uav_B.ssp"
-    kw = dict(stop_time=60.0, step=0.1, record=["*"], record_interval=0.1, inprocess=True)
-    shells = []
-    orig = PythonFmuSlave.bound_cycle
-
-    def spy(self, *a):
-        shells.append(self.obj)
-        return orig(self, *a)
-    monkeypatch.setattr(PythonFmuSlave, "bound_cycle", spy)
-    monkeypatch.delenv("UAVSIM_PURE_PYTHON", raising=False)
-    fast = master.run(ssp, output=tmp_path / "ext", **kw)
-    stepped = list({id(s): s for s in shells if type(s).__name__ in ("UavDynamics", "UavBattery")}.values())
-    assert len(stepped) == 8
-    if all(s._ext is None for s in stepped):
-        pytest.skip("the shipped FMUs carry no extension for this platform")
-    assert all(s._ext is not None for s in stepped)
-    monkeypatch.setenv("UAVSIM_PURE_PYTHON", "1")
-    pure = master.run(ssp, output=tmp_path / "pure", **kw)
+    fast, pure = run_with_and_without_extensions(tmp_path, monkeypatch, ("UavDynamics", "UavBattery"), 8,
+                                                 stop_time=60.0, step=0.1, record=["*"], record_interval=0.1)
     assert fast.frame.equals(pure.frame)
     assert len(fast.frame) > 500

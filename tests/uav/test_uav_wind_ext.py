@@ -10,14 +10,12 @@ import random
 import shutil
 import struct
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 import pytest
 from build_script import build_fmus_module, load_shell
+from shipped_extension_runs import run_with_and_without_extensions
 
-import master
-from master.fmi.inprocess import PythonFmuSlave
 from uavsim.wind import Wind, WindParams
 
 OUTPUTS = ("wind_x", "wind_y", "wind_z", "wind_speed", "wind_level")
@@ -230,25 +228,8 @@ def test_pure_python_switch_disables_the_extension(monkeypatch):
 def test_shipped_fmus_run_identically_with_and_without_the_extension(tmp_path, monkeypatch):
     # the FMUs as shipped (their own compiled extensions) against UAVSIM_PURE_PYTHON=1, in-process, 4 UAVs in a
     # wind made frequent (the shipped scenario's is calm) so that episodes come and go within the run
-    ssp = Path(__file__).resolve().parents[2] / "ssp" / "paper_zones_4uav_B.ssp"
-    kw = dict(stop_time=200.0, step=0.25, record=["*"], record_interval=0.25, inprocess=True)
-    shells = []
-    orig = PythonFmuSlave.bound_cycle
-
-    def spy(self, *a):
-        shells.append(self.obj)
-        return orig(self, *a)
-    monkeypatch.setattr(PythonFmuSlave, "bound_cycle", spy)
-    monkeypatch.delenv("UAVSIM_PURE_PYTHON", raising=False)
-    winds = {"wind.probability": 0.5}
-    fast = master.run(ssp, output=tmp_path / "ext", params=winds, **kw)
-    stepped = list({id(s): s for s in shells if type(s).__name__ == "UavWind"}.values())
-    assert len(stepped) == 1
-    if all(s._ext is None for s in stepped):
-        pytest.skip("the shipped FMUs carry no extension for this platform")
-    assert all(s._ext is not None for s in stepped)
-    monkeypatch.setenv("UAVSIM_PURE_PYTHON", "1")
-    pure = master.run(ssp, output=tmp_path / "pure", params=winds, **kw)
+    fast, pure = run_with_and_without_extensions(tmp_path, monkeypatch, ("UavWind",), 1, params={"wind.probability": 0.5},
+                                                 stop_time=200.0, step=0.25, record=["*"], record_interval=0.25)
     assert fast.frame.equals(pure.frame)
     assert len(fast.frame) > 500
     assert (fast.frame.filter(like="wind_level") > 0).any().any()
