@@ -21,6 +21,19 @@ def compiled_kernels(tmp_path_factory):
     return k
 
 
+@pytest.fixture(scope="session")
+def extensions_folder(tmp_path_factory):
+    """A folder holding every uavsim/_*_ext.c compiled here, as build_fmus.py compiles them for the FMUs (once per
+    session: each extension's tests load their module from it)."""
+    import os
+    if shutil.which(os.environ.get("CC", "gcc")) is None:
+        pytest.skip("no C compiler: the extensions cannot be built here")
+    folder = tmp_path_factory.mktemp("ext")
+    if not build_fmus_module().compile_extensions(folder):
+        pytest.skip("no Python headers: the extensions cannot be built here")
+    return folder
+
+
 @pytest.fixture(params=["python", "compiled"])
 def any_kernels(request):
     """Each twin in turn."""

@@ -1,14 +1,12 @@
 """The FMU steps of UavDynamics and UavBattery in C (uavsim/_dynamics_ext.c, uavsim/_battery_ext.c) against the
 Python step of the same shells run with UAVSIM_PURE_PYTHON=1 (Python kernels, no extension), bit for bit: the
 published outputs and the whole model state, over thousands of random states and inputs and over whole flights."""
-import os
 import random
-import shutil
 import struct
 from collections import Counter
 
 import pytest
-from build_script import build_fmus_module, load_shell
+from build_script import load_shell
 from shipped_extension_runs import run_with_and_without_extensions
 
 
@@ -19,17 +17,12 @@ CODE = ("kernels", "_fly", "_step")        # the twins' kernels differ by constr
 
 
 @pytest.fixture(scope="session")
-def extensions(tmp_path_factory):
+def extensions(extensions_folder):
     """The extension modules compiled here, as build_fmus.py compiles them for the FMUs."""
     from uavsim import native
-    if shutil.which(os.environ.get("CC", "gcc")) is None:
-        pytest.skip("no C compiler: the extensions cannot be built here")
-    folder = tmp_path_factory.mktemp("ext")
-    if not build_fmus_module().compile_extensions(folder):
-        pytest.skip("no Python headers: the extensions cannot be built here")
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv("UAVSIM_PURE_PYTHON", raising=False)
-        mods = {name: native.load_extension(name, folder) for name in NAMES}
+        mods = {name: native.load_extension(name, extensions_folder) for name in NAMES}
     assert all(mods.values()), "an extension did not load"
     return mods
 

@@ -15,14 +15,13 @@ import importlib.util
 import math
 import os
 import random
-import shutil
 import struct
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from build_script import SRC, build_fmus_module
+from build_script import SRC
 
 from uavsim import mission_encoding as M
 from uavsim import native
@@ -43,14 +42,9 @@ NEAR = [0.0, 1e-16, -1e-16, 3e-16, -3e-16, 1e-13, -1e-13, 1e-12, -1e-12, 1e-9, -
 
 
 @pytest.fixture(scope="module")
-def ext(tmp_path_factory):
+def ext(extensions_folder):
     """The extension compiled here as build_fmus.py compiles it for the FMUs."""
-    if shutil.which(os.environ.get("CC", "gcc")) is None:
-        pytest.skip("no C compiler: the extension cannot be built here")
-    folder = tmp_path_factory.mktemp("strategy_ext")
-    if not build_fmus_module().compile_extensions(folder):
-        pytest.skip("no Python headers: the extension cannot be built here")
-    module = native.load_extension("_strategy_ext", folder)
+    module = native.load_extension("_strategy_ext", extensions_folder)
     if module is None:
         pytest.skip("UAVSIM_PURE_PYTHON is set or the extension does not load")
     return module
