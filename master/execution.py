@@ -387,6 +387,8 @@ class Execution:
             quiet.__exit__(None, None, None)
             self.n = n
             meta["steps_done"] = n
+            # an interrupt between a step and its observers leaves n at the last step the results hold
+            meta["last_time"] = self.time
             if bar is not None:
                 bar.close()
 

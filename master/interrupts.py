@@ -8,6 +8,7 @@ was in place before, so the interrupt still takes effect, just after the files a
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from contextlib import contextmanager
 
@@ -28,3 +29,61 @@ def deferred():
             signal.signal(s, handler)
         for s in dict.fromkeys(pending):
             signal.raise_signal(s)
+
+
+# -- interrupts raised inside ctypes callbacks ----------------------------------------------------------------
+# A native FMU calls the master's logger from inside doStep. A signal that arrived while the FMU ran (a Ctrl-C
+# during a long doStep) has its Python handler run by the first bytecode after it: the logger callback. The
+# KeyboardInterrupt raised there cannot cross the C frames, so ctypes prints "Exception ignored" and drops it,
+# and the run carries on as if nobody had pressed Ctrl-C. ctypes reports the dropped exception through
+# sys.unraisablehook, whichever line of the callback it came from. Sending the signal again does not help: the
+# next bytecode may well be the same callback again (an FMU that sleeps, is interrupted and then logs). So the
+# hook raises the interrupt itself at the first Python call or return of the main thread that is not inside a
+# callback: once the C code has returned into the master.
+
+_hook_installed = False
+_callback_codes: set = set()        # code objects the interrupt must not be raised in: callbacks, this hook
+
+
+def _inside_callback(frame) -> bool:
+    # C frames are not on the chain: a callback's frame links straight to the frame that made the foreign call
+    while frame is not None:
+        if frame.f_code in _callback_codes:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _raise_outside_callbacks(exc_type) -> None:
+    previous = sys.getprofile()
+
+    def at_next_call(frame, event, arg):
+        if _inside_callback(frame):
+            return
+        sys.setprofile(previous)
+        raise exc_type()
+    sys.setprofile(at_next_call)
+
+
+def _unraisable(previous):
+    def hook(unraisable):
+        exc_type = unraisable.exc_type
+        if (exc_type is None or not issubclass(exc_type, KeyboardInterrupt)
+                or threading.current_thread() is not threading.main_thread()):
+            previous(unraisable)
+            return
+        code = getattr(unraisable.object, "__code__", None)
+        if code is not None:
+            _callback_codes.add(code)
+        _raise_outside_callbacks(exc_type)
+    hook.previous = previous
+    _callback_codes.add(hook.__code__)
+    return hook
+
+
+def keep_interrupts_from_callbacks() -> None:
+    """Make an interrupt raised inside a ctypes callback take effect after the foreign call (idempotent)."""
+    global _hook_installed
+    if not _hook_installed:
+        sys.unraisablehook = _unraisable(sys.unraisablehook)
+        _hook_installed = True

@@ -207,6 +207,8 @@ class Slave(abc.ABC):
             raise self.fail(call, status, time)
 
     def _logger_fn(self):
+        from ..interrupts import keep_interrupts_from_callbacks
+        keep_interrupts_from_callbacks()        # a Ctrl-C that lands in this callback must not be lost
         sink, name = self.log, self.name
 
         def log_message(env, instance_name, status, category, message):
