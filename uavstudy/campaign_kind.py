@@ -18,6 +18,7 @@ from pathlib import Path
 import yaml
 
 from master import yamlio
+from master.campaign.execute import kept_after_run
 from master.campaign.spec import SCENARIO_OPTIONS, file_sha256, is_campaign_document
 from master.errors import ScenarioError
 from master.scenario_kinds import ParamProblem, PreparedRun, ScenarioKind
@@ -227,8 +228,10 @@ class UavKind(ScenarioKind):
         yml = out / "scenario.yaml"
         yml.write_text(head + yamlio.dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
         scn = scenario_from_dict(data, yml)       # what was just written, without parsing it again
-        # the scenario's seed field (wind) is the run seed already
-        return PreparedRun(build_ssp(scn, out / "scenario.ssp"), {}, None, {})
+        # the scenario's seed field (wind) is the run seed already; the archive is written to the run folder only
+        # if the folder keeps it (else the run reads it from memory)
+        ssp = out / "scenario.ssp"
+        return PreparedRun(build_ssp(scn, ssp, to_disk=kept_after_run(task, ssp.name, self)), {}, None, {})
 
     def summary_rows(self, summary) -> list[tuple[str, dict]]:
         """One row per UAV of the monitor's summary, then the run's totals."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -16,7 +17,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
-from .archive import schema_checked
+from .archive import MemoryArchive, schema_checked
 from .connection_extrapolation import read_connection_order
 from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
                     SystemModel, Transformation, Unit)
@@ -76,10 +77,11 @@ def _declared(name: str, connectors: dict) -> bool:
 
 
 class _Reader:
-    def __init__(self, ssd_path: Path, root: Path, shown_root: str):
+    def __init__(self, ssd_path: Path, root: Path, shown_root: str, members: dict | None = None):
         self.ssd_path = ssd_path
         self.root = root
         self.shown_root = shown_root
+        self.members = members                # archive read from memory: member name -> its file (else None)
         self.units: dict[str, Unit] = {}
         self.components: dict[str, Component] = {}
         self.edges: list[tuple] = []          # (src node, dst node, Connection template)
@@ -201,9 +203,27 @@ class _Reader:
             raise ScenarioError(f"source URI scheme {parsed.scheme!r} is not supported", file=self.shown(self.ssd_path))
         rel = unquote(source)
         candidate = (base_dir / rel)
+        if self.members is not None:
+            return self.member_file(candidate, rel)
         if not candidate.exists() and (self.root / rel).exists():
             candidate = self.root / rel
         return candidate
+
+    def member_file(self, candidate: Path, rel: str) -> Path:
+        """Where an archive read from memory has the file that unpacking it would have put at ``candidate`` (or
+        else at ``root/rel``); a member it does not hold stays at ``candidate``, where no file is."""
+        for place in (candidate, self.root / rel):
+            name = self.member_name(place)
+            if name in self.members:
+                return self.members[name]
+        return candidate
+
+    def member_name(self, place: Path) -> str | None:
+        try:
+            rel = place.relative_to(self.root)
+        except ValueError:
+            return None
+        return os.path.normpath(rel.as_posix())
 
     def read_connection(self, c, prefix, names, shown_as):
         start_el, end_el = c.get("startElement"), c.get("endElement")
@@ -506,19 +526,22 @@ def _frozen(components: dict) -> dict:
 
 
 def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True,
-             reuse_structure: bool = False) -> SystemModel:
+             reuse_structure: bool = False, memory: MemoryArchive | None = None) -> SystemModel:
     """Read and validate an SSD; ``shown_root`` is how the scenario is named in messages.  ``reuse_structure``:
     an SSD whose structure (:func:`structure_key`) this process has read before reads only its values again, and
-    the model says its key (``SystemModel.structure``) for the plan to reuse its part too."""
+    the model says its key (``SystemModel.structure``) for the plan to reuse its part too.  ``memory``: the
+    archive as this process wrote it (``archive.open_scenario(in_memory=True)``): the SSD is parsed from its bytes
+    and the FMUs are found in its members, named as though the archive were unpacked at ``root``."""
     ssd_path = Path(ssd_path)
-    reader = _Reader(ssd_path, Path(root), shown_root)
+    reader = _Reader(ssd_path, Path(root), shown_root, memory.members if memory is not None else None)
     shown_as = reader.shown(ssd_path)
-    tree = xsd.parse_xml(ssd_path, shown_as)
+    tree = xsd.parse_xml(ssd_path, shown_as, memory.ssd if memory is not None else None)
     top = tree.getroot()
     if _local(top) != "SystemStructureDescription":
         raise ScenarioError(f"root element is {_local(top)!r}, expected ssd:SystemStructureDescription",
                             file=shown_as, line=top.sourceline)
-    if validate and not schema_checked(ssd_path):
+    checked = memory.validated if memory is not None else schema_checked(ssd_path)
+    if validate and not checked:
         xsd.validate(tree, "ssd", shown_as)
     reader.reuse_values = reuse_structure
     key = structure_key(top) if reuse_structure else None

@@ -326,8 +326,10 @@ class SspBuilder:
                 anns.append(a)
         return {comp.ssv: self._params(None, comp) for comp in self.components if comp.params and comp.ssv}
 
-    def write(self, path) -> Path:
-        """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder."""
+    def write(self, path, to_disk: bool = True) -> Path:
+        """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder.  ``to_disk`` False: an archive is
+        built for ``path`` but kept in this process's memory only (``archive.remember_written``), for a run that
+        would delete the file unread afterwards; where a file is at ``path`` already, it is written all the same."""
         path = Path(path)
         fmu_names, seen, resolved = {}, {}, {}
         for comp in self.components:
@@ -348,7 +350,6 @@ class SspBuilder:
                                           pretty_print=True) for name, el in ssv_files.items()}
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
         if path.suffix.lower() == ".ssp":
-            path.parent.mkdir(parents=True, exist_ok=True)
             files = {"SystemStructure.ssd": ssd_bytes, **{f"resources/{name}": data for name, data in ssv_bytes.items()}}
             fmus = {arc: _fmu_content(src) for arc, src in sorted(members.items())}
             buf = io.BytesIO()
@@ -357,13 +358,16 @@ class SspBuilder:
                     zf.writestr(_zinfo(arc), data)
                 for arc, (data, _) in fmus.items():
                     zf.writestr(_zinfo(arc), data)
-            tmp = path.with_suffix(".ssp.tmp")
             archive = buf.getbuffer()
-            with open(tmp, "wb") as fh:
-                fh.write(archive)
-            os.replace(tmp, path)
+            on_disk = to_disk or os.path.lexists(path)
+            if on_disk:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_suffix(".ssp.tmp")
+                with open(tmp, "wb") as fh:
+                    fh.write(archive)
+                os.replace(tmp, path)
             remember_written(path, hashlib.sha256(archive).hexdigest(), files,
-                             {arc: (sha, data) for arc, (data, sha) in fmus.items()})
+                             {arc: (sha, data) for arc, (data, sha) in fmus.items()}, on_disk)
             archive.release()
         else:
             if path.exists():
