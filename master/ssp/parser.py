@@ -82,6 +82,8 @@ class _Reader:
         self.root = root
         self.shown_root = shown_root
         self.members = members                # archive read from memory: member name -> its file (else None)
+        self.member_paths = set(members.values()) if members is not None else set()
+        self.member_files: dict[tuple, Path] = {}     # (source, folder) -> the member's file, as resolved
         self.units: dict[str, Unit] = {}
         self.components: dict[str, Component] = {}
         self.edges: list[tuple] = []          # (src node, dst node, Connection template)
@@ -188,6 +190,12 @@ class _Reader:
         self.read_bindings(el, known.name, shown_as, ssd_dir, is_component=True)
 
     def component_file(self, source, ctype, where, el, shown_as, ssd_dir) -> Path:
+        if self.members is not None:     # a fleet's components share a few members, each a file of the store
+            found = self.member_files.get((source, ssd_dir))
+            if found is None:
+                found = self.member_files[(source, ssd_dir)] = self.resolve_source(source, ssd_dir)
+            if found in self.member_paths:
+                return found
         fmu_path = self.resolve_source(source, ssd_dir)
         if not fmu_path.is_file():
             what = "input table" if ctype == CSV_SOURCE_TYPE else "FMU"

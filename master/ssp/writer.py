@@ -10,8 +10,10 @@ import hashlib
 import io
 import os
 import shutil
+import struct
 import threading
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -352,23 +354,20 @@ class SspBuilder:
         if path.suffix.lower() == ".ssp":
             files = {"SystemStructure.ssd": ssd_bytes, **{f"resources/{name}": data for name, data in ssv_bytes.items()}}
             fmus = {arc: _fmu_content(src) for arc, src in sorted(members.items())}
-            buf = io.BytesIO()
-            with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
-                for arc, data in files.items():
-                    zf.writestr(_zinfo(arc), data)
-                for arc, (data, _) in fmus.items():
-                    zf.writestr(_zinfo(arc), data)
-            archive = buf.getbuffer()
+            chunks = _archive_chunks([*((arc, data, zlib.crc32(data)) for arc, data in files.items()),
+                                      *((arc, data, crc) for arc, (data, _, crc) in fmus.items())])
             on_disk = to_disk or os.path.lexists(path)
             if on_disk:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 tmp = path.with_suffix(".ssp.tmp")
                 with open(tmp, "wb") as fh:
-                    fh.write(archive)
+                    fh.writelines(chunks)
                 os.replace(tmp, path)
-            remember_written(path, hashlib.sha256(archive).hexdigest(), files,
-                             {arc: (sha, data) for arc, (data, sha) in fmus.items()}, on_disk)
-            archive.release()
+            h = hashlib.sha256()
+            for chunk in chunks:
+                h.update(chunk)
+            remember_written(path, h.hexdigest(), files, {arc: (sha, data) for arc, (data, sha, _) in fmus.items()},
+                             on_disk)
         else:
             if path.exists():
                 shutil.rmtree(path)
@@ -381,21 +380,57 @@ class SspBuilder:
         return path
 
 
-_FMU_BYTES: dict[tuple, tuple[bytes, str]] = {}
+_FMU_BYTES: dict[tuple, tuple[bytes, str, int]] = {}
 
 
-def _fmu_content(src: Path) -> tuple[bytes, str]:
-    """An FMU's bytes and their SHA-256, read once per process while the file is unchanged: a campaign writes
-    the same FMUs into every run's archive."""
+def _fmu_content(src: Path) -> tuple[bytes, str, int]:
+    """An FMU's bytes, their SHA-256 and their CRC-32 (``src``: a resolved path), read once per process while the
+    file is unchanged: a campaign writes the same FMUs into every run's archive."""
     st = src.stat()
-    key = (str(src.resolve()), st.st_mtime_ns, st.st_size)
+    key = (str(src), st.st_mtime_ns, st.st_size)
     content = _FMU_BYTES.get(key)
     if content is None:
         if len(_FMU_BYTES) >= 32:
             _FMU_BYTES.clear()
         data = src.read_bytes()
-        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest())
+        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest(), zlib.crc32(data))
     return content
+
+
+def _archive_chunks(members: list[tuple[str, bytes, int]]) -> list:
+    """The bytes of the archive that ``zipfile.ZipFile(..., "w", ZIP_STORED)`` writes to a seekable file for these
+    members ((name, data, CRC-32) written with ``writestr(_zinfo(name), data)`` in this order), as pieces that
+    refer to the members' own data: the FMUs' megabyte is neither copied nor checksummed again for every run."""
+    if not _plain_zip(members):
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
+            for name, data, _ in members:
+                zf.writestr(_zinfo(name), data)
+        return [buf.getvalue()]
+    chunks, central, offset = [], [], 0
+    for name, data, crc in members:
+        zi = _zinfo(name)
+        zi.CRC, zi.file_size, zi.compress_size, zi.header_offset = crc, len(data), len(data), offset
+        header = zi.FileHeader(False)
+        chunks += (header, data)
+        dt = zi.date_time
+        central.append(struct.pack(
+            zipfile.structCentralDir, zipfile.stringCentralDir, zi.create_version, zi.create_system,
+            zi.extract_version, zi.reserved, zi.flag_bits, zi.compress_type, dt[3] << 11 | dt[4] << 5 | dt[5] // 2,
+            (dt[0] - 1980) << 9 | dt[1] << 5 | dt[2], crc, len(data), len(data), len(name), 0, 0, 0,
+            zi.internal_attr, zi.external_attr, offset) + name.encode("ascii"))
+        offset += len(header) + len(data)
+    size = sum(map(len, central))
+    end = struct.pack(zipfile.structEndArchive, zipfile.stringEndArchive, 0, 0, len(central), len(central), size,
+                      offset, 0)
+    return [*chunks, *central, end]
+
+
+def _plain_zip(members) -> bool:
+    """Members that zipfile writes without ZIP64 records or UTF-8 names (what _archive_chunks writes itself)."""
+    total = sum(len(data) + 200 + len(name) for name, data, _ in members)
+    return (len(members) < 0xFFFF and total < zipfile.ZIP64_LIMIT // 2
+            and all(name.isascii() and not name.endswith("/") for name, _, _ in members))
 
 
 def _zinfo(name):
