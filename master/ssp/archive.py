@@ -20,6 +20,7 @@ class MemoryArchive:
     ssd: bytes              # the SystemStructure.ssd as written
     members: dict           # member name ("resources/X.fmu") -> the file holding its bytes (the FMU store's copy)
     validated: bool         # the writer validated the SSD against the schema
+    shape: int | None = None    # SSDs the writer wrote with the same number have the same structure (None: unknown)
 
 
 @dataclass
@@ -143,6 +144,7 @@ class _Written:
     files: dict             # member name -> bytes (SSD, parameter files; None: a folder)
     fmus: dict              # member name -> (SHA-256, bytes; None: in the store of linked FMUs only)
     validated: bool = True  # the writer validated its SSD (an archive only opened before: not known)
+    shape: int | None = None    # the writer's number of the SSD's shape (MemoryArchive.shape)
 
 
 # archives written by this process (master.ssp.writer) by absolute path: a campaign run writes its archive and
@@ -156,14 +158,15 @@ def _signature(st: os.stat_result) -> tuple:
     return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
 
 
-def remember_written(path: Path, sha256: str, files: dict, fmus: dict, on_disk: bool = True) -> None:
+def remember_written(path: Path, sha256: str, files: dict, fmus: dict, on_disk: bool = True,
+                     shape: int | None = None) -> None:
     """Note the archive just written to ``path`` (its SHA-256 and members; FMU members with their SHA-256).
     ``on_disk`` False: the archive was built for ``path`` but not written there (a campaign run whose folder
     keeps only its summary); this process opens it from memory while no file is at ``path``."""
     if len(_WRITTEN) >= _MAX_WRITTEN:
         _WRITTEN.clear()
     stat = _signature(os.stat(path)) if on_disk else None
-    _WRITTEN[os.path.abspath(path)] = _Written(stat, sha256, dict(files), dict(fmus))
+    _WRITTEN[os.path.abspath(path)] = _Written(stat, sha256, dict(files), dict(fmus), shape=shape)
 
 
 def written_here(path: str | os.PathLike) -> bool:
@@ -285,7 +288,7 @@ def _from_memory(path: Path, w: _Written) -> ScenarioSource | None:
             members[name] = _stored_fmu(sha, lambda out, data=data: out.write(data))
     except OSError:
         return None
-    memory = MemoryArchive(w.files[SSD_NAME], members, w.validated)
+    memory = MemoryArchive(w.files[SSD_NAME], members, w.validated, w.shape)
     return ScenarioSource(path, path / SSD_NAME, path, memory=memory)
 
 

@@ -480,6 +480,23 @@ def structure_key(top) -> str:
     return h.hexdigest()
 
 
+# the writer's number of an SSD shape (archive.MemoryArchive.shape) -> the structure key of its SSDs
+_SHAPE_KEYS: dict[int, str] = {}
+
+
+def _structure_key(top, memory: MemoryArchive | None) -> str:
+    """:func:`structure_key`, computed once per shape of the SSDs this process wrote."""
+    shape = memory.shape if memory is not None else None
+    key = _SHAPE_KEYS.get(shape) if shape is not None else None
+    if key is None:
+        key = structure_key(top)
+        if shape is not None:
+            if len(_SHAPE_KEYS) >= _MAX_STRUCTURES:
+                _SHAPE_KEYS.clear()
+            _SHAPE_KEYS[shape] = key
+    return key
+
+
 def _following(el):
     """The next element after ``el`` and everything in it, in document order (None at the end)."""
     while el is not None:
@@ -552,7 +569,7 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     if validate and not checked:
         xsd.validate(tree, "ssd", shown_as)
     reader.reuse_values = reuse_structure
-    key = structure_key(top) if reuse_structure else None
+    key = _structure_key(top, memory) if reuse_structure else None
     known = _STRUCTURES.get(key) if key is not None else None
     if known is not None:
         reader.units = {name: copy.copy(u) for name, u in known.units.items()}

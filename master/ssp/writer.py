@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import io
+import itertools
 import os
 import shutil
 import struct
@@ -98,11 +99,14 @@ def _description(fmu_path: Path):
     return md
 
 
-def _keep_tree(key: tuple, tree, slots: list, size: int) -> None:
+def _keep_tree(key: tuple, tree, slots: list, size: int) -> int | None:
+    """Keep the tree; returns the number that names its shape while it is kept (None: not kept)."""
     if len(_TREES) >= _MAX_TREES or sum(t[2] for t in _TREES.values()) + size > _MAX_TREE_BYTES:
         _TREES.clear()
     if size <= _MAX_TREE_BYTES:
-        _TREES[key] = (tree, slots, size)
+        _TREES[key] = (tree, slots, size, next(_SHAPES))
+        return _TREES[key][3]
+    return None
 
 
 def _keep(cache: dict, key, value):
@@ -133,6 +137,7 @@ _TREE_LOCK = threading.Lock()
 _MAX_TREES = 16         # a campaign worker cycles through a handful of systems
 _MAX_TREE_BYTES = 8 << 20   # serialised SSDs of all kept trees (4 UAVs: 160 kB; 256 UAVs: ~10 MB, not kept)
 _KEEP_TREES = True      # tests compare with trees built afresh
+_SHAPES = itertools.count()     # a kept tree's number: never the same for two shapes in one process
 _CONNECTORS_XML: dict[tuple, etree._Element] = {}    # connectors -> their ssd:Connectors element
 _PARAMETERS_XML: dict[tuple, etree._Element] = {}    # (name, type) of each parameter -> ssv:Parameters without values
 
@@ -295,10 +300,12 @@ class SspBuilder:
                 tuple((c.name, fmu_names[c.name], tuple(c.connectors),
                        tuple((var, t) for var, (t, _) in c.params.items()), c.ssv) for c in self.components))
 
-    def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict]:
-        """The SSD, validated and serialised, and the .ssv files' roots.  A tree of the same shape written before
-        (a campaign's runs of one system) gets this builder's values and annotations instead of being built again;
-        it is validated and serialised as a new one would be."""
+    def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict, int | None]:
+        """The SSD, validated and serialised, the .ssv files' roots and the number of its shape (None: a tree not
+        kept).  A tree of the same shape written before (a campaign's runs of one system) gets this builder's values
+        and annotations instead of being built again; it is validated and serialised as a new one would be.  SSDs of
+        one shape differ only in attribute values (one line each: lxml writes a newline in one as &#10;) and in the
+        top-level annotations, written last: their structure (``parser.structure_key``) is the same."""
         key = self._shape(fmu_names)
         with _TREE_LOCK:        # the kept trees are changed in place (Dask workers may run threads)
             kept = _TREES.get(key)
@@ -306,13 +313,13 @@ class SspBuilder:
                 slots: list = []
                 tree, ssv_files = self._build_tree(fmu_names, slots)
             else:
-                tree, slots, _ = kept
+                tree, slots, _, shape = kept
                 ssv_files = self._fill(tree, slots)
             xsd.validate(tree, "ssd", str(path))
             ssd = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
             if kept is None or not _KEEP_TREES:
-                _keep_tree(key, tree, slots, len(ssd))
-            return ssd, ssv_files
+                shape = _keep_tree(key, tree, slots, len(ssd)) if _KEEP_TREES else None
+            return ssd, ssv_files, shape
 
     def _fill(self, tree, slots: list) -> dict:
         """Put this builder's values and annotations into a kept tree of its shape; returns the .ssv files' roots."""
@@ -347,7 +354,7 @@ class SspBuilder:
                     name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
                 seen[key] = name
             fmu_names[comp.name] = seen[key]
-        ssd_bytes, ssv_files = self._ssd_bytes(fmu_names, path)
+        ssd_bytes, ssv_files, shape = self._ssd_bytes(fmu_names, path)
         ssv_bytes = {name: etree.tostring(etree.ElementTree(el), xml_declaration=True, encoding="UTF-8",
                                           pretty_print=True) for name, el in ssv_files.items()}
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
@@ -367,7 +374,7 @@ class SspBuilder:
             for chunk in chunks:
                 h.update(chunk)
             remember_written(path, h.hexdigest(), files, {arc: (sha, data) for arc, (data, sha, _) in fmus.items()},
-                             on_disk)
+                             on_disk, shape)
         else:
             if path.exists():
                 shutil.rmtree(path)
