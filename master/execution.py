@@ -44,7 +44,7 @@ from .results import claim_output_folder, products, write_events_csv
 from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
 from .sinks import SINKS
-from .ssp.archive import file_sha256, open_scenario
+from .ssp.archive import file_sha256, open_scenario, written_here
 from .ssp.parser import read_ssd
 
 
@@ -122,9 +122,10 @@ def prepare(scenario, *, params: dict | None = None, seed: int | None = None, al
     ``plan._plan_key``) when there are any; the run's values are read and applied as always."""
     scenario = Path(scenario)
     shown_as = str(scenario)
-    src = open_scenario(scenario)
+    src = open_scenario(scenario, in_memory=True)     # an archive this process wrote: as the writer kept it
     try:
-        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root, reuse_structure=reuse_structure)
+        model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root, reuse_structure=reuse_structure,
+                         memory=src.memory)
         plan = build_plan(model, shown_as, allow_nonfinite=allow_nonfinite, lenient=lenient,
                           implementation=implementation, inputs=inputs)
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
@@ -192,7 +193,7 @@ class Execution:
             else:
                 claim_output_folder(self.out_dir)
             self._claimed = True
-        if self.scenario.is_file():
+        if self.scenario.is_file() or written_here(self.scenario):     # written: maybe in memory only
             meta["scenario_sha256"] = file_sha256(self.scenario)
         self.prepared = p = prepare(self.scenario, params=o.params, seed=o.seed, allow_nonfinite=o.allow_nonfinite,
                                     lenient=o.lenient, implementation=o.implementation, inputs=o.inputs,

@@ -287,8 +287,9 @@ def _realize(scn: UavScenario):
     return layout
 
 
-def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
-    """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder)."""
+def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) -> Path:
+    """Write the SSP of a loaded scenario (``.ssp`` archive or, for another suffix, an SSP folder); ``to_disk``
+    False: an archive kept in this process's memory only (``SspBuilder.write``)."""
     fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
     fmus = {k: fmu_dir / f for k, f in FMU_FILES.items()}
     sitl_uavs = [i for i in range(scn.n_uavs) if scn.vehicle_of(i) == "sitl"]
@@ -369,7 +370,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None) -> Path:
     if sitl_uavs:       # the SITL vehicles' clock slip into run.json (uavstudy/sitl_clock.py)
         from .sitl_clock import sitl_clock_annotation
         b.annotations.append(sitl_clock_annotation({uavs[i][DYNAMICS]: scn.sitl.coupling for i in sitl_uavs}))
-    return b.write(out_path)
+    return b.write(out_path, to_disk=to_disk)
 
 
 def build_scenario(yaml_path, out_path, fmu_dir=None) -> Path:

@@ -18,6 +18,7 @@ from pathlib import Path
 import yaml
 
 from master import yamlio
+from master.campaign.execute import kept_after_run
 from master.campaign.spec import SCENARIO_OPTIONS, file_sha256, is_campaign_document
 from master.errors import ScenarioError
 from master.scenario_kinds import ParamProblem, PreparedRun, ScenarioKind
@@ -134,6 +135,65 @@ def _base_data(sha: str, raw: bytes):
     return pickle.loads(pickled)
 
 
+#: (top-level key, its value pickled) -> that item's lines of a run's scenario.yaml: the runs of a campaign repeat
+#: most fields (the targets, the wind's intensities, ...), and turning them into YAML cost more than the rest
+_YAML_ITEMS: dict[tuple, str] = {}
+_MAX_YAML_ITEMS = 1024
+_LAST = "~last"                 # an item put after one dumped alone, to keep the mapping in block style
+_LAST_TEXT = _LAST + ":\n- []\n"
+
+
+def _dump(data) -> str:
+    return yamlio.dump(data, sort_keys=False, default_flow_style=None)
+
+
+def dump_scenario(data: dict) -> str:
+    """``yamlio.dump(data, sort_keys=False, default_flow_style=None)``, item by item.  A mapping with a collection
+    among its values is written in block style, its items one after the other from the first column, each the
+    same text whatever the others are -- unless an object appears under two of them (YAML writes it once, with an
+    anchor): that, and a mapping of scalars only (written in flow style), is dumped whole."""
+    if (not any(isinstance(v, (dict, list, tuple, set)) for v in data.values()) or _LAST in data
+            or not all(type(k) is str for k in data) or _shares_objects(data)):
+        return _dump(data)
+    parts = []
+    for k, v in data.items():
+        key = (k, pickle.dumps(v, protocol=pickle.HIGHEST_PROTOCOL))
+        text = _YAML_ITEMS.get(key)
+        if text is None:
+            text = _dump({k: v, _LAST: [[]]})
+            if not text.endswith(_LAST_TEXT):       # cannot happen with PyYAML's emitter: no shortcut then
+                return _dump(data)
+            if len(_YAML_ITEMS) >= _MAX_YAML_ITEMS:
+                _YAML_ITEMS.clear()
+            text = _YAML_ITEMS[key] = text[:-len(_LAST_TEXT)]
+        parts.append(text)
+    return "".join(parts)
+
+
+def _shares_objects(data: dict) -> bool:
+    """Is an object that YAML would write once and refer to again (anything but None, the empty tuple, strings,
+    bytes and numbers: ``SafeRepresenter.ignore_aliases``) reachable from two top-level items?"""
+    owner: dict[int, str] = {}
+    for k, v in data.items():
+        stack = [v]
+        while stack:
+            obj = stack.pop()
+            if obj is None or isinstance(obj, (str, bytes, bool, int, float)) or (type(obj) is tuple and not obj):
+                continue
+            seen = owner.get(id(obj))
+            if seen is not None:
+                if seen != k:
+                    return True
+                continue            # met again within this item: walked already (and dumped with it)
+            owner[id(obj)] = k
+            if isinstance(obj, dict):
+                stack += obj.keys()
+                stack += obj.values()
+            elif isinstance(obj, (list, tuple, set, frozenset)):
+                stack += obj
+    return False
+
+
 class UavKind(ScenarioKind):
     name = "uav"
     label = "UAV YAML"
@@ -225,10 +285,12 @@ class UavKind(ScenarioKind):
                 f"# base scenario: {task['inputs']['scenario']}; "
                 f"parameters: {json.dumps(task['params'], sort_keys=True)}\n")
         yml = out / "scenario.yaml"
-        yml.write_text(head + yamlio.dump(data, sort_keys=False, default_flow_style=None), encoding="utf-8")
+        yml.write_text(head + dump_scenario(data), encoding="utf-8")
         scn = scenario_from_dict(data, yml)       # what was just written, without parsing it again
-        # the scenario's seed field (wind) is the run seed already
-        return PreparedRun(build_ssp(scn, out / "scenario.ssp"), {}, None, {})
+        # the scenario's seed field (wind) is the run seed already; the archive is written to the run folder only
+        # if the folder keeps it (else the run reads it from memory)
+        ssp = out / "scenario.ssp"
+        return PreparedRun(build_ssp(scn, ssp, to_disk=kept_after_run(task, ssp.name, self)), {}, None, {})
 
     def summary_rows(self, summary) -> list[tuple[str, dict]]:
         """One row per UAV of the monitor's summary, then the run's totals."""

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ..results import final_values
 
-__all__ = ["execute_run", "failure_record", "SUMMARY_FILES"]
+__all__ = ["execute_run", "failure_record", "kept_after_run", "SUMMARY_FILES"]
 
 #: what ``keep: summary`` keeps of a run folder (and the scenario kind's ``summary_files``)
 SUMMARY_FILES = ("run.json", "summary.json", "summary.csv", "events.csv", "fmu.log")
@@ -54,6 +54,12 @@ def failure_record(task: dict, reason: str, wall_time_s: float | None = None, wo
     rec["worker"] = worker
     rec["finished_at"] = _now()
     return rec
+
+
+def kept_after_run(task: dict, name: str, kind) -> bool:
+    """Does the run folder keep the file ``name`` once the run is over (``_prune``)?  A scenario kind need not
+    write a file to disk that would be deleted unread."""
+    return task.get("keep", "all") == "all" or name in SUMMARY_FILES or name in kind.summary_files
 
 
 def _prune(out: Path, keep: str, kept: tuple):

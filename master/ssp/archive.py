@@ -14,12 +14,22 @@ from ..errors import ScenarioError
 SSD_NAME = "SystemStructure.ssd"
 
 
+@dataclass(frozen=True)
+class MemoryArchive:
+    """An archive this process wrote, read from what the writer kept instead of a folder unpacked from it."""
+    ssd: bytes              # the SystemStructure.ssd as written
+    members: dict           # member name ("resources/X.fmu") -> the file holding its bytes (the FMU store's copy)
+    validated: bool         # the writer validated the SSD against the schema
+    shape: int | None = None    # SSDs the writer wrote with the same number have the same structure (None: unknown)
+
+
 @dataclass
 class ScenarioSource:
     path: Path          # what the user named
-    ssd_path: Path      # the SSD file on disk
-    root: Path          # folder that component sources are relative to
+    ssd_path: Path      # the SSD file on disk (in memory: where it would be, under the archive's path)
+    root: Path          # folder that component sources are relative to (in memory: the archive's path)
     tempdir: Path | None = None
+    memory: MemoryArchive | None = None
 
     @property
     def shown_root(self) -> str:
@@ -94,19 +104,26 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> str | No
     return sha if _place_fmu(sha, copy, tmp / info.filename) else None
 
 
-def _place_fmu(sha: str, copy, link: Path) -> bool:
-    """Link ``link`` to the stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them
-    when there is none yet); False where links cannot be made."""
+def _stored_fmu(sha: str, copy) -> Path:
+    """The stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them when there is none
+    yet); raises OSError where it cannot be written."""
     from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     kept = store / f"{sha}.fmu"
+    if not kept.is_file():
+        store.mkdir(parents=True, exist_ok=True)
+        part = store / f".{sha}.{os.getpid()}.tmp"
+        with open(part, "wb") as out:
+            copy(out)
+        os.replace(part, kept)          # whole or absent, whichever process wins
+    return kept
+
+
+def _place_fmu(sha: str, copy, link: Path) -> bool:
+    """Link ``link`` to the stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them
+    when there is none yet); False where links cannot be made."""
     try:
-        if not kept.is_file():
-            store.mkdir(parents=True, exist_ok=True)
-            part = store / f".{sha}.{os.getpid()}.tmp"
-            with open(part, "wb") as out:
-                copy(out)
-            os.replace(part, kept)          # whole or absent, whichever process wins
+        kept = _stored_fmu(sha, copy)
         link.parent.mkdir(parents=True, exist_ok=True)
         if link.is_symlink():               # a member named twice: the later one counts, as with extract()
             link.unlink()
@@ -121,11 +138,13 @@ def _place_fmu(sha: str, copy, link: Path) -> bool:
 @dataclass
 class _Written:
     """An archive this process wrote (or opened before): what it holds, and the file it was written to."""
-    stat: tuple             # (device, inode, size, mtime, ctime) right after it was written
+    stat: tuple | None      # (device, inode, size, mtime, ctime) right after it was written; None: kept in memory
+                            # only (not written to disk, see remember_written)
     sha256: str | None      # of the archive's bytes (None: not hashed yet)
     files: dict             # member name -> bytes (SSD, parameter files; None: a folder)
     fmus: dict              # member name -> (SHA-256, bytes; None: in the store of linked FMUs only)
     validated: bool = True  # the writer validated its SSD (an archive only opened before: not known)
+    shape: int | None = None    # the writer's number of the SSD's shape (MemoryArchive.shape)
 
 
 # archives written by this process (master.ssp.writer) by absolute path: a campaign run writes its archive and
@@ -139,11 +158,20 @@ def _signature(st: os.stat_result) -> tuple:
     return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
 
 
-def remember_written(path: Path, sha256: str, files: dict, fmus: dict) -> None:
-    """Note the archive just written to ``path`` (its SHA-256 and members; FMU members with their SHA-256)."""
+def remember_written(path: Path, sha256: str, files: dict, fmus: dict, on_disk: bool = True,
+                     shape: int | None = None) -> None:
+    """Note the archive just written to ``path`` (its SHA-256 and members; FMU members with their SHA-256).
+    ``on_disk`` False: the archive was built for ``path`` but not written there (a campaign run whose folder
+    keeps only its summary); this process opens it from memory while no file is at ``path``."""
     if len(_WRITTEN) >= _MAX_WRITTEN:
         _WRITTEN.clear()
-    _WRITTEN[os.path.abspath(path)] = _Written(_signature(os.stat(path)), sha256, dict(files), dict(fmus))
+    stat = _signature(os.stat(path)) if on_disk else None
+    _WRITTEN[os.path.abspath(path)] = _Written(stat, sha256, dict(files), dict(fmus), shape=shape)
+
+
+def written_here(path: str | os.PathLike) -> bool:
+    """Is ``path`` an archive this process wrote (on disk and unchanged since, or kept in memory only)?"""
+    return _written(Path(path)) is not None
 
 
 # archives this process opened (not written) by absolute path: a campaign over one SSP archive opens it for every
@@ -180,16 +208,16 @@ def _unchanged(path: Path, w: _Written) -> bool:
 
 
 def _written(path: Path) -> _Written | None:
-    """What this process wrote to ``path``, if the file is still the one it wrote."""
+    """What this process wrote to ``path``, if the file is still the one it wrote (for an archive kept in memory
+    only: if no file has been put there since)."""
     w = _WRITTEN.get(os.path.abspath(path))
     if w is None:
         return None
     try:
-        if _signature(os.stat(path)) == w.stat:
-            return w
+        now = _signature(os.stat(path))
     except OSError:
-        pass
-    return None
+        now = None
+    return w if now == w.stat else None
 
 
 # SSD files unpacked from archives this process wrote -> their signature: the writer validated their tree
@@ -246,10 +274,35 @@ def _not_an_ssp(path: Path) -> None:
                             f"{path} -o scenario.ssp` and run that", file=path)
 
 
-def open_scenario(path: str | os.PathLike, ssd_name: str | None = None) -> ScenarioSource:
-    """Resolve a scenario path; an .ssp archive is unpacked into a temporary folder."""
+def _from_memory(path: Path, w: _Written) -> ScenarioSource | None:
+    """The archive ``w`` that this process wrote, read from its members as written: no folder, no links, the SSD's
+    bytes parsed as they are.  None where only an unpacked folder will do: other members than the SSD and the
+    FMUs (parameter files, which the parser reads from disk), or an FMU that cannot be put in the store."""
+    if set(w.files) != {SSD_NAME}:
+        return None
+    members = {}
+    try:
+        for name, (sha, data) in w.fmus.items():
+            if data is None:
+                return None
+            members[name] = _stored_fmu(sha, lambda out, data=data: out.write(data))
+    except OSError:
+        return None
+    memory = MemoryArchive(w.files[SSD_NAME], members, w.validated, w.shape)
+    return ScenarioSource(path, path / SSD_NAME, path, memory=memory)
+
+
+def open_scenario(path: str | os.PathLike, ssd_name: str | None = None, in_memory: bool = False) -> ScenarioSource:
+    """Resolve a scenario path; an .ssp archive is unpacked into a temporary folder.  ``in_memory``: an archive
+    this process wrote (``remember_written``) is read from memory instead (``ScenarioSource.memory``; only
+    ``master.ssp.parser.read_ssd`` reads such a source), even when it was never written to disk."""
     path = Path(path)
-    if not path.exists():
+    if in_memory and ssd_name in (None, SSD_NAME):
+        written = _written(path)
+        source = _from_memory(path, written) if written is not None else None
+        if source is not None:
+            return source
+    if not path.exists() and _written(path) is None:        # kept in memory only: unpacked from there below
         raise ScenarioError("scenario not found", file=path)
     if path.is_dir():
         ssd = path / (ssd_name or SSD_NAME)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -16,7 +17,7 @@ from lxml import etree
 
 from ..errors import ScenarioError
 from . import xsd
-from .archive import schema_checked
+from .archive import MemoryArchive, schema_checked
 from .connection_extrapolation import read_connection_order
 from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
                     SystemModel, Transformation, Unit)
@@ -76,10 +77,13 @@ def _declared(name: str, connectors: dict) -> bool:
 
 
 class _Reader:
-    def __init__(self, ssd_path: Path, root: Path, shown_root: str):
+    def __init__(self, ssd_path: Path, root: Path, shown_root: str, members: dict | None = None):
         self.ssd_path = ssd_path
         self.root = root
         self.shown_root = shown_root
+        self.members = members                # archive read from memory: member name -> its file (else None)
+        self.member_paths = set(members.values()) if members is not None else set()
+        self.member_files: dict[tuple, Path] = {}     # (source, folder) -> the member's file, as resolved
         self.units: dict[str, Unit] = {}
         self.components: dict[str, Component] = {}
         self.edges: list[tuple] = []          # (src node, dst node, Connection template)
@@ -186,6 +190,12 @@ class _Reader:
         self.read_bindings(el, known.name, shown_as, ssd_dir, is_component=True)
 
     def component_file(self, source, ctype, where, el, shown_as, ssd_dir) -> Path:
+        if self.members is not None:     # a fleet's components share a few members, each a file of the store
+            found = self.member_files.get((source, ssd_dir))
+            if found is None:
+                found = self.member_files[(source, ssd_dir)] = self.resolve_source(source, ssd_dir)
+            if found in self.member_paths:
+                return found
         fmu_path = self.resolve_source(source, ssd_dir)
         if not fmu_path.is_file():
             what = "input table" if ctype == CSV_SOURCE_TYPE else "FMU"
@@ -201,9 +211,27 @@ class _Reader:
             raise ScenarioError(f"source URI scheme {parsed.scheme!r} is not supported", file=self.shown(self.ssd_path))
         rel = unquote(source)
         candidate = (base_dir / rel)
+        if self.members is not None:
+            return self.member_file(candidate, rel)
         if not candidate.exists() and (self.root / rel).exists():
             candidate = self.root / rel
         return candidate
+
+    def member_file(self, candidate: Path, rel: str) -> Path:
+        """Where an archive read from memory has the file that unpacking it would have put at ``candidate`` (or
+        else at ``root/rel``); a member it does not hold stays at ``candidate``, where no file is."""
+        for place in (candidate, self.root / rel):
+            name = self.member_name(place)
+            if name in self.members:
+                return self.members[name]
+        return candidate
+
+    def member_name(self, place: Path) -> str | None:
+        try:
+            rel = place.relative_to(self.root)
+        except ValueError:
+            return None
+        return os.path.normpath(rel.as_posix())
 
     def read_connection(self, c, prefix, names, shown_as):
         start_el, end_el = c.get("startElement"), c.get("endElement")
@@ -452,6 +480,23 @@ def structure_key(top) -> str:
     return h.hexdigest()
 
 
+# the writer's number of an SSD shape (archive.MemoryArchive.shape) -> the structure key of its SSDs
+_SHAPE_KEYS: dict[int, str] = {}
+
+
+def _structure_key(top, memory: MemoryArchive | None) -> str:
+    """:func:`structure_key`, computed once per shape of the SSDs this process wrote."""
+    shape = memory.shape if memory is not None else None
+    key = _SHAPE_KEYS.get(shape) if shape is not None else None
+    if key is None:
+        key = structure_key(top)
+        if shape is not None:
+            if len(_SHAPE_KEYS) >= _MAX_STRUCTURES:
+                _SHAPE_KEYS.clear()
+            _SHAPE_KEYS[shape] = key
+    return key
+
+
 def _following(el):
     """The next element after ``el`` and everything in it, in document order (None at the end)."""
     while el is not None:
@@ -506,22 +551,25 @@ def _frozen(components: dict) -> dict:
 
 
 def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True,
-             reuse_structure: bool = False) -> SystemModel:
+             reuse_structure: bool = False, memory: MemoryArchive | None = None) -> SystemModel:
     """Read and validate an SSD; ``shown_root`` is how the scenario is named in messages.  ``reuse_structure``:
     an SSD whose structure (:func:`structure_key`) this process has read before reads only its values again, and
-    the model says its key (``SystemModel.structure``) for the plan to reuse its part too."""
+    the model says its key (``SystemModel.structure``) for the plan to reuse its part too.  ``memory``: the
+    archive as this process wrote it (``archive.open_scenario(in_memory=True)``): the SSD is parsed from its bytes
+    and the FMUs are found in its members, named as though the archive were unpacked at ``root``."""
     ssd_path = Path(ssd_path)
-    reader = _Reader(ssd_path, Path(root), shown_root)
+    reader = _Reader(ssd_path, Path(root), shown_root, memory.members if memory is not None else None)
     shown_as = reader.shown(ssd_path)
-    tree = xsd.parse_xml(ssd_path, shown_as)
+    tree = xsd.parse_xml(ssd_path, shown_as, memory.ssd if memory is not None else None)
     top = tree.getroot()
     if _local(top) != "SystemStructureDescription":
         raise ScenarioError(f"root element is {_local(top)!r}, expected ssd:SystemStructureDescription",
                             file=shown_as, line=top.sourceline)
-    if validate and not schema_checked(ssd_path):
+    checked = memory.validated if memory is not None else schema_checked(ssd_path)
+    if validate and not checked:
         xsd.validate(tree, "ssd", shown_as)
     reader.reuse_values = reuse_structure
-    key = structure_key(top) if reuse_structure else None
+    key = _structure_key(top, memory) if reuse_structure else None
     known = _STRUCTURES.get(key) if key is not None else None
     if known is not None:
         reader.units = {name: copy.copy(u) for name, u in known.units.items()}

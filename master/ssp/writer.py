@@ -8,10 +8,13 @@ from __future__ import annotations
 import copy
 import hashlib
 import io
+import itertools
 import os
 import shutil
+import struct
 import threading
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -96,11 +99,14 @@ def _description(fmu_path: Path):
     return md
 
 
-def _keep_tree(key: tuple, tree, slots: list, size: int) -> None:
+def _keep_tree(key: tuple, tree, slots: list, size: int) -> int | None:
+    """Keep the tree; returns the number that names its shape while it is kept (None: not kept)."""
     if len(_TREES) >= _MAX_TREES or sum(t[2] for t in _TREES.values()) + size > _MAX_TREE_BYTES:
         _TREES.clear()
     if size <= _MAX_TREE_BYTES:
-        _TREES[key] = (tree, slots, size)
+        _TREES[key] = (tree, slots, size, next(_SHAPES))
+        return _TREES[key][3]
+    return None
 
 
 def _keep(cache: dict, key, value):
@@ -131,6 +137,7 @@ _TREE_LOCK = threading.Lock()
 _MAX_TREES = 16         # a campaign worker cycles through a handful of systems
 _MAX_TREE_BYTES = 8 << 20   # serialised SSDs of all kept trees (4 UAVs: 160 kB; 256 UAVs: ~10 MB, not kept)
 _KEEP_TREES = True      # tests compare with trees built afresh
+_SHAPES = itertools.count()     # a kept tree's number: never the same for two shapes in one process
 _CONNECTORS_XML: dict[tuple, etree._Element] = {}    # connectors -> their ssd:Connectors element
 _PARAMETERS_XML: dict[tuple, etree._Element] = {}    # (name, type) of each parameter -> ssv:Parameters without values
 
@@ -293,10 +300,12 @@ class SspBuilder:
                 tuple((c.name, fmu_names[c.name], tuple(c.connectors),
                        tuple((var, t) for var, (t, _) in c.params.items()), c.ssv) for c in self.components))
 
-    def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict]:
-        """The SSD, validated and serialised, and the .ssv files' roots.  A tree of the same shape written before
-        (a campaign's runs of one system) gets this builder's values and annotations instead of being built again;
-        it is validated and serialised as a new one would be."""
+    def _ssd_bytes(self, fmu_names: dict[str, str], path: Path) -> tuple[bytes, dict, int | None]:
+        """The SSD, validated and serialised, the .ssv files' roots and the number of its shape (None: a tree not
+        kept).  A tree of the same shape written before (a campaign's runs of one system) gets this builder's values
+        and annotations instead of being built again; it is validated and serialised as a new one would be.  SSDs of
+        one shape differ only in attribute values (one line each: lxml writes a newline in one as &#10;) and in the
+        top-level annotations, written last: their structure (``parser.structure_key``) is the same."""
         key = self._shape(fmu_names)
         with _TREE_LOCK:        # the kept trees are changed in place (Dask workers may run threads)
             kept = _TREES.get(key)
@@ -304,13 +313,13 @@ class SspBuilder:
                 slots: list = []
                 tree, ssv_files = self._build_tree(fmu_names, slots)
             else:
-                tree, slots, _ = kept
+                tree, slots, _, shape = kept
                 ssv_files = self._fill(tree, slots)
             xsd.validate(tree, "ssd", str(path))
             ssd = etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
             if kept is None or not _KEEP_TREES:
-                _keep_tree(key, tree, slots, len(ssd))
-            return ssd, ssv_files
+                shape = _keep_tree(key, tree, slots, len(ssd)) if _KEEP_TREES else None
+            return ssd, ssv_files, shape
 
     def _fill(self, tree, slots: list) -> dict:
         """Put this builder's values and annotations into a kept tree of its shape; returns the .ssv files' roots."""
@@ -326,8 +335,10 @@ class SspBuilder:
                 anns.append(a)
         return {comp.ssv: self._params(None, comp) for comp in self.components if comp.params and comp.ssv}
 
-    def write(self, path) -> Path:
-        """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder."""
+    def write(self, path, to_disk: bool = True) -> Path:
+        """Write an .ssp archive (path ending in .ssp) or an unpacked SSP folder.  ``to_disk`` False: an archive is
+        built for ``path`` but kept in this process's memory only (``archive.remember_written``), for a run that
+        would delete the file unread afterwards; where a file is at ``path`` already, it is written all the same."""
         path = Path(path)
         fmu_names, seen, resolved = {}, {}, {}
         for comp in self.components:
@@ -343,28 +354,27 @@ class SspBuilder:
                     name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
                 seen[key] = name
             fmu_names[comp.name] = seen[key]
-        ssd_bytes, ssv_files = self._ssd_bytes(fmu_names, path)
+        ssd_bytes, ssv_files, shape = self._ssd_bytes(fmu_names, path)
         ssv_bytes = {name: etree.tostring(etree.ElementTree(el), xml_declaration=True, encoding="UTF-8",
                                           pretty_print=True) for name, el in ssv_files.items()}
         members = {f"resources/{name}": Path(src) for src, name in seen.items()}
         if path.suffix.lower() == ".ssp":
-            path.parent.mkdir(parents=True, exist_ok=True)
             files = {"SystemStructure.ssd": ssd_bytes, **{f"resources/{name}": data for name, data in ssv_bytes.items()}}
             fmus = {arc: _fmu_content(src) for arc, src in sorted(members.items())}
-            buf = io.BytesIO()
-            with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
-                for arc, data in files.items():
-                    zf.writestr(_zinfo(arc), data)
-                for arc, (data, _) in fmus.items():
-                    zf.writestr(_zinfo(arc), data)
-            tmp = path.with_suffix(".ssp.tmp")
-            archive = buf.getbuffer()
-            with open(tmp, "wb") as fh:
-                fh.write(archive)
-            os.replace(tmp, path)
-            remember_written(path, hashlib.sha256(archive).hexdigest(), files,
-                             {arc: (sha, data) for arc, (data, sha) in fmus.items()})
-            archive.release()
+            chunks = _archive_chunks([*((arc, data, zlib.crc32(data)) for arc, data in files.items()),
+                                      *((arc, data, crc) for arc, (data, _, crc) in fmus.items())])
+            on_disk = to_disk or os.path.lexists(path)
+            if on_disk:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_suffix(".ssp.tmp")
+                with open(tmp, "wb") as fh:
+                    fh.writelines(chunks)
+                os.replace(tmp, path)
+            h = hashlib.sha256()
+            for chunk in chunks:
+                h.update(chunk)
+            remember_written(path, h.hexdigest(), files, {arc: (sha, data) for arc, (data, sha, _) in fmus.items()},
+                             on_disk, shape)
         else:
             if path.exists():
                 shutil.rmtree(path)
@@ -377,21 +387,57 @@ class SspBuilder:
         return path
 
 
-_FMU_BYTES: dict[tuple, tuple[bytes, str]] = {}
+_FMU_BYTES: dict[tuple, tuple[bytes, str, int]] = {}
 
 
-def _fmu_content(src: Path) -> tuple[bytes, str]:
-    """An FMU's bytes and their SHA-256, read once per process while the file is unchanged: a campaign writes
-    the same FMUs into every run's archive."""
+def _fmu_content(src: Path) -> tuple[bytes, str, int]:
+    """An FMU's bytes, their SHA-256 and their CRC-32 (``src``: a resolved path), read once per process while the
+    file is unchanged: a campaign writes the same FMUs into every run's archive."""
     st = src.stat()
-    key = (str(src.resolve()), st.st_mtime_ns, st.st_size)
+    key = (str(src), st.st_mtime_ns, st.st_size)
     content = _FMU_BYTES.get(key)
     if content is None:
         if len(_FMU_BYTES) >= 32:
             _FMU_BYTES.clear()
         data = src.read_bytes()
-        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest())
+        content = _FMU_BYTES[key] = (data, hashlib.sha256(data).hexdigest(), zlib.crc32(data))
     return content
+
+
+def _archive_chunks(members: list[tuple[str, bytes, int]]) -> list:
+    """The bytes of the archive that ``zipfile.ZipFile(..., "w", ZIP_STORED)`` writes to a seekable file for these
+    members ((name, data, CRC-32) written with ``writestr(_zinfo(name), data)`` in this order), as pieces that
+    refer to the members' own data: the FMUs' megabyte is neither copied nor checksummed again for every run."""
+    if not _plain_zip(members):
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
+            for name, data, _ in members:
+                zf.writestr(_zinfo(name), data)
+        return [buf.getvalue()]
+    chunks, central, offset = [], [], 0
+    for name, data, crc in members:
+        zi = _zinfo(name)
+        zi.CRC, zi.file_size, zi.compress_size, zi.header_offset = crc, len(data), len(data), offset
+        header = zi.FileHeader(False)
+        chunks += (header, data)
+        dt = zi.date_time
+        central.append(struct.pack(
+            zipfile.structCentralDir, zipfile.stringCentralDir, zi.create_version, zi.create_system,
+            zi.extract_version, zi.reserved, zi.flag_bits, zi.compress_type, dt[3] << 11 | dt[4] << 5 | dt[5] // 2,
+            (dt[0] - 1980) << 9 | dt[1] << 5 | dt[2], crc, len(data), len(data), len(name), 0, 0, 0,
+            zi.internal_attr, zi.external_attr, offset) + name.encode("ascii"))
+        offset += len(header) + len(data)
+    size = sum(map(len, central))
+    end = struct.pack(zipfile.structEndArchive, zipfile.stringEndArchive, 0, 0, len(central), len(central), size,
+                      offset, 0)
+    return [*chunks, *central, end]
+
+
+def _plain_zip(members) -> bool:
+    """Members that zipfile writes without ZIP64 records or UTF-8 names (what _archive_chunks writes itself)."""
+    total = sum(len(data) + 200 + len(name) for name, data, _ in members)
+    return (len(members) < 0xFFFF and total < zipfile.ZIP64_LIMIT // 2
+            and all(name.isascii() and not name.endswith("/") for name, _, _ in members))
 
 
 def _zinfo(name):

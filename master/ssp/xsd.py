@@ -27,10 +27,14 @@ def _schema(kind: str) -> etree.XMLSchema:
     return etree.XMLSchema(etree.parse(str(_schema_dir() / _SCHEMAS[kind])))
 
 
-def parse_xml(path: Path, shown_as: str | None = None) -> etree._ElementTree:
-    """Parse an XML file; syntax errors become a one-line ScenarioError with the line."""
+def parse_xml(path: Path, shown_as: str | None = None, data: bytes | None = None) -> etree._ElementTree:
+    """Parse an XML file (``data``: its bytes, already read; ``path`` is then its name only); syntax errors become a
+    one-line ScenarioError with the line."""
+    parser = etree.XMLParser(remove_blank_text=False, resolve_entities=False)
     try:
-        return etree.parse(str(path), etree.XMLParser(remove_blank_text=False, resolve_entities=False))
+        if data is not None:
+            return etree.fromstring(data, parser, base_url=str(path)).getroottree()
+        return etree.parse(str(path), parser)
     except OSError as exc:
         raise ScenarioError(f"cannot read: {exc}", file=shown_as or path) from None
     except etree.XMLSyntaxError as exc:
