@@ -44,6 +44,16 @@ _PARAMS = [  # name, unit, default, description
     ("substep", "s", P.SUBSTEP, "internal integration sub-step"),
 ]
 _GEODETIC = ("lat", "lon", "alt")
+_EXT = load_extension("_dynamics_ext", os.path.join(_HERE, "uavsim"))
+
+
+def _geodetic_properties(ext):
+    """The properties lat, lon, alt: getters in C when the extension is there (a recorder reads them at every
+    sample: three Python frames each), else UavDynamics._geodetic's items; both compute and cache alike."""
+    if ext is not None:
+        return property(ext.lat), property(ext.lon), property(ext.alt)
+    return (property(lambda self: self._geodetic()[0]), property(lambda self: self._geodetic()[1]),
+            property(lambda self: self._geodetic()[2]))
 _OUT_REAL = [
     ("x", "m", "east position"), ("y", "m", "north position"), ("z", "m", "height above origin (up)"),
     ("vx", "m/s", "east velocity"), ("vy", "m/s", "north velocity"), ("vz", "m/s", "up velocity"),
@@ -126,9 +136,7 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
             self._geo_key = key
         return self._geo
 
-    lat = property(lambda self: self._geodetic()[0])
-    lon = property(lambda self: self._geodetic()[1])
-    alt = property(lambda self: self._geodetic()[2])
+    lat, lon, alt = _geodetic_properties(_EXT)
 
     def do_step(self, current_time, step_size):
         ext = self._ext

@@ -32,6 +32,9 @@ static PyObject *k_model, *k_cmd, *k_sp[3], *k_wind[3], *k_x, *k_y, *k_z, *k_vx,
 /* model keys (k_phase and k_ready too) */
 static PyObject *k_sub, *k_kbuf, *k_pos, *k_vel, *k_vt, *k_vtz, *k_integ, *k_hold, *k_hold_z, *k_mode, *k_a_cmd,
     *k_wind_m, *k_preflight_elapsed, *k_time;
+/* geodetic outputs: the shell's keys and EnuFrame's slots */
+static PyObject *str_geodetic, *k_frame, *k_geo, *k_geo_key, *k_f_x0, *k_f_y0, *k_f_z0, *k_f_sp, *k_f_cp, *k_f_sl,
+    *k_f_cl;
 
 /* ------------------------------------------------------------------ small helpers (0 / NULL: a Python error) */
 
@@ -409,10 +412,129 @@ python:
     Py_RETURN_FALSE;
 }
 
+/* ------------------------------------------------------------------ the geodetic outputs (lat, lon, alt) */
+
+/* WGS84, as uavsim/geodesy.py derives its constants */
+static const double WGS84_A = 6378137.0;
+static double wgs84_b, wgs84_e2, wgs84_ep2;
+
+/* Python's x ** 3.0 for a float x: CPython's float power calls libm's pow on |x| and negates for a negative x */
+static double py_cube(double x)
+{
+    if (x < 0.0) return -pow(-x, 3.0);
+    return x == 1.0 ? 1.0 : pow(x, 3.0);
+}
+
+/* an EnuFrame slot (__slots__ of uavsim.geodesy.EnuFrame) as a double (0: not an exact float) */
+static int frame_double(PyObject *frame, PyObject *name, double *out)
+{
+    PyObject *v = PyObject_GetAttr(frame, name);
+    int ok = v != NULL && PyFloat_CheckExact(v);
+    if (ok) *out = PyFloat_AsDouble(v);
+    Py_XDECREF(v);
+    return ok;
+}
+
+/* EnuFrame.to_geodetic(e, n, u) of uavsim/geodesy.py, operation by operation in the same order; p = math.hypot(x, y)
+ * is Python's own (0: a Python error, or a frame slot that is not an exact float) */
+static int to_geodetic(PyObject *frame, double e, double n, double u, double out[3])
+{
+    const double a = WGS84_A, b = wgs84_b, e2 = wgs84_e2, ep2 = wgs84_ep2;
+    double x0, y0, z0, sp, cp, sl, cl, x, y, z, p, lon, theta, st, ct, lat, s, c;
+    PyObject *xo, *yo;
+    int ok;
+    if (!(frame_double(frame, k_f_x0, &x0) && frame_double(frame, k_f_y0, &y0) && frame_double(frame, k_f_z0, &z0)
+          && frame_double(frame, k_f_sp, &sp) && frame_double(frame, k_f_cp, &cp)
+          && frame_double(frame, k_f_sl, &sl) && frame_double(frame, k_f_cl, &cl)))
+        return 0;
+    x = x0 + (-sl * e - sp * cl * n + cp * cl * u);
+    y = y0 + (cl * e - sp * sl * n + cp * sl * u);
+    z = z0 + (cp * n + sp * u);
+    xo = PyFloat_FromDouble(x);
+    yo = PyFloat_FromDouble(y);
+    ok = xo != NULL && yo != NULL && py_hypot(xo, yo, &p);
+    Py_XDECREF(xo); Py_XDECREF(yo);
+    if (!ok) return 0;
+    lon = atan2(y, x);
+    theta = atan2(z * a, p * b);
+    st = sin(theta); ct = cos(theta);
+    lat = atan2(z + ep2 * b * py_cube(st), p - e2 * a * py_cube(ct));
+    for (int k = 0; k < 2; k++) {
+        s = sin(lat);
+        lat = atan2(z + e2 * (a / sqrt(1.0 - e2 * s * s)) * s, p);
+    }
+    s = sin(lat); c = cos(lat);
+    out[0] = (180.0 / Py_MATH_PI) * lat;      /* math.degrees */
+    out[1] = (180.0 / Py_MATH_PI) * lon;
+    out[2] = p * c + z * s - a * sqrt(1.0 - e2 * s * s);
+    return 1;
+}
+
+/* UavDynamics._geodetic(shell)[j] (the shell's lat, lon or alt): the conversion of (x, y, z), cached in the shell's
+ * _geo and _geo_key as the Python method caches it; before initialisation (no frame yet) and for positions that
+ * are not exact floats, the Python method itself */
+static PyObject *geodetic_item(PyObject *shell, Py_ssize_t j)
+{
+    PyObject *d = PyObject_GetAttr(shell, str_dict), *frame, *x, *y, *z, *key = NULL, *old, *geo = NULL, *r = NULL;
+    double out[3];
+    int changed;
+    if (d == NULL) return NULL;
+    if (!PyDict_Check(d)) goto python;
+    frame = lookup(d, k_frame);
+    x = lookup(d, k_x); y = lookup(d, k_y); z = lookup(d, k_z);
+    if (PyErr_Occurred()) goto done;
+    if (frame == NULL || frame == Py_None || x == NULL || y == NULL || z == NULL || !PyFloat_CheckExact(x)
+        || !PyFloat_CheckExact(y) || !PyFloat_CheckExact(z))
+        goto python;
+    if ((key = PyTuple_Pack(3, x, y, z)) == NULL) goto done;
+    if ((old = lookup(d, k_geo_key)) == NULL) {
+        if (PyErr_Occurred()) goto done;
+        goto python;
+    }
+    changed = PyObject_RichCompareBool(key, old, Py_NE);      /* key != self._geo_key */
+    if (changed < 0) goto done;
+    if (!changed) {
+        geo = lookup(d, k_geo);
+        if (geo == NULL || !PyTuple_Check(geo) || PyTuple_Size(geo) != 3) goto python;
+        r = PyTuple_GetItem(geo, j);
+        Py_XINCREF(r);
+        goto done;
+    }
+    if (!to_geodetic(frame, PyFloat_AsDouble(x), PyFloat_AsDouble(y), PyFloat_AsDouble(z), out)) {
+        if (PyErr_Occurred()) goto done;
+        goto python;
+    }
+    geo = Py_BuildValue("(ddd)", out[0], out[1], out[2]);
+    Py_INCREF(key);
+    if (geo != NULL && PyDict_SetItem(d, k_geo, geo) == 0 && put(d, k_geo_key, key)) {
+        r = PyTuple_GetItem(geo, j);
+        Py_XINCREF(r);
+    }
+    Py_XDECREF(geo);
+    goto done;
+python:
+    {
+        PyObject *t = PyObject_CallMethodObjArgs(shell, str_geodetic, NULL);
+        if (t != NULL) r = PySequence_GetItem(t, j);
+        Py_XDECREF(t);
+    }
+done:
+    Py_XDECREF(key);
+    Py_DECREF(d);
+    return r;
+}
+
+static PyObject *geo_lat(PyObject *module, PyObject *shell) { (void)module; return geodetic_item(shell, 0); }
+static PyObject *geo_lon(PyObject *module, PyObject *shell) { (void)module; return geodetic_item(shell, 1); }
+static PyObject *geo_alt(PyObject *module, PyObject *shell) { (void)module; return geodetic_item(shell, 2); }
+
 static PyMethodDef methods[] = {
     {"step", step, METH_VARARGS,
      "step(shell_dict, step_size) -> bool: UavDynamics.do_step on the shell's __dict__; False: nothing done, "
      "run the Python step"},
+    {"lat", geo_lat, METH_O, "lat(shell): the shell's lat, as its property computes it (uavsim.geodesy.EnuFrame)"},
+    {"lon", geo_lon, METH_O, "lon(shell): the shell's lon, as its property computes it"},
+    {"alt", geo_alt, METH_O, "alt(shell): the shell's alt, as its property computes it"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_dynamics_ext", NULL, -1, methods,
@@ -442,7 +564,17 @@ PyMODINIT_FUNC PyInit__dynamics_ext(void)
           && intern(&k_pos, "pos") && intern(&k_vel, "vel") && intern(&k_vt, "vt") && intern(&k_vtz, "vtz")
           && intern(&k_integ, "integ") && intern(&k_hold, "hold") && intern(&k_hold_z, "hold_z")
           && intern(&k_mode, "mode") && intern(&k_a_cmd, "a_cmd") && intern(&k_wind_m, "wind")
-          && intern(&k_preflight_elapsed, "preflight_elapsed") && intern(&k_time, "time")))
+          && intern(&k_preflight_elapsed, "preflight_elapsed") && intern(&k_time, "time")
+          && intern(&str_geodetic, "_geodetic") && intern(&k_frame, "_frame") && intern(&k_geo, "_geo")
+          && intern(&k_geo_key, "_geo_key") && intern(&k_f_x0, "_x0") && intern(&k_f_y0, "_y0")
+          && intern(&k_f_z0, "_z0") && intern(&k_f_sp, "_sp") && intern(&k_f_cp, "_cp") && intern(&k_f_sl, "_sl")
+          && intern(&k_f_cl, "_cl")))
         return NULL;
+    {   /* geodesy.py: WGS84_F = 1.0 / 298.257223563, WGS84_B = WGS84_A * (1.0 - WGS84_F), ... */
+        volatile double f = 1.0 / 298.257223563;
+        wgs84_b = WGS84_A * (1.0 - f);
+        wgs84_e2 = f * (2.0 - f);
+        wgs84_ep2 = wgs84_e2 / (1.0 - wgs84_e2);
+    }
     return PyModule_Create(&moduledef);
 }

@@ -77,12 +77,13 @@ class _VarTable:
     modelDescription.xml lists, without per-instance getter/setter closures), their names in value-reference
     order, and per type the attribute read (get) and written (set) for each value reference."""
 
-    __slots__ = ("vars", "names", "tables", "plain")
+    __slots__ = ("vars", "names", "tables", "plain", "raw_readers")
 
     def __init__(self, variables):
         self.vars = variables
         self.names = tuple(v.name for v in variables.values())
         self.plain = {}          # names -> all plain instance attributes (UnitsMixin._plain)
+        self.raw_readers = {}    # (type, value references) -> UnitsMixin._raw_reader's answer, any instance's
         self.tables = {}
         for cls in (Real, Integer, Boolean, String):
             vrs = [vr for vr, v in variables.items() if isinstance(v, cls)]
@@ -338,12 +339,23 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
         """For ``cosim_bind("get_raw", ...)``: (fetch, single) with ``fetch(slave)`` giving the values of
         ``vrs`` unconverted (a tuple, or the value itself when ``single``), for a master that stores them in a
         buffer of the FMI type (which converts as get_<type> would); None unless every one is an attribute.
-        ``fetch`` is an operator.attrgetter: no Python frame per call, and valid for any instance."""
+        ``fetch`` is an operator.attrgetter: no Python frame per call, and valid for any instance, so instances
+        sharing a table share it (a master binds the same references of every UAV's FMU)."""
+        table = _table_of(self)
+        known = table.raw_readers if table is not None else None
+        key = (cls, tuple(vrs))
+        if known is not None and key in known:
+            return known[key]
         get = self._vr_tables()[cls][0]
         names = [get.get(vr) for vr in vrs]
-        if not names or not all(a.__class__ is str for a in names):
-            return None
-        return attrgetter(*names), len(names) == 1
+        reader = None
+        if names and all(a.__class__ is str for a in names):
+            reader = attrgetter(*names), len(names) == 1
+        if known is not None:
+            if len(known) >= 256:
+                known.clear()
+            known[key] = reader
+        return reader
 
     def _raw_writer(self, cls, vrs):
         """For ``cosim_bind("set_raw", ...)``: (update, names) such that ``update(zip(names, values))`` does

@@ -26,6 +26,11 @@ int uav_fly(double *s, const double *p)
 {
     const double speed = p[SPEED], accel = p[ACCEL], pos_p = p[POS_P], vel_p = p[VEL_P], vel_i = p[VEL_I];
     const double lin = accel / (pos_p * pos_p);
+    /* Two square roots on the sub-step's critical path are skipped where their rounded value cannot change the
+     * result (a correctly rounded sqrt is monotonic and speed, lim are doubles): x >= cruise_sq >= speed^2 gives
+     * sqrt(x) >= speed, so min(speed, sqrt(x)) is speed; q <= lim_sq_below <= lim^2 gives sqrt(q) <= lim, so the
+     * change is not limited.  The margins 2^-40 exceed the rounding of the products by far. */
+    const double cruise_sq = speed * speed * (1.0 + 0x1p-40);
     const double accel_z = p[ACCEL_Z], pos_z_p = p[POS_Z_P], speed_up = p[SPEED_UP], speed_dn = p[SPEED_DN];
     const double lin_z = accel_z / (pos_z_p * pos_z_p);
     const double land_speed = p[LAND_SPEED], land_alt_low = p[LAND_ALT_LOW], takeoff_alt = p[TAKEOFF_ALT];
@@ -34,6 +39,7 @@ int uav_fly(double *s, const double *p)
     const int n = (int)s[N], cmd = (int)s[CMD], goto_ = cmd == CMD_GOTO;
     const double h = s[H];
     const double lim = accel * h, limz = accel_z * h;
+    const double lim_sq_below = lim > 0.0 ? lim * lim * (1.0 - 0x1p-40) : -1.0;
     const double wx = s[WX], wy = s[WY], spx = s[SPX], spy = s[SPY], spz = s[SPZ];
     /* drag acts on the velocity relative to the air: the wind's (drag) or the vehicle's own (push) */
     const double dwx = push ? 0.0 : wx, dwy = push ? 0.0 : wy;
@@ -43,7 +49,7 @@ int uav_fly(double *s, const double *p)
     int phase = (int)s[PHASE], mode = (int)s[MODE], landed = 0, i = (int)s[I];
 
     while (i < n) {
-        double gx, gy, gz, ex, ey, d, vmag, vdx, vdy, dvx, dvy, dvm, sx, evx, evy, am, vax, vay, va, ez, vzd;
+        double q, gx, gy, gz, ex, ey, d, vmag, vdx, vdy, dvx, dvy, dvm, sx, evx, evy, am, vax, vay, va, ez, vzd;
         i += 1;
         if (cmd == CMD_LAND && (phase == TAKEOFF || phase == FLY)) {
             phase = LAND;
@@ -71,7 +77,10 @@ int uav_fly(double *s, const double *p)
         d = sqrt(ex * ex + ey * ey);
         if (d <= 0.0) vmag = 0.0;
         else if (d <= lin) vmag = pos_p * d;
-        else vmag = sqrt(2.0 * accel * (d - 0.5 * lin));
+        else {
+            const double x = 2.0 * accel * (d - 0.5 * lin);
+            vmag = x >= cruise_sq ? speed : sqrt(x);        /* far away: the speed limit, no root needed */
+        }
         vmag = dmin(speed, vmag);
         if (d > 1e-9) {
             vdx = vmag * ex / d; vdy = vmag * ey / d;
@@ -79,8 +88,8 @@ int uav_fly(double *s, const double *p)
             vdx = 0.0; vdy = 0.0;
         }
         dvx = vdx - vtx; dvy = vdy - vty;
-        dvm = sqrt(dvx * dvx + dvy * dvy);
-        if (dvm > lim) {
+        q = dvx * dvx + dvy * dvy;
+        if (q > lim_sq_below && (dvm = sqrt(q)) > lim) {
             dvx = dvx * lim / dvm; dvy = dvy * lim / dvm;
         }
         vtx += dvx;

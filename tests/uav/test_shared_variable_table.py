@@ -53,6 +53,25 @@ def test_two_strategies_share_the_table_and_keep_their_own_parameters():
     assert (a.x, b.x) == (0.0, 7.5)
 
 
+def test_raw_readers_are_shared_by_the_instances_of_a_class():
+    # a master binds the same references of every UAV: the second instance gets the first one's attrgetter, which
+    # reads whichever instance it is given; another type or other references get their own (or None)
+    cls = _shell_class("UavDynamics")
+    a, b = _new(cls, "a"), _new(cls, "b")
+    for s, x in ((a, 1.5), (b, -2.0)):
+        s.exit_initialization_mode()
+        s.x, s.phase = x, 3 if x > 0 else 1
+    reals = [_vr(a, "x"), _vr(a, "tilt"), _vr(a, "lat")]
+    fetch, single = a.cosim_bind("get_raw", "Real", reals)
+    assert b.cosim_bind("get_raw", "Real", reals) == (fetch, single) and not single
+    assert fetch(a) == tuple(a.get_real(reals)) and fetch(b) == tuple(b.get_real(reals)) and fetch(a) != fetch(b)
+    phase = [_vr(a, "phase")]
+    one = b.cosim_bind("get_raw", "Integer", phase)
+    assert one[1] and (one[0](a), one[0](b)) == (3, 1)
+    assert a.cosim_bind("get_raw", "Real", phase) is None and b.cosim_bind("get_raw", "Real", phase) is None
+    assert a.cosim_bind("get_raw", "Real", reals[:1])[0](b) == -2.0
+
+
 def test_state_save_and_restore_with_a_shared_table():
     cls = _shell_class("UavDynamics")
     a, b = _new(cls, "a"), _new(cls, "b")

@@ -57,6 +57,10 @@ def make_pair(name, extensions, **params):
             shells.append(s)
     a, b = shells
     assert b._ext is None and not b._model.kernels.compiled
+    if name == "UavDynamics":            # the C shell's lat/lon/alt getters from the extension compiled here
+        module = extensions["_dynamics_ext"]
+        type(a).lat, type(a).lon, type(a).alt = type(a).__init__.__globals__["_geodetic_properties"](module)
+        assert type(a).lat.fget is module.lat and type(b).lat.fget.__name__ == "<lambda>"
     outcomes = Counter()
 
     def counted(d, h):
@@ -169,6 +173,30 @@ def test_dynamics_falls_back_without_changing_anything(extensions):
         a.do_step(0.0, 0.1)
     a.wind_x, a._model = 0.0, None
     assert step(a.__dict__, 0.1) is False
+
+
+def test_geodetic_getters_match_python_on_random_positions(extensions):
+    # the C getters against EnuFrame.to_geodetic (math module, Python's hypot and float power), bit for bit: origins
+    # all over the globe, positions up to 50 km away, zeros of both signs, negative heights; the cache as the Python
+    # method keeps it (a repeated read returns the cached value); before initialisation the origin may still change
+    from uavsim.geodesy import EnuFrame
+    rng = random.Random(5)
+    for trial in range(40):
+        a, b, _ = make_pair("UavDynamics", extensions, origin_lat=rng.uniform(-89.0, 89.0),
+                            origin_lon=rng.uniform(-180.0, 180.0), origin_alt=rng.uniform(-400.0, 4000.0))
+        frame = EnuFrame(a.origin_lat, a.origin_lon, a.origin_alt)
+        for k in range(250):
+            pos = [rng.choice([0.0, -0.0, rng.uniform(-5e4, 5e4), rng.uniform(-50.0, 50.0)]) for _ in range(3)]
+            for s in (a, b):
+                s.x, s.y, s.z = pos
+            got = (a.lat, a.lon, a.alt)
+            assert bits(got) == bits(frame.to_geodetic(*pos)) == bits((b.lat, b.lon, b.alt)), (trial, pos)
+            assert a.alt is got[2] and bits(a._geo_key) == bits(b._geo_key)
+    a, b, _ = make_pair("UavDynamics", extensions)
+    for s in (a, b):
+        s._frame = None
+        s.origin_lat, s.x = 45.0, 12.5
+    assert bits((a.lat, a.lon, a.alt)) == bits(EnuFrame(45.0, a.origin_lon, a.origin_alt).to_geodetic(12.5, a.y, a.z))
 
 
 # ------------------------------------------------------------------ battery
