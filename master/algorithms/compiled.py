@@ -19,6 +19,7 @@ compiling one huge function costs far more memory than compiling the same lines 
 from __future__ import annotations
 
 import re
+import struct
 
 CHUNK_LINES = 400
 
@@ -170,21 +171,59 @@ def _inline_get(ns: dict, i: int, j: int, g) -> list[str]:
 
 
 _LIST_USE = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\b")
+_LIST_ITEM = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\[(\d+)\]")
+#: struct codes of the buffer types whose values struct gives as ``tolist`` does (a float from the double's bits,
+#: an int), by numpy kind and item size
+_STRUCT_CODE = {("f", 8): "d", ("i", 1): "b", ("i", 2): "h", ("i", 4): "i", ("i", 8): "q", ("u", 1): "B",
+                ("u", 2): "H", ("u", 4): "I", ("u", 8): "Q"}
+
+
+def _renumbered(blocks: list[list[str]], typ: str, index: dict[int, int]) -> list[list[str]]:
+    """``blocks`` with each V{typ}[p] made V{typ}[index[p]]."""
+    def item(m):
+        return f"V{typ}[{index[int(m.group(2))]}]" if m.group(1) == typ else m.group(0)
+    return [[_LIST_ITEM.sub(item, ln) for ln in b] for b in blocks]
+
+
+def _unpacker(buf, positions: list[int]):
+    """(unpack_from, memory) giving the values of ``buf`` at ``positions`` (sorted) as a tuple, the same objects
+    ``buf.tolist()`` has there, in one C call that skips the others (``tolist`` made all of a large system's
+    outputs into Python objects every step, to use a third of them); None where struct cannot stand in."""
+    code = _STRUCT_CODE.get((buf.dtype.kind, buf.dtype.itemsize))
+    if code is None or not positions or not (buf.flags.c_contiguous and buf.dtype.isnative and buf.ndim == 1):
+        return None
+    size, fmt, at = buf.dtype.itemsize, ["@"], 0
+    for p in positions:
+        if p > at:
+            fmt.append(f"{(p - at) * size}x")     # items of one size at multiples of it: '@' adds no padding
+        fmt.append(code)
+        at = p + 1
+    return struct.Struct("".join(fmt)).unpack_from, memoryview(buf).cast("B")
 
 
 def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
     """``def step(n, t)`` running ``blocks`` in order: one function, or chunks of it that the step calls."""
+    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
+    # changes before the tail, which comes after every input is set)
+    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
+    head = []
+    for typ in lists:
+        used = sorted({int(m.group(2)) for b in blocks for ln in b for m in _LIST_ITEM.finditer(ln)
+                       if m.group(1) == typ})
+        unpack = _unpacker(out[typ], used)
+        if unpack is None:
+            head.append(f"V{typ} = _out{typ}.tolist()")
+            ns[f"_out{typ}"] = out[typ]
+            continue
+        # only the values the step uses, as a tuple in the order of their positions
+        head.append(f"V{typ} = _unpack{typ}(_mem{typ})")
+        ns[f"_unpack{typ}"], ns[f"_mem{typ}"] = unpack
+        blocks = _renumbered(blocks, typ, {p: k for k, p in enumerate(used)})
     chunks: list[list[str]] = [[]]
     for b in blocks:
         if chunks[-1] and len(chunks[-1]) + len(b) > CHUNK_LINES:
             chunks.append([])
         chunks[-1].extend(b)
-    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
-    # changes before the tail, which comes after every input is set)
-    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
-    head = [f"V{typ} = _out{typ}.tolist()" for typ in lists]
-    for typ in lists:
-        ns[f"_out{typ}"] = out[typ]
     params = "".join(f", V{typ}" for typ in lists)
     if len(chunks) == 1:
         sources = [_function("step", head + chunks[0])]
