@@ -397,6 +397,8 @@ class Execution:
                     bar.update(256)
         finally:
             quiet.__exit__(None, None, None)
+            for fold in rt.call_folds:      # the compiled steps' doStep counts, complete again
+                fold()
             self.n = n
             meta["steps_done"] = n
             if bar is not None:

@@ -93,6 +93,8 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
             tail.append([f"if (n + 1) % {k} == 0: p{i}()"])
     name = f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>"
     fn = _assemble(ns, body + tail, name, rt.out)
+    if getattr(fn, "fold", None) is not None:
+        rt.call_folds.append(fn.fold)       # Execution._steps folds them in when it returns
     return fn
 
 
@@ -224,17 +226,70 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         if chunks[-1] and len(chunks[-1]) + len(b) > CHUNK_LINES:
             chunks.append([])
         chunks[-1].extend(b)
+    counted = _defer_counts(ns, chunks)
     params = "".join(f", V{typ}" for typ in lists)
+    tail = ["_ran[0] += 1"] if counted else []
     if len(chunks) == 1:
-        sources = [_function("step", head + chunks[0])]
+        sources = [_function("step", _counting(0, head + chunks[0], counted) + tail)]
     else:
-        sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
-        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
+        sources = [_function(f"_part{k}", _counting(k, c, counted), params) for k, c in enumerate(chunks)]
+        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))] + tail))
     for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
         exec(_code(src, name), ns)
     fn = ns["step"]
     fn.source = "".join(sources)
+    if counted:
+        fn.fold = ns["_fold"]
     return fn
+
+
+_COUNT = re.compile(r"_calls\[(\d+)\] \+= 1")
+
+
+def _defer_counts(ns: dict, chunks: list[list[str]]) -> list[list[int]]:
+    """The doStep counts of the components that step every master step (their unindented ``_calls[i] += 1``)
+    taken out of the step: it counts its own complete calls instead (``_ran``), one increment instead of one per
+    component, and ``fold()`` adds them to ``rt.do_step_calls``; each such line becomes ``_k = m``, the number of
+    them reached in its chunk, which a step cut short by an exception counts (``_partial``) before it goes on.
+    Returns, per chunk, the components whose counts are deferred, in order ([] everywhere: nothing deferred)."""
+    calls = ns["_calls"]
+    counted: list[list[int]] = []
+    for chunk in chunks:
+        comps = []
+        for j, ln in enumerate(chunk):
+            m = _COUNT.fullmatch(ln)
+            if m:
+                comps.append(int(m.group(1)))
+                chunk[j] = f"_k = {len(comps)}"
+        counted.append(comps)
+    if not any(counted):
+        return []
+    ran = ns["_ran"] = [0]
+    every = [i for comps in counted for i in comps]
+
+    def partial(chunk: int, reached: int) -> None:
+        for comps in counted[:chunk]:
+            for i in comps:
+                calls[i] += 1
+        for i in counted[chunk][:reached]:
+            calls[i] += 1
+
+    def fold() -> None:
+        r, ran[0] = ran[0], 0
+        if r:
+            for i in every:
+                calls[i] += r
+    ns["_partial"] = partial
+    ns["_fold"] = fold
+    return counted
+
+
+def _counting(chunk: int, lines: list[str], counted: list[list[int]]) -> list[str]:
+    """``lines`` in the ``try`` that counts the components a step cut short by an exception has reached."""
+    if not counted:
+        return lines
+    return (["_k = 0", "try:"] + ["    " + ln for ln in lines]
+            + ["except BaseException:", f"    _partial({chunk}, _k)", "    raise"])
 
 
 #: compiled step sources, by (source, name): the runs of one structure generate the same text (every value it
