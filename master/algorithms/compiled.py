@@ -13,6 +13,11 @@ is the op's own handling, called from here (retried through the reporting path, 
 status); the step's status is acted on after its ``try``, a setter's or getter's in its ``except`` clause, with the
 caught exception kept out of the report (it never showed: the op had handled it before the report was raised).
 
+Jacobi's inputs come from one tuple per buffer type made at the step's start by ``struct`` from just the positions
+the step reads (``_unpacker``: the same objects ``tolist`` gives there); the doStep counts of the components that step
+every master step are deferred (``_defer_counts``): the step counts its own complete calls and Execution._steps folds
+them into ``rt.do_step_calls`` when it returns, a step cut short by an exception counting the components it reached.
+
 A large system's step is split into chunks of about ``CHUNK_LINES`` lines, each a function the step calls:
 compiling one huge function costs far more memory than compiling the same lines as many small ones.
 """
