@@ -72,6 +72,7 @@ class Runtime:
         self.probe = None             # a supervisor's shared array: [phase code, component index] (supervise.py)
         self.slaves = [None] * n
         self.do_step_calls = [0] * n  # per component, rolled-back steps included: the work a run cost (run.json)
+        self.call_folds = []          # compiled steps' deferred doStep counts (compiled.py): fold() adds them in
         self._logging_on = logging_on
         self._inprocess = inprocess
         self._solver = solver

@@ -13,12 +13,18 @@ is the op's own handling, called from here (retried through the reporting path, 
 status); the step's status is acted on after its ``try``, a setter's or getter's in its ``except`` clause, with the
 caught exception kept out of the report (it never showed: the op had handled it before the report was raised).
 
+Jacobi's inputs come from one tuple per buffer type made at the step's start by ``struct`` from just the positions
+the step reads (``_unpacker``: the same objects ``tolist`` gives there); the doStep counts of the components that step
+every master step are deferred (``_defer_counts``): the step counts its own complete calls and Execution._steps folds
+them into ``rt.do_step_calls`` when it returns, a step cut short by an exception counting the components it reached.
+
 A large system's step is split into chunks of about ``CHUNK_LINES`` lines, each a function the step calls:
 compiling one huge function costs far more memory than compiling the same lines as many small ones.
 """
 from __future__ import annotations
 
 import re
+import struct
 
 CHUNK_LINES = 400
 
@@ -92,6 +98,8 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
             tail.append([f"if (n + 1) % {k} == 0: p{i}()"])
     name = f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>"
     fn = _assemble(ns, body + tail, name, rt.out)
+    if getattr(fn, "fold", None) is not None:
+        rt.call_folds.append(fn.fold)       # Execution._steps folds them in when it returns
     return fn
 
 
@@ -170,32 +178,123 @@ def _inline_get(ns: dict, i: int, j: int, g) -> list[str]:
 
 
 _LIST_USE = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\b")
+_LIST_ITEM = re.compile(r"\bV([A-Z][A-Za-z0-9]*)\[(\d+)\]")
+#: struct codes of the buffer types whose values struct gives as ``tolist`` does (a float from the double's bits,
+#: an int), by numpy kind and item size
+_STRUCT_CODE = {("f", 8): "d", ("i", 1): "b", ("i", 2): "h", ("i", 4): "i", ("i", 8): "q", ("u", 1): "B",
+                ("u", 2): "H", ("u", 4): "I", ("u", 8): "Q"}
+
+
+def _renumbered(blocks: list[list[str]], typ: str, index: dict[int, int]) -> list[list[str]]:
+    """``blocks`` with each V{typ}[p] made V{typ}[index[p]]."""
+    def item(m):
+        return f"V{typ}[{index[int(m.group(2))]}]" if m.group(1) == typ else m.group(0)
+    return [[_LIST_ITEM.sub(item, ln) for ln in b] for b in blocks]
+
+
+def _unpacker(buf, positions: list[int]):
+    """(unpack_from, memory) giving the values of ``buf`` at ``positions`` (sorted) as a tuple, the same objects
+    ``buf.tolist()`` has there, in one C call that skips the others (``tolist`` made all of a large system's
+    outputs into Python objects every step, to use a third of them); None where struct cannot stand in."""
+    code = _STRUCT_CODE.get((buf.dtype.kind, buf.dtype.itemsize))
+    if code is None or not positions or not (buf.flags.c_contiguous and buf.dtype.isnative and buf.ndim == 1):
+        return None
+    size, fmt, at = buf.dtype.itemsize, ["@"], 0
+    for p in positions:
+        if p > at:
+            fmt.append(f"{(p - at) * size}x")     # items of one size at multiples of it: '@' adds no padding
+        fmt.append(code)
+        at = p + 1
+    return struct.Struct("".join(fmt)).unpack_from, memoryview(buf).cast("B")
 
 
 def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
     """``def step(n, t)`` running ``blocks`` in order: one function, or chunks of it that the step calls."""
+    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
+    # changes before the tail, which comes after every input is set)
+    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
+    head = []
+    for typ in lists:
+        used = sorted({int(m.group(2)) for b in blocks for ln in b for m in _LIST_ITEM.finditer(ln)
+                       if m.group(1) == typ})
+        unpack = _unpacker(out[typ], used)
+        if unpack is None:
+            head.append(f"V{typ} = _out{typ}.tolist()")
+            ns[f"_out{typ}"] = out[typ]
+            continue
+        # only the values the step uses, as a tuple in the order of their positions
+        head.append(f"V{typ} = _unpack{typ}(_mem{typ})")
+        ns[f"_unpack{typ}"], ns[f"_mem{typ}"] = unpack
+        blocks = _renumbered(blocks, typ, {p: k for k, p in enumerate(used)})
     chunks: list[list[str]] = [[]]
     for b in blocks:
         if chunks[-1] and len(chunks[-1]) + len(b) > CHUNK_LINES:
             chunks.append([])
         chunks[-1].extend(b)
-    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
-    # changes before the tail, which comes after every input is set)
-    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
-    head = [f"V{typ} = _out{typ}.tolist()" for typ in lists]
-    for typ in lists:
-        ns[f"_out{typ}"] = out[typ]
+    counted = _defer_counts(ns, chunks)
     params = "".join(f", V{typ}" for typ in lists)
+    tail = ["_ran[0] += 1"] if counted else []
     if len(chunks) == 1:
-        sources = [_function("step", head + chunks[0])]
+        sources = [_function("step", _counting(0, head + chunks[0], counted) + tail)]
     else:
-        sources = [_function(f"_part{k}", c, params) for k, c in enumerate(chunks)]
-        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))]))
+        sources = [_function(f"_part{k}", _counting(k, c, counted), params) for k, c in enumerate(chunks)]
+        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))] + tail))
     for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
         exec(_code(src, name), ns)
     fn = ns["step"]
     fn.source = "".join(sources)
+    if counted:
+        fn.fold = ns["_fold"]
     return fn
+
+
+_COUNT = re.compile(r"_calls\[(\d+)\] \+= 1")
+
+
+def _defer_counts(ns: dict, chunks: list[list[str]]) -> list[list[int]]:
+    """The doStep counts of the components that step every master step (their unindented ``_calls[i] += 1``)
+    taken out of the step: it counts its own complete calls instead (``_ran``), one increment instead of one per
+    component, and ``fold()`` adds them to ``rt.do_step_calls``; each such line becomes ``_k = m``, the number of
+    them reached in its chunk, which a step cut short by an exception counts (``_partial``) before it goes on.
+    Returns, per chunk, the components whose counts are deferred, in order ([] everywhere: nothing deferred)."""
+    calls = ns["_calls"]
+    counted: list[list[int]] = []
+    for chunk in chunks:
+        comps = []
+        for j, ln in enumerate(chunk):
+            m = _COUNT.fullmatch(ln)
+            if m:
+                comps.append(int(m.group(1)))
+                chunk[j] = f"_k = {len(comps)}"
+        counted.append(comps)
+    if not any(counted):
+        return []
+    ran = ns["_ran"] = [0]
+    every = [i for comps in counted for i in comps]
+
+    def partial(chunk: int, reached: int) -> None:
+        for comps in counted[:chunk]:
+            for i in comps:
+                calls[i] += 1
+        for i in counted[chunk][:reached]:
+            calls[i] += 1
+
+    def fold() -> None:
+        r, ran[0] = ran[0], 0
+        if r:
+            for i in every:
+                calls[i] += r
+    ns["_partial"] = partial
+    ns["_fold"] = fold
+    return counted
+
+
+def _counting(chunk: int, lines: list[str], counted: list[list[int]]) -> list[str]:
+    """``lines`` in the ``try`` that counts the components a step cut short by an exception has reached."""
+    if not counted:
+        return lines
+    return (["_k = 0", "try:"] + ["    " + ln for ln in lines]
+            + ["except BaseException:", f"    _partial({chunk}, _k)", "    raise"])
 
 
 #: compiled step sources, by (source, name): the runs of one structure generate the same text (every value it

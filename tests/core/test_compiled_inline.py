@@ -37,7 +37,7 @@ def test_the_step_is_written_inline():
     with Execution(SSP, output=None, **KW) as ex:
         ex.initialize()
         src = ex.algorithm._step.source
-    assert "VReal = _outReal.tolist()" in src            # Jacobi: inputs from the list of the output values
+    assert "VReal = _unpackReal(_memReal)" in src        # Jacobi: inputs from the output values the step uses
     assert "S1['" in src and "A1_0['" in src             # inputs stored into / outputs read from __dict__
     assert "c1(t, H1)" not in src and "g1_0()" not in src      # no op called for them
 
