@@ -330,8 +330,10 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         s.failed = sum(1 for _, rec in done2 if rec.get("outcome") == "failed")
         s.pending = len(todo2)
         s.failures = [(r.run_id, r.params, rec.get("error")) for r, rec in done2 if rec.get("outcome") == "failed"]
+        # the table from the records just read (load_records' selection: current, finished, in run order)
+        current = [rec for _, rec in done2 if rec.get("outcome") in ("completed", "failed")]
         try:
-            s.table = write_table(out)
+            s.table = write_table(out, manifest, current)
         except KeyboardInterrupt:
             s.interrupted = True
         _cleanup_orphans(out, camp)
