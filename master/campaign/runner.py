@@ -197,6 +197,12 @@ def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False, fingerp
     return done, todo, s
 
 
+def table_records(done: list) -> list[dict]:
+    """The records of the table among ``plan_campaign``'s done runs: what ``table.load_records`` would read from
+    disk again (current, finished, in run order)."""
+    return [rec for _, rec in done if rec.get("outcome") in ("completed", "failed")]
+
+
 class _Lock:
     """One invocation per campaign folder at a time (flock on .lock)."""
 
@@ -330,10 +336,8 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         s.failed = sum(1 for _, rec in done2 if rec.get("outcome") == "failed")
         s.pending = len(todo2)
         s.failures = [(r.run_id, r.params, rec.get("error")) for r, rec in done2 if rec.get("outcome") == "failed"]
-        # the table from the records just read (load_records' selection: current, finished, in run order)
-        current = [rec for _, rec in done2 if rec.get("outcome") in ("completed", "failed")]
         try:
-            s.table = write_table(out, manifest, current)
+            s.table = write_table(out, manifest, table_records(done2))
         except KeyboardInterrupt:
             s.interrupted = True
         _cleanup_orphans(out, camp)
