@@ -286,7 +286,9 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         bar = None
         if progress and tasks:
             from tqdm import tqdm
-            bar = tqdm(total=len(tasks), unit="run", desc=camp.name, dynamic_ncols=True, smoothing=0.05)
+            # redrawn at most twice a second: each redraw is parent CPU taken from the workers' cores
+            bar = tqdm(total=len(tasks), unit="run", desc=camp.name, dynamic_ncols=True, smoothing=0.05,
+                       mininterval=0.5)
             bar.set_postfix(failed=0)
         counts = Counter()
 
