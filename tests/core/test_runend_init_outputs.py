@@ -112,3 +112,20 @@ def test_the_sink_registry_leaves_pyarrow_parquet_unimported():
             "print(sorted(m for m in ('pyarrow.parquet', 'pyarrow.fs', 'ssl') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_slave_class_looked_up_once_per_module_and_model_identifier():
+    import types
+
+    from pythonfmu import Fmi2Slave
+
+    from master.fmi import inprocess
+    mod = types.ModuleType("runend_two_slaves")
+    for name in ("First", "Second"):
+        setattr(mod, name, type(name, (Fmi2Slave,), {"__module__": mod.__name__}))
+    assert inprocess._slave_class(mod, "Second") is mod.Second
+    assert inprocess._slave_class(mod, "First") is mod.First
+    assert inprocess._slave_class(mod, "Third") is None            # two candidates, none of that name
+    mod.Third = type("Third", (Fmi2Slave,), {"__module__": mod.__name__})
+    assert inprocess._slave_class(mod, "Second") is mod.Second       # as first found: a module is imported once
+    assert inprocess._slave_class(mod, "Third") is None
