@@ -274,8 +274,8 @@ class Execution:
         self.log = LogSink(o.log_level, file=log_file)
         loops, init_order = _graph_orders(plan, list(plan.fmus))
         meta["algebraic_loops"] = loops
-        observed = [plan.var(q) for ob in self.observers for q in ob.required_variables()]
-        sampled = [plan.var(q) for ob in self.observers for q in ob.sampled_variables()]
+        observed = _plan_vars(plan, [q for ob in self.observers for q in ob.required_variables()])
+        sampled = _plan_vars(plan, [q for ob in self.observers for q in ob.sampled_variables()])
         # loggingOn stays on below 'none': some exporters (pythonfmu) drop even error messages without it
         # FMUs that keep files of their own (a SITL's eeprom and logs) put them into the run's output folder
         if self.out_dir is not None:
@@ -497,6 +497,18 @@ class Execution:
             self.close("interrupted", CosimError("interrupted by the user", time=self.metadata.get("last_time")))
         else:
             self.close("error", exc if isinstance(exc, CosimError) else None)
+
+
+def _plan_vars(plan, names: list[str]) -> list:
+    """``[plan.var(q) for q in names]``: a name whose last dot separates a component from one of its variables is
+    the answer ``Plan.split`` finds first (it tries the longest component name first); the others go through it."""
+    variables = plan.variables
+    out = []
+    for q in names:
+        comp, _, name = q.rpartition(".")
+        found = variables.get(comp)
+        out.append(found[name] if found is not None and name in found else plan.var(q))
+    return out
 
 
 #: connection graph (see _graph_key) -> (algebraic loops, Gauss-Seidel order): a campaign worker initializes the

@@ -129,3 +129,33 @@ def test_slave_class_looked_up_once_per_module_and_model_identifier():
     mod.Third = type("Third", (Fmi2Slave,), {"__module__": mod.__name__})
     assert inprocess._slave_class(mod, "Second") is mod.Second       # as first found: a module is imported once
     assert inprocess._slave_class(mod, "Third") is None
+
+
+def test_plan_vars_finds_what_plan_var_finds():
+    """Random component and variable names with dots in them: the same Var, or the same error."""
+    from master.errors import ScenarioError
+    from master.execution import _plan_vars
+    from master.plan import Plan
+    rng = random.Random(7)
+    parts = ["a", "b", "c", "x"]
+    for _ in range(300):
+        comps = {".".join(rng.choices(parts, k=rng.randint(1, 3))) for _ in range(rng.randint(1, 4))}
+        variables = {c: {".".join(rng.choices(parts, k=rng.randint(1, 2))): None for _ in range(3)} for c in comps}
+        for c in variables:
+            for n in variables[c]:
+                variables[c][n] = _var(c, n, "output")
+        plan = Plan(None, "test.ssd", {}, [], [], {}, variables)
+        for _ in range(20):
+            q = ".".join(rng.choices(parts + [""], k=rng.randint(1, 5)))
+            try:
+                expected = plan.var(q)
+            except ScenarioError as exc:
+                try:
+                    _plan_vars(plan, [q])
+                except ScenarioError as mine:
+                    assert str(mine) == str(exc)
+                else:
+                    raise AssertionError(f"{q!r}: plan.var raised {exc}, _plan_vars did not")
+                continue
+            assert _plan_vars(plan, [q]) == [expected]
+            assert _plan_vars(plan, [q])[0] is expected
