@@ -197,6 +197,12 @@ def plan_campaign(camp: Campaign, out: Path, retry_failed: bool = False, fingerp
     return done, todo, s
 
 
+def table_records(done: list) -> list[dict]:
+    """The records of the table among ``plan_campaign``'s done runs: what ``table.load_records`` would read from
+    disk again (current, finished, in run order)."""
+    return [rec for _, rec in done if rec.get("outcome") in ("completed", "failed")]
+
+
 class _Lock:
     """One invocation per campaign folder at a time (flock on .lock)."""
 
@@ -280,7 +286,9 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         bar = None
         if progress and tasks:
             from tqdm import tqdm
-            bar = tqdm(total=len(tasks), unit="run", desc=camp.name, dynamic_ncols=True, smoothing=0.05)
+            # redrawn at most twice a second: each redraw is parent CPU taken from the workers' cores
+            bar = tqdm(total=len(tasks), unit="run", desc=camp.name, dynamic_ncols=True, smoothing=0.05,
+                       mininterval=0.5)
             bar.set_postfix(failed=0)
         counts = Counter()
 
@@ -331,7 +339,7 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         s.pending = len(todo2)
         s.failures = [(r.run_id, r.params, rec.get("error")) for r, rec in done2 if rec.get("outcome") == "failed"]
         try:
-            s.table = write_table(out)
+            s.table = write_table(out, manifest, table_records(done2))
         except KeyboardInterrupt:
             s.interrupted = True
         _cleanup_orphans(out, camp)

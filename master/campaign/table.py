@@ -132,16 +132,21 @@ def records_table(records: list[dict], param_keys: list, kind):
     return df
 
 
-def build_table(campaign_dir):
-    manifest = load_manifest(campaign_dir)
+def build_table(campaign_dir, manifest: dict | None = None, records: list[dict] | None = None):
+    """``manifest``, ``records``: campaign.json's content and ``load_records``' answer when the caller has just
+    read them (a campaign's last step: its final plan read every record already)."""
+    manifest = manifest or load_manifest(campaign_dir)
     kind = SCENARIO_KINDS.get(manifest["kind"], element=str(Path(campaign_dir) / "campaign.json"))
-    return records_table(load_records(campaign_dir, manifest), manifest["param_keys"], kind)
+    if records is None:
+        records = load_records(campaign_dir, manifest)
+    return records_table(records, manifest["param_keys"], kind)
 
 
-def write_table(campaign_dir) -> Path:
-    """Rebuild results.parquet and results.csv from runs/*.json (atomic replace); returns the parquet path."""
+def write_table(campaign_dir, manifest: dict | None = None, records: list[dict] | None = None) -> Path:
+    """Rebuild results.parquet and results.csv from runs/*.json (atomic replace); returns the parquet path.
+    ``manifest``, ``records``: see :func:`build_table`."""
     campaign_dir = Path(campaign_dir)
-    df = build_table(campaign_dir)
+    df = build_table(campaign_dir, manifest, records)
     pq_path = campaign_dir / "results.parquet"
     csv_path = campaign_dir / "results.csv"
     tmp = campaign_dir / f".results.parquet.tmp{os.getpid()}"

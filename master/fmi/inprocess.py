@@ -69,6 +69,17 @@ class InlineGet(NamedTuple):
     drain: Callable
 
 
+_resources: dict[str, str] = {}      # unpacked FMU folder -> its resources folder, as the slave module is keyed
+
+
+def _resources_folder(unzip_dir) -> str:
+    key = str(unzip_dir)
+    folder = _resources.get(key)
+    if folder is None:
+        folder = _resources[key] = str(Path(key, "resources"))
+    return folder
+
+
 def is_pythonfmu(fmu) -> bool:
     return (fmu.md.coSimulation is not None and _slave_module_text(fmu.unzip_dir) is not None
             and (fmu.md.generationTool or "").lower().startswith("pythonfmu"))
@@ -88,7 +99,19 @@ def _slave_module_text(unzip_dir) -> str | None:
     return _module_texts[key]
 
 
+_classes: dict[tuple, type | None] = {}      # (slave module, model identifier) -> its slave class
+
+
 def _slave_class(module, model_identifier):
+    """The module's Fmi2Slave class of that name (or its only one), looked up once per module: a module is imported
+    once per resources folder (``load_slave_module``), and every component of every run scanned its names again."""
+    key = (module, model_identifier)
+    if key not in _classes:
+        _classes[key] = _find_slave_class(module, model_identifier)
+    return _classes[key]
+
+
+def _find_slave_class(module, model_identifier):
     from pythonfmu import Fmi2Slave
     candidates = [obj for obj in vars(module).values()
                   if isinstance(obj, type) and issubclass(obj, Fmi2Slave) and obj is not Fmi2Slave
@@ -266,7 +289,7 @@ class PythonFmuSlave(Slave):
 
     def __init__(self, name, fmu, log, shown_as):
         super().__init__(name, fmu, log, shown_as)
-        self.resources = str(Path(fmu.unzip_dir, "resources"))
+        self.resources = _resources_folder(fmu.unzip_dir)
         text = _slave_module_text(fmu.unzip_dir)
         if text is None:        # gone since is_pythonfmu looked: read it to raise what reading it raised
             text = Path(self.resources, "slavemodule.txt").read_text()

@@ -54,7 +54,9 @@ class SinkGroup:
         self.schema = schema
         self._closed = False
         self.open_sinks = [s for s in self.sinks if self.out_dir is not None or not s.needs_folder]
-        if self.out_dir is not None:
+        # the reserve is given back before anything but the sinks writes into the folder: without a sink writing
+        # there (a campaign run's rows kept in memory) it would only cost creating and removing a 4 MB file
+        if self.out_dir is not None and any(s.needs_folder for s in self.open_sinks):
             self._reserve = self.out_dir / RESERVE_NAME
             try:
                 with open(self._reserve, "wb") as fh:

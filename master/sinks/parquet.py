@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from . import SINKS
 from .base import Sink
@@ -13,6 +12,9 @@ class ParquetSink(Sink):
     file_name = "results.parquet"
 
     def open(self, out_dir, schema):
+        # imported here, not with the module: the registry imports every sink module, and pyarrow.parquet (with
+        # pyarrow.fs and ssl, ~60 ms) would be paid by every campaign worker, whose runs keep their rows in memory
+        import pyarrow.parquet as pq
         super().open(out_dir, schema)
         self.path = out_dir / self.file_name
         # column statistics for thousands of columns times many row groups would make the footer, which the
@@ -39,6 +41,8 @@ class ParquetSink(Sink):
         import os
 
         import pyarrow.csv as pc
+        import pyarrow.parquet as pq
+
         from .csv import CsvSink
         csv = next((s for s in sinks if isinstance(s, CsvSink) and not s.broken), None)
         if csv is None:
