@@ -17,7 +17,6 @@ from pathlib import Path
 
 import pytest
 
-import fmu_factory
 import master
 from master import yamlio
 from master.errors import ScenarioError
@@ -28,11 +27,8 @@ from master.ssp.writer import SspBuilder
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    root = tmp_path_factory.mktemp("memory_source_fmus")
-    return {"faulty": fmu_factory.build_by_key("c2:Faulty", root),
-            "gain": fmu_factory.build_by_key("c2:Gain", root),
-            "integ": fmu_factory.build_by_key("py:Integrator", root)}
+def fmus(test_fmus):
+    return {"faulty": test_fmus["c2:Faulty"], "gain": test_fmus["c2:Gain"], "integ": test_fmus["py:Integrator"]}
 
 
 @pytest.fixture(autouse=True)
