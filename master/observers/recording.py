@@ -231,6 +231,8 @@ class Recording(Observer):
 
     def after_step(self, n: int, t0: float, t1: float) -> None:
         rt = self.rt
+        # Execution._plain_steps makes this same test inline, to skip the calls that sample nothing: change
+        # both (tests/core/test_loop_plain.py runs the two loops side by side)
         if (n + 1) % self.every == 0 or n + 1 == self.steps or rt.stop_reason is not None:
             rt.read_samples(t1)
             self.sample(t1)
