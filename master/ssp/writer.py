@@ -73,6 +73,8 @@ def _described_connectors(md, params: dict) -> tuple:
         return hit[1]
     connectors = []
     for v in md.modelVariables:
+        if v.type == "Clock":       # SSP 1.0 has no clock connector type; the clocked variables themselves stay
+            continue
         if v.causality in ("input", "output") or (v.causality == "parameter" and v.name in params):
             t = {"Float64": "Real", "Float32": "Real"}.get(v.type, v.type)
             if t.startswith(("Int", "UInt")):

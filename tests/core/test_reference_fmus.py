@@ -184,6 +184,26 @@ def test_clocks_scheduled_execution_is_refused_in_one_line(tmp_path, reference_f
     with pytest.raises(Exception, match="not supported"):
         fmpy.simulate_fmu(str(fmu))                # fmpy cannot run it either
     b = SspBuilder("clocks", stop=None, step=None)
-    b.add_component("m", fmu, connectors=[("inClock3Ticks", "output", "Integer", None)])
+    b.add_component("m", fmu)
     with pytest.raises(CosimError, match="offers FMI 3.0 scheduled execution only .* which is not supported"):
         master.run(b.write(tmp_path / "clocks.ssp"), output=None)
+
+
+def test_an_fmu_with_clocks_gets_an_ssd_of_its_other_variables(tmp_path, reference_fmus):
+    """SSP 1.0 knows no clock type (SystemStructureCommon: Real, Integer, Boolean, String, Enumeration, Binary):
+    the SSD the builder writes (validated against the schema as it is written) lists every input and output of
+    Clocks.fmu but its four Clock variables."""
+    import zipfile
+
+    from lxml import etree
+    fmu = reference_fmus / "fmi3" / "Clocks.fmu"
+    b = SspBuilder("clocks", stop=None, step=None)
+    b.add_component("m", fmu)
+    ssd = etree.fromstring(zipfile.ZipFile(b.write(tmp_path / "clocks.ssp")).read("SystemStructure.ssd"))
+    md = etree.fromstring(zipfile.ZipFile(fmu).read("modelDescription.xml"))
+    expected = {(v.get("name"), v.get("causality")) for v in md.find("ModelVariables")
+                if v.get("causality") in ("input", "output") and v.tag != "Clock"}
+    assert len(expected) == 7       # the ticks, the result and output3 outputs, input2
+    ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription"}
+    written = {(c.get("name"), c.get("kind")) for c in ssd.iterfind(".//ssd:Component/ssd:Connectors/ssd:Connector", ns)}
+    assert written == expected
