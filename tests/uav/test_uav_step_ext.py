@@ -2,10 +2,10 @@
 Python step of the same shells run with UAVSIM_PURE_PYTHON=1 (Python kernels, no extension), bit for bit: the
 published outputs and the whole model state, over thousands of random states and inputs and over whole flights."""
 import random
-import struct
 from collections import Counter
 
 import pytest
+from bitwise import bits
 from build_script import load_shell
 from shipped_extension_runs import run_with_and_without_extensions
 
@@ -25,17 +25,6 @@ def extensions(extensions_folder):
         mods = {name: native.load_extension(name, extensions_folder) for name in NAMES}
     assert all(mods.values()), "an extension did not load"
     return mods
-
-
-def bits(v):
-    """A value with its type, floats as their IEEE bits (0.0 and -0.0 differ, a NaN equals itself)."""
-    if type(v) is float:
-        return "f", struct.pack("<d", v)
-    if type(v) in (list, tuple):
-        return type(v).__name__, tuple(bits(x) for x in v)
-    if type(v) is dict:
-        return "dict", tuple((bits(k), bits(x)) for k, x in v.items())
-    return type(v).__name__, v
 
 
 def snapshot(shell, outputs):

@@ -6,11 +6,11 @@ runs of the shipped FMUs.  Where the extension declines a step (a random draw, t
 it must have changed nothing."""
 import math
 import random
-import struct
 from collections import Counter
 
 import numpy as np
 import pytest
+from bitwise import bits
 from build_script import load_shell
 from shipped_extension_runs import run_with_and_without_extensions
 
@@ -28,25 +28,6 @@ def ext(extensions_folder):
         module = native.load_extension("_wind_ext", extensions_folder)
     assert module is not None, "the extension did not load"
     return module
-
-
-def bits(v):
-    """A value with its type, floats as their IEEE bits (0.0 and -0.0 differ, a NaN equals itself)."""
-    if type(v) is float:
-        return "f", struct.pack("<d", v)
-    if type(v) in (list, tuple):
-        return type(v).__name__, tuple(bits(x) for x in v)
-    if type(v) is dict:
-        return "dict", tuple((bits(k), bits(x)) for k, x in v.items())
-    if hasattr(v, "tobytes"):
-        return "array", v.dtype.str, v.shape, v.tobytes()
-    if hasattr(v, "bit_generator"):
-        return "rng", bits(v.bit_generator.state)
-    if hasattr(v, "__slots__"):
-        return type(v).__name__, tuple((n, bits(getattr(v, n, None))) for n in v.__slots__)
-    if hasattr(v, "__dataclass_fields__"):
-        return type(v).__name__, bits(vars(v))
-    return type(v).__name__, v
 
 
 def snapshot(shell):
