@@ -1,7 +1,8 @@
 """UavStrategy FMU shell (pythonfmu): maps FMI variables to uavsim.strategy.Strategy.
 
 On do_step(t, h) the logic is evaluated on the inputs sampled at t (photo times are t); the new
-commands are the outputs for the next step.
+commands are the outputs for the next step.  The step is Strategy.advance, or its compiled twin
+(uavsim/_strategy_ext.c, declared in uavsim/strategy_accel.py) when it is built and not switched off.
 Connectors: docs/uav_connectors.md; model and parameter sources: docs/uav_models.md.
 """
 import os
@@ -39,8 +40,8 @@ _STR = [
     ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';' "
                   "(used when n_zones = -1)"),
 ]
-#: the compiled fast path of do_step (uavsim/_strategy_ext.c): does the steps in which nothing happens and
-#: declines, changing nothing, all others; None: Python does every step
+#: the compiled step (uavsim/_strategy_ext.c): does the steps in which nothing happens (on the strategy's
+#: MissionState and this FMU's variables) and declines, changing nothing, all others; None: Python does every step
 _EXT = native.load_extension("_strategy_ext", os.path.join(_HERE, "uavsim"))
 _FAST_STEP = _EXT.step if _EXT is not None else None
 
@@ -85,7 +86,6 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
         self.in_int("phase", "vehicle phase")
         self.command = 0
         self.in_int("command", "ground-station command, taken when it changes: 0 none, 1 return to base, 2 land")
-        self._command_taken = 0
         self.cmd = 1
         self.out_int("cmd", "0 idle/hold, 1 takeoff, 2 goto setpoint, 3 land")
         for name, desc in [("sp_x", "setpoint east"), ("sp_y", "setpoint north"), ("sp_z", "setpoint up")]:
@@ -151,14 +151,14 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
          self.last_photo_time, self.last_photo_x, self.last_photo_y) = self._model.outputs()
 
     def do_step(self, current_time, step_size):
-        if _FAST_STEP is not None and _FAST_STEP(self.__dict__):
-            return True
-        if self._model is None:
+        model = self._model
+        if model is None:
             self._build()
-        if self.command != self._command_taken:
-            self._command_taken = self.command
-            self._model.command(int(self.command), self.x, self.y, self.z)
-        self._model.step(current_time, self.x, self.y, self.z, self.vx, self.vy,
-                         int(self.phase), self.consumed)
+            model = self._model
+        # the compiled step reads the inputs from and writes the outputs to this FMU's variables, by their names
+        if _FAST_STEP is not None and _FAST_STEP(model.step_constants, model.mission, self.__dict__):
+            return True
+        model.advance(current_time, self.x, self.y, self.z, self.vx, self.vy, self.phase, self.consumed,
+                      self.command)
         self._publish()
         return True

@@ -1,10 +1,11 @@
-/* Fast path of the UavStrategy FMU's step (fmu_sources/UavStrategy.py, uavsim/strategy.py: Strategy.step).
+/* The UavStrategy FMU's step in C: the accelerator of Strategy.advance (uavsim/strategy.py), declared in
+ * uavsim/strategy_accel.py and checked against it by the accelerator harness (tests/accelerators/).
  *
- * step(shell_dict) handles the steps in which nothing happens -- a UAV en route with no arrival, no battery
- * threshold crossed, no phase change, its planned path unchanged and its look-ahead clear of every zone, or
- * waiting on the ground -- and returns True after doing exactly what Strategy.step and the shell's _publish
- * would do.  Whenever anything else may happen it returns False having changed nothing, and the Python code
- * runs the step as always.  So the C code never decides anything the Python code would decide otherwise:
+ * step(constants, mission, variables) handles the steps in which nothing happens -- a UAV en route with no
+ * arrival, no battery threshold crossed, no phase change, its planned path unchanged and its look-ahead clear of
+ * every zone, or waiting on the ground -- and returns True after doing exactly what Strategy.advance and the
+ * shell's _publish would do.  Whenever anything else may happen it returns False having changed nothing, and the
+ * Python step runs as always.  So the C code never decides anything the Python code would decide otherwise:
  *
  * - Python's math.hypot is not libm's hypot (they may differ in the last bit), so a distance is only compared
  *   with a threshold here when it is clear of it by a relative margin (SAFE) that no rounding can cross; a
@@ -12,24 +13,28 @@
  * - ZoneMap.blocked is not reimplemented: a segment is declared clear only when it keeps a margin from every
  *   zone polygon (misses_zone), far above the rounding of its computed end point, so that no correct segment
  *   test can call it blocked, whatever its prefilters.
- * - Values the step publishes (setpoint, cmd) are copied from the model's own objects, never recomputed; every
+ * - Values the step publishes (setpoint, cmd) are copied from the mission's own objects, never recomputed; every
  *   number it reads must be an exact float or int (anything else: declined).
  *
- * The step leaves every model attribute as Python would, including model.cmd and model.sp; it writes the
- * outputs that such a step can change (cmd, sp_x, sp_y, sp_z) and, as the shell's _publish, every other
- * output too (unchanged values, written so the shell's variables equal Strategy.outputs() after any step).
- *
- * Layout of Strategy._fast_consts (bytes of native doubles, built in Strategy.__init__):
+ * What it reads and writes, all public:
+ * - constants: Strategy.step_constants, the configuration as native doubles (layout C_* below);
+ * - mission: the Strategy's MissionState, whose fields it gets and sets by their declared names (field_names);
+ *   a missing field is an error (AttributeError), not a reason to decline: a renamed field must not silently
+ *   switch this step off;
+ * - variables: the FMU's variables by their modelDescription names (the shell's variable values): the inputs
+ *   x, y, vx, vy, phase, consumed, command are read, every output (OUTPUT_NAMES of uavsim/strategy.py) is
+ *   written, so that they equal Strategy.outputs() after any step.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
 #include <string.h>
 
-enum { C_RADIUS, C_LAND, C_RETURN, C_LOOKAHEAD, C_BRAKE, C_CRUISE, C_HOME_X, C_HOME_Y, C_PLANNING, C_NZONES,
-       C_ZONES };
-/* then one record per zone: its bounding box (xmin, ymin, xmax, ymax), its edge count n (-1: unknown, only the
- * box tells) and n edges (x0, y0, x1, y1) of all its rings */
+/* Layout of Strategy.step_constants (Strategy._pack_step_constants) */
+enum { C_RADIUS, C_LAND, C_RETURN, C_LOOKAHEAD, C_BRAKE, C_CRUISE, C_HOME_X, C_HOME_Y, C_PLANNING, C_ASSIGNED,
+       C_NTARGETS, C_NZONES, C_TARGETS };
+/* then the targets (x, y), then one record per zone (zone_record): its bounding box (xmin, ymin, xmax, ymax), its
+ * edge count n (-1: unknown, only the box tells) and n edges (x0, y0, x1, y1) of all its rings */
 
 enum { PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW, LANDED_BASE, LANDED_AWAY,
        RETURN_CMD, LAND_CMD };
@@ -38,60 +43,73 @@ enum { PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW
  * 1e-12 relative decides the same comparison for both, whatever the operands. */
 #define SAFE 1e-12
 
-/* outcomes, counted for tests and benchmarks (stats()) */
-enum { HANDLED, FB_SHELL, FB_STATE, FB_BATTERY, FB_PHASE, FB_ARRIVAL, FB_LEG, FB_PATH, FB_ZONE, FB_NEAR, FB_TYPE,
+/* outcomes, counted for benchmarks (stats()) */
+enum { HANDLED, FB_INPUT, FB_STATE, FB_BATTERY, FB_PHASE, FB_ARRIVAL, FB_LEG, FB_PATH, FB_ZONE, FB_NEAR, FB_TYPE,
        NOUTCOMES };
 static const char *outcome_names[NOUTCOMES] = {
-    "handled", "shell", "state", "battery", "phase", "arrival", "leg", "path", "zone", "near", "type"};
+    "handled", "input", "state", "battery", "phase", "arrival", "leg", "path", "zone", "near", "type"};
 static unsigned long long counts[NOUTCOMES];
 static unsigned long long edge_clears;     /* segments found clear of a zone by its edges (its box overlapped) */
 
-/* interned names: the shell's variables and the model's attributes (the same name where the shell publishes a
- * model attribute as it is) */
-static PyObject *k_model, *k_command, *k_command_taken, *k_x, *k_y, *k_vx, *k_vy, *k_phase, *k_consumed, *k_dict,
-    *k_state, *k_cmd, *k_sp, *k_consts, *k_current_target, *k_targets, *k_home, *k_path, *k_path_goal,
-    *k_braking, *k_brake_point, *k_detour, *k_assigned, *k_visited, *k_photo_count, *k_last_photo_target,
-    *k_avoid_count, *k_last_photo_time, *k_last_photo_x, *k_last_photo_y, *k_sp_x, *k_sp_y, *k_sp_z,
-    *k_mission_state, *k_targets_assigned, *k_targets_visited, *k_avoiding;
-
-static struct { PyObject **key; const char *name; } names[] = {
-    {&k_model, "_model"}, {&k_command, "command"}, {&k_command_taken, "_command_taken"}, {&k_x, "x"},
-    {&k_y, "y"}, {&k_vx, "vx"}, {&k_vy, "vy"}, {&k_phase, "phase"}, {&k_consumed, "consumed"},
-    {&k_dict, "__dict__"}, {&k_state, "state"}, {&k_cmd, "cmd"}, {&k_sp, "sp"}, {&k_consts, "_fast_consts"},
-    {&k_current_target, "current_target"}, {&k_targets, "targets"}, {&k_home, "home"}, {&k_path, "path"},
-    {&k_path_goal, "path_goal"}, {&k_braking, "braking"}, {&k_brake_point, "brake_point"},
-    {&k_detour, "detour"}, {&k_assigned, "assigned"}, {&k_visited, "visited"},
-    {&k_photo_count, "photo_count"}, {&k_last_photo_target, "last_photo_target"},
-    {&k_avoid_count, "avoid_count"}, {&k_last_photo_time, "last_photo_time"},
-    {&k_last_photo_x, "last_photo_x"}, {&k_last_photo_y, "last_photo_y"}, {&k_sp_x, "sp_x"},
-    {&k_sp_y, "sp_y"}, {&k_sp_z, "sp_z"}, {&k_mission_state, "mission_state"},
-    {&k_targets_assigned, "targets_assigned"}, {&k_targets_visited, "targets_visited"},
-    {&k_avoiding, "avoiding"},
+struct constants {
+    const double *c;
+    long n_targets, n_zones;
+    const double *targets, *zones;
 };
 
-/* h > r for Python's hypot as surely as for libm's (False when NaN) */
-static int clearly_above(double h, double r) { return h > r + SAFE * (fabs(r) + fabs(h)); }
-/* h <= r for Python's hypot as surely as for libm's */
-static int clearly_below(double h, double r) { return h < r - SAFE * (fabs(r) + fabs(h)); }
+/* MissionState's fields (uavsim/strategy.py) */
+enum { F_STATE, F_CMD, F_SP, F_CURRENT_TARGET, F_VISITED, F_PHOTO_COUNT, F_LAST_PHOTO_TARGET, F_LAST_PHOTO_TIME,
+       F_LAST_PHOTO_X, F_LAST_PHOTO_Y, F_AVOID_COUNT, F_DETOUR, F_PATH, F_PATH_GOAL, F_BRAKING, F_BRAKE_POINT,
+       F_COMMAND_TAKEN, NFIELDS };
+static const char *field_names[NFIELDS] = {
+    "state", "cmd", "sp", "current_target", "visited", "photo_count", "last_photo_target", "last_photo_time",
+    "last_photo_x", "last_photo_y", "avoid_count", "detour", "path", "path_goal", "braking", "brake_point",
+    "command_taken"};
+static PyObject *fields[NFIELDS];
 
-/* A borrowed dict item; NULL when missing (or on an error, which the caller reports) */
-static PyObject *item(PyObject *d, PyObject *key) { return PyDict_GetItemWithError(d, key); }
+/* the FMU's variables */
+enum { V_X, V_Y, V_VX, V_VY, V_PHASE, V_CONSUMED, V_COMMAND, V_CMD, V_SP_X, V_SP_Y, V_SP_Z, V_MISSION_STATE,
+       V_TARGETS_ASSIGNED, V_TARGETS_VISITED, V_PHOTO_COUNT, V_LAST_PHOTO_TARGET, V_CURRENT_TARGET, V_AVOIDING,
+       V_AVOID_COUNT, V_LAST_PHOTO_TIME, V_LAST_PHOTO_X, V_LAST_PHOTO_Y, NVARIABLES };
+static const char *variable_names[NVARIABLES] = {
+    "x", "y", "vx", "vy", "phase", "consumed", "command", "cmd", "sp_x", "sp_y", "sp_z", "mission_state",
+    "targets_assigned", "targets_visited", "photo_count", "last_photo_target", "current_target", "avoiding",
+    "avoid_count", "last_photo_time", "last_photo_x", "last_photo_y"};
+static PyObject *variables[NVARIABLES];
 
-static int get_double(PyObject *d, PyObject *key, double *out)
+/* The mission's fields, each got once (new references, released by release()) */
+struct mission {
+    PyObject *obj;
+    PyObject *v[NFIELDS];
+};
+
+/* A field of the mission (borrowed from m), or NULL with the AttributeError set */
+static PyObject *field(struct mission *m, int f)
 {
-    PyObject *v = item(d, key);
+    if (m->v[f] == NULL)
+        m->v[f] = PyObject_GetAttr(m->obj, fields[f]);
+    return m->v[f];
+}
+
+static void release(struct mission *m)
+{
+    for (int f = 0; f < NFIELDS; f++)
+        Py_CLEAR(m->v[f]);
+}
+
+static int exact_double(PyObject *v, double *out)
+{
     if (v == NULL || !PyFloat_CheckExact(v))
         return 0;
     *out = PyFloat_AsDouble(v);
     return 1;
 }
 
-static int get_long(PyObject *d, PyObject *key, long *out)
+static int exact_long(PyObject *v, long *out)
 {
-    PyObject *v = item(d, key);
+    int overflow = 0;
     if (v == NULL || !PyLong_CheckExact(v))
         return 0;
-    int overflow = 0;
     *out = PyLong_AsLongAndOverflow(v, &overflow);
     return !overflow;
 }
@@ -100,6 +118,8 @@ static int get_long(PyObject *d, PyObject *key, long *out)
 static int point(PyObject *p, double *x, double *y)
 {
     PyObject *a, *b;
+    if (p == NULL)
+        return 0;
     if (PyTuple_Check(p) && PyTuple_Size(p) == 2) {
         a = PyTuple_GetItem(p, 0);
         b = PyTuple_GetItem(p, 1);
@@ -109,12 +129,13 @@ static int point(PyObject *p, double *x, double *y)
     } else {
         return 0;
     }
-    if (!PyFloat_CheckExact(a) || !PyFloat_CheckExact(b))
-        return 0;
-    *x = PyFloat_AsDouble(a);
-    *y = PyFloat_AsDouble(b);
-    return 1;
+    return exact_double(a, x) && exact_double(b, y);
 }
+
+/* h > r for Python's hypot as surely as for libm's (False when NaN) */
+static int clearly_above(double h, double r) { return h > r + SAFE * (fabs(r) + fabs(h)); }
+/* h <= r for Python's hypot as surely as for libm's */
+static int clearly_below(double h, double r) { return h < r - SAFE * (fabs(r) + fabs(h)); }
 
 /* orientation of r about the line p-q (twice the signed area), and a bound on its rounding error (a few ulps of
  * the products, taken 100 times) */
@@ -166,14 +187,13 @@ static int misses_zone(const double *z, double ax, double ay, double bx, double 
 /* No zone can block the segment a-b (nor the segment Python computes, whose computed end lies within a few ulps
  * of b): it keeps a margin from every zone, far above those ulps and far below any distance that matters.
  * (NaN anywhere fails every comparison: not clear.) */
-static int clear_of_zones(const double *c, double ax, double ay, double bx, double by)
+static int clear_of_zones(const struct constants *k, double ax, double ay, double bx, double by)
 {
     const double delta = 1e-9 * (1.0 + fabs(ax) + fabs(ay) + fabs(bx) + fabs(by));
-    const int n = (int)c[C_NZONES];
-    const double *z = c + C_ZONES;
+    const double *z = k->zones;
     if (!(delta < INFINITY))
         return 0;
-    for (int i = 0; i < n; i++, z += 5 + 4 * (z[4] > 0.0 ? (int)z[4] : 0))
+    for (long i = 0; i < k->n_zones; i++, z += 5 + 4 * (z[4] > 0.0 ? (int)z[4] : 0))
         if (!misses_zone(z, ax, ay, bx, by, delta))
             return 0;
     return 1;
@@ -181,109 +201,102 @@ static int clear_of_zones(const double *c, double ax, double ay, double bx, doub
 
 struct step_in {
     double x, y, vx, vy;
-    const double *c;
-    PyObject *model;        /* the model's __dict__ */
+    const struct constants *k;
+    struct mission *m;
 };
 
-/* Strategy._planned without a re-plan, a waypoint reached, a brake or a stop: the waypoint object (borrowed),
- * or NULL with *why set.  goal: the leg's goal object. */
-static PyObject *planned(const struct step_in *s, PyObject *goal, int *why)
+/* Strategy._planned_waypoint without a re-plan, a waypoint reached, a brake or a stop: 1 and the waypoint, or 0
+ * with *why set (and an exception when one is set).  (gx, gy): the leg's goal. */
+static int planned(const struct step_in *s, double gx, double gy, double *wx, double *wy, int *why)
 {
-    PyObject *m = s->model, *pg = item(m, k_path_goal), *braking, *path, *wp;
-    const double x = s->x, y = s->y, vx = s->vx, vy = s->vy, *c = s->c;
-    double wx, wy;
-    int ne;
+    PyObject *pg, *braking, *path;
+    const double x = s->x, y = s->y, vx = s->vx, vy = s->vy, *c = s->k->c;
+    double px, py;
     *why = FB_PATH;
-    if (pg == NULL)
-        return NULL;
-    ne = PyObject_RichCompareBool(goal, pg, Py_NE);     /* goal != self.path_goal: a new leg */
-    if (ne != 0)
-        return NULL;
+    if ((pg = field(s->m, F_PATH_GOAL)) == NULL)
+        return 0;
+    /* goal != path_goal: a new leg (the goal is a tuple: a path_goal of another type is another leg; a NaN
+     * compares unequal here, which only declines) */
+    if (!PyTuple_CheckExact(pg) || !point(pg, &px, &py) || !(px == gx && py == gy))
+        return 0;
     const double gs = hypot(vx, vy);
     const int moving = clearly_above(gs, 0.5), still = clearly_below(gs, 0.5);
     if (!moving && !still) {
         *why = FB_NEAR;
-        return NULL;
+        return 0;
     }
-    braking = item(m, k_braking);
+    if ((braking = field(s->m, F_BRAKING)) == NULL)
+        return 0;
     if (braking != Py_False) {
-        if (braking == Py_True && moving) {     /* braking on: stay at the brake point */
-            PyObject *bp = item(m, k_brake_point);
-            if (bp != NULL && point(bp, &wx, &wy)) {
+        if (braking == Py_True && moving)     /* braking on: stay at the brake point */
+            if (point(field(s->m, F_BRAKE_POINT), wx, wy)) {
                 *why = HANDLED;
-                return bp;
+                return 1;
             }
-        }
-        return NULL;
+        return 0;
     }
-    path = item(m, k_path);
-    if (path == NULL || !PyList_CheckExact(path) || PyList_Size(path) < 1)
-        return NULL;
-    wp = PyList_GetItem(path, 0);
-    if (!point(wp, &wx, &wy)) {
+    if ((path = field(s->m, F_PATH)) == NULL || !PyList_CheckExact(path) || PyList_Size(path) < 1)
+        return 0;
+    if (!point(PyList_GetItem(path, 0), wx, wy)) {
         *why = FB_TYPE;
-        return NULL;
+        return 0;
     }
-    const double dw = hypot(wx - x, wy - y);
+    const double dw = hypot(*wx - x, *wy - y);
     if (PyList_Size(path) > 1 && !clearly_above(dw, c[C_RADIUS])) {   /* a waypoint reached (or nearly) */
         *why = FB_ARRIVAL;
-        return NULL;
+        return 0;
     }
     if (moving) {       /* the safety net's look-ahead along the velocity */
         const double stop = c[C_LOOKAHEAD] + gs * gs / (2.0 * c[C_BRAKE]);
         const double la = stop < dw ? stop : dw;
         if (!(la > 2e-9)) {
             *why = FB_NEAR;
-            return NULL;
+            return 0;
         }
-        if (!clear_of_zones(c, x, y, x + la * vx / gs, y + la * vy / gs)) {
+        if (!clear_of_zones(s->k, x, y, x + la * vx / gs, y + la * vy / gs)) {
             *why = FB_ZONE;
-            return NULL;
+            return 0;
         }
     }
-    if (!clear_of_zones(c, x, y, wx, wy)) {
+    if (!clear_of_zones(s->k, x, y, *wx, *wy)) {
         *why = FB_ZONE;
-        return NULL;
+        return 0;
     }
     *why = HANDLED;
-    return wp;
+    return 1;
 }
 
-/* Strategy._reactive without a detour vertex reached or a detour planned: the waypoint object (borrowed), or
- * NULL with *why set. */
-static PyObject *reactive(const struct step_in *s, PyObject *goal, int *why)
+/* Strategy._reactive_waypoint without a detour vertex reached or a detour planned: 1 and the waypoint, or 0 with
+ * *why set (and an exception when one is set). */
+static int reactive(const struct step_in *s, double gx, double gy, double *wx, double *wy, int *why)
 {
-    PyObject *detour = item(s->model, k_detour);
-    const double x = s->x, y = s->y, vx = s->vx, vy = s->vy, *c = s->c, la = c[C_LOOKAHEAD];
-    double gx, gy, ux, uy;
+    PyObject *detour = field(s->m, F_DETOUR);
+    const double x = s->x, y = s->y, vx = s->vx, vy = s->vy, *c = s->k->c, la = c[C_LOOKAHEAD];
+    double ux, uy;
     *why = FB_PATH;
     if (detour == NULL || !PyList_CheckExact(detour))
-        return NULL;
+        return 0;
     if (PyList_Size(detour) == 1)           /* Python drops a lone goal from the detour */
-        return NULL;
+        return 0;
     if (PyList_Size(detour) > 1) {           /* flying a detour: to its next vertex unless reached or blocked */
-        double wx, wy;
-        PyObject *wp = PyList_GetItem(detour, 0);
-        if (!point(wp, &wx, &wy)) {
+        if (!point(PyList_GetItem(detour, 0), wx, wy)) {
             *why = FB_TYPE;
-            return NULL;
+            return 0;
         }
-        if (!clearly_above(hypot(wx - x, wy - y), c[C_RADIUS])) {
+        if (!clearly_above(hypot(*wx - x, *wy - y), c[C_RADIUS])) {
             *why = FB_ARRIVAL;
-            return NULL;
+            return 0;
         }
-        if (!clear_of_zones(c, x, y, wx, wy)) {
+        if (!clear_of_zones(s->k, x, y, *wx, *wy)) {
             *why = FB_ZONE;
-            return NULL;
+            return 0;
         }
         *why = HANDLED;
-        return wp;
-    }
-    if (!point(goal, &gx, &gy)) {
-        *why = FB_TYPE;
-        return NULL;
+        return 1;
     }
     const double gs = hypot(vx, vy), dx = gx - x, dy = gy - y, dd = hypot(dx, dy);
+    *wx = gx;
+    *wy = gy;
     *why = FB_NEAR;
     if (clearly_above(gs, 0.5)) {
         ux = vx / gs;
@@ -291,45 +304,43 @@ static PyObject *reactive(const struct step_in *s, PyObject *goal, int *why)
     } else if (clearly_below(gs, 0.5)) {
         if (clearly_below(dd, 1e-9)) {       /* on the goal: Python returns it without a test */
             *why = HANDLED;
-            return goal;
+            return 1;
         }
         if (!clearly_above(dd, 1e-9))
-            return NULL;
+            return 0;
         ux = dx / dd;
         uy = dy / dd;
     } else {
-        return NULL;
+        return 0;
     }
-    if (!clear_of_zones(c, x, y, x + la * ux, y + la * uy)) {
+    if (!clear_of_zones(s->k, x, y, x + la * ux, y + la * uy)) {
         *why = FB_ZONE;
-        return NULL;
+        return 0;
     }
     /* the segment toward the goal (Strategy._towards): the goal itself within la, else la along the way */
     if (clearly_below(dd, la) || clearly_below(dd, 1e-9)) {
-        if (!clear_of_zones(c, x, y, gx, gy)) {
+        if (!clear_of_zones(s->k, x, y, gx, gy)) {
             *why = FB_ZONE;
-            return NULL;
+            return 0;
         }
     } else if (clearly_above(dd, la) && clearly_above(dd, 1e-9)) {
-        if (!clear_of_zones(c, x, y, x + la * dx / dd, y + la * dy / dd)) {
+        if (!clear_of_zones(s->k, x, y, x + la * dx / dd, y + la * dy / dd)) {
             *why = FB_ZONE;
-            return NULL;
+            return 0;
         }
     } else {
-        return NULL;
+        return 0;
     }
     *why = HANDLED;
-    return goal;
+    return 1;
 }
 
-/* The new model.sp, (float(wx), float(wy), cruise_altitude): the current tuple when it holds those values
+/* The new mission.sp, (float(wx), float(wy), cruise_altitude): the current tuple when it holds those values
  * already (the common case: the same waypoint as last step); a new reference, or NULL on an error. */
-static PyObject *setpoint(PyObject *m, PyObject *wp, double cruise)
+static PyObject *setpoint(PyObject *sp, double wx, double wy, double cruise)
 {
-    PyObject *sp = item(m, k_sp), *a, *b, *z, *out;
-    double wx, wy;
-    point(wp, &wx, &wy);
-    if (sp != NULL && PyTuple_CheckExact(sp) && PyTuple_Size(sp) == 3) {
+    PyObject *a, *b, *z, *out;
+    if (PyTuple_CheckExact(sp) && PyTuple_Size(sp) == 3) {
         PyObject *o0 = PyTuple_GetItem(sp, 0), *o1 = PyTuple_GetItem(sp, 1), *o2 = PyTuple_GetItem(sp, 2);
         if (PyFloat_CheckExact(o0) && PyFloat_CheckExact(o1) && PyFloat_CheckExact(o2)) {
             const double v[3] = {PyFloat_AsDouble(o0), PyFloat_AsDouble(o1), PyFloat_AsDouble(o2)};
@@ -353,35 +364,37 @@ static PyObject *setpoint(PyObject *m, PyObject *wp, double cruise)
 
 static PyObject *small_int[4];     /* 0..3: cmd and avoiding values */
 
-/* The model's attributes that _publish reads, checked before anything is written */
+/* Strategy.outputs() but cmd and the setpoint, gathered before anything is written: 1, or 0 (declined; an
+ * exception when one is set) */
 struct published {
-    PyObject *src[8];                   /* published as they are (keys: out_keys) */
-    Py_ssize_t assigned, visited;
+    PyObject *src[8];                   /* published as they are (keys: out_vars) */
+    Py_ssize_t visited;
     int avoiding;
 };
 
-static PyObject **src_keys[8] = {&k_state, &k_photo_count, &k_last_photo_target, &k_current_target,
-                                 &k_avoid_count, &k_last_photo_time, &k_last_photo_x, &k_last_photo_y};
-static PyObject **out_keys[8] = {&k_mission_state, &k_photo_count, &k_last_photo_target, &k_current_target,
-                                 &k_avoid_count, &k_last_photo_time, &k_last_photo_x, &k_last_photo_y};
+static const int src_fields[8] = {F_STATE, F_PHOTO_COUNT, F_LAST_PHOTO_TARGET, F_CURRENT_TARGET, F_AVOID_COUNT,
+                                  F_LAST_PHOTO_TIME, F_LAST_PHOTO_X, F_LAST_PHOTO_Y};
+static const int out_vars[8] = {V_MISSION_STATE, V_PHOTO_COUNT, V_LAST_PHOTO_TARGET, V_CURRENT_TARGET,
+                                V_AVOID_COUNT, V_LAST_PHOTO_TIME, V_LAST_PHOTO_X, V_LAST_PHOTO_Y};
 
-static int gather(PyObject *m, int planning, struct published *p)
+static int gather(struct mission *m, int planning, struct published *p)
 {
-    PyObject *assigned = item(m, k_assigned), *visited = item(m, k_visited);
+    PyObject *visited;
     for (int i = 0; i < 8; i++)
-        if ((p->src[i] = item(m, *src_keys[i])) == NULL)
+        if ((p->src[i] = field(m, src_fields[i])) == NULL)
             return 0;
-    if (assigned == NULL || visited == NULL || !PyList_CheckExact(assigned) || !PyList_CheckExact(visited))
+    if ((visited = field(m, F_VISITED)) == NULL || !PyList_CheckExact(visited))
         return 0;
-    p->assigned = PyList_Size(assigned);
     p->visited = PyList_Size(visited);
     if (planning) {       /* Strategy.outputs(): braking or a path with detour vertices */
-        PyObject *braking = item(m, k_braking), *path = item(m, k_path);
-        if ((braking != Py_True && braking != Py_False) || path == NULL || !PyList_CheckExact(path))
+        PyObject *braking = field(m, F_BRAKING), *path;
+        if (braking == NULL || (path = field(m, F_PATH)) == NULL)
+            return 0;
+        if ((braking != Py_True && braking != Py_False) || !PyList_CheckExact(path))
             return 0;
         p->avoiding = braking == Py_True || PyList_Size(path) > 1;
     } else {
-        PyObject *detour = item(m, k_detour);
+        PyObject *detour = field(m, F_DETOUR);
         if (detour == NULL || !PyList_CheckExact(detour))
             return 0;
         p->avoiding = PyList_Size(detour) > 0;
@@ -389,26 +402,29 @@ static int gather(PyObject *m, int planning, struct published *p)
     return 1;
 }
 
-static int set_size(PyObject *d, PyObject *key, Py_ssize_t n)
+static int set_size(PyObject *d, int var, Py_ssize_t n)
 {
     PyObject *v = PyLong_FromSsize_t(n);
-    int rc = v == NULL ? -1 : PyDict_SetItem(d, key, v);
+    int rc = v == NULL ? -1 : PyDict_SetItem(d, variables[var], v);
     Py_XDECREF(v);
     return rc;
 }
 
-/* Strategy.step's effects (model.cmd, model.sp) and the shell's _publish */
-static int commit(PyObject *d, PyObject *m, PyObject *cmd, PyObject *sp, const struct published *p)
+/* Strategy.step's effects (mission.cmd, mission.sp) and the shell's _publish */
+static int commit(PyObject *d, struct mission *m, PyObject *cmd, PyObject *sp, double assigned,
+                  const struct published *p)
 {
-    if (PyDict_SetItem(m, k_cmd, cmd) < 0 || PyDict_SetItem(m, k_sp, sp) < 0)
+    if (PyObject_SetAttr(m->obj, fields[F_CMD], cmd) < 0 || PyObject_SetAttr(m->obj, fields[F_SP], sp) < 0)
         return -1;
-    if (PyDict_SetItem(d, k_cmd, cmd) < 0 || PyDict_SetItem(d, k_sp_x, PyTuple_GetItem(sp, 0)) < 0 ||
-        PyDict_SetItem(d, k_sp_y, PyTuple_GetItem(sp, 1)) < 0 || PyDict_SetItem(d, k_sp_z, PyTuple_GetItem(sp, 2)) < 0 ||
-        set_size(d, k_targets_assigned, p->assigned) < 0 || set_size(d, k_targets_visited, p->visited) < 0 ||
-        PyDict_SetItem(d, k_avoiding, small_int[p->avoiding]) < 0)
+    if (PyDict_SetItem(d, variables[V_CMD], cmd) < 0 ||
+        PyDict_SetItem(d, variables[V_SP_X], PyTuple_GetItem(sp, 0)) < 0 ||
+        PyDict_SetItem(d, variables[V_SP_Y], PyTuple_GetItem(sp, 1)) < 0 ||
+        PyDict_SetItem(d, variables[V_SP_Z], PyTuple_GetItem(sp, 2)) < 0 ||
+        set_size(d, V_TARGETS_ASSIGNED, (Py_ssize_t)assigned) < 0 || set_size(d, V_TARGETS_VISITED, p->visited) < 0 ||
+        PyDict_SetItem(d, variables[V_AVOIDING], small_int[p->avoiding]) < 0)
         return -1;
     for (int i = 0; i < 8; i++)
-        if (PyDict_SetItem(d, *out_keys[i], p->src[i]) < 0)
+        if (PyDict_SetItem(d, variables[out_vars[i]], p->src[i]) < 0)
             return -1;
     return 0;
 }
@@ -424,78 +440,92 @@ static int battery_quiet(const double *c, long phase, double consumed, long stat
     return !(consumed >= c[C_RETURN] && (state == TAKEOFF || state == TRANSIT));
 }
 
-/* The waypoint of an airborne step without any event (borrowed), or NULL with *why set */
-static PyObject *en_route(const struct step_in *s, long state, int *why)
+/* The waypoint of an airborne step without any event: 1 and the waypoint, or 0 with *why set (and an exception
+ * when one is set) */
+static int en_route(const struct step_in *s, long state, double *wx, double *wy, int *why)
 {
-    PyObject *m = s->model, *goal;
-    const double *c = s->c;
+    const double *c = s->k->c;
     double gx, gy;
     if (state == TRANSIT) {
-        long k;
-        PyObject *targets = item(m, k_targets);
+        long target;
         *why = FB_LEG;
-        if (!get_long(m, k_current_target, &k) || k < 0 || targets == NULL || !PyList_CheckExact(targets) ||
-            k >= PyList_Size(targets))
-            return NULL;
-        goal = PyList_GetItem(targets, k);
-        if (!point(goal, &gx, &gy)) {
-            *why = FB_TYPE;
-            return NULL;
-        }
+        if (!exact_long(field(s->m, F_CURRENT_TARGET), &target) || target < 0 || target >= s->k->n_targets)
+            return 0;
+        gx = s->k->targets[2 * target];
+        gy = s->k->targets[2 * target + 1];
         if (!clearly_above(hypot(gx - s->x, gy - s->y), c[C_RADIUS])) {     /* a photo (or nearly) */
             *why = FB_ARRIVAL;
-            return NULL;
+            return 0;
         }
     } else {
-        goal = item(m, k_home);
-        if (goal == NULL || !point(goal, &gx, &gy)) {
-            *why = FB_TYPE;
-            return NULL;
-        }
+        gx = c[C_HOME_X];
+        gy = c[C_HOME_Y];
         if (!clearly_above(hypot(s->x - gx, s->y - gy), c[C_RADIUS])) {     /* at the base (or nearly) */
             *why = FB_ARRIVAL;
-            return NULL;
+            return 0;
         }
     }
-    if (c[C_NZONES] == 0.0) {
+    if (s->k->n_zones == 0) {
+        *wx = gx;
+        *wy = gy;
         *why = HANDLED;
-        return goal;
+        return 1;
     }
-    return c[C_PLANNING] != 0.0 ? planned(s, goal, why) : reactive(s, goal, why);
+    return c[C_PLANNING] != 0.0 ? planned(s, gx, gy, wx, wy, why) : reactive(s, gx, gy, wx, wy, why);
 }
 
-static PyObject *step(PyObject *module, PyObject *d)
+/* The constants' layout checked against their length: 1, or 0 (declined) */
+static int unpack_constants(PyObject *constants, struct constants *k)
 {
-    PyObject *m, *mdict = NULL, *consts, *cmd, *sp = NULL, *wp = NULL, *command, *taken, *result = Py_False;
+    const Py_ssize_t n = PyBytes_Check(constants) ? PyBytes_Size(constants) / (Py_ssize_t)sizeof(double) : 0;
+    if (n < C_TARGETS)
+        return 0;
+    k->c = (const double *)PyBytes_AsString(constants);
+    k->n_targets = (long)k->c[C_NTARGETS];
+    k->n_zones = (long)k->c[C_NZONES];
+    if (k->n_targets < 0 || k->n_zones < 0 || n < C_TARGETS + 2 * k->n_targets + 5 * k->n_zones)
+        return 0;
+    k->targets = k->c + C_TARGETS;
+    k->zones = k->targets + 2 * k->n_targets;
+    return 1;
+}
+
+static PyObject *step(PyObject *module, PyObject *args)
+{
+    PyObject *constants, *d, *cmd, *sp = NULL, *result = Py_False;
+    struct constants k;
+    struct mission m = {NULL, {NULL}};
     struct step_in s;
     struct published pub;
-    double consumed;
+    double consumed, wx = 0.0, wy = 0.0;
     long phase, state;
-    int why = FB_SHELL, planning;
+    int why = FB_INPUT, en_route_step = 0;
     (void)module;
+    if (!PyArg_UnpackTuple(args, "step", 3, 3, &constants, &m.obj, &d))
+        return NULL;
     if (!PyDict_Check(d)) {
-        PyErr_SetString(PyExc_TypeError, "step(shell.__dict__)");
+        PyErr_SetString(PyExc_TypeError, "step(constants, mission, variables: dict)");
         return NULL;
     }
-    m = item(d, k_model);
-    command = item(d, k_command);
-    taken = item(d, k_command_taken);
-    if (m == NULL || m == Py_None || command == NULL || taken == NULL || command != taken ||
-        !get_double(d, k_x, &s.x) || !get_double(d, k_y, &s.y) || !get_double(d, k_vx, &s.vx) ||
-        !get_double(d, k_vy, &s.vy) || !get_double(d, k_consumed, &consumed) || !get_long(d, k_phase, &phase))
-        goto done;        /* a command to take (ints compare by identity only when small: a new one then) */
-    if ((mdict = PyObject_GetAttr(m, k_dict)) == NULL || !PyDict_Check(mdict)) {
-        PyErr_Clear();    /* not a Strategy: Python's step says what is wrong */
+    s.k = &k;
+    s.m = &m;
+    /* a command to take: Python's (ints compare by identity only when small: a new one then) */
+    if (!exact_double(PyDict_GetItemWithError(d, variables[V_X]), &s.x) ||
+        !exact_double(PyDict_GetItemWithError(d, variables[V_Y]), &s.y) ||
+        !exact_double(PyDict_GetItemWithError(d, variables[V_VX]), &s.vx) ||
+        !exact_double(PyDict_GetItemWithError(d, variables[V_VY]), &s.vy) ||
+        !exact_double(PyDict_GetItemWithError(d, variables[V_CONSUMED]), &consumed) ||
+        !exact_long(PyDict_GetItemWithError(d, variables[V_PHASE]), &phase))
         goto done;
+    {
+        PyObject *command = PyDict_GetItemWithError(d, variables[V_COMMAND]), *taken;
+        if (command == NULL || (taken = field(&m, F_COMMAND_TAKEN)) == NULL || command != taken)
+            goto done;
     }
-    s.model = mdict;
-    consts = item(mdict, k_consts);
     why = FB_STATE;
-    if (consts == NULL || !PyBytes_Check(consts) || PyBytes_Size(consts) < (Py_ssize_t)(C_ZONES * sizeof(double)) ||
-        !get_long(mdict, k_state, &state))
+    if (!unpack_constants(constants, &k) || !exact_long(field(&m, F_STATE), &state))
         goto done;
-    s.c = (const double *)PyBytes_AsString(consts);
-    planning = s.c[C_PLANNING] != 0.0;
+    const double *c = k.c;
     switch (state) {
     case LANDED_BASE:
     case LANDED_AWAY:
@@ -510,7 +540,7 @@ static PyObject *step(PyObject *module, PyObject *d)
         break;
     case PREFLIGHT:
         why = FB_PHASE;
-        if (phase == 1 || phase == 2 || (phase == 3 && consumed >= s.c[C_LAND]))
+        if (phase == 1 || phase == 2 || (phase == 3 && consumed >= c[C_LAND]))
             goto done;
         cmd = small_int[1];
         break;
@@ -519,7 +549,7 @@ static PyObject *step(PyObject *module, PyObject *d)
         if (phase == 2)
             goto done;          /* climb done: the first leg starts */
         why = FB_BATTERY;
-        if (!battery_quiet(s.c, phase, consumed, state))
+        if (!battery_quiet(c, phase, consumed, state))
             goto done;
         cmd = small_int[1];
         break;
@@ -528,28 +558,31 @@ static PyObject *step(PyObject *module, PyObject *d)
     case RETURN_LOW:
     case RETURN_CMD:
         why = FB_BATTERY;
-        if (!battery_quiet(s.c, phase, consumed, state))
+        if (!battery_quiet(c, phase, consumed, state))
             goto done;
         why = FB_PHASE;
         if (phase == 4)
             goto done;
-        if ((wp = en_route(&s, state, &why)) == NULL)
+        if (!en_route(&s, state, &wx, &wy, &why))
             goto done;
+        en_route_step = 1;
         cmd = small_int[2];
         break;
     default:
         goto done;
     }
-    if (wp != NULL)
-        sp = setpoint(mdict, wp, s.c[C_CRUISE]);
-    else if ((sp = item(mdict, k_sp)) != NULL)
-        Py_INCREF(sp);
-    if (PyErr_Occurred())
-        goto error;
     why = FB_TYPE;
-    if (sp == NULL || !PyTuple_CheckExact(sp) || PyTuple_Size(sp) != 3 || !gather(mdict, planning, &pub))
+    if ((sp = field(&m, F_SP)) == NULL)
         goto done;
-    if (commit(d, mdict, cmd, sp, &pub) < 0)
+    if (en_route_step)
+        sp = setpoint(sp, wx, wy, c[C_CRUISE]);
+    else
+        Py_INCREF(sp);
+    if (sp == NULL)
+        goto error;
+    if (!PyTuple_CheckExact(sp) || PyTuple_Size(sp) != 3 || !gather(&m, c[C_PLANNING] != 0.0, &pub))
+        goto done;
+    if (commit(d, &m, cmd, sp, c[C_ASSIGNED], &pub) < 0)
         goto error;
     why = HANDLED;
     result = Py_True;
@@ -558,12 +591,12 @@ done:
         goto error;
     counts[why]++;
     Py_XDECREF(sp);
-    Py_XDECREF(mdict);
+    release(&m);
     Py_INCREF(result);
     return result;
 error:
     Py_XDECREF(sp);
-    Py_XDECREF(mdict);
+    release(&m);
     return NULL;
 }
 
@@ -572,18 +605,9 @@ static PyObject *stats(PyObject *module, PyObject *unused)
     PyObject *out = PyDict_New();
     (void)module;
     (void)unused;
-    for (int i = 0; out != NULL && i < NOUTCOMES; i++) {
-        PyObject *v = PyLong_FromUnsignedLongLong(counts[i]);
-        if (v == NULL || PyDict_SetItemString(out, outcome_names[i], v) < 0) {
-            Py_XDECREF(v);
-            Py_DECREF(out);
-            return NULL;
-        }
-        Py_DECREF(v);
-    }
-    if (out != NULL) {
-        PyObject *v = PyLong_FromUnsignedLongLong(edge_clears);
-        if (v == NULL || PyDict_SetItemString(out, "edge_clears", v) < 0) {
+    for (int i = 0; out != NULL && i <= NOUTCOMES; i++) {
+        PyObject *v = PyLong_FromUnsignedLongLong(i < NOUTCOMES ? counts[i] : edge_clears);
+        if (v == NULL || PyDict_SetItemString(out, i < NOUTCOMES ? outcome_names[i] : "edge_clears", v) < 0) {
             Py_XDECREF(v);
             Py_DECREF(out);
             return NULL;
@@ -603,21 +627,27 @@ static PyObject *reset_stats(PyObject *module, PyObject *unused)
 }
 
 static PyMethodDef methods[] = {
-    {"step", step, METH_O,
-     "step(shell.__dict__) -> True when the step was done here (model and outputs updated), False when nothing "
-     "was changed and Python must run it"},
-    {"stats", stats, METH_NOARGS, "counts of the steps done here ('handled'), of each reason to decline, and of the segments found clear of a zone by its edges ('edge_clears')"},
+    {"step", step, METH_VARARGS,
+     "step(constants, mission, variables) -> True when the step was done here (mission and output variables "
+     "updated), False when nothing was changed and Python must run it"},
+    {"stats", stats, METH_NOARGS,
+     "counts of the steps done here ('handled'), of each reason to decline, and of the segments found clear of "
+     "a zone by its edges ('edge_clears')"},
     {"reset_stats", reset_stats, METH_NOARGS, "zero the counts"},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module_def = {PyModuleDef_HEAD_INIT, "_strategy_ext",
-                                        "Fast path of UavStrategy's step (see _strategy_ext.c)", -1, methods, NULL, NULL, NULL, NULL};
+                                        "The UavStrategy FMU's step in C (see _strategy_ext.c)", -1, methods,
+                                        NULL, NULL, NULL, NULL};
 
 PyMODINIT_FUNC PyInit__strategy_ext(void)
 {
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
-        if ((*names[i].key = PyUnicode_InternFromString(names[i].name)) == NULL)
+    for (int i = 0; i < NFIELDS; i++)
+        if ((fields[i] = PyUnicode_InternFromString(field_names[i])) == NULL)
+            return NULL;
+    for (int i = 0; i < NVARIABLES; i++)
+        if ((variables[i] = PyUnicode_InternFromString(variable_names[i])) == NULL)
             return NULL;
     for (int i = 0; i < 4; i++)
         if ((small_int[i] = PyLong_FromLong(i)) == NULL)

@@ -1,5 +1,5 @@
 """What the UAV shells remember between instances to start faster (uavsim/fmi.py ``UnitsMixin._plain``,
-uavsim/strategy.py ``ZoneMap.records``) must be what they would compute afresh."""
+uavsim/zones_planning.py ``ZoneMap.records``) must be what they would compute afresh."""
 from __future__ import annotations
 
 import importlib.util
@@ -71,7 +71,7 @@ def test_zone_records_made_once_per_map_equal_each_zones_own():
     for n in (0, 1, 4):
         zones = _zones(rng, n)
         first = S.ZoneMap(zones, 5.0)
-        expected = [v for poly in first.polys for v in S._zone_record(poly)]
+        expected = [v for poly in first.polys for v in S.zone_record(poly)]
         assert first.records() == expected
         assert first.records() is first.records()
         second = S.ZoneMap(zones, 5.0)            # the first is held: a map of its own, the same records
@@ -84,6 +84,6 @@ def test_a_strategy_packs_the_same_constants_from_the_remembered_records():
     a, b = S.Strategy(params), S.Strategy(params)
     assert a.zones is not b.zones
     a.zones.records()                              # remembered before b packs its own
-    fresh = [v for poly in b.zones.polys for v in S._zone_record(poly)]
-    assert b._fast_consts == a._fast_consts
-    assert b._fast_consts[-8 * len(fresh):] == __import__("array").array("d", fresh).tobytes()
+    fresh = [v for poly in b.zones.polys for v in S.zone_record(poly)]
+    assert b.step_constants == a.step_constants
+    assert b.step_constants[-8 * len(fresh):] == __import__("array").array("d", fresh).tobytes()
