@@ -395,3 +395,87 @@ def test_outputs_are_the_published_attributes(planning, monkeypatch):
                                           zones="40,-20;80,-20;80,60;40,60"), t_end=400.0)
     assert res.strategy.state == LANDED_BASE and res.strategy.targets_visited == 2
     assert 1 in seen and 0 in seen          # a detour was flown
+
+
+# ---------------------------------------------------------------------- the FMU shell (fmu_sources/UavStrategy.py)
+SHELL_OUTPUTS = ("cmd", "sp_x", "sp_y", "sp_z", "mission_state", "targets_assigned", "targets_visited",
+                 "photo_count", "last_photo_target", "current_target", "avoiding", "avoid_count", "last_photo_time",
+                 "last_photo_x", "last_photo_y")
+
+
+def _shell_module():
+    import importlib.util
+
+    from build_script import SRC
+    spec = importlib.util.spec_from_file_location("strategy_shell", SRC / "UavStrategy.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _fly(shell, steps, t0, inputs=None):
+    """Steps of the shell with a vehicle flying to its setpoint at 10 m/s (or the given inputs): the inputs and
+    the outputs (floats by their bits) of each step."""
+    from bitwise import bits
+    seen, outs = [], []
+    for k in range(steps):
+        if inputs is None:
+            dx, dy = shell.sp_x - shell.x, shell.sp_y - shell.y
+            d = math.hypot(dx, dy)
+            v = min(10.0, d / 0.1)
+            vx, vy = (v * dx / d, v * dy / d) if d > 0 else (0.0, 0.0)
+            step = dict(x=shell.x + 0.1 * vx, y=shell.y + 0.1 * vy, vx=vx, vy=vy, z=20.0,
+                        phase=2 if shell.cmd == 2 or k > 0 else 1, consumed=0.001 * (t0 + k) * 0.1)
+        else:
+            step = inputs[k]
+        for name, value in step.items():
+            setattr(shell, name, value)
+        shell.do_step(0.1 * (t0 + k), 0.1)
+        seen.append(step)
+        outs.append(bits([getattr(shell, n) for n in SHELL_OUTPUTS]))
+    return seen, outs
+
+
+def test_shell_outputs_are_the_strategys_and_plain_attributes():
+    # the compiled step writes the outputs as the shell's variables by name: valid only without properties or
+    # __setattr__ on the class; the names are the strategy's OUTPUT_NAMES, in its order
+    from uavsim.strategy import OUTPUT_NAMES
+    cls = _shell_module().UavStrategy
+    assert cls.__setattr__ is object.__setattr__
+    assert not any(hasattr(cls, name) for name in SHELL_OUTPUTS)
+    assert OUTPUT_NAMES == SHELL_OUTPUTS
+
+
+def test_fmu_state_round_trip_flies_on_the_same():
+    # FMI get/set state between steps (whichever step runs, compiled or not): a restored strategy flies on bit
+    # for bit the same, ground-station command included
+    shell = _shell_module().UavStrategy(instance_name="t", resources=".", visible=False)
+    shell.targets, shell.n_targets, shell.n_zones, shell.strategy = "200,100;-200,300;100,-400", -1, -1, "B"
+    shell.exit_initialization_mode()
+    _fly(shell, 300, 0)
+    state = shell._get_fmu_state()
+    inputs, first = _fly(shell, 600, 300)
+    assert shell.photo_count > 0
+    shell._set_fmu_state(state)
+    assert _fly(shell, 600, 300, inputs)[1] == first
+    shell._set_fmu_state(state)
+    inputs[0]["command"] = 1            # return to base: taken once, the mission differs from then on
+    again = _fly(shell, 600, 300, inputs)[1]
+    assert again != first and shell.mission_state in (LAND_BASE, LANDED_BASE, 9)
+
+
+def test_a_shipped_mission_is_the_same_with_and_without_the_compiled_steps(tmp_path):
+    # a whole mission (zone detours included) run with the FMUs' compiled steps and with COSIM_MASTER_PURE_PYTHON=1
+    import os
+    import subprocess
+    import sys
+
+    from build_script import SRC
+    root = SRC.parent
+    for out, pure in (("fast", ""), ("pure", "1")):
+        env = dict(os.environ, COSIM_MASTER_PURE_PYTHON=pure)
+        subprocess.run([sys.executable, "-m", "master.cli", "run", str(root / "ssp" / "paper_zones_1uav_B.ssp"),
+                        "-o", str(tmp_path / out)], check=True, env=env, cwd=root, capture_output=True, text=True)
+    r = subprocess.run([sys.executable, str(root / "bench" / "compare_runs.py"), str(tmp_path / "pure"),
+                        str(tmp_path / "fast")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
