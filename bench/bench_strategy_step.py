@@ -1,4 +1,5 @@
-"""CPU cost of one UavStrategy do_step, with and without its compiled fast path (uavsim/_strategy_ext.c).
+"""CPU cost of one UavStrategy do_step, with and without its compiled step (uavsim/_strategy_ext.c, the accelerator
+of Strategy.advance declared in uavsim/strategy_accel.py).
 
     python bench/bench_strategy_step.py [--uavs 4] [--step 0.1] [--rounds 5] [--no-zones]
 
@@ -146,7 +147,7 @@ def main(argv=None) -> int:
     module = sys.modules[type(runs[0][0]).__module__]
     ext = module._EXT
     if ext is None:
-        print("the fast path is not available here (no compiled extension, or UAVSIM_PURE_PYTHON set)")
+        print("the compiled step is not available here (no compiled extension, or COSIM_MASTER_PURE_PYTHON set)")
     per = {True: [], False: []}
     same = True
     for _ in range(args.rounds):

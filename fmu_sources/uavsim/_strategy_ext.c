@@ -414,7 +414,9 @@ static int set_size(PyObject *d, int var, Py_ssize_t n)
 static int commit(PyObject *d, struct mission *m, PyObject *cmd, PyObject *sp, double assigned,
                   const struct published *p)
 {
-    if (PyObject_SetAttr(m->obj, fields[F_CMD], cmd) < 0 || PyObject_SetAttr(m->obj, fields[F_SP], sp) < 0)
+    /* (the common step keeps the setpoint the mission holds: nothing to set) */
+    if (PyObject_SetAttr(m->obj, fields[F_CMD], cmd) < 0 ||
+        (m->v[F_SP] != sp && PyObject_SetAttr(m->obj, fields[F_SP], sp) < 0))
         return -1;
     if (PyDict_SetItem(d, variables[V_CMD], cmd) < 0 ||
         PyDict_SetItem(d, variables[V_SP_X], PyTuple_GetItem(sp, 0)) < 0 ||
