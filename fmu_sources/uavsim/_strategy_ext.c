@@ -83,12 +83,75 @@ struct mission {
     PyObject *v[NFIELDS];
 };
 
+/* The fields' descriptors (the slots of MissionState) of the last mission type seen, held: getting a field
+ * through its descriptor is what PyObject_GetAttr does for a type with the generic attribute access, without
+ * looking the name up along the type's MRO every time (a third of this step's cost).  Any other type, or a
+ * Python without PyType_GetSlot for static types (3.9): PyObject_GetAttr and PyObject_SetAttr. */
+static PyTypeObject *slots_type, *plain_type;    /* plain_type: the last type seen that has to go by name */
+static PyObject *descriptors[NFIELDS];
+static descrgetfunc getters[NFIELDS];
+static descrsetfunc setters[NFIELDS];
+
+static void forget_slots(void)
+{
+    for (int f = 0; f < NFIELDS; f++)
+        Py_CLEAR(descriptors[f]);
+    Py_CLEAR(slots_type);
+}
+
+/* 1 when every field of type is a data descriptor whose get and set functions are known, with the generic
+ * attribute access (no __getattribute__, __getattr__ or __setattr__ of its own), else 0 */
+static int learn_slots(PyTypeObject *type)
+{
+    forget_slots();
+    if (PyType_GetSlot(type, Py_tp_getattro) != (void *)PyObject_GenericGetAttr ||
+        PyType_GetSlot(type, Py_tp_setattro) != (void *)PyObject_GenericSetAttr) {
+        PyErr_Clear();
+        return 0;
+    }
+    for (int f = 0; f < NFIELDS; f++) {
+        PyObject *d = PyObject_GetAttr((PyObject *)type, fields[f]);
+        descriptors[f] = d;
+        getters[f] = d == NULL ? NULL : (descrgetfunc)PyType_GetSlot(Py_TYPE(d), Py_tp_descr_get);
+        setters[f] = d == NULL ? NULL : (descrsetfunc)PyType_GetSlot(Py_TYPE(d), Py_tp_descr_set);
+        if (getters[f] == NULL || setters[f] == NULL) {
+            PyErr_Clear();
+            forget_slots();
+            return 0;
+        }
+    }
+    Py_INCREF(type);
+    slots_type = type;
+    return 1;
+}
+
+static int known_slots(PyObject *obj)
+{
+    if (Py_TYPE(obj) == slots_type)
+        return 1;
+    if (Py_TYPE(obj) == plain_type)
+        return 0;
+    if (learn_slots(Py_TYPE(obj)))
+        return 1;
+    Py_XDECREF(plain_type);
+    Py_INCREF(Py_TYPE(obj));
+    plain_type = Py_TYPE(obj);
+    return 0;
+}
+
 /* A field of the mission (borrowed from m), or NULL with the AttributeError set */
 static PyObject *field(struct mission *m, int f)
 {
     if (m->v[f] == NULL)
-        m->v[f] = PyObject_GetAttr(m->obj, fields[f]);
+        m->v[f] = known_slots(m->obj) ? getters[f](descriptors[f], m->obj, (PyObject *)slots_type)
+                                      : PyObject_GetAttr(m->obj, fields[f]);
     return m->v[f];
+}
+
+static int set_field(struct mission *m, int f, PyObject *value)
+{
+    return known_slots(m->obj) ? setters[f](descriptors[f], m->obj, value)
+                               : PyObject_SetAttr(m->obj, fields[f], value);
 }
 
 static void release(struct mission *m)
@@ -402,10 +465,26 @@ static int gather(struct mission *m, int planning, struct published *p)
     return 1;
 }
 
-static int set_size(PyObject *d, int var, Py_ssize_t n)
+/* variables[var] = value, unless it holds that object already (the common step leaves most outputs as they are:
+ * a lookup costs a third of a store) */
+static int publish(PyObject *d, int var, PyObject *value)
 {
-    PyObject *v = PyLong_FromSsize_t(n);
-    int rc = v == NULL ? -1 : PyDict_SetItem(d, variables[var], v);
+    PyObject *now = PyDict_GetItemWithError(d, variables[var]);
+    if (now == value)
+        return 0;
+    return now == NULL && PyErr_Occurred() ? -1 : PyDict_SetItem(d, variables[var], value);
+}
+
+static int publish_size(PyObject *d, int var, Py_ssize_t n)
+{
+    PyObject *now = PyDict_GetItemWithError(d, variables[var]), *v;
+    int rc;
+    if (now != NULL && PyLong_CheckExact(now) && PyLong_AsSsize_t(now) == n)
+        return 0;
+    if (PyErr_Occurred())
+        return -1;
+    v = PyLong_FromSsize_t(n);
+    rc = v == NULL ? -1 : PyDict_SetItem(d, variables[var], v);
     Py_XDECREF(v);
     return rc;
 }
@@ -415,18 +494,15 @@ static int commit(PyObject *d, struct mission *m, PyObject *cmd, PyObject *sp, d
                   const struct published *p)
 {
     /* (the common step keeps the setpoint the mission holds: nothing to set) */
-    if (PyObject_SetAttr(m->obj, fields[F_CMD], cmd) < 0 ||
-        (m->v[F_SP] != sp && PyObject_SetAttr(m->obj, fields[F_SP], sp) < 0))
+    if (set_field(m, F_CMD, cmd) < 0 || (m->v[F_SP] != sp && set_field(m, F_SP, sp) < 0))
         return -1;
-    if (PyDict_SetItem(d, variables[V_CMD], cmd) < 0 ||
-        PyDict_SetItem(d, variables[V_SP_X], PyTuple_GetItem(sp, 0)) < 0 ||
-        PyDict_SetItem(d, variables[V_SP_Y], PyTuple_GetItem(sp, 1)) < 0 ||
-        PyDict_SetItem(d, variables[V_SP_Z], PyTuple_GetItem(sp, 2)) < 0 ||
-        set_size(d, V_TARGETS_ASSIGNED, (Py_ssize_t)assigned) < 0 || set_size(d, V_TARGETS_VISITED, p->visited) < 0 ||
-        PyDict_SetItem(d, variables[V_AVOIDING], small_int[p->avoiding]) < 0)
+    if (publish(d, V_CMD, cmd) < 0 || publish(d, V_SP_X, PyTuple_GetItem(sp, 0)) < 0 ||
+        publish(d, V_SP_Y, PyTuple_GetItem(sp, 1)) < 0 || publish(d, V_SP_Z, PyTuple_GetItem(sp, 2)) < 0 ||
+        publish_size(d, V_TARGETS_ASSIGNED, (Py_ssize_t)assigned) < 0 ||
+        publish_size(d, V_TARGETS_VISITED, p->visited) < 0 || publish(d, V_AVOIDING, small_int[p->avoiding]) < 0)
         return -1;
     for (int i = 0; i < 8; i++)
-        if (PyDict_SetItem(d, variables[out_vars[i]], p->src[i]) < 0)
+        if (publish(d, out_vars[i], p->src[i]) < 0)
             return -1;
     return 0;
 }

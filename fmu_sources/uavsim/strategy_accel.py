@@ -77,7 +77,8 @@ class StrategyStep:
 
     def accelerated(self, impl, case: Case):
         strategy = _copy(case.strategy)
-        variables = dict(case.inputs)
+        # the FMU's variables as the shell holds them: the inputs, and the outputs published by the last step
+        variables = dict(case.inputs, **dict(zip(OUTPUT_NAMES, strategy.outputs())))
         if impl.step(strategy.step_constants, strategy.mission, variables):
             return tuple(variables[name] for name in OUTPUT_NAMES), strategy.mission
         i = case.inputs
