@@ -1,5 +1,5 @@
 """CPU cost of one UavStrategy do_step, with and without its compiled step (uavsim/_strategy_ext.c, the accelerator
-of Strategy.advance declared in uavsim/strategy_accel.py).
+of Strategy.step declared in uavsim/strategy_accel.py).
 
     python bench/bench_strategy_step.py [--uavs 4] [--step 0.1] [--rounds 5] [--no-zones]
 

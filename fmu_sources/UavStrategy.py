@@ -1,7 +1,7 @@
 """UavStrategy FMU shell (pythonfmu): maps FMI variables to uavsim.strategy.Strategy.
 
 On do_step(t, h) the logic is evaluated on the inputs sampled at t (photo times are t); the new
-commands are the outputs for the next step.  The step is Strategy.advance, or its compiled twin
+commands are the outputs for the next step.  The step is Strategy.step, or its compiled twin
 (uavsim/_strategy_ext.c, declared in uavsim/strategy_accel.py) when it is built and not switched off.
 Connectors: docs/uav_connectors.md; model and parameter sources: docs/uav_models.md.
 """
@@ -158,7 +158,7 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
         # the compiled step reads the inputs from and writes the outputs to this FMU's variables, by their names
         if _FAST_STEP is not None and _FAST_STEP(model.step_constants, model.mission, self.__dict__):
             return True
-        model.advance(current_time, self.x, self.y, self.z, self.vx, self.vy, self.phase, self.consumed,
-                      self.command)
+        model.step(current_time, self.x, self.y, self.z, self.vx, self.vy, int(self.phase), self.consumed,
+                   self.command)
         self._publish()
         return True

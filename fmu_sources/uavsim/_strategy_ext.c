@@ -1,9 +1,9 @@
-/* The UavStrategy FMU's step in C: the accelerator of Strategy.advance (uavsim/strategy.py), declared in
+/* The UavStrategy FMU's step in C: the accelerator of Strategy.step (uavsim/strategy.py), declared in
  * uavsim/strategy_accel.py and checked against it by the accelerator harness (tests/accelerators/).
  *
  * step(constants, mission, variables) handles the steps in which nothing happens -- a UAV en route with no
  * arrival, no battery threshold crossed, no phase change, its planned path unchanged and its look-ahead clear of
- * every zone, or waiting on the ground -- and returns True after doing exactly what Strategy.advance and the
+ * every zone, or waiting on the ground -- and returns True after doing exactly what Strategy.step and the
  * shell's _publish would do.  Whenever anything else may happen it returns False having changed nothing, and the
  * Python step runs as always.  So the C code never decides anything the Python code would decide otherwise:
  *

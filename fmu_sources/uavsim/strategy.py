@@ -3,7 +3,7 @@ battery rules and goes around the restricted zones.
 
 Its parts live beside it: which targets and in which order (Strategies A and B) in uavsim/assignment.py, the zone
 geometry and the paths planned around the zones in uavsim/zones_planning.py.  What a step changes is one declared
-structure, :class:`MissionState`; :meth:`Strategy.advance` is the FMU's step on it in plain Python, the reference
+structure, :class:`MissionState`; :meth:`Strategy.step` is the FMU's step on it in plain Python, the reference
 that the compiled step (uavsim/_strategy_ext.c, declared in uavsim/strategy_accel.py) must match bit for bit.
 
 Battery rules (the paper): consumed >= return_threshold (0.8) -> abandon the mission and return to
@@ -363,20 +363,15 @@ class Strategy:
             return True
         return False
 
-    # -------------------------------------------------------------- steps
-    def advance(self, t: float, x: float, y: float, z: float, vx: float, vy: float, phase: int,
-                consumed: float, command: int) -> None:
-        """The FMU's step: the ground-station ``command`` when it differs from the last one taken, then
-        :meth:`step`.  The reference of the compiled step (uavsim/strategy_accel.py)."""
-        m = self.mission
-        if command != m.command_taken:
-            m.command_taken = command
-            self.command(int(command), x, y, z)
-        self.step(t, x, y, z, vx, vy, int(phase), consumed)
-
+    # -------------------------------------------------------------- the step
     def step(self, t: float, x: float, y: float, z: float, vx: float, vy: float,
-             phase: int, consumed: float) -> None:
-        """Evaluate the mission logic on the inputs sampled at time t and set the outputs."""
+             phase: int, consumed: float, command: int | None = None) -> None:
+        """Evaluate the mission logic on the inputs sampled at time t and set the outputs.  ``command``, the FMU's
+        ground-station input, is taken first when it differs from the last one taken.  With it, this is the FMU's
+        step: the reference of the compiled step (uavsim/strategy_accel.py)."""
+        if command is not None and command != self.mission.command_taken:
+            self.mission.command_taken = command
+            self.command(int(command), x, y, z)
         p = self.p
         m = self.mission
         phase = int(phase)

@@ -1,9 +1,9 @@
 """The compiled step of the UavStrategy FMU (uavsim/_strategy_ext.c) declared as an accelerator of
-:meth:`uavsim.strategy.Strategy.advance`, for the harness that checks every accelerator against its reference
+:meth:`uavsim.strategy.Strategy.step`, for the harness that checks every accelerator against its reference
 (tests/accelerators/; the interface: master/accel.py, satisfied here structurally: code bundled into the FMUs
 does not import the engine).
 
-A case is a strategy in some situation and the FMU inputs of one step.  ``reference`` runs Strategy.advance on a
+A case is a strategy in some situation and the FMU inputs of one step.  ``reference`` runs Strategy.step on a
 copy and publishes as the FMU shell does; ``accelerated`` runs the compiled step on a copy and, where it declines,
 the Python step, as the shell does.  Each returns the FMU's outputs and the whole final MissionState.
 
@@ -46,7 +46,7 @@ class Case:
 
 class StrategyStep:
     name = "uavsim.strategy-step"
-    replaces = "uavsim.strategy:Strategy.advance"
+    replaces = "uavsim.strategy:Strategy.step"
 
     def load(self):
         if native.disabled():
@@ -72,7 +72,7 @@ class StrategyStep:
     def reference(self, case: Case):
         strategy = _copy(case.strategy)
         i = case.inputs
-        strategy.advance(case.t, i["x"], i["y"], i["z"], i["vx"], i["vy"], i["phase"], i["consumed"], i["command"])
+        strategy.step(case.t, i["x"], i["y"], i["z"], i["vx"], i["vy"], i["phase"], i["consumed"], i["command"])
         return strategy.outputs(), strategy.mission
 
     def accelerated(self, impl, case: Case):
@@ -82,7 +82,7 @@ class StrategyStep:
         if impl.step(strategy.step_constants, strategy.mission, variables):
             return tuple(variables[name] for name in OUTPUT_NAMES), strategy.mission
         i = case.inputs
-        strategy.advance(case.t, i["x"], i["y"], i["z"], i["vx"], i["vy"], i["phase"], i["consumed"], i["command"])
+        strategy.step(case.t, i["x"], i["y"], i["z"], i["vx"], i["vy"], i["phase"], i["consumed"], i["command"])
         return strategy.outputs(), strategy.mission
 
 
@@ -282,4 +282,4 @@ def _flight(rng, strategy, steps):
                       command=2 if k == steps - 20 and rng.random() < 0.3 else 0)
         case = Case(_copy(strategy), dt * k, inputs)
         yield case
-        strategy.advance(case.t, x, y, 20.0, vx, vy, phase, inputs["consumed"], inputs["command"])
+        strategy.step(case.t, x, y, 20.0, vx, vy, phase, inputs["consumed"], inputs["command"])
