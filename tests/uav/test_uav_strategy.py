@@ -1,4 +1,5 @@
-"""UavStrategy (uavsim.strategy): assignment, Strategy A/B order, battery rules, zone planning and fly-around."""
+"""UavStrategy (uavsim.strategy): assignment, Strategy A/B order, battery rules, zone planning and fly-around; the
+FMU shell's state and outputs.  (The compiled step against the Python one: the accelerator harness, tests/accelerators/.)"""
 import math
 
 import pytest
