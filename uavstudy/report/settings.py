@@ -63,11 +63,11 @@ def settings_summary(settings: dict) -> tuple[dict, dict]:
     keys = sorted({k for s in settings.values() for k in s} - {"layout_seed", "layout_id"})
     const, vary = {}, {}
     for k in keys:
-        vals = {canonical_json(s.get(k)) for s in settings.values()}
-        if len(vals) == 1:
+        distinct = {canonical_json(s.get(k)) for s in settings.values()}
+        if len(distinct) == 1:
             const[k] = next(iter(settings.values())).get(k)
         else:
-            vary[k] = sorted(json.loads(v) for v in vals if v != "null")
+            vary[k] = sorted(json.loads(v) for v in distinct if v != "null")
     return const, vary
 
 
@@ -75,51 +75,53 @@ def causes(settings: dict) -> dict:
     """Why a claim can come out differently here, from the rule set the runs actually used."""
     const, vary = settings_summary(settings) if settings else ({}, {})
 
-    def val(key, default="?"):
+    def value_of(key, default="?"):
         if key in const:
             return f"{const[key]}"
         if key in vary:
             return " / ".join(str(v) for v in vary[key]) + " (varied)"
         return default
 
-    zp = val("zone_planning", None)
-    planning = ("legs planned around the zones (20 m margin; a rule the paper does not have)" if zp == "True"
-                else "the paper's late detection only (no planning)" if zp == "False"
-                else f"zone_planning = {zp}" if zp else "zone rule not recorded")
+    zone_planning = value_of("zone_planning", None)
+    planning = ("legs planned around the zones (20 m margin; a rule the paper does not have)"
+                if zone_planning == "True" else
+                "the paper's late detection only (no planning)" if zone_planning == "False" else
+                f"zone_planning = {zone_planning}" if zone_planning else "zone rule not recorded")
     speed = next((k for k in ("cruise_speed", "speed.cruise", "cruise.speed", "speed") if k in const or k in vary),
                  None)
-    rules = f" Rule set: {val('rules')}." if ("rules" in const or "rules" in vary) else ""
+    rules = f" Rule set: {value_of('rules')}." if ("rules" in const or "rules" in vary) else ""
     return {
         "geometry": "The paper publishes no coordinates (its Fig. 4 is a map without scale): "
                     + ("every repetition of these runs flies its own random layout (24 targets, 4 restricted zones "
                        "drawn by the rules of docs/paper_config_format.md, uavstudy/layout.py)"
-                       if val("layout", "") == "random" else
+                       if value_of("layout", "") == "random" else
                        "our 24 targets, base and 4 restricted zones are one assumed layout "
                        "(ssp/scenarios/paper_area*.yaml, docs/paper_config_format.md)")
-                    + f", area scale {val('area_scale', '1')}, take-off {val('takeoff', 'ring')}; every absolute number "
-                    "(distances, battery, collision counts) depends on the geometry.",
+                    + f", area scale {value_of('area_scale', '1')}, take-off {value_of('takeoff', 'ring')}; every "
+                    "absolute number (distances, battery, collision counts) depends on the geometry.",
         "energy": "Our battery is a physical model (uavsim.battery: rotor power from airspeed and climb, Li-ion pack) "
                   "instead of the paper's Ptolemy Energy actor, whose consumption law is not published"
-                  + (f"; cruise speed {val(speed)} m/s" if speed else "") + "." + rules,
+                  + (f"; cruise speed {value_of(speed)} m/s" if speed else "") + "." + rules,
         "wind": f"The paper's wind model is not published; these runs drew wind episodes of "
-                f"{val('wind_episode_s', val('wind.decision_interval'))} s with the given probability, speeds "
-                f"{val('wind.intensities.weak')}/{val('wind.intensities.moderate')}/{val('wind.intensities.strong')}"
-                f" m/s from {val('wind.direction_deg')} degrees, "
-                + ("one draw per UAV" if val("wind_shared", "") == "False" else
-                   "one draw shared by the fleet" if val("wind_shared", "") == "True" else "shared or per UAV: ?")
+                f"{value_of('wind_episode_s', value_of('wind.decision_interval'))} s with the given probability, "
+                f"speeds {value_of('wind.intensities.weak')}/{value_of('wind.intensities.moderate')}/"
+                f"{value_of('wind.intensities.strong')}"
+                f" m/s from {value_of('wind.direction_deg')} degrees, "
+                + ("one draw per UAV" if value_of("wind_shared", "") == "False" else
+                   "one draw shared by the fleet" if value_of("wind_shared", "") == "True" else "shared or per UAV: ?")
                 + ("; the wind pushes the UAV (displacement the controller does not cancel)"
-                   if val("wind_effect", "") == "push" else
-                   "; the wind is an air velocity the controller corrects" if val("wind_effect", "") == "drag"
+                   if value_of("wind_effect", "") == "push" else
+                   "; the wind is an air velocity the controller corrects" if value_of("wind_effect", "") == "drag"
                    else "") + ".",
         "collisions_count": "The paper does not say whether a UAV-UAV collision counts once or once per UAV; we count "
                             "removed UAVs (a UAV-UAV collision removes two).",
         "collisions_model": f"Collision detection is continuous (swept) over each step; zone detection of these runs: "
-                            f"look-ahead {val('lookahead')} m, {planning}; zones of our assumed layout.",
+                            f"look-ahead {value_of('lookahead')} m, {planning}; zones of our assumed layout.",
         "success_def": "Success follows the paper: all assigned targets photographed, back at base with more than 5 % "
                        "battery; the 80 % return and 95 % forced-landing rules are applied by our strategy FMU.",
         "campaign": "This campaign is not the paper's 336-run grid.",
-        "speed": f"Cruise speed of these runs: {val(speed) if speed else 'the strategy FMU default'} m/s. The paper "
-                 "flies ArduCopter's default of its era (WPNAV_SPEED 500 cm/s = 5 m/s); the distance a UAV covers "
-                 "before its 80 % return grows with the speed, so whether one UAV can fly the whole tour depends "
-                 "on it.",
+        "speed": f"Cruise speed of these runs: {value_of(speed) if speed else 'the strategy FMU default'} m/s. "
+                 "The paper flies ArduCopter's default of its era (WPNAV_SPEED 500 cm/s = 5 m/s); the distance a "
+                 "UAV covers before its 80 % return grows with the speed, so whether one UAV can fly the whole tour "
+                 "depends on it.",
     }
