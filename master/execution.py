@@ -488,9 +488,11 @@ class Execution:
         if not self._initialized:
             from .plan import add_overrides
             p = self.prepared
+            before = list(p.plan.params)
             try:
                 add_overrides(p.plan, {name: value}, self.options.allow_nonfinite)
             except ScenarioError as exc:
+                p.plan.params[:] = before          # a refused value must not stay in the plan
                 raise CosimError(f"cannot set it before initialize(): {exc.reason}", element=f"set {name}") from None
             p.user_params[name] = value
             self.metadata["parameters_overridden"] = dict(p.user_params)
@@ -519,6 +521,11 @@ class Execution:
                 raise CosimError(f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not read every "
                                  "step; add this observer before initialize()", element="add_observer")
             observer.attach(self.ctx, self.time)
+            if self.metadata.get("native_loop", {}).get("used"):
+                # the loop in C, chosen once, has no observers: the steps from here on go through Python
+                self._native_loop = None
+                self.metadata["native_loop"] = {"used": True, "until": self.time,
+                                                "reason": f"an observer was added at t={self.time:g}"}
         self.extra_observers.append(observer)
         if self._set_up:        # before the recording, as the observers given to the constructor
             at = self.observers.index(self.recording) if self.recording in self.observers else len(self.observers)
