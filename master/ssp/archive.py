@@ -9,6 +9,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..cache_paths import cache_root, file_sha256 as _plain_sha256
 from ..errors import ScenarioError
 
 SSD_NAME = "SystemStructure.ssd"
@@ -107,7 +108,6 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> str | No
 def _stored_fmu(sha: str, copy) -> Path:
     """The stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them when there is none
     yet); raises OSError where it cannot be written."""
-    from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     kept = store / f"{sha}.fmu"
     if not kept.is_file():
@@ -187,7 +187,6 @@ def _opened(path: Path) -> _Written | None:
     w = _OPENED.get(os.path.abspath(path))
     if w is None or not _unchanged(path, w):
         return None
-    from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     if not all((store / f"{sha}.fmu").is_file() for sha, _ in w.fmus.values()):
         return None
@@ -333,6 +332,7 @@ def open_scenario(path: str | os.PathLike, ssd_name: str | None = None, in_memor
 
 
 def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a scenario file: of an archive this process wrote or opened, known without reading it again."""
     written = _written(Path(path))
     if written is not None:
         return written.sha256
@@ -340,10 +340,7 @@ def file_sha256(path: str | os.PathLike) -> str:
     if opened is not None and opened.sha256 is not None and _unchanged(Path(path), opened):
         return opened.sha256
     st = os.stat(path)
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
+    sha = _plain_sha256(path)
     if opened is not None and opened.stat == _signature(st) == _signature(os.stat(path)):
-        opened.sha256 = h.hexdigest()
-    return h.hexdigest()
+        opened.sha256 = sha
+    return sha

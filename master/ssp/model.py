@@ -4,18 +4,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..units import Unit
+
 # SSP connector type names mapped to the four FMI 2.0 base types the master moves around.
 SSP_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
 # the component type of an input table (OMSimulator's convention): a CSV file whose columns drive inputs
 CSV_SOURCE_TYPE = "text/csv"
-
-
-@dataclass
-class Unit:
-    name: str
-    factor: float = 1.0
-    offset: float = 0.0
-    exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)  # kg m s A K mol cd rad
 
 
 @dataclass
