@@ -51,7 +51,6 @@ def _extract_ssp(path: Path, seen: dict | None = None) -> Path:
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as exc:
-        _not_an_ssp(path)
         raise ScenarioError(f"not a readable SSP archive (zip): {exc}", file=path) from None
     with zf:
         names = zf.namelist()
@@ -259,18 +258,6 @@ def _unpack_written(w: _Written) -> Path:
         shutil.rmtree(tmp, ignore_errors=True)
         raise ScenarioError(f"cannot unpack the SSP archive: {exc}", file=tmp) from None
     return tmp
-
-
-def _not_an_ssp(path: Path) -> None:
-    """A scenario of another kind (a study's YAML) is built into an SSP first: say how."""
-    from ..scenario_kinds import kind_claiming
-    try:
-        kind = kind_claiming(path)
-    except Exception:   # noqa: BLE001 - only a better message is at stake here
-        return
-    if kind is not None and kind.name != "ssp":
-        raise ScenarioError(f"this is a {kind.label} scenario, not an SSP: build one with `cosim-master build-scenario "
-                            f"{path} -o scenario.ssp` and run that", file=path)
 
 
 def _from_memory(path: Path, w: _Written) -> ScenarioSource | None:

@@ -73,7 +73,8 @@ class ParameterValue:
 class MasterSettings:
     """Master settings read from annotations; None means 'not given in the file'."""
     step_size: float | None = None
-    algorithm: str | None = None
+    algorithm: str | None = None      # as written: the name is checked where settings are resolved (settings.py)
+    algorithm_line: int | None = None  # the line that names it, for that check's message
     record_interval: float | None = None
     step_multiples: dict[str, int] = field(default_factory=dict)
     record: list[str] = field(default_factory=list)   # record patterns
