@@ -8,6 +8,7 @@ from ..ssp.model import Connector
 from .model import Var
 from .variable_values import int_range
 
+
 # SSD connector kinds and the FMU causalities they may describe
 KIND_CAUSALITY = {
     "input": {"input"},
@@ -15,8 +16,6 @@ KIND_CAUSALITY = {
     "parameter": {"parameter", "structuralParameter"},
     "calculatedParameter": {"calculatedParameter"},
 }
-
-
 # SSD connector types and the FMU variable types they may describe
 SSD_TYPE_FMI = {
     "Real": {"Real", "Float64", "Float32"},

@@ -86,8 +86,6 @@ def _whole_arrays(params: list, plan: Plan) -> list:
 
 
 _INTEGER_SSP = ("Integer", "Enumeration")
-
-
 #: the SSP value types a variable of each base type takes
 _COMPATIBLE = {"Real": ("Real",), "Integer": _INTEGER_SSP, "Int64": _INTEGER_SSP, "UInt64": _INTEGER_SSP,
                "Boolean": ("Boolean",), "String": ("String",), "Binary": ("Binary",)}

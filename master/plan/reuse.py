@@ -14,7 +14,7 @@ from .model import shown_source
 
 @dataclass(frozen=True)
 class _PlanStructure:
-    """The value-free part of a plan (:func:`_plan_structure`) kept for later runs of the same structure and FMUs;
+    """The value-free part of a plan (``build._plan_structure``) kept for later runs of the same structure and FMUs;
     never handed out itself: each run gets its own links, dependency sets and dictionaries."""
     kinds: dict             # component -> the FMI kind it runs as
     variables: dict         # component -> ComponentVariables (read-only mappings of frozen Vars)
@@ -33,11 +33,7 @@ class _PlanStructure:
 # (structure key, each component's FMU content and kind asked for, lenient, units) -> _PlanStructure: a campaign
 # worker plans the same system against the same FMUs run after run, with other parameter values
 _PLANS: dict[tuple, _PlanStructure] = {}
-
-
 _MAX_PLANS = 32
-
-
 _MAX_KEPT_LINKS = 100_000       # links of all kept plans (4 UAVs: ~60; 256 UAVs: ~4000)
 
 
