@@ -22,8 +22,8 @@
    L8    cli, master/__init__ (the package face: it may import anything; nothing imports its names)
    ====  ==========================================================================================================
 
-   This is the cut the code shows, which differs from the first sketch (docs/architecture.md, "Layers") in two
-   places: settings is at L4, not L2, and ssp/writer at L2, not L1, for the reasons given above.
+   This is the cut the code shows (docs/architecture.md, "Layers"). It differs from the sketch issue 24 started
+   from in two places: settings is at L4, not L2, and ssp/writer at L2, not L1, for the reasons given above.
 
 3. There is no import circle: the module graph has no strongly connected component of more than one module.
 
