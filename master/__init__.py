@@ -1,7 +1,6 @@
 """cosim-master: an FMI/SSP fixed-step co-simulation master."""
-__version__ = "0.1.0"
-
-from .errors import CosimError, FmuError, ScenarioError  # noqa: E402
+from ._version import __version__
+from .errors import CosimError, FmuError, ScenarioError
 
 
 def run(scenario, **options):

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, interrupts
+from . import interrupts
+from ._version import __version__
 from .algorithms import get_algorithm
 from .algorithms.base import Algorithm
 from .algorithms.finite import finite_check
