@@ -56,7 +56,7 @@ FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared"]
 CACHE = "uav-monitor"
 
 
-def _extension():
+def extension():
     """The extension module (monitor_step_ext.c) for this interpreter, or (None, why not)."""
     return compile_extension(EXT_SOURCE, "_monitor_step_ext", CACHE, FLAGS, depends=SOURCE.read_bytes())
 
@@ -76,7 +76,7 @@ def ctypes_step():
 def step_function():
     """``ms_step`` as a callable (state address, t0, t1) -> MS_* code: the extension module if Python's
     headers are at hand, else through ctypes; (callable, None), or (None, why neither)."""
-    module, why_ext = _extension()
+    module, why_ext = extension()
     if module is not None:
         return module.step, None
     fn, why = ctypes_step()
