@@ -27,7 +27,7 @@ from .geodetic import to_geodetic
 from .geometry import CollisionDetector, ZoneDetector
 from .monitor_config import MonitorConfig, UavSpec, check_against_plan, parse_config, run_seed
 from .monitor_fast import default_step
-from .monitor_step import FleetState
+from .monitor_step import TRACK_INTERVAL, FleetState
 from .names import (FORCED_LANDING_STATES, MISSION_DETAIL, MISSION_EVENTS, MONITOR_TYPE, OPTIONAL_ROLES,
                     PHOTO_ROLES, REQUIRED_ROLES, STATE_RETURN_CMD, STATE_RETURN_LOW, UAV_COLLISION,
                     ZONE_COLLISION)
@@ -36,7 +36,6 @@ from .outputs import write_outputs
 __all__ = ["UavMonitor", "UavRecord", "MonitorConfig", "UavSpec", "parse_config", "run_seed", "MONITOR_TYPE",
            "TRACK_INTERVAL"]
 
-TRACK_INTERVAL = 0.5   # s of simulated time between two samples of the map track
 #: the values read after every step (the rest is read only when an event needs it)
 HOT_ROLES = ("xyz", "phase", "missionState", "photoCount")
 

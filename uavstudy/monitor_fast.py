@@ -33,7 +33,7 @@ from master import accel
 
 from .geometry import SKIP_MARGIN, SKIP_REL, pair_clearances
 from .monitor_native import MS_DONE, MS_IDLE, NativeStep, step_function
-from .monitor_step import ReferenceStep, airborne, fleet_done
+from .monitor_step import TRACK_INTERVAL, ReferenceStep, airborne, fleet_done
 from .names import AIRBORNE_PHASES, PHASE_LANDED
 
 #: up to this many UAVs the step runs on Python floats (and in C); above, on the reference's numpy vectors
@@ -42,8 +42,6 @@ FEW_UAVS = 16
 #: the first two failures and then every this many steps: a stale clearance is a weaker, still valid bound,
 #: and the refresh costs O(pairs) / O(zones)
 REFRESH_EVERY = 8
-#: the map track's spacing, as the monitor keeps it (uavstudy.monitor.TRACK_INTERVAL)
-TRACK_INTERVAL = 0.5
 
 
 @dataclass

@@ -26,6 +26,10 @@ import numpy as np
 
 from .names import AIRBORNE_PHASES, FINAL_STATES, PHASE_LANDED
 
+#: s of simulated time between two samples of the map track (``UavMonitor.add_track_point``): the track behind
+#: map.png is thinned so that its memory stays bounded for long missions and large fleets
+TRACK_INTERVAL = 0.5
+
 
 def airborne(phase: np.ndarray) -> np.ndarray:
     """Phase 1 (takeoff), 2 (fly) or 3 (land), per UAV."""
