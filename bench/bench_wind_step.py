@@ -35,7 +35,7 @@ def shell_class(pure: bool, src: Path = SRC):
     def make():
         shell = mod.UavWind(instance_name="bench", resources=str(src), visible=False)
         if pure or not hasattr(shell, "_ext"):
-            shell._ext = None        # what UAVSIM_PURE_PYTHON=1 gives
+            shell._ext = None        # what COSIM_MASTER_PURE_PYTHON=1 gives
         return shell
     return make
 

@@ -1,5 +1,5 @@
 """A shipped UAV scenario run in process twice: with the FMUs' own compiled extensions, then with their Python twins
-(``UAVSIM_PURE_PYTHON=1``).  Each extension's tests compare the two recordings."""
+(``COSIM_MASTER_PURE_PYTHON=1``).  Each extension's tests compare the two recordings."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,13 +22,13 @@ def run_with_and_without_extensions(tmp_path, monkeypatch, classes: tuple, shell
         shells.append(self.obj)
         return orig(self, *a)
     monkeypatch.setattr(PythonFmuSlave, "bound_cycle", spy)
-    monkeypatch.delenv("UAVSIM_PURE_PYTHON", raising=False)
+    monkeypatch.delenv("COSIM_MASTER_PURE_PYTHON", raising=False)
     fast = master.run(SHIPPED, output=tmp_path / "ext", inprocess=True, **kw)
     stepped = list({id(s): s for s in shells if type(s).__name__ in classes}.values())
     assert len(stepped) == shells_expected
     if all(s._ext is None for s in stepped):
         pytest.skip("the shipped FMUs carry no extension for this platform")
     assert all(s._ext is not None for s in stepped)
-    monkeypatch.setenv("UAVSIM_PURE_PYTHON", "1")
+    monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "1")
     pure = master.run(SHIPPED, output=tmp_path / "pure", inprocess=True, **kw)
     return fast, pure

@@ -1,5 +1,5 @@
 """The FMU steps of UavDynamics and UavBattery in C (uavsim/_dynamics_ext.c, uavsim/_battery_ext.c) against the
-Python step of the same shells run with UAVSIM_PURE_PYTHON=1 (Python kernels, no extension), bit for bit: the
+Python step of the same shells run with COSIM_MASTER_PURE_PYTHON=1 (Python kernels, no extension), bit for bit: the
 published outputs and the whole model state, over thousands of random states and inputs and over whole flights."""
 import random
 from collections import Counter
@@ -21,7 +21,7 @@ def extensions(extensions_folder):
     """The extension modules compiled here, as build_fmus.py compiles them for the FMUs."""
     from uavsim import native
     with pytest.MonkeyPatch.context() as mp:
-        mp.delenv("UAVSIM_PURE_PYTHON", raising=False)
+        mp.delenv("COSIM_MASTER_PURE_PYTHON", raising=False)
         mods = {name: native.load_extension(name, extensions_folder) for name in NAMES}
     assert all(mods.values()), "an extension did not load"
     return mods
@@ -38,7 +38,7 @@ def make_pair(name, extensions, **params):
     shells = []
     for pure in (False, True):
         with pytest.MonkeyPatch.context() as mp:
-            mp.setenv("UAVSIM_PURE_PYTHON", "1") if pure else mp.delenv("UAVSIM_PURE_PYTHON", raising=False)
+            mp.setenv("COSIM_MASTER_PURE_PYTHON", "1") if pure else mp.delenv("COSIM_MASTER_PURE_PYTHON", raising=False)
             s = load_shell(name)
             for k, v in params.items():
                 setattr(s, k, v)
@@ -232,7 +232,7 @@ def test_battery_falls_back_without_changing_anything(extensions):
 
 def test_pure_python_switch_disables_the_extensions(monkeypatch):
     from uavsim import native
-    monkeypatch.setenv("UAVSIM_PURE_PYTHON", "1")
+    monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "1")
     assert all(native.load_extension(name) is None for name in NAMES)
     for name in ("UavDynamics", "UavBattery"):
         s = load_shell(name)
@@ -241,7 +241,7 @@ def test_pure_python_switch_disables_the_extensions(monkeypatch):
 
 
 def test_shipped_fmus_run_identically_with_and_without_the_extensions(tmp_path, monkeypatch):
-    # the FMUs as shipped (their own compiled extensions) against UAVSIM_PURE_PYTHON=1, in-process, 4 UAVs
+    # the FMUs as shipped (their own compiled extensions) against COSIM_MASTER_PURE_PYTHON=1, in-process, 4 UAVs
     fast, pure = run_with_and_without_extensions(tmp_path, monkeypatch, ("UavDynamics", "UavBattery"), 8,
                                                  stop_time=60.0, step=0.1, record=["*"], record_interval=0.1)
     assert fast.frame.equals(pure.frame)

@@ -1,5 +1,5 @@
 """The FMU step of UavWind in C (uavsim/_wind_ext.c) against the Python step of the same shell run with
-UAVSIM_PURE_PYTHON=1, bit for bit: the published outputs and the whole model state (drawn intervals, random
+COSIM_MASTER_PURE_PYTHON=1, bit for bit: the published outputs and the whole model state (drawn intervals, random
 generators, calm window), over thousands of random wind parameters and steps -- calm and windy intervals, episode
 ramps and boundaries, gusts, probabilities 0 and 1, steps of 1 to 200 samples, times going back -- and over whole
 runs of the shipped FMUs.  Where the extension declines a step (a random draw, turbulence, a step before time 0)
@@ -24,7 +24,7 @@ def ext(extensions_folder):
     """The extension compiled here, as build_fmus.py compiles it for the FMUs."""
     from uavsim import native
     with pytest.MonkeyPatch.context() as mp:
-        mp.delenv("UAVSIM_PURE_PYTHON", raising=False)
+        mp.delenv("COSIM_MASTER_PURE_PYTHON", raising=False)
         module = native.load_extension("_wind_ext", extensions_folder)
     assert module is not None, "the extension did not load"
     return module
@@ -53,7 +53,7 @@ def make_pair(ext, **params):
     shells = []
     for pure in (False, True):
         with pytest.MonkeyPatch.context() as mp:
-            mp.setenv("UAVSIM_PURE_PYTHON", "1") if pure else mp.delenv("UAVSIM_PURE_PYTHON", raising=False)
+            mp.setenv("COSIM_MASTER_PURE_PYTHON", "1") if pure else mp.delenv("COSIM_MASTER_PURE_PYTHON", raising=False)
             s = load_shell("UavWind")
         for k, v in params.items():
             setattr(s, k, v)
@@ -194,13 +194,13 @@ def test_declines_without_a_model_or_a_step_mean(ext):
 
 def test_pure_python_switch_disables_the_extension(monkeypatch):
     from uavsim import native
-    monkeypatch.setenv("UAVSIM_PURE_PYTHON", "1")
+    monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "1")
     assert native.load_extension("_wind_ext") is None
     assert load_shell("UavWind")._ext is None
 
 
 def test_shipped_fmus_run_identically_with_and_without_the_extension(tmp_path, monkeypatch):
-    # the FMUs as shipped (their own compiled extensions) against UAVSIM_PURE_PYTHON=1, in-process, 4 UAVs in a
+    # the FMUs as shipped (their own compiled extensions) against COSIM_MASTER_PURE_PYTHON=1, in-process, 4 UAVs in a
     # wind made frequent (the shipped scenario's is calm) so that episodes come and go within the run
     fast, pure = run_with_and_without_extensions(tmp_path, monkeypatch, ("UavWind",), 1, params={"wind.probability": 0.5},
                                                  stop_time=200.0, step=0.25, record=["*"], record_interval=0.25)
