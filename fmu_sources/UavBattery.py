@@ -69,6 +69,12 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
         self._build()
         self._publish()
 
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
+
     def _build(self):
         pk = {n: getattr(self, n) for n, *_ in _POWER}
         bk = {n: getattr(self, n) for n, *_ in _BATT}

@@ -99,6 +99,12 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
         self._geo_key = self._geo = None
         self._publish()
 
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
+
     def _build(self):
         names = DynamicsParams.__dataclass_fields__
         kw = {n: getattr(self, n) for n, *_ in _PARAMS if n in names}

@@ -67,6 +67,12 @@ class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
         ext = load_extension("_wind_ext", os.path.join(_HERE, "uavsim"))
         self._ext = None if ext is None else ext.step   # the whole step in C, or None: the Python code below
 
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
+
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS}
         self._model = Wind(WindParams(seed=int(self.seed), stream=int(self.stream), turbulence=bool(self.turbulence),
