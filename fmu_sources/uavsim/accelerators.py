@@ -269,8 +269,11 @@ class KernelsFly(_Declared):
 
 def _battery_params(rng) -> tuple:
     from .battery import BatteryParams, PowerParams, _power_slots
-    pp = PowerParams(mass=rng.uniform(1.0, 2.5)) if rng.random() < 0.5 else PowerParams()
-    bp = BatteryParams(capacity_ah=rng.choice([5.1, rng.uniform(0.5, 8.0)]),
+    pp = PowerParams()
+    if rng.random() < 0.5:
+        pp = PowerParams(mass=rng.uniform(0.5, 5), rho=rng.uniform(0.9, 1.3), efficiency=rng.uniform(0.4, 0.9),
+                         avionics_power=rng.uniform(0, 20))
+    bp = BatteryParams(cells=rng.choice([3, 3, 2, 4, 6]), capacity_ah=rng.choice([5.1, rng.uniform(0.01, 10.0)]),
                        cell_resistance=rng.choice([0.012, 0.0, rng.uniform(0.0, 0.5)]))
     return (*_power_slots(pp), float(bp.cells), bp.resistance, bp.capacity_c, float(len(bp.ocv_soc)),
             *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
@@ -293,11 +296,12 @@ class KernelsBattery(_Declared):
             p = pw if whole else pw[K.N_POWER:]
             cap = p[K.N_POWER + 2] if whole else p[2]
             s = [0.0] * (K.N_BSTEP if whole else K.N_BSTATE)
-            s[K.B_Q] = rng.choice([rng.uniform(0.0, cap), rng.uniform(0.9 * cap, 1.2 * cap), 0.0])
+            s[K.B_Q] = rng.choice([rng.uniform(0.0, cap), rng.uniform(0.9 * cap, 1.2 * cap), 0.0,
+                                   rng.uniform(-0.1, 0.0) * cap])
             s[K.B_E] = rng.uniform(0.0, 5e5)
             s[K.B_N], s[K.B_H] = rng.choice([0, 1, 2, 5, 20]), rng.choice([0.05, 0.02, 0.25 / 3])
             if whole:
-                s[K.B_AIR] = rng.choice([rng.uniform(0.0, 25.0), rng.uniform(0.0, 400.0), 0.0, -0.0])
+                s[K.B_AIR] = rng.choice([rng.uniform(0.0, 25.0), rng.uniform(0.0, 400.0), 0.0, -0.0, math.nan])
                 s[K.B_VZ] = rng.choice([rng.uniform(-5.0, 5.0), 0.0])
                 s[K.B_MOTORS] = rng.choice([0.0, 1.0])
             else:
