@@ -200,4 +200,4 @@ def test_turbulence_stream_is_drawn_only_with_turbulence():
     ss = np.random.SeedSequence((17, 3))
     rng = np.random.Generator(np.random.PCG64(ss.spawn(3)[2]))
     for k in range(200):
-        assert np.array_equal(on._intervals[k].noise, rng.standard_normal((on.n_turb + 1, 3)))
+        assert np.array_equal(on.intervals[k].noise, rng.standard_normal((on.n_turb + 1, 3)))
