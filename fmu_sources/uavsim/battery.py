@@ -28,6 +28,13 @@ U = E - I R; the current follows from P = U I = E I - R I^2:
 (if E^2 < 4 R P the pack cannot deliver P; the current is then capped at the maximum-power
 current E / (2R) and ``overload`` is set).  Coulomb counting: dQ/dt = I,
 consumed = Q / C, soc = 1 - consumed (clamped at 0), energy_used = integral of U I dt.
+
+This module is the reference: the plain code a reader follows and changes (:meth:`Battery.step_reference`, the
+power and battery functions above).  Its accelerators compute exactly the same, faster: the step's loop runs in
+:mod:`uavsim.kernels` (``battery_step_py``, compiled as kernels.c) and the UavBattery FMU's whole step in
+uavsim/_battery_ext.c, which reads and sets the public fields of :class:`Battery`; both are declared in
+uavsim/accelerators.py and checked against this code by the accelerator harness (``COSIM_MASTER_PURE_PYTHON=1``
+switches them off).
 """
 from __future__ import annotations
 

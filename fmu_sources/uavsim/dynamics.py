@@ -24,6 +24,13 @@ displacement (docs/uav_models.md, "The paper's rules").  Vertically the thrust a
 Phases (output ``phase``): 0 preflight (on ground; the check takes ``preflight_time`` from power-on),
 1 takeoff (vertical climb to ``takeoff_altitude``), 2 fly, 3 land, 4 landed.
 Commands (input ``cmd``): 0 idle / hold, 1 takeoff, 2 go to setpoint, 3 land.
+
+This module is the reference: the plain code a reader follows and changes (:meth:`Dynamics._substep` is one
+sub-step, :meth:`Dynamics.step` the FMU's step).  Its accelerators compute exactly the same, faster: the flying
+sub-steps run in the loop of :mod:`uavsim.kernels` (``fly_py``, compiled as kernels.c) and the UavDynamics FMU's
+whole step in uavsim/_dynamics_ext.c, which reads and sets the public fields of :class:`Dynamics`; both are declared
+in uavsim/accelerators.py and checked against this code by the accelerator harness (``COSIM_MASTER_PURE_PYTHON=1``
+switches them off).
 """
 from __future__ import annotations
 

@@ -40,6 +40,12 @@ same numbers are drawn whether or not turbulence/gusts are enabled (the turbulen
 nothing else, only when turbulence is).  The output at time t is a
 function of t only (turbulence is held piecewise-constant on the turb_dt grid), hence identical
 for any master step size.
+
+This module is the reference: the plain code a reader follows and changes.  Its accelerator, uavsim/_wind_ext.c,
+computes the UavWind FMU's step (``mean_over`` of the coming step) exactly the same, faster, from the public fields
+of :class:`Wind` (``intervals``, ``occurs``, ``drawn``, ``calm``, ``ux``, ``uy``, ``p``), leaving random draws and
+turbulence to this code; it is declared in uavsim/accelerators.py and checked against this code by the accelerator
+harness (``COSIM_MASTER_PURE_PYTHON=1`` switches it off).
 """
 from __future__ import annotations
 
