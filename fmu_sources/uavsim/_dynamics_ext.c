@@ -201,6 +201,19 @@ static void release_view(View *v)
     Py_CLEAR(v->pos); Py_CLEAR(v->vel); Py_CLEAR(v->a_cmd); Py_CLEAR(v->ready);
 }
 
+/* the view of a model's state in its fields, its wind and phase known (0: error) */
+static int read_view_known(PyObject *model, View *v, double w0, double w1, long phase)
+{
+    v->pos = PyObject_GetAttr(model, k_pos);
+    v->vel = PyObject_GetAttr(model, k_vel);
+    v->a_cmd = PyObject_GetAttr(model, k_a_cmd);
+    v->ready = PyObject_GetAttr(model, k_ready);
+    v->w0 = w0; v->w1 = w1; v->phase = phase;
+    return !(v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL
+             || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
+             || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2);
+}
+
 /* the view of a model's state in its fields (0: error) */
 static int read_view(PyObject *model, View *v)
 {
@@ -259,7 +272,7 @@ static long fly(PyObject *model, const double *p, long phase, long i, long n, do
         PyObject *m = s[MODE] != 0.0 ? str_goto : str_hold;
         if (!set_list(pos_l, newpos, 3) || !set_list(vel_l, newvel, 3) || !set_list(vt_l, newvt, 2)
             || !update_double(model, k_vtz, vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
-            || !set_field(model, k_phase, PyLong_FromLong((long)s[PHASE]))
+            || ((long)s[PHASE] != phase && !set_field(model, k_phase, PyLong_FromLong((long)s[PHASE])))
             || (m != mode && PyObject_SetAttr(model, k_mode, m) < 0)
             || !set_list(hold_l, newhold, 2) || !update_double(model, k_hold_z, hold_z, s[HOLDZ]))
             goto done;
@@ -305,6 +318,7 @@ static int advance(PyObject *model, const double *p, long n, double h, long cmd,
         }
         if (!set_field_double(model, k_preflight_elapsed, elapsed)) return 0;
         if (ready && PyObject_SetAttr(model, k_ready, Py_True) < 0) return 0;
+        return read_view_known(model, v, wx, wy, phase);      /* the phase and the wind as they were */
     } else if (phase == PREFLIGHT || (phase == ON_GROUND && cmd == CMD_TAKEOFF)) {
         /* lift-off: the reference code */
         PyObject *sp = sp_tuple(sd);
@@ -334,6 +348,8 @@ static int advance(PyObject *model, const double *p, long n, double h, long cmd,
                 if (!ok) return 0;
             }
         }
+    } else {
+        return read_view_known(model, v, wx, wy, phase);      /* on the ground: nothing changed */
     }
     return read_view(model, v);
 }
