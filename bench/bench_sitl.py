@@ -84,7 +84,7 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", default="1", help="comma-separated thread counts (each capped at the UAVs)")
     a = ap.parse_args(argv)
     if a.kernel == "python":
-        os.environ["SITLSIM_PURE_PYTHON"] = "1"
+        os.environ["COSIM_MASTER_PURE_PYTHON"] = "1"
     if not os.environ.get("ARDUPILOT_SITL"):
         os.environ["ARDUPILOT_SITL"] = str(REPO.parent / "shared" / "sitl" / "arducopter")
     sys.path.insert(0, str(REPO / "fmu_sources"))

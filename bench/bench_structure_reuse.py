@@ -51,7 +51,7 @@ def main(argv=None) -> int:
     try:
         for rnd in range(args.rounds):
             # each round a fresh worker's view: the first run of each structure reads it, the later ones reuse it
-            for mod in ("master.ssp.parser", "master.plan"):
+            for mod in ("master.ssp.parser", "master.plan.reuse"):
                 m = sys.modules.get(mod)
                 for cache in ("_STRUCTURES", "_PLANS", "_PARAMETER_SETS"):
                     if m is not None and hasattr(m, cache):

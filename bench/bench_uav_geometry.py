@@ -6,9 +6,10 @@ Usage: python bench/bench_uav_geometry.py [steps]
 
 --monitor: the monitor's ``after_step`` (uavstudy.monitor) on a synthetic mission of N UAVs flying circles
 of 40 m around spread centres at 8 m/s, 20 m up, with a restricted zone, at 0.1 s (N = 4) and 1 s steps:
-CPU time (time.process_time) per step of its C step (the default for N <= 16), of the Python path
-(``native=False``) and of the exact checks (``precheck=False``); the minimum over the rounds, the buffer
-loading subtracted.  N > 16 takes the vector path in all three.
+CPU time (time.process_time) per step of the accelerated step with its C step (the default; C for N <= 16),
+of the accelerated step in Python only, and of the reference step (``uavstudy.monitor_step``, what
+``COSIM_MASTER_PURE_PYTHON=1`` runs); the minimum over the rounds, the buffer loading subtracted.  N > 16
+takes the reference's vector step in the first two (with idle steps).
 
 Vehicles are spread uniformly over a square whose side grows with sqrt(N)
 (about 1 UAV per 60 m x 60 m, i.e. the 1.2 km x 1.2 km study area holds
@@ -82,8 +83,12 @@ def monitor_bench(rounds: int) -> None:
     from lxml import etree
 
     from uavstudy.monitor import MONITOR_TYPE, UavMonitor
+    from uavstudy.monitor_fast import AcceleratedStep, c_step_function
+    from uavstudy.monitor_step import ReferenceStep
+    factories = {"C": lambda mon: AcceleratedStep(mon, c_step_function()),
+                 "Python": lambda mon: AcceleratedStep(mon, None), "reference": ReferenceStep}
     roles = ("x", "y", "z", "phase")
-    print(f"{'N':>4} {'step s':>6} {'steps':>6} {'C us/step':>10} {'Python us/step':>15} {'exact us/step':>14}")
+    print(f"{'N':>4} {'step s':>6} {'steps':>6} {'C us/step':>10} {'Python us/step':>15} {'reference us/step':>18}")
     for n, h, steps in ((4, 0.1, 6000), (16, 1.0, 1500), (64, 1.0, 400)):
         names = [f"u{k}" for k in range(n)]
         side = 120.0 * math.ceil(math.sqrt(n))
@@ -99,11 +104,11 @@ def monitor_bench(rounds: int) -> None:
         cx, cy = np.array(centres).T
         xyz = np.stack((cx + 40 * np.cos(ang), cy + 40 * np.sin(ang), np.full(ang.shape, 20.0)), axis=2)
         cols = {}
-        for mode in ("C", "Python", "exact"):
+        for mode in ("C", "Python", "reference"):
             best = math.inf
             for _ in range(rounds):
                 mon = UavMonitor(etree.fromstring(xml), None, "bench")
-                mon.native, mon.precheck = mode == "C", mode != "exact"
+                mon.step_factory = factories[mode]
                 ctx = _Ctx(names, roles)
                 real, pos = ctx.buf["Real"], [[ctx.pos[f"{u}.{r}"][1] for r in "xyz"] for u in names]
                 pos = np.array(pos)
@@ -121,7 +126,7 @@ def monitor_bench(rounds: int) -> None:
                     mon.after_step(k - 1, h * (k - 1), h * k)
                 best = min(best, (time.process_time() - c - load) / steps)
             cols[mode] = best * 1e6
-        print(f"{n:>4} {h:>6} {steps:>6} {cols['C']:>10.2f} {cols['Python']:>15.2f} {cols['exact']:>14.2f}")
+        print(f"{n:>4} {h:>6} {steps:>6} {cols['C']:>10.2f} {cols['Python']:>15.2f} {cols['reference']:>18.2f}")
 
 
 def main():

@@ -35,7 +35,7 @@ def shell_class(pure: bool, src: Path = SRC):
     def make():
         shell = mod.UavWind(instance_name="bench", resources=str(src), visible=False)
         if pure or not hasattr(shell, "_ext"):
-            shell._ext = None        # what UAVSIM_PURE_PYTHON=1 gives
+            shell._ext = None        # what COSIM_MASTER_PURE_PYTHON=1 gives
         return shell
     return make
 
@@ -57,7 +57,9 @@ def run(make, probability: float, seed: int, stop: float, step: float = 0.25):
     declined = 0
     if getattr(s, "_ext", None) is not None:       # counted in a pass of its own, not the timed one
         c = campaign_wind(make, probability, seed)
-        declined = sum(not c._ext(c.__dict__, i * step, step) and c.do_step(i * step, step) for i in range(n))
+        # the extension's own call: step(model, variables, t, h); before the model was passed, step(variables, t, h)
+        args = (c.model, c.__dict__) if hasattr(type(c), "model") else (c.__dict__,)
+        declined = sum(not c._ext(*args, i * step, step) and c.do_step(i * step, step) for i in range(n))
     do_step = s.do_step
     t0 = time.process_time()
     for i in range(n):

@@ -69,6 +69,12 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
         self._build()
         self._publish()
 
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
+
     def _build(self):
         pk = {n: getattr(self, n) for n, *_ in _POWER}
         bk = {n: getattr(self, n) for n, *_ in _BATT}
@@ -91,8 +97,9 @@ class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
 
     def do_step(self, current_time, step_size):
         ext = self._ext
-        # the extension does this whole step (same results, bit for bit) or, when it returns False, nothing
-        if ext is not None and ext(self.__dict__, step_size):
+        # the compiled step (uavsim/_battery_ext.c) does this whole step (same results, bit for bit) on the model and
+        # the FMU's variables (this instance's variable values), or, when it returns False, nothing
+        if ext is not None and ext(self._model, self.__dict__, step_size):
             return True
         out = self._model.step_outputs(step_size, self.airspeed, self.vz, int(self.phase))
         if out is not None:       # the model's step returns what _publish would read from it

@@ -49,11 +49,11 @@ _EXT = load_extension("_dynamics_ext", os.path.join(_HERE, "uavsim"))
 
 def _geodetic_properties(ext):
     """The properties lat, lon, alt: getters in C when the extension is there (a recorder reads them at every
-    sample: three Python frames each), else UavDynamics._geodetic's items; both compute and cache alike."""
+    sample: three Python frames each), else UavDynamics.geodetic's items; both compute and cache alike."""
     if ext is not None:
         return property(ext.lat), property(ext.lon), property(ext.alt)
-    return (property(lambda self: self._geodetic()[0]), property(lambda self: self._geodetic()[1]),
-            property(lambda self: self._geodetic()[2]))
+    return (property(lambda self: self.geodetic()[0]), property(lambda self: self.geodetic()[1]),
+            property(lambda self: self.geodetic()[2]))
 _OUT_REAL = [
     ("x", "m", "east position"), ("y", "m", "north position"), ("z", "m", "height above origin (up)"),
     ("vx", "m/s", "east velocity"), ("vy", "m/s", "north velocity"), ("vz", "m/s", "up velocity"),
@@ -95,9 +95,15 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
                                    "'force that pushes the UAV'); false: air velocity in the drag law")
         self._model = None
         self._ext = None          # _dynamics_ext.step, the whole step in C, or None: the Python code below
-        self._frame = None
-        self._geo_key = self._geo = None
+        self.enu_frame = None        # the EnuFrame of the origin, from initialisation on
+        self.geodetic_key = self.geodetic_value = None     # the last position converted and its (lat, lon, alt)
         self._publish()
+
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
 
     def _build(self):
         names = DynamicsParams.__dataclass_fields__
@@ -106,7 +112,7 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
         self._model = Dynamics(DynamicsParams(**kw), kernels=load_kernels(os.path.join(_HERE, "uavsim")))
         ext = load_extension("_dynamics_ext", os.path.join(_HERE, "uavsim"))
         self._ext = None if ext is None else ext.step
-        self._frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
+        self.enu_frame = EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt)
 
     def exit_initialization_mode(self):
         self._build()
@@ -126,22 +132,25 @@ class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
     # The geodetic position is an output few masters read every step (cosim-master reads recorded-only
     # outputs when it samples), and the exact ENU -> WGS84 conversion is the costliest part of publishing
     # the outputs, so it is computed when read, once per position.
-    def _geodetic(self):
+    def geodetic(self):
+        """(lat, lon, alt) of (x, y, z), computed once per position (the compiled getters of _dynamics_ext.c read
+        and fill the same cache: enu_frame, geodetic_key, geodetic_value)."""
         key = (self.x, self.y, self.z)
-        fr = self._frame
+        fr = self.enu_frame
         if fr is None:     # before initialisation the origin parameters may still change
             return EnuFrame(self.origin_lat, self.origin_lon, self.origin_alt).to_geodetic(*key)
-        if key != self._geo_key:
-            self._geo = fr.to_geodetic(*key)
-            self._geo_key = key
-        return self._geo
+        if key != self.geodetic_key:
+            self.geodetic_value = fr.to_geodetic(*key)
+            self.geodetic_key = key
+        return self.geodetic_value
 
     lat, lon, alt = _geodetic_properties(_EXT)
 
     def do_step(self, current_time, step_size):
         ext = self._ext
-        # the extension does this whole step (same results, bit for bit) or, when it returns False, nothing
-        if ext is not None and ext(self.__dict__, step_size):
+        # the compiled step (uavsim/_dynamics_ext.c) does this whole step (same results, bit for bit) on the model and
+        # the FMU's variables (this instance's variable values), or, when it returns False, nothing
+        if ext is not None and ext(self._model, self.__dict__, step_size):
             return True
         if self._model is None:
             self._build()

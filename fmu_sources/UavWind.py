@@ -67,6 +67,12 @@ class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
         ext = load_extension("_wind_ext", os.path.join(_HERE, "uavsim"))
         self._ext = None if ext is None else ext.step   # the whole step in C, or None: the Python code below
 
+    @property
+    def model(self):
+        """The uavsim model this shell steps (None before initialisation), for tests and tools that read or set
+        its state."""
+        return self._model
+
     def _build(self):
         kw = {n: getattr(self, n) for n, *_ in _PARAMS}
         self._model = Wind(WindParams(seed=int(self.seed), stream=int(self.stream), turbulence=bool(self.turbulence),
@@ -92,9 +98,10 @@ class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
 
     def do_step(self, current_time, step_size):
         ext = self._ext
-        # the extension does this whole step (same results, bit for bit) or, when it returns False (a random draw,
-        # turbulence, no model yet ...), nothing
-        if ext is not None and ext(self.__dict__, current_time, step_size):
+        # the compiled step (uavsim/_wind_ext.c) does this whole step (same results, bit for bit) on the model and the
+        # FMU's variables (this instance's variable values), or, when it returns False (a random draw, turbulence,
+        # no model yet ...), nothing
+        if ext is not None and ext(self._model, self.__dict__, current_time, step_size):
             return True
         if self._model is None:
             self._build()

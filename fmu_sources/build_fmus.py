@@ -3,9 +3,11 @@
     python fmu_sources/build_fmus.py [--dest DIR] [--check]
 
 Each FMU's resources/ holds the shell script (e.g. UavDynamics.py), the package uavsim/ (all its
-*.py files and kernels.c; the shells put resources/ first on sys.path, so the bundled copy is used),
-the compiled kernels ``uavsim/_uavsim_kernels.so`` (built here with the C compiler, ``$CC`` or gcc;
-without one the FMUs run the bit-identical Python twins, only slower: uavsim/kernels.py) and
+*.py files and C sources; the shells put resources/ first on sys.path, so the bundled copy is used),
+the compiled accelerators ``uavsim/_uavsim_kernels.so`` and ``uavsim/_<name>_ext.abi3.so`` (and
+``sitlsim/_sitlsim_physics.so`` for UavSitl), built by the project's one build path, master.native_build (the
+C compiler, ``$CC``, cc or gcc, into the per-user cache, copied from there; without one the FMUs run the
+bit-identical Python references, only slower: uavsim/native.py) and
 ``sources.sha256``: one line "<sha256>  <path relative to fmu_sources/>" per bundled source file.
 ``stale_fmus(fmu_dir, src_dir)`` compares those lists with the current files, so a test can detect
 a shipped FMU that was not rebuilt after a source change (``--check`` does the same from the
@@ -17,7 +19,6 @@ import argparse
 import hashlib
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import zipfile
@@ -53,59 +54,56 @@ def bundled_sources(name: str, src_dir: Path | str = HERE) -> list[str]:
     return files
 
 
-#: -ffp-contract=off: no fused multiply-add, so the compiled kernels round exactly as the Python twins
-KERNEL_FLAGS = ["-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]
-
-
 #: CPython extension sources of uavsim (uavsim/native.py), each built as <stem>.abi3.so against the stable ABI
 EXTENSION_GLOB = "_*_ext.c"
-LIMITED_API = "0x03090000"
+
+
+def _copy_built(built: tuple, dest: Path, name: str) -> Path | None:
+    """The (path, why not) of a build by master.native_build (through the package's own build function, so that
+    the FMUs and the tests share one cached build) copied to ``dest``; None (and a warning) without a compiler; a
+    compiler error stops the build."""
+    path, why = built
+    if path is None:
+        if why and why.startswith("the C compiler failed"):
+            raise SystemExit(f"compiling {name} failed: {why}")
+        print(f"warning: {why}; the FMUs will run the Python references of {name}", file=sys.stderr)
+        return None
+    shutil.copyfile(path, dest)
+    return dest
 
 
 def compile_extensions(dest_dir: Path | str, src_dir: Path | str = HERE) -> list[Path]:
     """Compile every uavsim/_*_ext.c into dest_dir/<stem>.abi3.so (they may #include "kernels.c"); none (and a
-    warning) without a compiler or Python's headers: the FMUs then run the Python twins."""
-    import sysconfig
-    from uavsim.native import SUFFIX
-    include = sysconfig.get_paths().get("include", "")
-    sources = sorted((Path(src_dir) / "uavsim").glob(EXTENSION_GLOB))
-    if not sources:
-        return []
-    if not os.path.isfile(os.path.join(include, "Python.h")):
-        print(f"warning: no Python.h in {include!r}; the FMUs will run the Python twins of the extensions",
-              file=sys.stderr)
-        return []
-    cc = os.environ.get("CC", "gcc")
+    warning) without a compiler or Python's headers: the FMUs then run the Python references."""
+    from uavsim import native
     out = []
-    for src in sources:
-        target = Path(dest_dir) / (src.stem + SUFFIX)
-        cmd = [cc, *KERNEL_FLAGS, f"-DPy_LIMITED_API={LIMITED_API}", f"-I{include}", f"-I{src.parent}",
-               "-o", str(target), str(src), "-lm"]
-        try:
-            subprocess.run(cmd, check=True, capture_output=True, text=True)
-        except FileNotFoundError:
-            print(f"warning: no C compiler ({cc}); the FMUs will run the Python twins", file=sys.stderr)
+    for src in sorted((Path(src_dir) / "uavsim").glob(EXTENSION_GLOB)):
+        spec = native.extension_build(src.stem, src.parent)
+        if spec is None:
+            print("warning: no Python.h; the FMUs will run the Python references of the extensions", file=sys.stderr)
             return []
-        except subprocess.CalledProcessError as exc:
-            raise SystemExit(f"compiling {src.name} failed: {' '.join(cmd)}\n{exc.stderr}") from None
+        source, flags, depends = spec
+        built = native.build(source, src.stem.lstrip("_"), flags, suffix=native.SUFFIX, depends=depends)
+        target = _copy_built(built, Path(dest_dir) / (src.stem + native.SUFFIX), src.name)
+        if target is None:
+            return []
         out.append(target)
     return out
 
 
 def compile_kernels(dest_dir: Path | str, src_dir: Path | str = HERE) -> Path | None:
     """Compile uavsim/kernels.c into dest_dir/_uavsim_kernels.so; None (and a warning) without a compiler."""
-    from uavsim.kernels import LIBRARY
-    out = Path(dest_dir) / LIBRARY
-    cc = os.environ.get("CC", "gcc")
-    cmd = [cc, *KERNEL_FLAGS, "-o", str(out), str(Path(src_dir) / "uavsim" / "kernels.c"), "-lm"]
-    try:
-        subprocess.run(cmd, check=True, capture_output=True, text=True)
-    except FileNotFoundError:
-        print(f"warning: no C compiler ({cc}); the FMUs will run the Python kernels", file=sys.stderr)
-        return None
-    except subprocess.CalledProcessError as exc:
-        raise SystemExit(f"compiling the kernels failed: {' '.join(cmd)}\n{exc.stderr}") from None
-    return out
+    from uavsim import kernels, native
+    source = Path(src_dir) / "uavsim" / "kernels.c"
+    return _copy_built(native.build(source, kernels.LIBRARY[1:-3], native.FLAGS), Path(dest_dir) / kernels.LIBRARY,
+                       source.name)
+
+
+def compile_physics(dest_dir: Path | str, src_dir: Path | str = HERE) -> Path | None:
+    """Compile sitlsim/physics.c into dest_dir/_sitlsim_physics.so; None (and a warning) without a compiler."""
+    from sitlsim import physics
+    source = Path(src_dir) / "sitlsim" / "physics.c"
+    return _copy_built(physics.build_library(source), Path(dest_dir) / physics.LIBRARY, source.name)
 
 
 def source_hashes(name: str, src_dir: Path | str = HERE) -> dict[str, str]:
@@ -169,8 +167,7 @@ def build_fmu(name: str, dest: Path | str, src_dir: Path | str = HERE) -> Path:
         compile_kernels(stage / "uavsim", src_dir)
         compile_extensions(stage / "uavsim", src_dir)
         if "sitlsim" in packages and (stage / "sitlsim" / "physics.c").is_file():
-            from sitlsim.physics import compile_library
-            compile_library(stage / "sitlsim", stage / "sitlsim" / "physics.c")
+            compile_physics(stage / "sitlsim", src_dir)
         out = FmuBuilder.build_FMU(src_dir / f"{name}.py", dest=dest / f"{name}.fmu",
                                    project_files=[*(stage / p for p in packages), stage / HASH_FILE],
                                    # uavsim.fmi.StateMixin; a SITL process cannot be saved and restored

@@ -1,7 +1,6 @@
 """cosim-master: an FMI/SSP fixed-step co-simulation master."""
-__version__ = "0.1.0"
-
-from .errors import CosimError, FmuError, ScenarioError  # noqa: E402
+from ._version import __version__
+from .errors import CosimError, FmuError, ScenarioError
 
 
 def run(scenario, **options):
@@ -14,6 +13,9 @@ def __getattr__(name):   # lazy: ``import master`` stays cheap (campaign workers
     if name == "Execution":
         from .execution import Execution
         return Execution
+    if name == "SspBuilder":
+        from .ssp.writer import SspBuilder
+        return SspBuilder
     raise AttributeError(name)
 
 
@@ -23,4 +25,4 @@ def inspect(scenario, **options):
     return _inspect(scenario, **options)
 
 
-__all__ = ["run", "inspect", "Execution", "CosimError", "FmuError", "ScenarioError", "__version__"]
+__all__ = ["run", "inspect", "Execution", "SspBuilder", "CosimError", "FmuError", "ScenarioError", "__version__"]

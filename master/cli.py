@@ -5,7 +5,7 @@ import argparse
 import json
 import sys
 
-from . import __version__
+from ._version import __version__
 from .algorithms import ALGORITHMS
 from .errors import CosimError
 from .fmi.ode_solvers import SOLVERS
@@ -222,7 +222,30 @@ def main(argv=None) -> int:
         return 130
 
 
+def _refuse_other_kinds(scenario) -> None:
+    """A scenario of another kind (a study's YAML) is built into an SSP first: say how, instead of the SSP reader's
+    "not a readable SSP archive".  Asked here, at the top, because only the command knows the scenario kinds: the
+    SSP reader below knows SSPs and nothing else."""
+    import zipfile
+    from pathlib import Path
+
+    path = Path(scenario)
+    if not path.is_file() or path.suffix.lower() == ".ssd" or zipfile.is_zipfile(path):
+        return
+    from .scenario_kinds import kind_claiming
+    try:
+        kind = kind_claiming(path)
+    except Exception:   # noqa: BLE001 - only a better message is at stake here
+        return
+    if kind is not None and kind.name != "ssp":
+        from .errors import ScenarioError
+        raise ScenarioError(f"this is a {kind.label} scenario, not an SSP: build one with `cosim-master build-scenario "
+                            f"{path} -o scenario.ssp` and run that", file=path)
+
+
 def _dispatch(args) -> int:
+    if args.command in ("run", "inspect"):
+        _refuse_other_kinds(args.scenario)
     if args.command == "run":
         from pathlib import Path
 

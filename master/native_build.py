@@ -20,7 +20,7 @@ from pathlib import Path
 
 
 def cache_dir(name: str) -> Path:
-    from .fmi.cache import cache_root
+    from .cache_paths import cache_root
     return cache_root() / name
 
 

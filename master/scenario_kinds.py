@@ -6,9 +6,11 @@ vary, which inputs fingerprint a run, how one run's scenario is prepared, which 
 on, how a run summary splits into table rows and how the campaign report reads.  Campaigns go through the
 kind object only, so the engine never knows a study's names.
 
-The built-in kind is ``ssp`` (:mod:`master.campaign.ssp_kind`); installed packages publish theirs under
-the entry point group ``cosim_master.scenario_kinds`` (name = the kind, value = a :class:`ScenarioKind`
-instance).  The kind of a campaign is recorded in its campaign.json, so the report finds it again.
+Every kind is published under the entry point group ``cosim_master.scenario_kinds`` (name = the kind, value = a
+:class:`ScenarioKind` instance), the built-in ``ssp`` (:mod:`master.campaign.ssp_kind`, in this package's
+pyproject.toml) as the study's ``uav``: the kinds build on the campaign machinery, which looks kinds up here, so
+this registry imports none of them.  The kind of a campaign is recorded in its campaign.json, so the report finds
+it again.
 """
 from __future__ import annotations
 
@@ -105,13 +107,7 @@ class ScenarioKind:
         return None
 
 
-def _load_builtin_kinds():
-    import importlib
-    importlib.import_module("master.campaign.ssp_kind")      # registers the ssp kind
-
-
-SCENARIO_KINDS: Registry[ScenarioKind] = Registry("scenario kind", "cosim_master.scenario_kinds",
-                                                  builtins=_load_builtin_kinds)
+SCENARIO_KINDS: Registry[ScenarioKind] = Registry("scenario kind", "cosim_master.scenario_kinds")
 
 
 def kind_claiming(path: Path) -> ScenarioKind | None:

@@ -1,10 +1,14 @@
 """Master settings of a run: command line (or API) over the SSD (its DefaultExperiment and settings
-annotations) over the FMUs' default experiments, over fixed defaults. run.json says where each came from."""
+annotations) over the FMUs' default experiments, over fixed defaults. run.json says where each came from.
+
+The algorithm an SSD names is checked against the algorithm registry here, not where the SSD is read: resolving
+the settings sits above the algorithms (it names one), reading an SSD below them."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
+from .algorithms import ALGORITHMS
 from .errors import CosimError, ScenarioError
 
 #: without any step size given, a run takes this many steps (fmpy's default output interval is the same)
@@ -67,6 +71,9 @@ def count_steps(start: float, stop: float, h: float, allow_partial: bool) -> tup
 def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=None, algorithm=None,
                      record_interval=None, step_multiples=None, fmus=None, tolerance=None) -> Settings:
     s = model.settings
+    if s.algorithm is not None and s.algorithm not in ALGORITHMS:
+        raise ScenarioError(f"unknown algorithm {s.algorithm!r} (known: {', '.join(ALGORITHMS.names())})",
+                            file=shown_as, element="Settings", line=s.algorithm_line)
     sources = {}
     _finite(start_time, "--start-time")
     _finite(stop_time, "--stop-time")

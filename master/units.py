@@ -1,9 +1,18 @@
 """Unit conversion between connectors, from SSD ssc:Unit definitions or the FMUs' UnitDefinitions."""
 from __future__ import annotations
 
-from .ssp.model import Unit
+from dataclasses import dataclass
 
 BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+
+@dataclass
+class Unit:
+    """A unit as SSP (ssc:Unit) and FMI (UnitDefinitions) define it: SI value = factor * value + offset."""
+    name: str
+    factor: float = 1.0
+    offset: float = 0.0
+    exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)  # kg m s A K mol cd rad
 
 
 def unit_from_fmu(fmu_unit) -> Unit:

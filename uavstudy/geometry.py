@@ -67,12 +67,13 @@ clearances are reduced by ``SKIP_MARGIN`` = 1 mm (the narrow phase's own roundin
 coordinates, i.e. far below 1 mm for any map under 1e9 m; its tolerance ``_DIST_TOL`` is 1e-9 m) and the
 travel is scaled by ``1 + SKIP_REL`` (the rounding of a float sum of n positive terms is below
 n x 1.1e-16 of the sum, so this holds for up to ~1e9 steps between two resets).  NaN or inf anywhere makes
-the comparison false, so such steps always take the exact path.  The UAV monitor keeps the exact check as
-the reference (``UavMonitor.precheck = False``); tests/uav/test_uav_monitor_precheck.py compares both on
-random close encounters.  ``uavstudy/monitor_step.c`` repeats these tests, ``pair_clearances``,
-``ZoneDetector.clearance`` / ``may_enter`` and the broad phase of ``CollisionDetector.check_few`` in C, with
-the same operations: a change here must be made there too (tests/uav/test_uav_monitor_native.py compares
-them bit for bit).
+the comparison false, so such steps always take the exact path.  The UAV monitor's reference step
+(``uavstudy.monitor_step``) runs the exact checks on every step; its accelerated step (``uavstudy.monitor_fast``)
+skips by this bound, and ``uavstudy/monitor_step.c`` repeats the tests, ``pair_clearances``,
+``ZoneDetector.clearance`` / ``may_enter`` and the broad phase of ``CollisionDetector.check_few`` in C with
+the same operations: a change here must be made there too.  The accelerator harness (tests/accelerators/,
+fleets from ``uavstudy.monitor_accel``) compares both with the reference bit for bit;
+tests/uav/test_uav_monitor_precheck.py checks the bound where it is tight.
 """
 from __future__ import annotations
 

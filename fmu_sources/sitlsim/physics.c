@@ -1,10 +1,11 @@
-/* Compiled twin of sitlsim/physics.py (which holds the slot layout and the Python twin).
+/* The accelerator of sitlsim/physics.py (which holds the slot layout and the reference: step_py, format_py,
+ * serve_py); declared in sitlsim/accelerators.py and checked against the reference by the accelerator harness.
  *
  * sitl_step:   one SITL frame of the 6-DoF quadcopter
  * sitl_format: the JSON answer of the current state
  * sitl_serve:  the lock-step loop: receive servo frames on a UDP socket, step, answer
  *
- * Bit-identical to the Python twin: only + - * / sqrt and comparisons, in the Python code's order (Python
+ * Bit-identical to the reference: only + - * / sqrt and comparisons, in the Python code's order (Python
  * evaluates a + b + c as (a + b) + c, like C); compile with -ffp-contract=off (no fused multiply-add) and
  * without -ffast-math.  Numbers are printed in fixed point from integers (llrint rounds half to even like
  * Python's round), so the answers are byte-identical too.

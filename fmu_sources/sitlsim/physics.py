@@ -1,28 +1,27 @@
-"""The quadcopter's physics step and the frame-answering loop, twice: in Python (here) and compiled
-(physics.c, loaded with ctypes).
+"""The quadcopter's physics step and the frame-answering loop as plain Python (the reference: what
+docs/sitl_physics.md explains and a reader follows) and their accelerator, physics.c (compiled, loaded with ctypes).
 
-One call of ``step`` advances the state by one SITL frame (1/frame_rate s) with the PWM and wind held in
-the state; ``serve`` is the lock-step loop (receive a servo frame, step, answer) that LockstepPhysics runs
-for a whole communication step.  Both twins use only + - * / sqrt and comparisons, in the same order, on the
-same slot layout (below), and format the answer with the same printf conversions, so they give bit-identical
-states and byte-identical answers (tests/sitl/test_sitl_physics.py): whether the compiler was there changes
-the speed, never a result.  The compiled ``serve`` also runs without the GIL (ctypes.CDLL), so several
-vehicles can answer their frames in parallel threads.
+One call of :func:`step_py` advances the state by one SITL frame (1/frame_rate s) with the PWM and wind held in
+the state; :func:`serve_py` is the lock-step loop (receive a servo frame, step, answer) that LockstepPhysics runs
+for a whole communication step.  physics.c uses only + - * / sqrt and comparisons, in the same order, on the
+same slot layout (below), and formats the answer with the same printf conversions, so it gives bit-identical
+states and byte-identical answers (declared in sitlsim/accelerators.py, checked by the project's harness):
+whether the compiler was there changes the speed, never a result.  The compiled ``serve`` also runs without the
+GIL (ctypes.CDLL), so several vehicles can answer their frames in parallel threads.
 
-The library is looked for next to this file (an FMU bundles it there), in folders the caller names, and in
-a per-user cache folder, where it is compiled on first use when a C compiler ($CC or gcc) exists.  Set
-``SITLSIM_PURE_PYTHON=1`` to force the Python twin.
+The library is built by the project's one build path, ``master.native_build``: inside an FMU by
+fmu_sources/build_fmus.py, which bundles it next to this file; outside an FMU (tests, benchmarks) on first use
+into the per-user cache (a guarded import: sitlsim bundled into an FMU never needs ``master``).
+``COSIM_MASTER_PURE_PYTHON=1`` forces the Python code.
 """
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
 import select
+import shutil
 import socket
 import struct
-import subprocess
-import tempfile
 import time
 from math import sqrt
 from pathlib import Path
@@ -30,6 +29,8 @@ from pathlib import Path
 from .frames import MAGIC_16, MAGIC_32, SIZE_16, SIZE_32, answer
 
 LIBRARY = "_sitlsim_physics.so"
+#: the one variable that switches every accelerator off (master/accel.py ENV; read here without importing master)
+ENV = "COSIM_MASTER_PURE_PYTHON"
 SOURCE = Path(__file__).resolve().parent / "physics.c"
 #: -ffp-contract=off: no fused multiply-add, so the compiled twin rounds exactly as the Python one
 FLAGS = ["-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]
@@ -318,48 +319,62 @@ _loaded: dict = {}
 _HERE = Path(__file__).resolve().parent
 
 
-def compile_library(dest_dir, source: Path = SOURCE) -> Path | None:
-    """Compile physics.c into dest_dir/_sitlsim_physics.so; None without a C compiler."""
-    out = Path(dest_dir) / LIBRARY
-    cc = os.environ.get("CC", "gcc")
-    tmp = out.with_name(f".{LIBRARY}.{os.getpid()}.tmp")
-    cmd = [cc, *FLAGS, "-o", str(tmp), str(source), "-lm"]
+def disabled() -> bool:
+    return os.environ.get(ENV, "") not in ("", "0")
+
+
+def build_library(source: Path = SOURCE) -> tuple[Path | None, str | None]:
+    """physics.c compiled by master.native_build into the per-user cache: (path, None) or (None, why not).
+    Without ``master`` (sitlsim bundled into an FMU) nothing is built: the FMU carries its library."""
     try:
-        subprocess.run(cmd, check=True, capture_output=True, text=True)
-    except FileNotFoundError:
+        from master.native_build import compile_cached
+    except ImportError:
+        return None, "master.native_build is not importable here (an FMU carries the library built with it)"
+    if not Path(source).is_file():
+        return None, f"no {Path(source).name}"
+    return compile_cached(Path(source), LIBRARY[1:-3], "sitlsim", FLAGS)
+
+
+def compile_library(dest_dir, source: Path = SOURCE) -> Path | None:
+    """physics.c built (master.native_build) and copied to dest_dir/_sitlsim_physics.so; None without a C compiler
+    (a failing compiler raises)."""
+    path, why = build_library(source)
+    if path is None:
+        if why and why.startswith("the C compiler failed"):
+            raise RuntimeError(f"compiling {Path(source).name} failed: {why}")
         return None
-    except subprocess.CalledProcessError as exc:
-        raise RuntimeError(f"compiling {source.name} failed: {' '.join(cmd)}\n{exc.stderr}") from None
+    out = Path(dest_dir) / LIBRARY
+    tmp = out.with_name(f".{LIBRARY}.{os.getpid()}.tmp")
+    shutil.copyfile(path, tmp)
     os.replace(tmp, out)          # atomic: a concurrent process sees the old library or the new one
     return out
 
 
-def _cache_dir() -> Path:
-    digest = hashlib.sha256(SOURCE.read_bytes()).hexdigest()[:16]
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(tempfile.gettempdir(), f"sitlsim-{os.getuid()}")
-    return Path(base) / "sitlsim" / digest
-
-
 def load(*folders, build: bool = True) -> Kernel:
-    """The compiled twin from this file's folder, ``folders``, or the cache folder (compiled there on first
-    use if ``build`` and a compiler exists), else the Python twin.  Cached per library path."""
-    if os.environ.get("SITLSIM_PURE_PYTHON", "") not in ("", "0"):
+    """The compiled twin from this file's folder (an FMU bundles it there) or ``folders``, else (``build``,
+    outside an FMU) built by master.native_build into the cache, else the Python twin.  Cached per library path."""
+    if disabled():
         return python()
-    candidates = [_HERE, *map(Path, folders)]
-    if SOURCE.is_file():
-        candidates.append(_cache_dir())
-    for folder in candidates:
-        k = _try(folder / LIBRARY)
+    for folder in (_HERE, *map(Path, folders)):
+        k = _try(Path(folder) / LIBRARY)
         if k is not None:
             return k
-    if build and SOURCE.is_file():
-        cache = _cache_dir()
-        cache.mkdir(parents=True, exist_ok=True)
-        if compile_library(cache) is not None:
-            k = _try(cache / LIBRARY)
-            if k is not None:
-                return k
+    if build:
+        k, _ = built()
+        if k is not None:
+            return k
     return python()
+
+
+def built() -> tuple[Kernel | None, str | None]:
+    """The compiled twin built here through master.native_build: (Kernel, None) or (None, why not)."""
+    if disabled():
+        return None, f"{ENV} is set"
+    path, why = build_library()
+    if path is None:
+        return None, why
+    k = _try(path)
+    return (k, None) if k is not None else (None, f"{path.name} does not load")
 
 
 def _try(path: Path):

@@ -1,13 +1,23 @@
-/* The whole FMU step of the UavDynamics shell in one call (uavsim/native.py; the Python twin is
- * fmu_sources/UavDynamics.py do_step -> uavsim.dynamics.Dynamics.step + Dynamics.outputs).
+/* The UavDynamics FMU's step in C: the accelerator of the shell's Python step (fmu_sources/UavDynamics.py do_step
+ * -> uavsim.dynamics.Dynamics.step + Dynamics.outputs) and of its lat/lon/alt properties (UavDynamics.geodetic),
+ * declared in uavsim/accelerators.py and checked against them by the accelerator harness (tests/accelerators/).
  *
- * step(shell_dict, step_size) reads the shell's inputs from its __dict__, advances the shell's Dynamics model
- * (its state stays in the model's Python attributes, as Dynamics._run leaves them, so FMU get/set state, the
- * properties and the Python twin see the same object) and writes the published outputs back into __dict__.
- * The flying sub-steps are uav_fly of kernels.c, the kernel Dynamics._run calls through ctypes; the rare
- * phases (lift-off, the sub-steps after a touch-down) go back to Dynamics._run.  It returns False without
- * changing anything when the Python code must do the whole step (no model yet, a step size not seen before,
- * a value it cannot convert: the Python code then raises the error it always raised).
+ * step(model, variables, step_size) advances the Dynamics ``model`` (its state stays in the model's fields, as
+ * Dynamics.run_substeps leaves them, so FMU get/set state, the properties and the Python step see the same object)
+ * and publishes the outputs.  What it reads and writes, all public:
+ * - model: the Dynamics' fields, got and set by their names: step_constants (kernels.c's parameter slots, then
+ *   preflight_time and g, as native doubles), substep_table (step size -> (sub-steps, sub-step)), pos, vel, vt,
+ *   vtz, integ, hold, hold_z, mode, a_cmd, phase, ready, preflight_elapsed, time, wind; and its methods
+ *   run_substeps (lift-off, the sub-steps after a touch-down: the Python code) and touch_down;
+ * - variables: the FMU's variables by their modelDescription names (the shell's variable values): the inputs
+ *   cmd, sp_x, sp_y, sp_z, wind_x, wind_y, wind_z and the outputs x, y, z, vx, vy, vz, airspeed, groundspeed,
+ *   tilt, phase, ready.
+ * The flying sub-steps are uav_fly of kernels.c, the loop Dynamics.run_substeps calls through ctypes.  It returns
+ * False without changing anything when the Python code must do the whole step (no model yet, a step size not
+ * seen before, a value it cannot convert: the Python code then raises the error it always raised).
+ *
+ * lat(shell), lon(shell), alt(shell) are the shell's properties: the conversion of its (x, y, z) by its
+ * enu_frame (EnuFrame.constants), cached in its geodetic_key and geodetic_value as UavDynamics.geodetic caches it.
  *
  * Bit-identity: the arithmetic is kernels.c's; the published speeds use Python's own math.hypot (not libm's
  * hypot: CPython rounds differently), called through the function object.
@@ -21,50 +31,54 @@
 
 enum { PREFLIGHT = 0, ON_GROUND = 4 };   /* phases (LANDED is a state slot) */
 enum { CMD_TAKEOFF = 1 };
-/* Dynamics._kbuf: kernels.c's parameter slots, then these two (uavsim/dynamics.py _kernel_buffer) */
+/* Dynamics.step_constants: kernels.c's parameter slots, then these two */
 enum { K_PREFLIGHT_TIME = NPARAM, K_G, NKBUF };
 
 static PyObject *hypot_fn;
-static PyObject *str_goto, *str_hold, *str_run, *str_touch_down, *str_dict;
-/* shell keys */
-static PyObject *k_model, *k_cmd, *k_sp[3], *k_wind[3], *k_x, *k_y, *k_z, *k_vx, *k_vy, *k_vz, *k_airspeed,
+static PyObject *str_goto, *str_hold, *str_run, *str_touch_down;
+/* variables */
+static PyObject *k_cmd, *k_sp[3], *k_wind[3], *k_x, *k_y, *k_z, *k_vx, *k_vy, *k_vz, *k_airspeed,
     *k_groundspeed, *k_tilt, *k_phase, *k_ready;
-/* model keys (k_phase and k_ready too) */
+/* model fields (k_phase and k_ready too) */
 static PyObject *k_sub, *k_kbuf, *k_pos, *k_vel, *k_vt, *k_vtz, *k_integ, *k_hold, *k_hold_z, *k_mode, *k_a_cmd,
     *k_wind_m, *k_preflight_elapsed, *k_time;
-/* geodetic outputs: the shell's keys and EnuFrame's slots */
-static PyObject *str_geodetic, *k_frame, *k_geo, *k_geo_key, *k_f_x0, *k_f_y0, *k_f_z0, *k_f_sp, *k_f_cp, *k_f_sl,
-    *k_f_cl;
+/* geodetic outputs: the shell's fields and EnuFrame.constants */
+static PyObject *str_geodetic, *k_frame, *k_geo, *k_geo_key, *k_constants;
 
 /* ------------------------------------------------------------------ small helpers (0 / NULL: a Python error) */
 
 /* d[key] borrowed, NULL when missing (PyDict_GetItem would also save and restore the error state: slower) */
 static PyObject *lookup(PyObject *d, PyObject *key) { return PyDict_GetItemWithError(d, key); }
 
-static int get_double(PyObject *d, PyObject *key, double *out)
+/* obj.name as a double */
+static int field_double(PyObject *obj, PyObject *name, double *out)
 {
-    PyObject *v = lookup(d, key);
+    PyObject *v = PyObject_GetAttr(obj, name);
     if (v == NULL) return 0;
     *out = PyFloat_AsDouble(v);
+    Py_DECREF(v);
     return !(*out == -1.0 && PyErr_Occurred());
 }
 
-static int get_long(PyObject *d, PyObject *key, long *out)
+/* obj.name, an int, as a long */
+static int field_long(PyObject *obj, PyObject *name, long *out)
 {
-    PyObject *v = lookup(d, key);
-    if (v == NULL || !PyLong_Check(v)) return 0;
-    *out = PyLong_AsLong(v);
-    return !(*out == -1 && PyErr_Occurred());
+    PyObject *v = PyObject_GetAttr(obj, name);
+    int ok = v != NULL && PyLong_Check(v);
+    if (ok) *out = PyLong_AsLong(v);
+    Py_XDECREF(v);
+    return ok && !(*out == -1 && PyErr_Occurred());
 }
 
-/* the list d[key] (borrowed) of n numbers, read into out[0..n-1]; NULL: not such a list */
-static PyObject *get_list(PyObject *d, PyObject *key, double *out, Py_ssize_t n)
+/* the list obj.name (a new reference) of n numbers, read into out[0..n-1]; NULL: not such a list */
+static PyObject *field_list(PyObject *obj, PyObject *name, double *out, Py_ssize_t n)
 {
-    PyObject *v = lookup(d, key);
-    if (v == NULL || !PyList_CheckExact(v) || PyList_Size(v) != n) return NULL;
+    PyObject *v = PyObject_GetAttr(obj, name);
+    if (v == NULL) return NULL;
+    if (!PyList_CheckExact(v) || PyList_Size(v) != n) { Py_DECREF(v); return NULL; }
     for (Py_ssize_t i = 0; i < n; i++) {
         out[i] = PyFloat_AsDouble(PyList_GetItem(v, i));
-        if (out[i] == -1.0 && PyErr_Occurred()) return NULL;
+        if (out[i] == -1.0 && PyErr_Occurred()) { Py_DECREF(v); return NULL; }
     }
     return v;
 }
@@ -80,6 +94,21 @@ static int put(PyObject *d, PyObject *key, PyObject *value)
 }
 
 static int put_double(PyObject *d, PyObject *key, double x) { return put(d, key, PyFloat_FromDouble(x)); }
+
+/* obj.name = value, stealing the reference to value */
+static int set_field(PyObject *obj, PyObject *name, PyObject *value)
+{
+    int rc;
+    if (value == NULL) return 0;
+    rc = PyObject_SetAttr(obj, name, value);
+    Py_DECREF(value);
+    return rc == 0;
+}
+
+static int set_field_double(PyObject *obj, PyObject *name, double x)
+{
+    return set_field(obj, name, PyFloat_FromDouble(x));
+}
 
 /* the same IEEE double, bit for bit (0.0 and -0.0 differ) */
 static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
@@ -97,24 +126,27 @@ static int set_list(PyObject *list, const double *x, Py_ssize_t n)
     return 1;
 }
 
-/* the list d[key], known to be a list of n items, or a new list in d[key] (borrowed; NULL: error) */
-static PyObject *list_of(PyObject *d, PyObject *key, Py_ssize_t n)
+/* the list obj.name (a new reference), known to be a list of n items, or a new list set as obj.name (NULL: error) */
+static PyObject *list_field(PyObject *obj, PyObject *name, Py_ssize_t n)
 {
-    PyObject *list = lookup(d, key);
+    PyObject *list = PyObject_GetAttr(obj, name);
     if (list != NULL && PyList_CheckExact(list) && PyList_Size(list) == n) return list;
-    if (PyErr_Occurred() || (list = PyList_New(n)) == NULL) return NULL;
+    Py_XDECREF(list);
+    PyErr_Clear();
+    if ((list = PyList_New(n)) == NULL) return NULL;
     for (Py_ssize_t i = 0; i < n; i++) {
         Py_INCREF(Py_None);
         PyList_SetItem(list, i, Py_None);
     }
-    return put(d, key, list) ? list : NULL;
+    if (PyObject_SetAttr(obj, name, list) < 0) { Py_DECREF(list); return NULL; }
+    return list;
 }
 
-/* d[key] = x unless old, the float object d[key] holds, holds x already */
-static int update_double(PyObject *d, PyObject *key, PyObject *old, double x)
+/* obj.name = x unless old, the float object obj.name holds, holds x already */
+static int update_double(PyObject *obj, PyObject *name, PyObject *old, double x)
 {
     if (PyFloat_CheckExact(old) && same_bits(PyFloat_AsDouble(old), x)) return 1;
-    return put_double(d, key, x);
+    return set_field_double(obj, name, x);
 }
 
 /* float(d[key]), as a new reference */
@@ -134,7 +166,7 @@ static int get_float(PyObject *d, PyObject *key, double *out)
     return 1;
 }
 
-/* (sp_x, sp_y, sp_z) of the shell, as its do_step passes them to Dynamics.step */
+/* (sp_x, sp_y, sp_z) of the variables, as the shell's do_step passes them to Dynamics.step */
 static PyObject *sp_tuple(PyObject *sd)
 {
     PyObject *x = lookup(sd, k_sp[0]), *y = lookup(sd, k_sp[1]), *z = lookup(sd, k_sp[2]);
@@ -157,78 +189,108 @@ static int py_hypot(PyObject *a, PyObject *b, double *out)
 
 /* ------------------------------------------------------------------ the step */
 
-/* what the shell publishes is read from (borrowed references) */
+/* what the shell publishes is read from (references owned by the view: release_view) */
 typedef struct {
     PyObject *pos, *vel, *a_cmd, *ready;
     double w0, w1;
     long phase;
 } View;
 
-/* the view of a model's state in its __dict__ (0: error) */
-static int read_view(PyObject *md, View *v)
+static void release_view(View *v)
 {
-    PyObject *w = lookup(md, k_wind_m), *phase = lookup(md, k_phase);
-    v->pos = lookup(md, k_pos);
-    v->vel = lookup(md, k_vel);
-    v->a_cmd = lookup(md, k_a_cmd);
-    v->ready = lookup(md, k_ready);
-    if (v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL || w == NULL || phase == NULL
-        || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
-        || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2 || !PyTuple_Check(w) || PyTuple_Size(w) != 3
-        || !PyLong_Check(phase))
-        return 0;
-    v->w0 = PyFloat_AsDouble(PyTuple_GetItem(w, 0));
-    v->w1 = PyFloat_AsDouble(PyTuple_GetItem(w, 1));
-    v->phase = PyLong_AsLong(phase);
-    return !PyErr_Occurred();
+    Py_CLEAR(v->pos); Py_CLEAR(v->vel); Py_CLEAR(v->a_cmd); Py_CLEAR(v->ready);
 }
 
-/* One pass of Dynamics._run's loop body through uav_fly from sub-step i: the state in and out of the model's
- * attributes, and *v the view of it.  Returns the sub-step reached (-1: error) and sets *landed. */
-static long fly(PyObject *md, const double *p, long phase, long i, long n, double h, long cmd, const double *sp,
+/* the view of a model's state in its fields, its wind and phase known (0: error) */
+static int read_view_known(PyObject *model, View *v, double w0, double w1, long phase)
+{
+    v->pos = PyObject_GetAttr(model, k_pos);
+    v->vel = PyObject_GetAttr(model, k_vel);
+    v->a_cmd = PyObject_GetAttr(model, k_a_cmd);
+    v->ready = PyObject_GetAttr(model, k_ready);
+    v->w0 = w0; v->w1 = w1; v->phase = phase;
+    return !(v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL
+             || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
+             || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2);
+}
+
+/* the view of a model's state in its fields (0: error) */
+static int read_view(PyObject *model, View *v)
+{
+    PyObject *w = PyObject_GetAttr(model, k_wind_m), *phase = PyObject_GetAttr(model, k_phase);
+    int ok;
+    v->pos = PyObject_GetAttr(model, k_pos);
+    v->vel = PyObject_GetAttr(model, k_vel);
+    v->a_cmd = PyObject_GetAttr(model, k_a_cmd);
+    v->ready = PyObject_GetAttr(model, k_ready);
+    ok = !(v->pos == NULL || v->vel == NULL || v->a_cmd == NULL || v->ready == NULL || w == NULL || phase == NULL
+           || !PyList_Check(v->pos) || PyList_Size(v->pos) != 3 || !PyList_Check(v->vel) || PyList_Size(v->vel) != 3
+           || !PyList_Check(v->a_cmd) || PyList_Size(v->a_cmd) != 2 || !PyTuple_Check(w) || PyTuple_Size(w) != 3
+           || !PyLong_Check(phase));
+    if (ok) {
+        v->w0 = PyFloat_AsDouble(PyTuple_GetItem(w, 0));
+        v->w1 = PyFloat_AsDouble(PyTuple_GetItem(w, 1));
+        v->phase = PyLong_AsLong(phase);
+        ok = !PyErr_Occurred();
+    }
+    Py_XDECREF(w);
+    Py_XDECREF(phase);
+    return ok;
+}
+
+/* One pass of Dynamics.run_substeps' loop body through uav_fly from sub-step i: the state in and out of the model's
+ * fields, and *v the view of it.  Returns the sub-step reached (-1: error) and sets *landed. */
+static long fly(PyObject *model, const double *p, long phase, long i, long n, double h, long cmd, const double *sp,
                 double wx, double wy, View *v, int *landed)
 {
     double s[NSTATE], pos[3], vel[3], vt[2], integ[2], hold[2];
-    PyObject *mode = lookup(md, k_mode), *vtz = lookup(md, k_vtz), *hold_z = lookup(md, k_hold_z);
-    PyObject *pos_l, *vel_l, *vt_l, *integ_l, *hold_l, *a_l;
+    PyObject *mode = PyObject_GetAttr(model, k_mode), *vtz = PyObject_GetAttr(model, k_vtz),
+             *hold_z = PyObject_GetAttr(model, k_hold_z);
+    PyObject *pos_l = NULL, *vel_l = NULL, *vt_l = NULL, *integ_l = NULL, *hold_l = NULL, *a_l = NULL;
+    long result = -1;
     int goto_;
-    if (mode == NULL || vtz == NULL || hold_z == NULL || (pos_l = get_list(md, k_pos, pos, 3)) == NULL
-        || (vel_l = get_list(md, k_vel, vel, 3)) == NULL || (vt_l = get_list(md, k_vt, vt, 2)) == NULL
-        || (integ_l = get_list(md, k_integ, integ, 2)) == NULL || (hold_l = get_list(md, k_hold, hold, 2)) == NULL
-        || (a_l = list_of(md, k_a_cmd, 2)) == NULL)
-        return -1;
+    if (mode == NULL || vtz == NULL || hold_z == NULL || (pos_l = field_list(model, k_pos, pos, 3)) == NULL
+        || (vel_l = field_list(model, k_vel, vel, 3)) == NULL || (vt_l = field_list(model, k_vt, vt, 2)) == NULL
+        || (integ_l = field_list(model, k_integ, integ, 2)) == NULL
+        || (hold_l = field_list(model, k_hold, hold, 2)) == NULL || (a_l = list_field(model, k_a_cmd, 2)) == NULL)
+        goto done;
     s[VTZ] = PyFloat_AsDouble(vtz);
     s[HOLDZ] = PyFloat_AsDouble(hold_z);
-    if (PyErr_Occurred()) return -1;
+    if (PyErr_Occurred()) goto done;
     goto_ = PyObject_RichCompareBool(mode, str_goto, Py_EQ);
-    if (goto_ < 0) return -1;
+    if (goto_ < 0) goto done;
     s[PX] = pos[0]; s[PY] = pos[1]; s[PZ] = pos[2]; s[VX] = vel[0]; s[VY] = vel[1];
     s[VTX] = vt[0]; s[VTY] = vt[1]; s[IX] = integ[0]; s[IY] = integ[1]; s[AX] = 0.0; s[AY] = 0.0;
     s[HX] = hold[0]; s[HY] = hold[1]; s[PHASE] = (double)phase; s[MODE] = goto_ ? 1.0 : 0.0; s[LANDED] = 0.0;
     s[I] = (double)i; s[N] = (double)n; s[H] = h; s[CMD] = (double)cmd;
     s[SPX] = sp[0]; s[SPY] = sp[1]; s[SPZ] = sp[2]; s[WX] = wx; s[WY] = wy;
     i = uav_fly(s, p);
-    {   /* Dynamics._run's assignments */
+    {   /* Dynamics.run_substeps' assignments */
         const double newpos[3] = {s[PX], s[PY], s[PZ]}, newvel[3] = {s[VX], s[VY], s[VTZ]};
         const double newvt[2] = {s[VTX], s[VTY]}, newinteg[2] = {s[IX], s[IY]}, acmd[2] = {s[AX], s[AY]};
         const double newhold[2] = {s[HX], s[HY]};
         PyObject *m = s[MODE] != 0.0 ? str_goto : str_hold;
-        Py_INCREF(m);
         if (!set_list(pos_l, newpos, 3) || !set_list(vel_l, newvel, 3) || !set_list(vt_l, newvt, 2)
-            || !update_double(md, k_vtz, vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
-            || !put(md, k_phase, PyLong_FromLong((long)s[PHASE])) || (m == mode ? (Py_DECREF(m), 0) : !put(md, k_mode, m))
-            || !set_list(hold_l, newhold, 2) || !update_double(md, k_hold_z, hold_z, s[HOLDZ]))
-            return -1;
+            || !update_double(model, k_vtz, vtz, s[VTZ]) || !set_list(integ_l, newinteg, 2) || !set_list(a_l, acmd, 2)
+            || ((long)s[PHASE] != phase && !set_field(model, k_phase, PyLong_FromLong((long)s[PHASE])))
+            || (m != mode && PyObject_SetAttr(model, k_mode, m) < 0)
+            || !set_list(hold_l, newhold, 2) || !update_double(model, k_hold_z, hold_z, s[HOLDZ]))
+            goto done;
     }
-    v->pos = pos_l; v->vel = vel_l; v->a_cmd = a_l;
+    if ((v->ready = PyObject_GetAttr(model, k_ready)) == NULL) goto done;
+    v->pos = pos_l; v->vel = vel_l; v->a_cmd = a_l;     /* the view takes these references over */
+    pos_l = vel_l = a_l = NULL;
     v->w0 = wx; v->w1 = wy;
     v->phase = (long)s[PHASE];
-    if ((v->ready = lookup(md, k_ready)) == NULL) return -1;
     *landed = s[LANDED] != 0.0;
-    return i;
+    result = i;
+done:
+    Py_XDECREF(mode); Py_XDECREF(vtz); Py_XDECREF(hold_z);
+    Py_XDECREF(pos_l); Py_XDECREF(vel_l); Py_XDECREF(vt_l); Py_XDECREF(integ_l); Py_XDECREF(hold_l); Py_XDECREF(a_l);
+    return result;
 }
 
-/* model._run(n, h, cmd, sp[, i]): the reference code, for the rare sub-steps (0: error) */
+/* model.run_substeps(n, h, cmd, sp[, i]): the reference code, for the rare sub-steps (0: error) */
 static int run_python(PyObject *model, long n, double h, long cmd, PyObject *sp, long i)
 {
     PyObject *r = NULL, *ni = PyLong_FromLong(n), *hi = PyFloat_FromDouble(h), *ci = PyLong_FromLong(cmd),
@@ -240,22 +302,23 @@ static int run_python(PyObject *model, long n, double h, long cmd, PyObject *sp,
 }
 
 /* Dynamics.step's phase dispatch, once the inputs are read; fills *v with the view to publish (0: error) */
-static int advance(PyObject *model, PyObject *md, const double *p, long n, double h, long cmd, PyObject *sd,
-                   double wx, double wy, View *v)
+static int advance(PyObject *model, const double *p, long n, double h, long cmd, PyObject *sd, double wx, double wy,
+                   View *v)
 {
     long phase;
-    if (!get_long(md, k_phase, &phase)) return 0;
+    if (!field_long(model, k_phase, &phase)) return 0;
     if (phase == PREFLIGHT && cmd != CMD_TAKEOFF && cmd != CMD_GOTO) {  /* only the preflight clock runs */
         const double pt = p[K_PREFLIGHT_TIME] - 1e-9;
         double elapsed;
         int ready = 0;
-        if (!get_double(md, k_preflight_elapsed, &elapsed)) return 0;
+        if (!field_double(model, k_preflight_elapsed, &elapsed)) return 0;
         for (long j = 0; j < n; j++) {
             elapsed += h;
             if (elapsed >= pt) ready = 1;
         }
-        if (!put_double(md, k_preflight_elapsed, elapsed)) return 0;
-        if (ready) { Py_INCREF(Py_True); if (!put(md, k_ready, Py_True)) return 0; }
+        if (!set_field_double(model, k_preflight_elapsed, elapsed)) return 0;
+        if (ready && PyObject_SetAttr(model, k_ready, Py_True) < 0) return 0;
+        return read_view_known(model, v, wx, wy, phase);      /* the phase and the wind as they were */
     } else if (phase == PREFLIGHT || (phase == ON_GROUND && cmd == CMD_TAKEOFF)) {
         /* lift-off: the reference code */
         PyObject *sp = sp_tuple(sd);
@@ -268,9 +331,10 @@ static int advance(PyObject *model, PyObject *md, const double *p, long n, doubl
         long i;
         for (int j = 0; j < 3; j++)
             if (!get_float(sd, k_sp[j], &spd[j])) return 0;
-        i = fly(md, p, phase, 0, n, h, cmd, spd, wx, wy, v, &landed);
+        i = fly(model, p, phase, 0, n, h, cmd, spd, wx, wy, v, &landed);
         if (i < 0) return 0;
         if (!landed) return 1;
+        release_view(v);
         {
             PyObject *r = PyObject_CallMethodObjArgs(model, str_touch_down, NULL), *sp;
             int ok;
@@ -284,11 +348,13 @@ static int advance(PyObject *model, PyObject *md, const double *p, long n, doubl
                 if (!ok) return 0;
             }
         }
+    } else {
+        return read_view_known(model, v, wx, wy, phase);      /* on the ground: nothing changed */
     }
-    return read_view(md, v);
+    return read_view(model, v);
 }
 
-/* Dynamics.outputs() of the view into the shell's attributes, as UavDynamics._publish assigns them (0: error) */
+/* Dynamics.outputs() of the view into the variables, as UavDynamics._publish assigns them (0: error) */
 static int publish(PyObject *sd, const double *p, const View *v)
 {
     PyObject *vx = PyList_GetItem(v->vel, 0), *vy = PyList_GetItem(v->vel, 1), *gx, *gy, *phase, *ready;
@@ -364,43 +430,40 @@ static int read_inputs(PyObject *sd, long *cmd, PyObject **wind)
 
 static PyObject *step(PyObject *module, PyObject *args)
 {
-    PyObject *sd, *dt_o, *model, *md = NULL, *nh, *kbuf, *wind = NULL;
+    PyObject *model, *sd, *dt_o, *sub = NULL, *nh, *kbuf = NULL, *wind = NULL;
     const double *p;
     double dt, h, time;
     long n, cmd;
-    View v;
+    View v = {NULL, NULL, NULL, NULL, 0.0, 0.0, 0};
     int ok = 0;
     (void)module;
-    if (PyTuple_Size(args) != 2 || !PyDict_Check(sd = PyTuple_GetItem(args, 0))) {
-        PyErr_SetString(PyExc_TypeError, "step(shell_dict, step_size)");
+    if (PyTuple_Size(args) != 3 || !PyDict_Check(sd = PyTuple_GetItem(args, 1))) {
+        PyErr_SetString(PyExc_TypeError, "step(model, variables, step_size)");
         return NULL;
     }
-    dt_o = PyTuple_GetItem(args, 1);
-    model = lookup(sd, k_model);
+    model = PyTuple_GetItem(args, 0);
+    dt_o = PyTuple_GetItem(args, 2);
     dt = PyFloat_AsDouble(dt_o);
-    if (model == NULL || model == Py_None || (dt == -1.0 && PyErr_Occurred()) || !(dt > 0.0))
+    if (model == Py_None || (dt == -1.0 && PyErr_Occurred()) || !(dt > 0.0))
         goto python;
-    md = PyObject_GetAttr(model, str_dict);
-    if (md == NULL || !PyDict_Check(md)) goto python;
-    {   /* the model's cached sub-division of this step size (a new one: the Python code computes it) */
-        PyObject *sub = lookup(md, k_sub);
-        nh = sub != NULL && PyDict_Check(sub) ? lookup(sub, dt_o) : NULL;
-    }
-    kbuf = lookup(md, k_kbuf);
-    if (nh == NULL || !PyTuple_Check(nh) || PyTuple_Size(nh) != 2 || kbuf == NULL || !PyBytes_Check(kbuf)
+    /* the model's sub-division of this step size (a new one: the Python code computes it) */
+    if ((sub = PyObject_GetAttr(model, k_sub)) == NULL || (kbuf = PyObject_GetAttr(model, k_kbuf)) == NULL)
+        goto python;
+    nh = PyDict_Check(sub) ? lookup(sub, dt_o) : NULL;
+    if (nh == NULL || !PyTuple_Check(nh) || PyTuple_Size(nh) != 2 || !PyBytes_Check(kbuf)
         || PyBytes_Size(kbuf) != NKBUF * (Py_ssize_t)sizeof(double))
         goto python;
     n = PyLong_AsLong(PyTuple_GetItem(nh, 0));
     h = PyFloat_AsDouble(PyTuple_GetItem(nh, 1));
-    if (PyErr_Occurred() || !get_double(md, k_time, &time) || !read_inputs(sd, &cmd, &wind)) goto python;
+    if (PyErr_Occurred() || !field_double(model, k_time, &time) || !read_inputs(sd, &cmd, &wind)) goto python;
     p = (const double *)PyBytes_AsString(kbuf);
     /* from here on the model changes: an error is raised (as the Python step raises it), not retried */
-    Py_INCREF(wind);
-    ok = put(md, k_wind_m, wind)
-        && advance(model, md, p, n, h, cmd, sd, PyFloat_AsDouble(PyTuple_GetItem(wind, 0)),
+    ok = PyObject_SetAttr(model, k_wind_m, wind) == 0
+        && advance(model, p, n, h, cmd, sd, PyFloat_AsDouble(PyTuple_GetItem(wind, 0)),
                    PyFloat_AsDouble(PyTuple_GetItem(wind, 1)), &v)
-        && put_double(md, k_time, time + dt) && publish(sd, p, &v);
-    Py_DECREF(md); Py_DECREF(wind);
+        && set_field_double(model, k_time, time + dt) && publish(sd, p, &v);
+    release_view(&v);
+    Py_DECREF(sub); Py_DECREF(kbuf); Py_DECREF(wind);
     if (!ok) {
         if (!PyErr_Occurred()) PyErr_SetString(PyExc_RuntimeError, "_dynamics_ext.step: unexpected model state");
         return NULL;
@@ -408,7 +471,7 @@ static PyObject *step(PyObject *module, PyObject *args)
     Py_RETURN_TRUE;
 python:
     PyErr_Clear();
-    Py_XDECREF(md); Py_XDECREF(wind);
+    Py_XDECREF(sub); Py_XDECREF(kbuf); Py_XDECREF(wind);
     Py_RETURN_FALSE;
 }
 
@@ -425,31 +488,27 @@ static double py_cube(double x)
     return x == 1.0 ? 1.0 : pow(x, 3.0);
 }
 
-/* an EnuFrame slot (__slots__ of uavsim.geodesy.EnuFrame) as a double (0: not an exact float) */
-static int frame_double(PyObject *frame, PyObject *name, double *out)
-{
-    PyObject *v = PyObject_GetAttr(frame, name);
-    int ok = v != NULL && PyFloat_CheckExact(v);
-    if (ok) *out = PyFloat_AsDouble(v);
-    Py_XDECREF(v);
-    return ok;
-}
-
-/* EnuFrame.to_geodetic(e, n, u) of uavsim/geodesy.py, operation by operation in the same order; p = math.hypot(x, y)
- * is Python's own (0: a Python error, or a frame slot that is not an exact float) */
+/* EnuFrame.to_geodetic(e, n, u) of uavsim/geodesy.py, operation by operation in the same order, on the frame's
+ * constants; p = math.hypot(x, y) is Python's own (0: a Python error, or constants that are not 7 exact floats) */
 static int to_geodetic(PyObject *frame, double e, double n, double u, double out[3])
 {
     const double a = WGS84_A, b = wgs84_b, e2 = wgs84_e2, ep2 = wgs84_ep2;
-    double x0, y0, z0, sp, cp, sl, cl, x, y, z, p, lon, theta, st, ct, lat, s, c;
-    PyObject *xo, *yo;
-    int ok;
-    if (!(frame_double(frame, k_f_x0, &x0) && frame_double(frame, k_f_y0, &y0) && frame_double(frame, k_f_z0, &z0)
-          && frame_double(frame, k_f_sp, &sp) && frame_double(frame, k_f_cp, &cp)
-          && frame_double(frame, k_f_sl, &sl) && frame_double(frame, k_f_cl, &cl)))
-        return 0;
-    x = x0 + (-sl * e - sp * cl * n + cp * cl * u);
-    y = y0 + (cl * e - sp * sl * n + cp * sl * u);
-    z = z0 + (cp * n + sp * u);
+    double c7[7], x, y, z, p, lon, theta, st, ct, lat, s, c;
+    PyObject *xo, *yo, *consts = PyObject_GetAttr(frame, k_constants);
+    int ok = consts != NULL && PyTuple_Check(consts) && PyTuple_Size(consts) == 7;
+    for (int j = 0; ok && j < 7; j++) {
+        PyObject *v = PyTuple_GetItem(consts, j);
+        ok = PyFloat_CheckExact(v);
+        if (ok) c7[j] = PyFloat_AsDouble(v);
+    }
+    Py_XDECREF(consts);
+    if (!ok) return 0;
+    {
+        const double x0 = c7[0], y0 = c7[1], z0 = c7[2], sp = c7[3], cp = c7[4], sl = c7[5], cl = c7[6];
+        x = x0 + (-sl * e - sp * cl * n + cp * cl * u);
+        y = y0 + (cl * e - sp * sl * n + cp * sl * u);
+        z = z0 + (cp * n + sp * u);
+    }
     xo = PyFloat_FromDouble(x);
     yo = PyFloat_FromDouble(y);
     ok = xo != NULL && yo != NULL && py_hypot(xo, yo, &p);
@@ -470,32 +529,25 @@ static int to_geodetic(PyObject *frame, double e, double n, double u, double out
     return 1;
 }
 
-/* UavDynamics._geodetic(shell)[j] (the shell's lat, lon or alt): the conversion of (x, y, z), cached in the shell's
- * _geo and _geo_key as the Python method caches it; before initialisation (no frame yet) and for positions that
- * are not exact floats, the Python method itself */
+/* UavDynamics.geodetic(shell)[j] (the shell's lat, lon or alt): the conversion of (x, y, z), cached in the shell's
+ * geodetic_key and geodetic_value as the Python method caches it; before initialisation (no frame yet) and for
+ * positions that are not exact floats, the Python method itself */
 static PyObject *geodetic_item(PyObject *shell, Py_ssize_t j)
 {
-    PyObject *d = PyObject_GetAttr(shell, str_dict), *frame, *x, *y, *z, *key = NULL, *old, *geo = NULL, *r = NULL;
+    PyObject *frame = NULL, *x = NULL, *y = NULL, *z = NULL, *key = NULL, *old = NULL, *geo = NULL, *r = NULL;
     double out[3];
     int changed;
-    if (d == NULL) return NULL;
-    if (!PyDict_Check(d)) goto python;
-    frame = lookup(d, k_frame);
-    x = lookup(d, k_x); y = lookup(d, k_y); z = lookup(d, k_z);
-    if (PyErr_Occurred()) goto done;
-    if (frame == NULL || frame == Py_None || x == NULL || y == NULL || z == NULL || !PyFloat_CheckExact(x)
-        || !PyFloat_CheckExact(y) || !PyFloat_CheckExact(z))
+    frame = PyObject_GetAttr(shell, k_frame);
+    x = PyObject_GetAttr(shell, k_x); y = PyObject_GetAttr(shell, k_y); z = PyObject_GetAttr(shell, k_z);
+    if (frame == NULL || x == NULL || y == NULL || z == NULL) goto done;
+    if (frame == Py_None || !PyFloat_CheckExact(x) || !PyFloat_CheckExact(y) || !PyFloat_CheckExact(z))
         goto python;
-    if ((key = PyTuple_Pack(3, x, y, z)) == NULL) goto done;
-    if ((old = lookup(d, k_geo_key)) == NULL) {
-        if (PyErr_Occurred()) goto done;
-        goto python;
-    }
-    changed = PyObject_RichCompareBool(key, old, Py_NE);      /* key != self._geo_key */
+    if ((key = PyTuple_Pack(3, x, y, z)) == NULL || (old = PyObject_GetAttr(shell, k_geo_key)) == NULL) goto done;
+    changed = PyObject_RichCompareBool(key, old, Py_NE);      /* key != self.geodetic_key */
     if (changed < 0) goto done;
     if (!changed) {
-        geo = lookup(d, k_geo);
-        if (geo == NULL || !PyTuple_Check(geo) || PyTuple_Size(geo) != 3) goto python;
+        if ((geo = PyObject_GetAttr(shell, k_geo)) == NULL) goto done;
+        if (!PyTuple_Check(geo) || PyTuple_Size(geo) != 3) goto python;
         r = PyTuple_GetItem(geo, j);
         Py_XINCREF(r);
         goto done;
@@ -505,12 +557,10 @@ static PyObject *geodetic_item(PyObject *shell, Py_ssize_t j)
         goto python;
     }
     geo = Py_BuildValue("(ddd)", out[0], out[1], out[2]);
-    Py_INCREF(key);
-    if (geo != NULL && PyDict_SetItem(d, k_geo, geo) == 0 && put(d, k_geo_key, key)) {
+    if (geo != NULL && PyObject_SetAttr(shell, k_geo, geo) == 0 && PyObject_SetAttr(shell, k_geo_key, key) == 0) {
         r = PyTuple_GetItem(geo, j);
         Py_XINCREF(r);
     }
-    Py_XDECREF(geo);
     goto done;
 python:
     {
@@ -519,8 +569,8 @@ python:
         Py_XDECREF(t);
     }
 done:
-    Py_XDECREF(key);
-    Py_DECREF(d);
+    Py_XDECREF(frame); Py_XDECREF(x); Py_XDECREF(y); Py_XDECREF(z);
+    Py_XDECREF(key); Py_XDECREF(old); Py_XDECREF(geo);
     return r;
 }
 
@@ -530,8 +580,8 @@ static PyObject *geo_alt(PyObject *module, PyObject *shell) { (void)module; retu
 
 static PyMethodDef methods[] = {
     {"step", step, METH_VARARGS,
-     "step(shell_dict, step_size) -> bool: UavDynamics.do_step on the shell's __dict__; False: nothing done, "
-     "run the Python step"},
+     "step(model, variables, step_size) -> bool: UavDynamics.do_step on its Dynamics model and its variables; "
+     "False: nothing done, run the Python step"},
     {"lat", geo_lat, METH_O, "lat(shell): the shell's lat, as its property computes it (uavsim.geodesy.EnuFrame)"},
     {"lon", geo_lon, METH_O, "lon(shell): the shell's lon, as its property computes it"},
     {"alt", geo_alt, METH_O, "alt(shell): the shell's alt, as its property computes it"},
@@ -553,22 +603,20 @@ PyMODINIT_FUNC PyInit__dynamics_ext(void)
     hypot_fn = PyObject_GetAttrString(math, "hypot");
     Py_DECREF(math);
     if (hypot_fn == NULL) return NULL;
-    if (!(intern(&str_goto, "goto") && intern(&str_hold, "hold") && intern(&str_run, "_run")
-          && intern(&str_touch_down, "_touch_down") && intern(&str_dict, "__dict__") && intern(&k_model, "_model")
+    if (!(intern(&str_goto, "goto") && intern(&str_hold, "hold") && intern(&str_run, "run_substeps")
+          && intern(&str_touch_down, "touch_down")
           && intern(&k_cmd, "cmd") && intern(&k_sp[0], "sp_x") && intern(&k_sp[1], "sp_y")
           && intern(&k_sp[2], "sp_z") && intern(&k_wind[0], "wind_x") && intern(&k_wind[1], "wind_y")
           && intern(&k_wind[2], "wind_z") && intern(&k_x, "x") && intern(&k_y, "y") && intern(&k_z, "z")
           && intern(&k_vx, "vx") && intern(&k_vy, "vy") && intern(&k_vz, "vz") && intern(&k_airspeed, "airspeed")
           && intern(&k_groundspeed, "groundspeed") && intern(&k_tilt, "tilt") && intern(&k_phase, "phase")
-          && intern(&k_ready, "ready") && intern(&k_sub, "_sub") && intern(&k_kbuf, "_kbuf")
+          && intern(&k_ready, "ready") && intern(&k_sub, "substep_table") && intern(&k_kbuf, "step_constants")
           && intern(&k_pos, "pos") && intern(&k_vel, "vel") && intern(&k_vt, "vt") && intern(&k_vtz, "vtz")
           && intern(&k_integ, "integ") && intern(&k_hold, "hold") && intern(&k_hold_z, "hold_z")
           && intern(&k_mode, "mode") && intern(&k_a_cmd, "a_cmd") && intern(&k_wind_m, "wind")
           && intern(&k_preflight_elapsed, "preflight_elapsed") && intern(&k_time, "time")
-          && intern(&str_geodetic, "_geodetic") && intern(&k_frame, "_frame") && intern(&k_geo, "_geo")
-          && intern(&k_geo_key, "_geo_key") && intern(&k_f_x0, "_x0") && intern(&k_f_y0, "_y0")
-          && intern(&k_f_z0, "_z0") && intern(&k_f_sp, "_sp") && intern(&k_f_cp, "_cp") && intern(&k_f_sl, "_sl")
-          && intern(&k_f_cl, "_cl")))
+          && intern(&str_geodetic, "geodetic") && intern(&k_frame, "enu_frame") && intern(&k_geo, "geodetic_value")
+          && intern(&k_geo_key, "geodetic_key") && intern(&k_constants, "constants")))
         return NULL;
     {   /* geodesy.py: WGS84_F = 1.0 / 298.257223563, WGS84_B = WGS84_A * (1.0 - WGS84_F), ... */
         volatile double f = 1.0 / 298.257223563;

@@ -1,10 +1,16 @@
-/* The FMU step of the UavWind shell in one call (uavsim/native.py; the Python twin is fmu_sources/UavWind.py
- * do_step -> _publish -> uavsim.wind.Wind.mean_over).
+/* The UavWind FMU's step in C: the accelerator of the shell's Python step (fmu_sources/UavWind.py do_step ->
+ * _publish -> uavsim.wind.Wind.mean_over), declared in uavsim/accelerators.py and checked against it by the
+ * accelerator harness (tests/accelerators/).
  *
- * step(shell_dict, current_time, step_size) publishes the wind's mean over the coming step, as the shell's
- * _publish does with step_mean on: wind_x, wind_y, wind_z, wind_speed and wind_level.  It reads the Wind model's
- * own attributes (its drawn intervals, the calm window) and changes nothing but what mean_over changes (the calm
- * window) and the outputs, so FMU get/set state and the Python twin see the same objects.
+ * step(model, variables, current_time, step_size) publishes the wind's mean over the coming step, as the shell's
+ * _publish does with step_mean on: wind_x, wind_y, wind_z, wind_speed and wind_level.  What it reads and writes,
+ * all public:
+ * - model: the Wind's fields, got by their names: p (its WindParams: probability, decision_interval, duration,
+ *   ramp, gusts, gust_length, gust_amplitude, turbulence), intervals (k -> Interval: level, speed, gust_start),
+ *   occurs, drawn, ux, uy, and calm, the only field it sets (as mean_over sets it);
+ * - variables: the FMU's variables by their modelDescription names (the shell's variable values): the parameter
+ *   step_mean and the outputs wind_x, wind_y, wind_z, wind_speed, wind_level.
+ * So FMU get/set state and the Python step see the same objects.
  *
  * Random numbers stay in Python: whenever the step needs an interval not drawn yet (an interval entered for the
  * first time, a calm window drawn ahead), and for the rare cases this file does not reproduce (the wind at a
@@ -29,16 +35,16 @@
 
 enum { DECLINED = 0, DONE = 1, FAILED = -1 };
 
-static PyObject *k_dict, *k_model, *k_step_mean, *k_p, *k_probability, *k_decision_interval, *k_duration, *k_ramp,
+static PyObject *k_step_mean, *k_p, *k_probability, *k_decision_interval, *k_duration, *k_ramp,
     *k_gusts, *k_gust_length, *k_gust_amplitude, *k_turbulence, *k_calm, *k_next_k, *k_occurs, *k_intervals, *k_ux,
     *k_uy, *k_level, *k_speed, *k_gust_start, *k_wind_x, *k_wind_y, *k_wind_z, *k_wind_speed, *k_wind_level;
 
 static struct { PyObject **key; const char *name; } names[] = {
-    {&k_dict, "__dict__"}, {&k_model, "_model"}, {&k_step_mean, "step_mean"}, {&k_p, "p"},
+    {&k_step_mean, "step_mean"}, {&k_p, "p"},
     {&k_probability, "probability"}, {&k_decision_interval, "decision_interval"}, {&k_duration, "duration"},
     {&k_ramp, "ramp"}, {&k_gusts, "gusts"}, {&k_gust_length, "gust_length"}, {&k_gust_amplitude, "gust_amplitude"},
-    {&k_turbulence, "turbulence"}, {&k_calm, "_calm"}, {&k_next_k, "_next_k"}, {&k_occurs, "_occurs"},
-    {&k_intervals, "_intervals"}, {&k_ux, "_ux"}, {&k_uy, "_uy"}, {&k_level, "level"}, {&k_speed, "speed"},
+    {&k_turbulence, "turbulence"}, {&k_calm, "calm"}, {&k_next_k, "drawn"}, {&k_occurs, "occurs"},
+    {&k_intervals, "intervals"}, {&k_ux, "ux"}, {&k_uy, "uy"}, {&k_level, "level"}, {&k_speed, "speed"},
     {&k_gust_start, "gust_start"}, {&k_wind_x, "wind_x"}, {&k_wind_y, "wind_y"}, {&k_wind_z, "wind_z"},
     {&k_wind_speed, "wind_speed"}, {&k_wind_level, "wind_level"}};
 
@@ -50,57 +56,72 @@ static int exact_double(PyObject *v, double *out)
     return 1;
 }
 
-static int get_double(PyObject *d, PyObject *key, double *out)
+/* obj.name as a double (0: missing, or not an exact float) */
+static int get_double(PyObject *obj, PyObject *name, double *out)
 {
-    return exact_double(PyDict_GetItemWithError(d, key), out);
+    PyObject *v = PyObject_GetAttr(obj, name);
+    int ok = exact_double(v, out);
+    Py_XDECREF(v);
+    return ok;
 }
 
-/* bool(d[key]) (-1: absent, or its truth raised) */
-static int get_truth(PyObject *d, PyObject *key)
+/* bool(obj.name) (-1: absent, or its truth raised) */
+static int get_truth(PyObject *obj, PyObject *name)
 {
-    PyObject *v = PyDict_GetItemWithError(d, key);
-    return v == NULL ? -1 : PyObject_IsTrue(v);
+    PyObject *v = PyObject_GetAttr(obj, name);
+    int r = v == NULL ? -1 : PyObject_IsTrue(v);
+    Py_XDECREF(v);
+    return r;
 }
 
-/* The model's attributes mean_over reads; the objects are borrowed from the model's __dict__ (held by md). */
+/* The model's fields mean_over reads (occurs and intervals: references held until release_model). */
 typedef struct {
-    PyObject *md, *occurs, *intervals;
+    PyObject *occurs, *intervals;
     double di, D, ramp, tg_len, amp, ux, uy, lo, hi;
     long long next_k;
     int gust, turbulence;
 } Model;
 
-/* Wind._calm: the window (lo, hi) of calm steps */
-static int calm_of(PyObject *md, double *lo, double *hi)
+/* Wind.calm: the window (lo, hi) of calm steps */
+static int calm_of(PyObject *model, double *lo, double *hi)
 {
-    PyObject *calm = PyDict_GetItemWithError(md, k_calm);
-    return calm != NULL && PyTuple_Check(calm) && PyTuple_Size(calm) == 2
+    PyObject *calm = PyObject_GetAttr(model, k_calm);
+    int ok = calm != NULL && PyTuple_Check(calm) && PyTuple_Size(calm) == 2
         && exact_double(PyTuple_GetItem(calm, 0), lo) && exact_double(PyTuple_GetItem(calm, 1), hi);
+    Py_XDECREF(calm);
+    return ok;
 }
 
-static int read_model(PyObject *md, PyObject *pd, Model *w)
+static void release_model(Model *w)
 {
-    PyObject *nk = PyDict_GetItemWithError(md, k_next_k);
+    Py_CLEAR(w->occurs);
+    Py_CLEAR(w->intervals);
+}
+
+/* the model's fields into *w (0: missing or of another type; release_model in any case) */
+static int read_model(PyObject *model, PyObject *p, Model *w)
+{
+    PyObject *nk = PyObject_GetAttr(model, k_next_k);
     double duration, gust_length;
-    int overflow;
-    w->md = md;
-    w->occurs = PyDict_GetItemWithError(md, k_occurs);
-    w->intervals = PyDict_GetItemWithError(md, k_intervals);
-    if (!calm_of(md, &w->lo, &w->hi) || nk == NULL || !PyLong_CheckExact(nk)
-        || w->occurs == NULL || !PyList_Check(w->occurs) || w->intervals == NULL || !PyDict_Check(w->intervals))
+    int overflow = 1;
+    w->occurs = PyObject_GetAttr(model, k_occurs);
+    w->intervals = PyObject_GetAttr(model, k_intervals);
+    if (nk != NULL && PyLong_CheckExact(nk)) w->next_k = PyLong_AsLongLongAndOverflow(nk, &overflow);
+    Py_XDECREF(nk);
+    if (!calm_of(model, &w->lo, &w->hi) || overflow || (w->next_k == -1 && PyErr_Occurred())
+        || w->occurs == NULL || !PyList_Check(w->occurs) || w->intervals == NULL || !PyDict_Check(w->intervals)
+        || PyList_Size(w->occurs) < w->next_k)
         return 0;
-    w->next_k = PyLong_AsLongLongAndOverflow(nk, &overflow);
-    if (overflow || (w->next_k == -1 && PyErr_Occurred()) || PyList_Size(w->occurs) < w->next_k) return 0;
-    if (!get_double(pd, k_decision_interval, &w->di) || !get_double(pd, k_duration, &duration)
-        || !get_double(pd, k_ramp, &w->ramp) || !get_double(pd, k_gust_length, &gust_length)
-        || !get_double(pd, k_gust_amplitude, &w->amp) || !get_double(md, k_ux, &w->ux)
-        || !get_double(md, k_uy, &w->uy))
+    if (!get_double(p, k_decision_interval, &w->di) || !get_double(p, k_duration, &duration)
+        || !get_double(p, k_ramp, &w->ramp) || !get_double(p, k_gust_length, &gust_length)
+        || !get_double(p, k_gust_amplitude, &w->amp) || !get_double(model, k_ux, &w->ux)
+        || !get_double(model, k_uy, &w->uy))
         return 0;
     /* _episode_length: min(duration, decision_interval); tg_len = min(gust_length, D) (min keeps the first of equals) */
     w->D = w->di < duration ? w->di : duration;
     w->tg_len = w->D < gust_length ? w->D : gust_length;
-    w->gust = get_truth(pd, k_gusts);
-    w->turbulence = get_truth(pd, k_turbulence);
+    w->gust = get_truth(p, k_gusts);
+    w->turbulence = get_truth(p, k_turbulence);
     if (w->gust < 0 || w->turbulence < 0) return 0;
     w->gust = w->gust && w->tg_len > 0.0;
     return 1;
@@ -229,10 +250,10 @@ static int windy_mean(const Model *w, double t0, double h, long m, double out[3]
 
 /* mean_over's first exits, calm window included: 1 when the step lies in the calm window (most steps: nothing
  * else is read then), 0 otherwise (mean_over decides) */
-static int in_calm_window(PyObject *md, double t0, double t1)
+static int in_calm_window(PyObject *model, double t0, double t1)
 {
     double h = t1 - t0, lo, hi;
-    return isfinite(h) && isfinite(t0) && h > 0.0 && calm_of(md, &lo, &hi) && lo <= t0 && t1 <= hi;
+    return isfinite(h) && isfinite(t0) && h > 0.0 && calm_of(model, &lo, &hi) && lo <= t0 && t1 <= hi;
 }
 
 /* Wind.mean_over(t0, t1) with probability > 0: DONE with the mean and level (and *set_calm with the calm window
@@ -282,54 +303,53 @@ static int publish(PyObject *sd, const double w[3], long level)
         && put(sd, k_wind_level, PyLong_FromLong(level));
 }
 
-/* the step on the shell's dict: DONE, DECLINED (nothing changed) or FAILED (a Python error while writing) */
-static int shell_step(PyObject *sd, double ct, double h)
+/* the step: DONE, DECLINED (nothing changed) or FAILED (a Python error while writing) */
+static int model_step(PyObject *model, PyObject *sd, double ct, double h)
 {
-    PyObject *model = PyDict_GetItemWithError(sd, k_model), *md = NULL, *p, *pd = NULL;
+    PyObject *p = NULL;
     double t0, t1, prob, wind[3] = {0.0, 0.0, 0.0}, calm[2];
     long level = 0;
-    int mean = get_truth(sd, k_step_mean), rc = DECLINED, set_calm = 0;
-    Model w;
-    if (model == NULL || model == Py_None || mean <= 0 || !(h > 0.0)) return DECLINED;   /* _build, at(t) */
+    PyObject *mean_o = PyDict_GetItemWithError(sd, k_step_mean);
+    int mean = mean_o == NULL ? -1 : PyObject_IsTrue(mean_o), rc = DECLINED, set_calm = 0;
+    Model w = {NULL, NULL};
+    if (model == Py_None || mean <= 0 || !(h > 0.0)) return DECLINED;      /* _build, at(t) */
     t0 = ct + h;                               /* _publish(current_time + step_size, step_size) */
     t1 = t0 + h;                               /* mean_over(t, t + h) */
-    if ((md = PyObject_GetAttr(model, k_dict)) == NULL || !PyDict_Check(md)
-        || (p = PyDict_GetItemWithError(md, k_p)) == NULL || (pd = PyObject_GetAttr(p, k_dict)) == NULL
-        || !PyDict_Check(pd) || !get_double(pd, k_probability, &prob))
+    if ((p = PyObject_GetAttr(model, k_p)) == NULL || !get_double(p, k_probability, &prob))
         goto done;
-    if (!(prob > 0.0) || in_calm_window(md, t0, t1)) {
+    if (!(prob > 0.0) || in_calm_window(model, t0, t1)) {
         rc = DONE;                             /* no episode can occur, or a calm step: zeros */
     } else {
-        if (!read_model(md, pd, &w)) goto done;
+        if (!read_model(model, p, &w)) goto done;
         rc = mean_over(&w, t0, t1, wind, &level, &set_calm, calm);
     }
     if (rc == DONE && !isfinite(wind[0] * wind[0] + wind[1] * wind[1])) rc = DECLINED;
     if (rc == DONE) {
         if (set_calm) {
             PyObject *window = Py_BuildValue("(dd)", calm[0], calm[1]);
-            if (window == NULL || PyDict_SetItem(md, k_calm, window) != 0) rc = FAILED;
+            if (window == NULL || PyObject_SetAttr(model, k_calm, window) != 0) rc = FAILED;
             Py_XDECREF(window);
         }
         if (rc == DONE && !publish(sd, wind, level)) rc = FAILED;
     }
 done:
-    Py_XDECREF(md);
-    Py_XDECREF(pd);
+    release_model(&w);
+    Py_XDECREF(p);
     return rc;
 }
 
 static PyObject *step(PyObject *module, PyObject *args)
 {
-    PyObject *sd, *ct_o, *h_o;
+    PyObject *model, *sd, *ct_o, *h_o;
     int rc;
     (void)module;
-    if (!PyArg_UnpackTuple(args, "step", 3, 3, &sd, &ct_o, &h_o) || !PyDict_Check(sd)) {
+    if (!PyArg_UnpackTuple(args, "step", 4, 4, &model, &sd, &ct_o, &h_o) || !PyDict_Check(sd)) {
         PyErr_Clear();
-        PyErr_SetString(PyExc_TypeError, "step(shell_dict, current_time, step_size)");
+        PyErr_SetString(PyExc_TypeError, "step(model, variables, current_time, step_size)");
         return NULL;
     }
     rc = PyFloat_CheckExact(ct_o) && PyFloat_CheckExact(h_o)
-        ? shell_step(sd, PyFloat_AsDouble(ct_o), PyFloat_AsDouble(h_o)) : DECLINED;
+        ? model_step(model, sd, PyFloat_AsDouble(ct_o), PyFloat_AsDouble(h_o)) : DECLINED;
     if (rc == FAILED) return NULL;
     PyErr_Clear();                             /* a lookup that raised: declined, Python does the step */
     if (rc == DONE) Py_RETURN_TRUE;
@@ -338,8 +358,8 @@ static PyObject *step(PyObject *module, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"step", step, METH_VARARGS,
-     "step(shell_dict, current_time, step_size) -> bool: UavWind.do_step on the shell's __dict__; False: nothing "
-     "done, run the Python step"},
+     "step(model, variables, current_time, step_size) -> bool: UavWind.do_step on its Wind model and its "
+     "variables; False: nothing done, run the Python step"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_wind_ext", NULL, -1, methods,

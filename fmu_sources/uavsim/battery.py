@@ -28,6 +28,13 @@ U = E - I R; the current follows from P = U I = E I - R I^2:
 (if E^2 < 4 R P the pack cannot deliver P; the current is then capped at the maximum-power
 current E / (2R) and ``overload`` is set).  Coulomb counting: dQ/dt = I,
 consumed = Q / C, soc = 1 - consumed (clamped at 0), energy_used = integral of U I dt.
+
+This module is the reference: the plain code a reader follows and changes (:meth:`Battery.step_reference`, the
+power and battery functions above).  Its accelerators compute exactly the same, faster: the step's loop runs in
+:mod:`uavsim.kernels` (``battery_step_py``, compiled as kernels.c) and the UavBattery FMU's whole step in
+uavsim/_battery_ext.c, which reads and sets the public fields of :class:`Battery`; both are declared in
+uavsim/accelerators.py and checked against this code by the accelerator harness (``COSIM_MASTER_PURE_PYTHON=1``
+switches them off).
 """
 from __future__ import annotations
 
@@ -176,8 +183,12 @@ class Battery:
         self._step = (self.kernels or _kernels.load()).make_battery_step()
         self._kparams = (*_power_slots(self.power_params), float(bp.cells), bp.resistance, bp.capacity_c,
                          float(len(bp.ocv_soc)), *map(float, bp.ocv_soc), *map(float, bp.ocv_cell))
-        self._kbuf = struct.pack(f"{len(self._kparams)}d", *self._kparams)   # read in place by _battery_ext.c
-        self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
+        #: the parameters as native doubles (uavsim.kernels' power slots, then its battery slots), which the
+        #: compiled step (_battery_ext.c) reads in place
+        self.step_constants = struct.pack(f"{len(self._kparams)}d", *self._kparams)
+        #: step size -> (sub-steps, sub-step), filled by the Python step (the master's step rarely changes); the
+        #: compiled step reads it and leaves a step size not in it to the Python step
+        self.substep_table: dict = {}
         self.charge_used = (1.0 - bp.initial_soc) * bp.capacity_c   # C
         self.energy_used = 0.0                                        # J
         self.power = 0.0
@@ -242,9 +253,9 @@ class Battery:
         depleted as 0/1), or None when ``dt`` <= 0 (nothing changed)."""
         if dt <= 0.0:
             return None
-        sub = self._sub.get(dt)
+        sub = self.substep_table.get(dt)
         if sub is None:
-            sub = self._sub[dt] = self._substeps(dt)
+            sub = self.substep_table[dt] = self._substeps(dt)
         s = [self.charge_used, self.energy_used, 0.0, 0.0, 0.0, 0.0, sub[0], sub[1], 0.0, float(airspeed), float(vz),
              1.0 if int(phase) in _MOTORS_ON else 0.0, 0.0, 0.0, 0.0]
         self._step(s, self._kparams)

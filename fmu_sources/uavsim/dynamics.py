@@ -24,6 +24,13 @@ displacement (docs/uav_models.md, "The paper's rules").  Vertically the thrust a
 Phases (output ``phase``): 0 preflight (on ground; the check takes ``preflight_time`` from power-on),
 1 takeoff (vertical climb to ``takeoff_altitude``), 2 fly, 3 land, 4 landed.
 Commands (input ``cmd``): 0 idle / hold, 1 takeoff, 2 go to setpoint, 3 land.
+
+This module is the reference: the plain code a reader follows and changes (:meth:`Dynamics._substep` is one
+sub-step, :meth:`Dynamics.step` the FMU's step).  Its accelerators compute exactly the same, faster: the flying
+sub-steps run in the loop of :mod:`uavsim.kernels` (``fly_py``, compiled as kernels.c) and the UavDynamics FMU's
+whole step in uavsim/_dynamics_ext.c, which reads and sets the public fields of :class:`Dynamics`; both are declared
+in uavsim/accelerators.py and checked against this code by the accelerator harness (``COSIM_MASTER_PURE_PYTHON=1``
+switches them off).
 """
 from __future__ import annotations
 
@@ -103,10 +110,12 @@ class Dynamics:
         p = self.params
         self._fly = (self.kernels or _kernels.load()).make_fly()
         self._kparams = self._kernel_params()
-        # the same parameters for the FMU step extension (_dynamics_ext.c): doubles it reads in place, then the
-        # two it needs besides the kernel's
-        self._kbuf = struct.pack(f"{len(self._kparams) + 2}d", *self._kparams, p.preflight_time, p.g)
-        self._sub: dict = {}          # step size -> (sub-steps, sub-step): the master's step rarely changes
+        #: the parameters as native doubles for the compiled FMU step (_dynamics_ext.c), which reads them in place:
+        #: uavsim.kernels' parameter slots, then preflight_time and g
+        self.step_constants = struct.pack(f"{len(self._kparams) + 2}d", *self._kparams, p.preflight_time, p.g)
+        #: step size -> (sub-steps, sub-step), filled by the Python step (the master's step rarely changes); the
+        #: compiled step reads it and leaves a step size not in it to the Python step
+        self.substep_table: dict = {}
         self.time = 0.0
         self.pos = [p.home_x, p.home_y, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -164,9 +173,9 @@ class Dynamics:
 
     # ------------------------------------------------------------------ stepping
     def _substeps(self, dt: float) -> tuple[int, float]:
-        sub = self._sub.get(dt)
+        sub = self.substep_table.get(dt)
         if sub is None:
-            sub = self._sub[dt] = self._count_substeps(dt)
+            sub = self.substep_table[dt] = self._count_substeps(dt)
         return sub
 
     def _count_substeps(self, dt: float) -> tuple[int, float]:
@@ -196,7 +205,7 @@ class Dynamics:
                 if self.preflight_elapsed >= pt:
                     self.ready = True
         else:
-            self._run(n, h, cmd, sp)
+            self.run_substeps(n, h, cmd, sp)
         self.time += dt
 
     def step_reference(self, dt: float, cmd: int, sp=(0.0, 0.0, 0.0), wind=(0.0, 0.0, 0.0)) -> None:
@@ -215,7 +224,7 @@ class Dynamics:
                 p.land_speed, p.land_alt_low, p.takeoff_altitude, p.drag_k, p.max_horizontal_accel,
                 1.0 if p.wind_push else 0.0)
 
-    def _run(self, n: int, h: float, cmd: int, sp, i: int = 0) -> None:
+    def run_substeps(self, n: int, h: float, cmd: int, sp, i: int = 0) -> None:
         """Sub-steps i .. n-1 of :meth:`_substep`: the flying ones in the kernel (uavsim.kernels), lift-off in
         the reference code."""
         kp = self._kparams
@@ -244,7 +253,7 @@ class Dynamics:
             self.hold = [hx, hy]
             self.hold_z = hold_z
             if landed:
-                self._touch_down()
+                self.touch_down()
 
     def _set_hold_here(self):
         self.hold = [self.pos[0], self.pos[1]]
@@ -350,9 +359,9 @@ class Dynamics:
             self.mode = "hold"
             self.hold_z = p.takeoff_altitude
         if self.phase == LAND and self.pos[2] <= 0.0:
-            self._touch_down()
+            self.touch_down()
 
-    def _touch_down(self) -> None:
+    def touch_down(self) -> None:
         """On the ground after a landing: at rest, controller state cleared."""
         self.pos[2] = 0.0
         self.vel = [0.0, 0.0, 0.0]

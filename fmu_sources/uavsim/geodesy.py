@@ -170,6 +170,12 @@ class EnuFrame:
         self._z0 = (n0 * (1.0 - WGS84_E2) + self.alt0) * sp
         self._sp, self._cp, self._sl, self._cl = sp, cp, sl, cl
 
+    @property
+    def constants(self) -> tuple:
+        """(x0, y0, z0, sin lat0, cos lat0, sin lon0, cos lon0): the origin in ECEF and its rotation, as
+        :meth:`to_geodetic` uses them (read by the compiled lat/lon/alt getters of uavsim/_dynamics_ext.c)."""
+        return self._x0, self._y0, self._z0, self._sp, self._cp, self._sl, self._cl
+
     def to_geodetic(self, e: float, n: float, u: float) -> tuple[float, float, float]:
         """ENU (m) -> (lat deg, lon deg, alt m) as Python floats."""
         from math import atan2, cos, degrees, hypot, sin, sqrt

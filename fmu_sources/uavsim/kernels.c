@@ -1,12 +1,14 @@
-/* Compiled twin of the UAV models' hot loops (uavsim/kernels.py holds the Python twin and the layout).
+/* The accelerator of the UAV models' hot loops: uavsim/kernels.py holds the reference (the Python loops) and the
+ * layout; declared in uavsim/accelerators.py and checked against the reference by the accelerator harness.
  *
- * uav_fly:      the flying sub-steps of uavsim.dynamics.Dynamics (takeoff, fly, land phases)
- * uav_battery:  the coulomb-counting sub-steps of uavsim.battery.Battery.step
+ * uav_fly:           the flying sub-steps of uavsim.dynamics.Dynamics (takeoff, fly, land phases): kernels.fly_py
+ * uav_battery:       the coulomb-counting sub-steps of uavsim.battery.Battery.step: kernels.battery_py
+ * uav_battery_step:  the battery's whole step: kernels.battery_step_py
  *
- * Both must give bit-identical results to the Python twins, so they use only the operations whose IEEE
+ * They must give bit-identical results to the references, so they use only the operations whose IEEE
  * results do not depend on the language: + - * / sqrt, comparisons and copysign, in the same order as the
  * Python code (which evaluates a + b + c as (a + b) + c, like C).  Compile without contraction of a*b+c into
- * fused multiply-adds (-ffp-contract=off) and without -ffast-math; build_fmus.py does.
+ * fused multiply-adds (-ffp-contract=off) and without -ffast-math; uavsim/native.py's FLAGS do.
  */
 #include <math.h>
 

@@ -1,14 +1,17 @@
-"""The UAV models' hot loops, twice: in Python (here) and compiled (kernels.c, loaded with ctypes).
+"""The UAV models' hot loops as plain Python (the reference: what a reader follows and changes) and their
+accelerator, kernels.c (the same loops compiled, loaded with ctypes).
 
 A campaign spends most of its time in the dynamics' 0.01 s sub-steps (about 25 per 0.25 s master step
-and UAV); the compiled twin does them ~30x faster.  Both twins use the same slot layout (below) and only
-+ - * / sqrt, comparisons and copysign, in the same order, so they give bit-identical results
-(tests/uav/test_uav_kernels.py): whether the shared library loads changes the speed, never a result.
+and UAV); the compiled loops do them ~30x faster.  :func:`fly_py` is Dynamics' sub-step written as one loop over a
+flat state (the slot layout below), :func:`battery_py` and :func:`battery_step_py` the battery's coulomb counting
+and whole step.  kernels.c uses the same layout and only + - * / sqrt, comparisons and copysign, in the same order,
+so it gives bit-identical results (declared in uavsim/accelerators.py, checked by the project's harness): whether
+the library loads changes the speed, never a result.
 
-The library is compiled by ``fmu_sources/build_fmus.py`` into each FMU's ``resources/uavsim/`` (next
-to this file).  :func:`load` finds it there, or in a folder the FMU shell names (its resources folder,
-for when ``uavsim`` was imported from elsewhere first); without it the Python twins run.  Set
-``UAVSIM_PURE_PYTHON=1`` to force the Python twins.
+The library is compiled by ``fmu_sources/build_fmus.py`` (through master.native_build, uavsim/native.py) into
+each FMU's ``resources/uavsim/`` (next to this file).  :func:`load` finds it there, or in a folder the FMU shell
+names (its resources folder, for when ``uavsim`` was imported from elsewhere first); without it the Python loops
+run.  :func:`build` compiles it outside an FMU.  ``COSIM_MASTER_PURE_PYTHON=1`` forces the Python loops.
 """
 from __future__ import annotations
 
@@ -17,6 +20,8 @@ import os
 import struct
 from math import copysign, sqrt
 from pathlib import Path
+
+from . import native
 
 LIBRARY = "_uavsim_kernels.so"
 SYMBOLS = ("uav_fly", "uav_battery", "uav_battery_step")
@@ -267,7 +272,7 @@ _HERE = Path(__file__).resolve().parent
 def load(*folders) -> Kernels:
     """The compiled kernels from the first of (this file's folder, *folders) that holds the library,
     else the Python twins.  Cached per library path."""
-    if os.environ.get("UAVSIM_PURE_PYTHON", "") not in ("", "0"):
+    if native.disabled():
         return _python()
     key = tuple(str(f) for f in folders)
     k = _found.get(key)
@@ -276,9 +281,21 @@ def load(*folders) -> Kernels:
     return k
 
 
-def _search(folders) -> Kernels:
+def build() -> tuple[Kernels | None, str | None]:
+    """The compiled loops built here (outside an FMU, through master.native_build): (Kernels, None) or (None, why
+    not)."""
+    if native.disabled():
+        return None, f"{native.ENV} is set"
+    path, why = native.build(_HERE / "kernels.c", LIBRARY[1:-3], native.FLAGS)
+    if path is None:
+        return None, why
+    k = _search((path.parent,), path.name)
+    return (k, None) if k.compiled else (None, f"{path.name} does not load")
+
+
+def _search(folders, library: str = LIBRARY) -> Kernels:
     for folder in folders:
-        path = str(folder / LIBRARY)
+        path = str(folder / library)
         if path in _loaded:
             return _loaded[path]
         if os.path.isfile(path):

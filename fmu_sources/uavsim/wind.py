@@ -40,6 +40,12 @@ same numbers are drawn whether or not turbulence/gusts are enabled (the turbulen
 nothing else, only when turbulence is).  The output at time t is a
 function of t only (turbulence is held piecewise-constant on the turb_dt grid), hence identical
 for any master step size.
+
+This module is the reference: the plain code a reader follows and changes.  Its accelerator, uavsim/_wind_ext.c,
+computes the UavWind FMU's step (``mean_over`` of the coming step) exactly the same, faster, from the public fields
+of :class:`Wind` (``intervals``, ``occurs``, ``drawn``, ``calm``, ``ux``, ``uy``, ``p``), leaving random draws and
+turbulence to this code; it is declared in uavsim/accelerators.py and checked against this code by the accelerator
+harness (``COSIM_MASTER_PURE_PYTHON=1`` switches it off).
 """
 from __future__ import annotations
 
@@ -87,7 +93,9 @@ def dryden_low_altitude(w20: float, h_m: float):
     return (su, su, sw), (lu, lu, lw)
 
 
-class _Interval:
+class Interval:
+    """The numbers drawn for decision interval k (its noise: the turbulence stream's block, None without
+    turbulence; turb, turb_n: the Dryden state of its last sample)."""
     __slots__ = ("k", "occurs", "level", "speed", "gust_start", "noise", "turb", "turb_n")
 
 
@@ -102,24 +110,25 @@ class Wind:
         self._rng_ep = np.random.Generator(np.random.PCG64(s_ep))
         self._rng_gust = np.random.Generator(np.random.PCG64(s_gust))
         self._rng_turb = np.random.Generator(np.random.PCG64(s_turb))
-        self._intervals: dict[int, _Interval] = {}
-        self._occurs: list[bool] = []        # _occurs[k]: wind in interval k (drawn intervals only)
-        self._next_k = 0
-        self._calm = (math.inf, -math.inf)   # a time window in calm intervals only (see mean_over)
+        # the state, public: the compiled step (uavsim/_wind_ext.c) reads these fields by these names and sets calm
+        self.intervals: dict[int, Interval] = {}   # the intervals drawn, by index k
+        self.occurs: list[bool] = []        # occurs[k]: wind in interval k (drawn intervals only)
+        self.drawn = 0                      # intervals 0 ... drawn - 1 are drawn
+        self.calm = (math.inf, -math.inf)   # a time window in calm intervals only (see mean_over)
         self.n_turb = max(1, int(round(self.p.decision_interval / self.p.turb_dt)))
         d = math.radians(self.p.direction_deg)
-        self._ux, self._uy = -math.sin(d), -math.cos(d)   # unit vector the wind blows toward
+        self.ux, self.uy = -math.sin(d), -math.cos(d)     # unit vector the wind blows toward
 
     # ------------------------------------------------------------------ random draws
-    def _interval(self, k: int) -> _Interval:
-        while self._next_k <= k:
-            self._draw(self._next_k)
-            self._next_k += 1
-        return self._intervals[k]
+    def _interval(self, k: int) -> Interval:
+        while self.drawn <= k:
+            self._draw(self.drawn)
+            self.drawn += 1
+        return self.intervals[k]
 
     def _draw(self, k: int) -> None:
         p = self.p
-        iv = _Interval()
+        iv = Interval()
         iv.k = k
         # two scalar draws: the same two numbers of the stream as random(2), as Python floats, at half the cost
         rng_ep = self._rng_ep
@@ -141,8 +150,8 @@ class Wind:
         iv.noise = self._rng_turb.standard_normal((self.n_turb + 1, 3)) if p.turbulence else None
         iv.turb = None
         iv.turb_n = -1
-        self._intervals[k] = iv
-        self._occurs.append(iv.occurs)
+        self.intervals[k] = iv
+        self.occurs.append(iv.occurs)
 
     # ------------------------------------------------------------------ evaluation
     def _episode_length(self) -> float:
@@ -176,7 +185,7 @@ class Wind:
             f = 1.0
         return iv.level, iv.speed * max(0.0, f)
 
-    def _turbulence(self, iv: _Interval, tau: float):
+    def _turbulence(self, iv: Interval, tau: float):
         p = self.p
         n = min(self.n_turb - 1, int(math.floor(tau / p.turb_dt + 1e-9)))
         if n == iv.turb_n and iv.turb is not None:
@@ -207,7 +216,7 @@ class Wind:
         h = t1 - t0
         if h <= 0.0:
             return self.at(t0)
-        lo, hi = self._calm
+        lo, hi = self.calm
         if lo <= t0 and t1 <= hi:
             return 0.0, 0.0, 0.0, 0          # every sample (in [t0, t1]) lies in a calm interval
         m = math.ceil(h / resolution - 1e-9)          # then clipped to 1 ... 200 samples
@@ -219,11 +228,11 @@ class Wind:
         k1 = floor((t0 + (m - 0.5) * h / m) / di + 1e-12)
         if k0 < 0:
             return self._mean_of_samples(t0, h, m)
-        if k1 >= self._next_k:
+        if k1 >= self.drawn:
             self._interval(k1)
-        occurs = self._occurs
+        occurs = self.occurs
         if not (occurs[k0] if k0 == k1 else any(occurs[k0:k1 + 1])):
-            self._calm = self._calm_window(k0, k1)
+            self.calm = self._calm_window(k0, k1)
             return 0.0, 0.0, 0.0, 0          # calm intervals (most of them): every sample is zero
         # the samples of at(t), written out in one loop (this runs every step of every UAV in wind): the
         # same expressions in the same order, so the same bits as summing at(t) (tests/uav/test_uav_wind.py)
@@ -234,8 +243,8 @@ class Wind:
         gust = gusts and tg_len > 0.0
         amp = p.gust_amplitude
         turbulence = p.turbulence
-        ux, uy = self._ux, self._uy
-        intervals = self._intervals
+        ux, uy = self.ux, self.uy
+        intervals = self.intervals
         cos, two_pi = math.cos, 2.0 * math.pi
         sx = sy = sz = 0.0
         level = 0
@@ -280,10 +289,10 @@ class Wind:
         whenever it is drawn, the streams draw interval after interval; at most ``ahead`` of them, as each
         holds its turbulence numbers and a fleet has a wind per UAV).  The 1e-6 margins exceed the
         rounding of t / T by far (for k below 1e9), so a step inside the window needs no sampling."""
-        occurs = self._occurs
+        occurs = self.occurs
         kb = k1
         while kb - k0 < ahead:
-            if kb + 1 >= self._next_k:
+            if kb + 1 >= self.drawn:
                 self._interval(kb + 1)
             if occurs[kb + 1]:
                 break
@@ -327,6 +336,6 @@ class Wind:
             cross += f * float(tu[1])
             up += f * float(tu[2])
         # along-wind unit (ux, uy); cross-wind unit rotated +90 deg: (-uy, ux)
-        wx = along * self._ux - cross * self._uy
-        wy = along * self._uy + cross * self._ux
+        wx = along * self.ux - cross * self.uy
+        wy = along * self.uy + cross * self.ux
         return wx, wy, up, level

@@ -38,8 +38,8 @@ from ..errors import CosimError
 from ..fmi.slave import WARNING
 from ..runtime import SavedPoint
 from . import ALGORITHMS
-from .base import Algorithm, coupled_outputs
-from .extrapolation import InputExtrapolation
+from .base import Algorithm
+from .extrapolation import InputExtrapolation, coupled_outputs
 from .step_control import StepLimits, StepStats, fit_to_grid, gustafsson
 
 ESTIMATES = ("extrapolation", "doubling")

@@ -37,8 +37,21 @@ import numpy as np
 
 from ..errors import CosimError, ScenarioError
 from ..fmi.slave import WARNING
-from .base import coupled_outputs
 from .ordering import gauss_seidel_order
+
+
+def coupled_outputs(rt) -> tuple[np.ndarray, dict[int, int]]:
+    """The positions in ``rt.out["Real"]`` of the outputs that feed step inputs, from active components that
+    step every master step (outputs of a component on a step multiple are staged and held), sorted; and the
+    component each comes from."""
+    owner = {}
+    for j, (a, _) in enumerate(rt.out_slice["Real"]):
+        if rt.active[j] and rt.multiple[j] == 1:
+            owner.update((p, j) for p in range(a, a + rt.step_reads(j, "Real")))
+    fed = {int(p) for i in range(len(rt.names)) if rt.active[i]
+           for p in rt.src["Real"][slice(*rt.in_slice["Real"][i])]}
+    positions = np.array(sorted(p for p in fed if p in owner), dtype=np.intp)
+    return positions, {int(p): owner[int(p)] for p in positions}
 
 
 @lru_cache(maxsize=None)

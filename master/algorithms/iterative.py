@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import CosimError
 from ..runtime import SavedPoint
 from . import ALGORITHMS
-from .base import coupled_outputs
+from .extrapolation import coupled_outputs
 from .coupling_updates import UPDATES
 from .gauss_seidel import GaussSeidel
 

@@ -79,8 +79,8 @@ def _prune(out: Path, keep: str, kept: tuple):
 
 def execute_run(task: dict) -> dict:
     """Run one campaign run; returns its record (never raises for a failure of the run)."""
-    import master
     from ..errors import CosimError
+    from ..runner import run as run_scenario
     from ..scenario_kinds import SCENARIO_KINDS
     t0 = time.perf_counter()
     rec = base_record(task)
@@ -109,8 +109,8 @@ def execute_run(task: dict) -> dict:
         run = kind.prepare_run(task, out, used)
         kw.update(run.options)
         # the folder is the run's own (cleared above); the kind may have put the run's scenario in it
-        res = master.run(run.scenario, output=str(out), params=run.params, seed=run.seed, raise_on_error=False,
-                         output_prepared=True, **kw)
+        res = run_scenario(run.scenario, output=str(out), params=run.params, seed=run.seed, raise_on_error=False,
+                           output_prepared=True, **kw)
         meta = res.metadata
         oc = meta.get("outcome")
         rec["outcome"] = "completed" if oc == "completed" else ("interrupted" if oc == "interrupted" else "failed")

@@ -11,7 +11,7 @@ import zipfile
 from pathlib import Path
 
 from ..errors import ScenarioError
-from ..scenario_kinds import SCENARIO_KINDS, ParamProblem, PreparedRun, ScenarioKind
+from ..scenario_kinds import ParamProblem, PreparedRun, ScenarioKind
 from .spec import RUN_OPTIONS, SCENARIO_OPTIONS, canonical_json, file_sha256, scenario_sha256
 
 PARAM_PREFIX = "param:"
@@ -83,7 +83,6 @@ class SspKind(ScenarioKind):
                            {k: opts[k] for k in SCENARIO_OPTIONS if k in opts})
 
 
-
 def _first_uses(param_sets: list[tuple[dict, dict]]) -> list[tuple[int, str, object]]:
     """(index of the first set using it, key, value) of every distinct param: value: a large grid repeats
     each value many times, and whether a value fits its variable does not depend on the others."""
@@ -115,4 +114,5 @@ def _fits(base_type: str, value) -> bool:
     return isinstance(value, PYTHON_TYPES.get(base_type, object))
 
 
-SCENARIO_KINDS.register(SspKind.name, SspKind())
+#: published under the entry point group cosim_master.scenario_kinds (pyproject.toml)
+SSP_KIND = SspKind()

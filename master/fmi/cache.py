@@ -13,16 +13,8 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..cache_paths import cache_root, file_sha256
 from ..errors import FmuError
-from ..ssp.archive import file_sha256
-
-
-def cache_root() -> Path:
-    env = os.environ.get("COSIM_MASTER_CACHE")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "cosim-master" / "fmu"
 
 
 @dataclass

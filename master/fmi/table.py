@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cache_paths import file_sha256
 from ..errors import ScenarioError
-from ..ssp.archive import file_sha256
 from .cache import LoadedFmu
 from .slave import ERROR, OK, Port, Slave
 

@@ -9,6 +9,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..cache_paths import cache_root, file_sha256 as _plain_sha256
 from ..errors import ScenarioError
 
 SSD_NAME = "SystemStructure.ssd"
@@ -50,7 +51,6 @@ def _extract_ssp(path: Path, seen: dict | None = None) -> Path:
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as exc:
-        _not_an_ssp(path)
         raise ScenarioError(f"not a readable SSP archive (zip): {exc}", file=path) from None
     with zf:
         names = zf.namelist()
@@ -107,7 +107,6 @@ def _link_fmu(zf: zipfile.ZipFile, info: zipfile.ZipInfo, tmp: Path) -> str | No
 def _stored_fmu(sha: str, copy) -> Path:
     """The stored copy of the FMU whose bytes have SHA-256 ``sha`` (``copy(file)`` writes them when there is none
     yet); raises OSError where it cannot be written."""
-    from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     kept = store / f"{sha}.fmu"
     if not kept.is_file():
@@ -187,7 +186,6 @@ def _opened(path: Path) -> _Written | None:
     w = _OPENED.get(os.path.abspath(path))
     if w is None or not _unchanged(path, w):
         return None
-    from ..fmi.cache import cache_root
     store = cache_root() / "archived"
     if not all((store / f"{sha}.fmu").is_file() for sha, _ in w.fmus.values()):
         return None
@@ -262,18 +260,6 @@ def _unpack_written(w: _Written) -> Path:
     return tmp
 
 
-def _not_an_ssp(path: Path) -> None:
-    """A scenario of another kind (a study's YAML) is built into an SSP first: say how."""
-    from ..scenario_kinds import kind_claiming
-    try:
-        kind = kind_claiming(path)
-    except Exception:   # noqa: BLE001 - only a better message is at stake here
-        return
-    if kind is not None and kind.name != "ssp":
-        raise ScenarioError(f"this is a {kind.label} scenario, not an SSP: build one with `cosim-master build-scenario "
-                            f"{path} -o scenario.ssp` and run that", file=path)
-
-
 def _from_memory(path: Path, w: _Written) -> ScenarioSource | None:
     """The archive ``w`` that this process wrote, read from its members as written: no folder, no links, the SSD's
     bytes parsed as they are.  None where only an unpacked folder will do: other members than the SSD and the
@@ -333,6 +319,7 @@ def open_scenario(path: str | os.PathLike, ssd_name: str | None = None, in_memor
 
 
 def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a scenario file: of an archive this process wrote or opened, known without reading it again."""
     written = _written(Path(path))
     if written is not None:
         return written.sha256
@@ -340,10 +327,7 @@ def file_sha256(path: str | os.PathLike) -> str:
     if opened is not None and opened.sha256 is not None and _unchanged(Path(path), opened):
         return opened.sha256
     st = os.stat(path)
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
+    sha = _plain_sha256(path)
     if opened is not None and opened.stat == _signature(st) == _signature(os.stat(path)):
-        opened.sha256 = h.hexdigest()
-    return h.hexdigest()
+        opened.sha256 = sha
+    return sha

@@ -4,18 +4,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..units import Unit
+
 # SSP connector type names mapped to the four FMI 2.0 base types the master moves around.
 SSP_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
 # the component type of an input table (OMSimulator's convention): a CSV file whose columns drive inputs
 CSV_SOURCE_TYPE = "text/csv"
-
-
-@dataclass
-class Unit:
-    name: str
-    factor: float = 1.0
-    offset: float = 0.0
-    exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)  # kg m s A K mol cd rad
 
 
 @dataclass
@@ -79,7 +73,8 @@ class ParameterValue:
 class MasterSettings:
     """Master settings read from annotations; None means 'not given in the file'."""
     step_size: float | None = None
-    algorithm: str | None = None
+    algorithm: str | None = None      # as written: the name is checked where settings are resolved (settings.py)
+    algorithm_line: int | None = None  # the line that names it, for that check's message
     record_interval: float | None = None
     step_multiples: dict[str, int] = field(default_factory=dict)
     record: list[str] = field(default_factory=list)   # record patterns

@@ -20,9 +20,9 @@ from . import xsd
 from .archive import MemoryArchive, schema_checked
 from .connection_extrapolation import read_connection_order
 from .model import (CSV_SOURCE_TYPE, SSP_TYPES, Component, Connection, Connector, ParameterValue,
-                    SystemModel, Transformation, Unit)
+                    SystemModel, Transformation)
 from .settings_annotations import read_master_settings
-from ..units import BASE_UNITS
+from ..units import BASE_UNITS, Unit
 from ..values import parse_boolean, parse_text
 
 FMU_TYPES = ("application/x-fmu-sharedlibrary",)

@@ -11,6 +11,9 @@ Our annotation (type ``org.cosim-master.settings``, in DefaultExperiment or Syst
 Every algorithm setting of ``master.algorithm_options`` is an attribute too, in camelCase (extrapolation,
 couplingTol, couplingAtol, couplingMaxIter, couplingUpdate, and those the algorithms register).
 
+The algorithm is read as a name; whether an algorithm of that name is registered is asked where the run's
+settings are resolved (``master.settings``), above the algorithms: reading an SSD needs no algorithm.
+
 OMSimulator writes ``org.openmodelica`` / ``oms:FixedStepMaster stepSize``; OSP (libcosim) writes
 ``com.opensimulationplatform`` / ``osp:FixedStepAlgorithm baseStepSize``. Only the step size is taken
 from those two, since their other settings have no counterpart here.
@@ -19,7 +22,8 @@ from __future__ import annotations
 
 from lxml import etree
 
-from ..errors import ScenarioError
+from ..algorithm_options import ALGORITHM_OPTIONS
+from ..errors import CosimError, ScenarioError
 from .model import MasterSettings
 
 OUR_TYPE = "org.cosim-master.settings"
@@ -47,8 +51,6 @@ def _positive(value, what, shown_as, el):
 
 
 def _algorithm_options(el, s: MasterSettings, shown_as: str) -> None:
-    from ..algorithm_options import ALGORITHM_OPTIONS
-    from ..errors import CosimError
     for name, opt in ALGORITHM_OPTIONS.items():
         raw = el.get(opt.ssd_attribute)
         if raw is None:
@@ -70,13 +72,8 @@ def read_master_settings(annotations: dict, shown_as: str) -> MasterSettings:
                 s.source = OUR_TYPE
             if el.get("recordInterval") is not None:
                 s.record_interval = _positive(el.get("recordInterval"), "recordInterval", shown_as, el)
-            alg = el.get("algorithm")
-            if alg is not None:
-                from ..algorithms import ALGORITHMS
-                if alg not in ALGORITHMS:
-                    raise ScenarioError(f"unknown algorithm {alg!r} (known: {', '.join(ALGORITHMS.names())})",
-                                        file=shown_as, element="Settings", line=el.sourceline)
-                s.algorithm = alg
+            if el.get("algorithm") is not None:
+                s.algorithm, s.algorithm_line = el.get("algorithm"), el.sourceline
             _algorithm_options(el, s, shown_as)
             for c in _iter_local(el, "Component"):
                 raw = c.get("stepMultiple", "1")

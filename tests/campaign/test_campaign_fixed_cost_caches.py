@@ -23,7 +23,7 @@ from lxml import etree
 from master.execution import prepare
 from master.observers import recording
 from master.observers.recording import select_variables
-from master.plan import Var, _renamed
+from master.plan.model import Var, _renamed
 from master.ssp import archive, writer
 from master.ssp.archive import _extract_ssp, file_sha256, open_scenario
 from uavsim.strategy import ZoneMap

@@ -14,7 +14,7 @@ import pytest
 from lxml import etree
 
 import master
-from master import plan as plan_mod
+from master.plan import reuse as plan_mod
 from master.errors import ScenarioError
 from master.execution import prepare
 from master.ssp import parser, writer

@@ -185,3 +185,19 @@ def test_step_mean_is_bitwise_the_mean_of_its_samples(extra):
         windy += got[3] > 0
         t = t + h if rng.random() > 0.02 else float(rng.uniform(0.0, t))    # now and then back in time
     assert windy > 100
+
+
+def test_turbulence_stream_is_drawn_only_with_turbulence():
+    # without turbulence the wind skips the turbulence stream (it feeds nothing else): every interval's episode and
+    # gust numbers, hence every output, are those of the same wind with turbulence on, whose noise is unchanged
+    base = dict(probability=0.4, seed=17, stream=2, gusts=True)
+    off, on = Wind(WindParams(**base)), Wind(WindParams(turbulence=True, **base))
+    for k in range(200):
+        a, b = off._interval(k), on._interval(k)
+        assert (a.occurs, a.level, a.speed, a.gust_start) == (b.occurs, b.level, b.speed, b.gust_start)
+        assert a.noise is None and b.noise.shape == (on.n_turb + 1, 3)
+    # the noise of interval k is the k-th block of the turbulence stream, as before
+    ss = np.random.SeedSequence((17, 3))
+    rng = np.random.Generator(np.random.PCG64(ss.spawn(3)[2]))
+    for k in range(200):
+        assert np.array_equal(on.intervals[k].noise, rng.standard_normal((on.n_turb + 1, 3)))

@@ -24,7 +24,7 @@ def test_intervals_are_the_streams_numbers():
         u, g = ep.random(2 * n), gust.random(n)
         levels = set()
         for k in range(n):
-            iv = w._intervals[k]
+            iv = w.intervals[k]
             occurs = bool(u[2 * k] < probability)
             if not occurs:
                 level, speed = 0, 0.0
@@ -37,5 +37,5 @@ def test_intervals_are_the_streams_numbers():
             assert (iv.occurs, iv.level, iv.speed) == (occurs, level, speed), (seed, stream, k)
             assert type(iv.gust_start) is float and struct.pack("d", iv.gust_start) == struct.pack("d", g[k])
             levels.add(level)
-        assert w._occurs == [w._intervals[k].occurs for k in range(n)]
+        assert w.occurs == [w.intervals[k].occurs for k in range(n)]
         assert levels == {0, 1, 2, 3} or probability < 0.1

@@ -1,0 +1,148 @@
+"""What a plan is made of: the variables (``Var``), the links between them and the plan itself, as the
+runtime, the observers and the algorithms read them.  Made by :mod:`.build`."""
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import ScenarioError
+from ..fmi.cache import LoadedFmu
+from ..ssp.model import SystemModel
+
+
+@dataclass(frozen=True)
+class Var:
+    component: str
+    name: str
+    vr: int
+    type: str          # base type: Real, Integer, Boolean, String
+    fmi_type: str      # the FMU's own type name
+    causality: str
+    variability: str
+    unit: str | None
+    # FMI 3.0 arrays: the whole array has a shape and no index; each element is a Var of its own, named
+    # ``y[1]``, ``A[2,1]`` (1-based, row-major as FMI 3 stores them), with its flat 0-based index and its array
+    shape: tuple = ()
+    index: int | None = None
+    array: str | None = None
+    start: object = None            # elements and arrays only: the modelDescription's start value(s)
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.component}.{self.name}"
+
+    @property
+    def is_array(self) -> bool:
+        """The whole array (its elements are what the master moves and records)."""
+        return bool(self.shape) and self.index is None
+
+
+def element_names(name: str, shape: tuple) -> list[str]:
+    return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
+
+
+@dataclass
+class Link:
+    src: Var
+    dst: Var
+    factor: float = 1.0
+    offset: float = 0.0
+    mapping: dict | None = None
+    line: int | None = None
+
+
+@dataclass
+class Plan:
+    model: SystemModel
+    shown_as: str
+    fmus: dict[str, LoadedFmu]
+    links: list[Link]
+    params: list[tuple[Var, object, str]]
+    feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
+    variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+
+    def elements(self, v: Var) -> list[Var]:
+        """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""
+        whole = self.variables[v.component][v.array or v.name]
+        return [self.variables[v.component][n] for n in element_names(whole.name, whole.shape)]
+
+    def var(self, qualified: str) -> Var:
+        comp, _, name = self.split(qualified)
+        return self.variables[comp][name]
+
+    def split(self, qualified: str):
+        """Split 'a.b.c.var' into component and variable, preferring the longest known component name."""
+        best = None
+        cut = qualified.rfind(".")
+        while cut > 0:                        # longest prefix first: one dictionary look-up per dot
+            if qualified[:cut] in self.variables:
+                best = qualified[:cut]
+                break
+            cut = qualified.rfind(".", 0, cut)
+        if best is None:
+            raise ScenarioError(f"{qualified!r} does not start with a component name "
+                                f"(components: {', '.join(self.variables)})", file=self.shown_as)
+        name = qualified[len(best) + 1:]
+        if name not in self.variables[best]:
+            raise ScenarioError(f"component {best!r} has no variable {name!r}", file=self.shown_as)
+        return best, ".", name
+
+
+class ComponentVariables(Mapping):
+    """A component's variables by name, each Var made when first asked for from its FMU's description (shared
+    by every component of that FMU).  A run asks for a few dozen of them (connectors, parameters, recorded
+    outputs); a Var per variable and component was 55 MB of a 256-UAV fleet's plan, whose strategy FMUs have
+    1211 variables each.  Iterating makes them all."""
+
+    __slots__ = ("component", "_described", "_made")
+
+    def __init__(self, component: str, described: dict[str, Var]):
+        self.component = component
+        self._described = described
+        self._made: dict[str, Var] = {}
+
+    def __getitem__(self, name: str) -> Var:
+        v = self._made.get(name)
+        if v is None:
+            v = self._made[name] = _renamed(self._described[name], self.component)
+        return v
+
+    def __contains__(self, name) -> bool:
+        return name in self._described
+
+    def get(self, name, default=None):
+        return self[name] if name in self._described else default
+
+    def __iter__(self):
+        return iter(self._described)
+
+    def __len__(self) -> int:
+        return len(self._described)
+
+    @property
+    def described(self) -> dict[str, Var]:
+        """The FMU's variables with no component (shared by every component of the FMU, never modified): what
+        a per-process cache may key on by identity."""
+        return self._described
+
+
+def _renamed(v: Var, component: str) -> Var:
+    """``replace(v, component=component)`` without dataclasses.replace's field-by-field construction (a run makes
+    a few hundred of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
+    out = object.__new__(Var)
+    d = out.__dict__
+    d.update(v.__dict__)
+    d["component"] = component
+    return out
+
+
+def shown_source(shown_as: str, source: str) -> str:
+    """How a file of the scenario is named in messages: inside the archive or folder the user named, or beside
+    a bare .ssd (not under the .ssd's own name)."""
+    if not shown_as:
+        return source
+    if shown_as.lower().endswith(".ssd"):
+        return str(Path(shown_as).parent / source)
+    return f"{shown_as}/{source}"
