@@ -91,13 +91,27 @@ def _bits(values):
     return tuple(struct.pack("<d", v) if isinstance(v, float) else (type(v), v) for v in values)
 
 
+class _ShellModule:
+    """The globals of a shell's module (its do_step reads _FAST_STEP there), also when the in-process loader
+    imported the FMU in isolation (stale FMUs: not in sys.modules)."""
+
+    def __init__(self, shell):
+        object.__setattr__(self, "g", type(shell)._bench_plain.__globals__)
+
+    def __getattr__(self, name):
+        return self.g[name]
+
+    def __setattr__(self, name, value):
+        self.g[name] = value
+
+
 def replay(runs, fast: bool):
     """(CPU s of the do_step calls, number of calls, the outputs after each call); the extension's counters
     count the last pass (the one giving the outputs)"""
     total, calls, outs = 0.0, 0, []
     passes = []
     for shell, state, steps in runs:
-        module = sys.modules[type(shell).__module__]
+        module = _ShellModule(shell)
         saved = module._FAST_STEP
         module._FAST_STEP = saved if fast else None
         try:
@@ -118,7 +132,7 @@ def replay(runs, fast: bool):
             passes.append((shell, state, steps, module, fast))
         finally:
             module._FAST_STEP = saved
-    ext = sys.modules[type(runs[0][0]).__module__]._EXT
+    ext = _ShellModule(runs[0][0])._EXT
     if ext is not None:
         ext.reset_stats()
     for shell, state, steps, module, fast in passes:
@@ -144,8 +158,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-zones", action="store_true")
     args = ap.parse_args(argv)
     runs = record(args.uavs, args.step, not args.no_zones)
-    module = sys.modules[type(runs[0][0]).__module__]
-    ext = module._EXT
+    ext = _ShellModule(runs[0][0])._EXT
     if ext is None:
         print("the compiled step is not available here (no compiled extension, or COSIM_MASTER_PURE_PYTHON set)")
     per = {True: [], False: []}
