@@ -404,6 +404,11 @@ class Runtime:
             if st > WARNING:
                 raise slave.fail(f"getting outputs ({typ})", st, t)
 
+    def complete_call_counts(self) -> None:
+        """``do_step_calls`` complete again: the doStep counts an accelerated step defers (compiled.py) added in."""
+        for fold in self.call_folds:
+            fold()
+
     def publish(self, i: int):
         for buf, view in self.staging[i]:
             view[:] = buf

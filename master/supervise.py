@@ -13,7 +13,7 @@ An FMU is foreign code in the master's address space: it can abort, segfault or 
   and the line of the compiled step it was in tells which component's FMI call it was; in the native step
   loop and outside the step loop a shared probe tells the phase and component.
 
-The native step loop (algorithms/native_loop.py) runs in the child too: it keeps the header as the Python path
+The native step loop (drivers/native.py) runs in the child too: it keeps the header as the Python path
 does (time reached, rows) and writes the index of the component whose FMI call it is in before each call, so
 a crash there names the same component and time.
 

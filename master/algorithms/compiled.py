@@ -1,4 +1,6 @@
-"""Compiling a step of a fixed-step algorithm into straight-line Python.
+"""Compiling a step of a fixed-step algorithm into straight-line Python: an accelerator (master/accel.py) of the
+reference step ``fixed_step.reference_step``, which runs instead when ``COSIM_MASTER_PURE_PYTHON=1``; both give the
+same results bit for bit (tests/accelerators/, ``master.compiled-step``).
 
 The generated function calls, per component, prebound callables (FMI getters/setters with their value
 reference and buffer pointers fixed, the doStep with its instance fixed): no loops over lists, no tuple
@@ -26,10 +28,17 @@ from __future__ import annotations
 import re
 import struct
 
+from .. import accel
+from .fixed_step import reference_step
+
 CHUNK_LINES = 400
 
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
+    """``step(n, t)``: what ``fixed_step.reference_step`` returns, generated as straight-line code (unless
+    accelerators are switched off)."""
+    if not accel.enabled():
+        return reference_step(rt, order, h, gauss_seidel)
     from ctypes import c_double
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
