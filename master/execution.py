@@ -81,7 +81,7 @@ class Options:
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
-    native_loop: bool = True                          # native FMUs stepped in C (algorithms/native_loop.py)
+    native_loop: bool = True                          # step drivers (master/drivers/: native FMUs stepped in C)
     # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
     extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
     gs_interpolation: int | None = None               # gauss-seidel: known inputs interpolated (0 off, 1, 2)

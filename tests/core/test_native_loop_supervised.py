@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
-from master.algorithms.native_loop import library
+from master.drivers.native import library
 from master.ssp.writer import SspBuilder
 
 pytestmark = pytest.mark.skipif(library()[0] is None, reason=f"native loop unavailable: {library()[1]}")
