@@ -8,7 +8,9 @@ checked by ``tests/accelerators/`` against their references on whole runs:
 
 A case is one of the shipped coupling SSPs (``ssp/coupling/``: native C FMUs and pythonfmu ones, with a
 feedthrough, an algebraic loop and a stiff coupling) with a generated algorithm, step (also one that leaves a
-shorter final step), stop time, record interval and step multiple. Each run returns what it observes: the
+shorter final step), stop time, record interval and step multiple. The compiled step also runs, once per seed, a
+short stretch of one of the other scenarios shipped in ``ssp/`` (in-process FMUs whose calls it writes into its
+own code, monitors that take components out and end runs). Each run returns what it observes: the
 recorded table, column by column, and the run's facts (steps done, last time, early end, outcome, error, doStep
 counts, rows). These declarations run whole executions, so they sit above ``runner`` (nothing of the engine
 imports this module).
@@ -21,7 +23,8 @@ from pathlib import Path
 
 from . import accel
 
-COUPLING = Path(__file__).resolve().parents[1] / "ssp" / "coupling"
+SHIPPED = Path(__file__).resolve().parents[1] / "ssp"
+COUPLING = SHIPPED / "coupling"
 NATIVE_SSPS = ("oscillator_fd.ssp", "oscillator_dd.ssp", "oscillator_stiff.ssp", "algebraic_loop.ssp")
 PYTHON_SSPS = ("oscillator_fd_py.ssp", "oscillator_dd_py.ssp", "algebraic_loop_py.ssp")
 FACTS = ("outcome", "error", "failed_at", "last_time", "steps_done", "ended_early", "fmu_calls", "rows_recorded")
@@ -57,13 +60,27 @@ def _pure_python(on: bool):
             os.environ[accel.ENV] = old
 
 
+def _scenarios() -> list[str]:
+    """The shipped scenarios besides the coupling ones that run on their own (the sitl ones need a simulator
+    installed beside them)."""
+    return sorted(p.name for p in SHIPPED.glob("*.ssp") if not p.name.startswith("sitl"))
+
+
+def _scenario_settings(rng) -> dict:
+    h = rng.choice([0.1, 0.25, 0.5])
+    return {"algorithm": rng.choice(["jacobi", "gauss-seidel"]), "step": h, "stop_time": rng.randrange(10, 40) * h,
+            "record_interval": h * rng.choice([1, 2])}
+
+
 def _observed(ssp: str, kw: dict, *, pure: bool, drivers: bool):
     """(what a run observes, its run.json facts)."""
     from .runner import run
     with _pure_python(pure):
-        res = run(COUPLING / ssp, output=None, raise_on_error=False, native_loop=drivers, record=["*"], **kw)
+        res = run((COUPLING if (COUPLING / ssp).is_file() else SHIPPED) / ssp, output=None, raise_on_error=False, native_loop=drivers, record=["*"], **kw)
     frame = res.frame
-    table = {} if frame is None else {c: frame[c].to_numpy() for c in frame.columns}
+    # a column of strings or bytes as a list of them (an object array's bytes would be its pointers)
+    table = {} if frame is None else {c: (col.tolist() if col.dtype == object else col)
+                                      for c, col in ((c, frame[c].to_numpy()) for c in frame.columns)}
     return {"table": table, **{k: res.metadata.get(k) for k in FACTS}}, res.metadata
 
 
@@ -110,6 +127,12 @@ class CompiledStepDeclaration(_Runs):
     name = "master.compiled-step"
     replaces = "master.algorithms.fixed_step:reference_step"
     ssps = NATIVE_SSPS + PYTHON_SSPS
+
+    def cases(self, rng):
+        yield from super().cases(rng)
+        scenarios = _scenarios()
+        if scenarios:
+            yield rng.choice(scenarios), _scenario_settings(rng)
 
     def reference(self, case):
         return _observed(*case, pure=True, drivers=False)[0]

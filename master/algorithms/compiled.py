@@ -140,12 +140,11 @@ def _inline_cycle(ns: dict, i: int, c, values: list[list[str]] | None = None) ->
     if c.sets:
         ns[f"R{i}"] = c.sets_failed
         lines.append("try:")
-        attrs = getattr(c.obj, "__dict__", None)
-        direct = attrs is not None and all(u == attrs.update for u, _, _ in c.sets)
+        direct = c.stores is not None
         if direct:
-            # update(zip(names, values)) on the instance's __dict__ is a store of each value under its name, in
-            # order: written as such, without the call, the zip and its pairs
-            ns[f"S{i}"] = attrs
+            # update(zip(names, values)) on that mapping is a store of each value under its name, in order: written
+            # as such, without the call, the zip and its pairs
+            ns[f"S{i}"] = c.stores
         for j, (update, names, tolist) in enumerate(c.sets):
             ns[f"U{i}_{j}"], ns[f"N{i}_{j}"], ns[f"L{i}_{j}"] = update, names, tolist
             if direct and values is not None:

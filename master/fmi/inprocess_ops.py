@@ -21,13 +21,16 @@ class InlineCycle(NamedTuple):
     (no Python frame per component): ``sets`` (update, names, tolist) each called as update(zip(names,
     tolist())); after one raised, ``sets_failed()`` sets the ports again through the reporting path and gives the
     failing port's status (0: they all went through); ``do_step(t, h)`` true is OK, false Discard; after it
-    raised, ``step_error(t, h)`` logs and gives the status; ``obj.log_queue`` is drained by ``drain()``."""
+    raised, ``step_error(t, h)`` logs and gives the status; ``obj.log_queue`` is drained by ``drain()``;
+    ``stores``: when every update of ``sets`` is the ``update`` of this one mapping (a shell that keeps its
+    variables as plain attributes hands over its instance's), so that item stores into it are the same updates."""
     sets: tuple
     sets_failed: Callable
     do_step: Callable
     step_error: Callable
     obj: object
     drain: Callable
+    stores: dict | None = None
 
 
 class InlineGet(NamedTuple):
@@ -288,7 +291,9 @@ class InProcessOps:
                 if (st := failed()) is not None:
                     return st
             return step(t, h)
-        op.inline = InlineCycle(tuple(raws), sets_failed, do_step, step_error, obj, drain)
+        attrs = getattr(obj, "__dict__", None)
+        stores = attrs if attrs is not None and all(u == attrs.update for u, _, _ in raws) else None
+        op.inline = InlineCycle(tuple(raws), sets_failed, do_step, step_error, obj, drain, stores)
         return op
 
     def bound_step(self):
