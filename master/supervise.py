@@ -97,7 +97,7 @@ class _ChildRecording(Recording):
         self.header[H_PHASE] = PHASE_STEP
 
     def native_progress(self) -> dict:
-        """Where the native loop reports what after_step and sample report here (native_loop.PROGRESS_SLOTS);
+        """Where the native loop reports what after_step and sample report here (drivers/native.py PROGRESS_SLOTS);
         by offering it this recording lets the loop run its steps in C. The parent is told, for the run.json
         of a child that dies."""
         self.conn.send(("native_loop",))
