@@ -347,7 +347,8 @@ class Execution:
         observers saw)."""
         st, meta, rt = self.settings, self.metadata, self.rt
         start, h = st.start, st.step
-        algorithm, observers, manipulators = self.algorithm, self.observers, self.manipulators
+        step, step_sized = self.algorithm.step, self.algorithm.step_sized
+        observers, manipulators = self.observers, self.manipulators
         check = None if self.options.allow_nonfinite else rt.nonfinite_error
         finite = None if check is None else finite_check(rt.out["Real"], rt.real_zeros)
         last_n = st.steps - 1 if st.last_step is not None else -1       # a shorter final step
@@ -373,10 +374,10 @@ class Execution:
                 for mp in manipulators:
                     mp.before_step(n, t)
                 if n == last_n:
-                    algorithm.step_sized(n, t, st.last_step)
+                    step_sized(n, t, st.last_step)
                     t1 = st.stop
                 else:
-                    algorithm.step(n, t)
+                    step(n, t)
                     t1 = start + (n + 1) * h
                 meta["last_time"] = t1
                 for ob in observers:
