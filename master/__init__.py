@@ -14,6 +14,9 @@ def __getattr__(name):   # lazy: ``import master`` stays cheap (campaign workers
     if name == "Execution":
         from .execution import Execution
         return Execution
+    if name == "SspBuilder":
+        from .ssp.writer import SspBuilder
+        return SspBuilder
     raise AttributeError(name)
 
 
@@ -23,4 +26,4 @@ def inspect(scenario, **options):
     return _inspect(scenario, **options)
 
 
-__all__ = ["run", "inspect", "Execution", "CosimError", "FmuError", "ScenarioError", "__version__"]
+__all__ = ["run", "inspect", "Execution", "SspBuilder", "CosimError", "FmuError", "ScenarioError", "__version__"]

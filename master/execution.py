@@ -60,7 +60,8 @@ class Options:
     start_time: float | None = None
     step: float | None = None
     algorithm: str | None = None
-    output: str | os.PathLike | None = "results"     # None: results kept in memory only
+    output: str | os.PathLike | None = None           # a folder for the results; None: kept in memory only
+                                                      # (the CLI defaults to results/<scenario name>)
     params: dict | None = None                        # "component.variable" -> value
     record: list[str] | None = None                   # shell patterns on "component.variable"
     record_interval: float | None = None
@@ -162,6 +163,8 @@ class ExecutionState:
 class Execution:
     def __init__(self, scenario, *, observers=(), manipulators=(), **options):
         self.wall0 = _time.perf_counter()
+        if hasattr(scenario, "in_memory"):        # a system built in code (ssp.writer.SspBuilder): run from memory
+            scenario = scenario.in_memory()
         self.scenario = Path(scenario)
         self.options = Options(**options)
         self.extra_observers = list(observers)
@@ -183,6 +186,8 @@ class Execution:
         self.closed = False
         self.write_run_json = True       # a supervised child leaves run.json to its parent
         self._set_up = self._initialized = self._claimed = False
+        self._current: set | None = None  # names whose buffer slot is read every step (see "values by name")
+        self._ports: dict = {}            # name -> (slave, port, buffer) of a variable read from its FMU
 
     # -- setup --------------------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -304,6 +309,10 @@ class Execution:
     # -- stepping -----------------------------------------------------------------------------------------
     @property
     def time(self) -> float:
+        """The simulation time: the start time until the first step. Read before ``setup()``, it calls it (the
+        start time is the SSD's, the FMUs' or the options', known once the settings are resolved)."""
+        if not self._set_up:
+            self.setup()
         st = self.settings
         if st.last_step is not None and self.n == st.steps:
             return st.stop            # after the shorter final step
@@ -311,11 +320,15 @@ class Execution:
 
     @property
     def stop_time(self) -> float:
+        if not self._set_up:
+            self.setup()
         return self.settings.stop
 
     @property
     def done(self) -> bool:
         """The stop time is reached or an observer ended the run."""
+        if not self._set_up:
+            self.setup()
         return self.n >= self.settings.steps or (self.rt is not None and self.rt.stop_reason is not None)
 
     def step(self) -> float:
@@ -406,6 +419,171 @@ class Execution:
             self._driver_asked = True
             self._driver = driver_for(self)
         return self._driver
+
+    # -- values by name ---------------------------------------------------------------------------------
+    # What a script or a notebook reads and writes ("component.variable", as in results and --param). A value
+    # comes from a buffer only where the master refreshes that slot after every step (a connection's source, a
+    # variable an observer required at initialize, any read variable of a component on a step multiple, whose
+    # values are staged); anything else (a variable only recorded, an unconnected input, a parameter, a local)
+    # is read from its FMU through the Slave interface, so it is never a stale sample.
+
+    def get(self, names):
+        """The current value of ``"component.variable"`` (a list of names: a list of values), as a Python
+        float, int, bool, str or bytes (an FMI 3 array: a list, row-major). Before ``initialize`` it is the
+        value the run will start with: the one given by ``set``, ``params`` or the SSD, else the FMU's start
+        value. A component on a step multiple is a whole multiple ahead inside: a variable the master does not
+        transfer is read from the FMU as it is there (the end of its own step)."""
+        if isinstance(names, str):
+            return self._value(names)
+        return [self._value(q) for q in names]
+
+    def set(self, name: str, value) -> None:
+        """Give ``"component.variable"`` a value. Before ``initialize``: its start value (a parameter, an input
+        or another variable FMI lets a start value be set for; the same rules and checks as ``params``).
+        After: an input no connection drives or a tunable parameter, applied at once and seen by the next step
+        (FMI's rules between steps); anything else is a one-line CosimError naming the variable and why."""
+        v = self._variable(name, "set")
+        if self.closed:
+            raise CosimError("the execution is closed; nothing can be set", element=f"set {name}")
+        if not self._initialized:
+            from .plan import add_overrides
+            p = self.prepared
+            before = list(p.plan.params)
+            try:
+                add_overrides(p.plan, {name: value}, self.options.allow_nonfinite)
+            except ScenarioError as exc:
+                p.plan.params[:] = before          # a refused value must not stay in the plan
+                raise CosimError(f"cannot set it before initialize(): {exc.reason}", element=f"set {name}") from None
+            p.user_params[name] = value
+            self.metadata["parameters_overridden"] = dict(p.user_params)
+            return
+        from .observers.base import set_between_steps
+        from .plan import parse_value
+        set_between_steps(self.rt, v, value, element=f"set {name}")
+        rt, parsed = self.rt, parse_value(v, value, name)
+        for e, x in zip(self._elements(v), parsed if v.is_array else [parsed]):
+            pos = rt.out_pos.get(e.qualified)         # a slot the master also reads shows the new value at once
+            if pos is not None:
+                rt.out[e.type][pos] = x
+
+    def add_observer(self, observer) -> None:
+        """Let ``observer`` (``master.observers.base.Observer``) see every step from now on. Before
+        ``initialize`` it is attached with the others; after, it is attached at the current time, and the
+        variables it requires must be ones the master reads every step (connected outputs, or those of an
+        observer given before ``initialize``): others are an error naming them."""
+        if self.closed:
+            raise CosimError("the execution is closed", element="add_observer")
+        if self._initialized:
+            current = self._current_names()
+            missing = [q for q in [*observer.required_variables(), *observer.sampled_variables()]
+                       if not all(e.qualified in current for e in self._elements(self._variable(q, "observe")))]
+            if missing:
+                raise CosimError(f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not read every "
+                                 "step; add this observer before initialize()", element="add_observer")
+            observer.attach(self.ctx, self.time)
+            if self._driver is not None:
+                # a step driver was chosen for the observers there were: the reference loop runs the steps from here
+                key = self._driver.name
+                self.metadata[key] = {**self.metadata[key], "until": self.time,
+                                      "reason": f"an observer was added at t={self.time:g}"}
+                self._driver = None
+        self.extra_observers.append(observer)
+        if self._set_up:        # before the recording, as the observers given to the constructor
+            at = self.observers.index(self.recording) if self.recording in self.observers else len(self.observers)
+            self.observers.insert(at, observer)
+
+    def _value(self, name: str):
+        v = self._variable(name, "get")
+        if not self._initialized:
+            return self._start_value(v, name)
+        if self.closed:
+            raise CosimError("the execution is closed; its FMUs are gone (read the results instead)",
+                             element=f"get {name}")
+        rt = self.rt
+        elements = self._elements(v)
+        current = self._current_names()
+        if all(e.qualified in current for e in elements):
+            values = [rt.out[e.type][rt.out_pos[e.qualified]] for e in elements]
+        else:
+            values = self._read_fmu(v, elements, name)
+        values = [_python(x, v.type) for x in values]
+        return values if v.is_array else values[0]
+
+    def _read_fmu(self, v, elements: list, name: str) -> list:
+        """The variable's values (an array's elements) read from its FMU now."""
+        from .fmi.slave import WARNING, new_buffer
+        key = (v.component, v.array or v.name)
+        bound = self._ports.get(key)
+        if bound is None:
+            rt = self.rt
+            whole = self.prepared.plan.elements(v) if v.index is not None or v.is_array else [v]
+            slave = rt.slaves[rt.index[v.component]]
+            buf = new_buffer(v.type, len(whole))
+            bound = self._ports[key] = (slave, slave.make_port(v.type, [e.vr for e in whole], buf), buf)
+        slave, port, buf = bound
+        st = slave.get_port(v.type, port)
+        if st > WARNING:
+            raise slave.fail(f"getting {name}", st, self.time)
+        return list(buf) if v.index is None else [buf[v.index]]
+
+    def _start_value(self, v, name: str):
+        if not self._set_up:
+            self.setup()
+        given = None
+        for pv, value, _ in self.prepared.plan.params:        # the last one given wins
+            if pv.component == v.component and pv.name == (v.array or v.name):
+                given = value
+        if given is not None:
+            return _python(given[v.index], v.type) if v.index is not None else (
+                [_python(x, v.type) for x in given] if v.is_array else _python(given, v.type))
+        if v.shape:
+            return _python(v.start, v.type) if v.index is not None else [_python(x, v.type) for x in v.start]
+        from .values import parse_text
+        md_var = next((mv for mv in self.prepared.plan.fmus[v.component].md.modelVariables if mv.name == v.name),
+                      None)
+        start = getattr(md_var, "start", None)
+        if start is None:
+            raise CosimError(f"{name} has no start value; its value is known after initialize()", element=f"get {name}")
+        return _python(parse_text(v.type, start) if isinstance(start, str) else start, v.type)
+
+    def _variable(self, name: str, what: str):
+        """The plan's variable called ``name``, or a one-line CosimError naming it and the closest names."""
+        if not self._set_up:
+            self.setup()
+        plan = self.prepared.plan
+        if not isinstance(name, str):
+            raise CosimError(f"a variable is named by a string 'component.variable', not {name!r}", element=what)
+        try:
+            return plan.var(name)
+        except ScenarioError:
+            pass
+        import difflib
+        comps = list(plan.variables)
+        owner = next((c for c in sorted(comps, key=len, reverse=True) if name.startswith(c + ".")), None)
+        near = [owner] if owner else difflib.get_close_matches(name.split(".")[0], comps, n=3, cutoff=0.5)
+        names = [f"{c}.{n}" for c in near for n in plan.variables[c]]
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6) or near
+        why = (f"component {owner!r} has no variable {name[len(owner) + 1:]!r}" if owner
+               else f"no component of {name!r} is in the system (components: {', '.join(comps)})")
+        raise CosimError(why + (f"; close: {', '.join(close)}" if close else ""), element=f"{what} {name}")
+
+    def _elements(self, v) -> list:
+        return self.prepared.plan.elements(v) if v.is_array else [v]
+
+    def _current_names(self) -> set:
+        """The names whose buffer slot the master refreshes after every step: connection sources, the variables
+        observers required at initialize, and whatever a component on a step multiple reads (with its step)."""
+        if self._current is None:
+            rt, plan = self.rt, self.prepared.plan
+            current = set()
+            for v in [ln.src for ln in plan.links] + _plan_vars(plan, [q for ob in self.observers
+                                                                       for q in ob.required_variables()]):
+                current.update(e.qualified for e in self._elements(v))
+            staged = {name for name, k in zip(rt.names, rt.multiple) if k > 1}
+            if staged:
+                current.update(q for q in rt.out_pos if plan.split(q)[0] in staged)
+            self._current = current
+        return self._current
 
     # -- state (rollback) ---------------------------------------------------------------------------------
     def check_state_support(self) -> None:
@@ -498,11 +676,20 @@ class Execution:
         return meta
 
     def memory_table(self):
-        """The recorded rows of a run kept in memory (``output=None``), as a pyarrow Table."""
+        """The rows recorded so far by a run kept in memory (``output=None``), as a pyarrow Table: during a run
+        (the rows of the block being filled included) and after it; None when the results go to a folder (read
+        them with ``master.results.read_results``) or before ``initialize``."""
         from .sinks.memory import MemorySink
         for s in getattr(self, "sinks", ()):
             if isinstance(s, MemorySink) and hasattr(s, "blocks"):     # blocks: it was opened
-                return s.table()
+                table = s.table()
+                rec = self.recording
+                if rec is not None and getattr(rec, "block", None) is not None and getattr(rec, "fill", 0):
+                    import pyarrow as pa
+                    from .observers.recording import block_table
+                    pending = block_table(rec.schema, rec.block[: rec.fill], rec.str_rows)
+                    table = pa.concat_tables([table, pending])
+                return table
         return None
 
     def __enter__(self) -> "Execution":
@@ -558,6 +745,17 @@ def _graph_orders(plan, names: list[str]) -> tuple[list[list[str]], list[int]]:
         known = _GRAPH_ORDERS[key] = (algebraic_loops(plan), gauss_seidel_order(plan, names).order)
     loops, order = known
     return [list(lp) for lp in loops], list(order)
+
+
+def _python(x, typ: str):
+    """A buffer's value as the Python value of its base type."""
+    if typ == "Real":
+        return float(x)
+    if typ == "Boolean":
+        return bool(x)
+    if typ in ("String", "Binary"):
+        return x
+    return int(x)
 
 
 def _algorithm_option_names():

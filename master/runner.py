@@ -29,9 +29,10 @@ class Result:
 
 
 def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(), **options) -> Result:
-    """Run a scenario (.ssp archive, unpacked SSP folder or .ssd file) from its start to its stop time (or until
-    an observer ends it) and return its recorded results. The options are those of
-    :class:`master.execution.Options`.
+    """Run a scenario (.ssp archive, unpacked SSP folder, .ssd file, or a system built in code:
+    ``master.ssp.writer.SspBuilder``) from its start to its stop time (or until an observer ends it) and return
+    its recorded results. The options are those of :class:`master.execution.Options`; without ``output`` the
+    results are kept in memory (``Result.frame``) and nothing is written.
 
     On a failure the results recorded so far stay on disk, run.json says what happened, and a CosimError is
     raised (or, with ``raise_on_error=False``, returned in the Result's metadata).

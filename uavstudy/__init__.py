@@ -5,7 +5,7 @@
 * :mod:`uavstudy.monitor` -- the UAV monitor (collisions, zones, mission events), with
   :mod:`uavstudy.geometry` (swept collision and zone detection) and :mod:`uavstudy.outputs` (trajectory,
   photos, summary and map written after a run);
-* :mod:`uavstudy.campaign_kind` -- the ``uav`` scenario kind of campaigns, :mod:`uavstudy.report` its report;
+* :mod:`uavstudy.campaign_kind` -- the ``uav`` scenario kind of campaigns, :mod:`uavstudy.report` its report (a package);
 * :mod:`uavstudy.names` -- the component, connector and code names all of them share.
 
 The engine knows none of this: the monitor and the scenario kind reach it through the entry points

@@ -34,7 +34,9 @@ from typing import Protocol
 
 
 class DriverRun(Protocol):
-    """A driver bound to one execution (made once, after initialization)."""
+    """A driver bound to one execution (made once, after initialization); ``name`` is its driver's."""
+
+    name: str
 
     def advance(self, n: int, end: int, bar=None) -> None:
         """Steps ``n`` .. ``end``-1, all of the master step's full length (the shorter final step is the

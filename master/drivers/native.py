@@ -231,6 +231,7 @@ class _Program:
 
 class NativeLoop:
     """Runs an execution's steps in C between the points where Python must look (see the module's doc)."""
+    name = "native_loop"
 
     def __init__(self, ex, lib):
         self.ex, self.lib = ex, lib
@@ -369,7 +370,7 @@ class NativeLoop:
 
 class NativeDriver:
     """The native loop as a step driver (``base.StepDriver``)."""
-    name = "native_loop"
+    name = NativeLoop.name
 
     def why_not(self, ex) -> str | None:
         return why_not(ex)

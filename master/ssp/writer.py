@@ -164,6 +164,18 @@ def _parameters_element(named_types: tuple) -> etree._Element:
 
 @dataclass
 class SspBuilder:
+    """A system built in code: the authoring API (OMSimulator's and libcosim's "system in code")::
+
+        b = SspBuilder("osc", stop=10.0, step=0.01, algorithm="gauss-seidel")    # the settings are fields
+        b.add_component("A", "MassA.fmu", params={"m": 1.0, "x0": 1.0})       # an FMU and parameter values
+        b.add_component("B", "MassB.fmu")
+        b.connect("A.x", "B.x_in").connect("B.F", "A.F")                     # output -> input
+        ex = master.Execution(b, record=["A.*"])       # runs it from memory: no file is written
+        b.write("osc.ssp")                             # ... or an SSP 1.0 archive any SSP tool reads
+
+    Fields given to the constructor: ``start``, ``stop``, ``step``, ``algorithm``, ``record_interval``,
+    ``step_multiples`` (component -> k), ``record`` (patterns), ``algorithm_options`` (``master.algorithm_options``
+    names). The FMUs' paths are read when the system is written or run, not copied before."""
     name: str
     components: list = field(default_factory=list)
     connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress, extrapolation)
@@ -197,10 +209,45 @@ class SspBuilder:
         self.components.append(_Comp(name, fmu_path, list(connectors), typed, f"{name}.ssv" if ssv else None))
         return self
 
-    def connect(self, a, x, b, y, factor=None, offset=None, suppress_unit_conversion=False, extrapolation=None):
-        """``extrapolation``: the order for a's output x (an annotation on the connection)."""
+    def connect(self, a, x, b=None, y=None, factor=None, offset=None, suppress_unit_conversion=False,
+                extrapolation=None):
+        """Connect component a's output x to component b's input y: ``connect(a, x, b, y)``, or with qualified
+        names ``connect("a.x", "b.y")``, whose components must have been added (each end is checked against
+        the component's connectors: a one-line ScenarioError names an unknown one and the close names).
+        ``extrapolation``: the order for a's output x (an annotation on the connection)."""
+        if b is None and y is None:
+            (a, x), (b, y) = self._end(a, "output"), self._end(x, "input")
         self.connections.append((a, x, b, y, factor, offset, suppress_unit_conversion, extrapolation))
         return self
+
+    def _end(self, qualified: str, kind: str) -> tuple[str, str]:
+        """("component", "connector") of an added component named by "component.connector"; the longest
+        component name that fits wins (names may hold dots)."""
+        import difflib
+        from ..errors import ScenarioError
+        comps = {c.name: c for c in self.components}
+        owner = next((n for n in sorted(comps, key=len, reverse=True) if qualified.startswith(n + ".")), None)
+        if owner is None:
+            near = difflib.get_close_matches(qualified.split(".")[0], list(comps), n=3)
+            raise ScenarioError(f"no component of {qualified!r} has been added (components: "
+                                f"{', '.join(comps) or 'none'})" + (f"; close: {', '.join(near)}" if near else ""),
+                                element=f"connect {qualified}")
+        name = qualified[len(owner) + 1:]
+        names = [c[0] for c in comps[owner].connectors]
+        if name not in names:
+            near = difflib.get_close_matches(name, names, n=3)
+            raise ScenarioError(f"component {owner!r} has no {kind} connector {name!r}"
+                                + (f"; close: {', '.join(f'{owner}.{n}' for n in near)}" if near else ""),
+                                element=f"connect {qualified}")
+        return owner, name
+
+    def in_memory(self) -> Path:
+        """The system as an .ssp archive kept in this process's memory only, under a path that names no file:
+        what ``Execution(builder)`` and ``master.run(builder)`` run. Nothing is written to disk."""
+        import tempfile
+        import uuid
+        where = Path(tempfile.gettempdir()) / f"cosim-master-in-memory-{uuid.uuid4().hex[:12]}"
+        return self.write(where / f"{self.name}.ssp", to_disk=False)
 
     # -- XML ------------------------------------------------------------------------------
     def _settings_annotation(self, parent):

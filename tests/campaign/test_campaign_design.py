@@ -3,7 +3,8 @@ grid; the expansion is checked against a hand-counted list of runs."""
 import pytest
 
 from campaign_helpers import write_chain_ssp
-from master.campaign.spec import design_roles, load_campaign
+from master.campaign.design import design_roles
+from master.campaign.spec import load_campaign
 from master.errors import ScenarioError
 
 

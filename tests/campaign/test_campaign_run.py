@@ -203,8 +203,8 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch)
     assert (after["scenario_sha256"] != before["scenario_sha256"]).all()
     same_tables(after, before, drop=("wall_time_s", "scenario_sha256"))   # k is a grid parameter: same results
     # the master's (or uavsim's) code is an input too: after an upgrade the records are stale
-    import master.campaign.spec as spec
-    monkeypatch.setattr(spec, "_code_sha", "0" * 64)
+    import master.campaign.identity as identity
+    monkeypatch.setattr(identity, "_code_sha", "0" * 64)
     s = run_campaign(camp, output=out, workers=2, progress=False, max_runs=0)
     assert s.stale == 6 and s.stale_reasons == {"cosim-master's code changed": 6}
 

@@ -83,7 +83,7 @@ def test_agreement_is_by_value_with_a_stated_tolerance():
 def _runs(config_value, single_uav_successes):
     """Runs of one configuration (factor f): A/B x 1-2 UAVs x wind 0/0.15 x 2 repetitions; B flies 0.5 km less
     than A in every block, a single UAV of strategy B succeeds ``single_uav_successes`` times per run."""
-    from master.campaign.spec import canonical_json
+    from master.campaign.identity import canonical_json
     rows = []
     for s in ("A", "B"):
         for n in (1, 2):

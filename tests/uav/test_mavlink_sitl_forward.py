@@ -47,7 +47,7 @@ def sitl_scenario(tmp_path, vehicle, n_uavs, stop=30.0) -> Path:
 
 
 def monitor_and_plan(ssp):
-    ex = Execution(ssp)
+    ex = Execution(ssp, output=None)        # set up only: no output folder (the working directory is not ours)
     ex.setup()
     monitor = next(mo for mo in ex.monitors if hasattr(mo, "cfg"))
     return monitor, ex.prepared.plan

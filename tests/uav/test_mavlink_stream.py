@@ -44,30 +44,37 @@ class Gcs:
         self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
         self.got: list = []
 
-    def drain(self, wait=0.05):
+    def drain(self, wait=0.05, until=None):
+        """Keep what arrives for ``wait`` seconds, or until a message ``until(msg)`` is true (returned)."""
         end = time.monotonic() + wait
         while True:
             msg = self.conn.recv_match(blocking=False)
             if msg is None:
                 if time.monotonic() > end:
-                    return
+                    return None
                 time.sleep(0.002)
                 continue
             if msg.get_type() != "BAD_DATA":
                 self.got.append(msg)
+                if until is not None and until(msg):
+                    return msg
 
     def expect(self, ex, typ, sysid, **fields):
         """Step the run until the vehicle ``sysid`` answers with a ``typ`` message matching ``fields`` (the
-        streaming process answers requests at once; a command reaches the run before its next step)."""
+        streaming process answers requests at once; a command reaches the run before its next step). Before
+        each step the streaming process gets up to half a second to answer or to pass a command on, which a
+        busy machine needs: an answer ends the wait at once, so an idle machine does not wait."""
+        def wanted(msg):
+            return msg.get_type() == typ and msg.get_srcSystem() == sysid and \
+                all(getattr(msg, k) == v for k, v in fields.items())
         for _ in range(20):
-            start = len(self.got)
-            self.drain(0.05)
+            msg = self.drain(0.5, until=wanted)
+            if msg is not None:
+                return msg
             ex.step()
-            self.drain(0.02)
-            for msg in self.got[start:]:
-                if msg.get_type() == typ and msg.get_srcSystem() == sysid and \
-                        all(getattr(msg, k) == v for k, v in fields.items()):
-                    return msg
+            msg = self.drain(0.02, until=wanted)
+            if msg is not None:
+                return msg
         raise AssertionError(f"no {typ} {fields} from vehicle {sysid}")
 
     def of(self, typ):
