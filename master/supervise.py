@@ -360,8 +360,10 @@ class _Supervisor:
                 return self.names[i], PHASE_NAMES[PHASE_STEP]
         if self.header is not None and self.names:
             phase, i = int(self.header[H_PHASE]), int(self.header[H_COMPONENT])
-            if phase == PHASE_STEP:         # only the native loop says which component's call a step is in
-                i = int(self.header[H_NATIVE])
+            if phase == PHASE_STEP:         # the native loop says which component's call a step is in, or the
+                i = int(self.header[H_NATIVE])      # reference step (Runtime.calling), or nobody
+                if i < 0:
+                    i = int(self.header[H_COMPONENT])
             if 0 <= i < len(self.names):
                 return self.names[i], PHASE_NAMES.get(phase, "setup")
         return None, ""

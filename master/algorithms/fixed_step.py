@@ -33,6 +33,7 @@ def reference_step(rt, order: list[int], h: float, gauss_seidel: bool):
         for i, slave, k, transfers, setters, do_step, getters, _ in components:
             if n % k:
                 continue
+            rt.calling(i)           # for a supervisor: a crash from here on is this component's
             for transfer in transfers:
                 transfer()
             for set_ in setters:
@@ -45,7 +46,9 @@ def reference_step(rt, order: list[int], h: float, gauss_seidel: bool):
                 read_outputs(i, slave, getters, t + h * k)
         for i, slave, k, _, _, _, getters, publish in components:
             if not gauss_seidel and n % k == 0:
+                rt.calling(i)
                 read_outputs(i, slave, getters, t + h * k)
             if publish is not None and (n + 1) % k == 0:
                 publish()
+        rt.calling(-1)
     return step
