@@ -11,8 +11,8 @@ feedthrough, an algebraic loop and a stiff coupling) with a generated algorithm,
 shorter final step), stop time, record interval and step multiple. The compiled step also runs, once per seed, a
 short stretch of one of the other scenarios shipped in ``ssp/`` (in-process FMUs whose calls it writes into its
 own code, monitors that take components out and end runs). Each run returns what it observes: the
-recorded table, column by column, and the run's facts (steps done, last time, early end, outcome, error, doStep
-counts, rows). These declarations run whole executions, so they sit above ``runner`` (nothing of the engine
+recorded table, column by column, the events, and the run's facts (steps done, last time, early end, outcome,
+error, doStep counts, rows). These declarations run whole executions, so they sit above ``runner`` (nothing of the engine
 imports this module).
 """
 from __future__ import annotations
@@ -68,7 +68,7 @@ def _scenarios() -> list[str]:
 
 def _scenario_settings(rng) -> dict:
     h = rng.choice([0.1, 0.25, 0.5])
-    return {"algorithm": rng.choice(["jacobi", "gauss-seidel"]), "step": h, "stop_time": rng.randrange(10, 40) * h,
+    return {"algorithm": rng.choice(["jacobi", "gauss-seidel"]), "step": h, "stop_time": rng.randrange(20, 160) * h,
             "record_interval": h * rng.choice([1, 2])}
 
 
@@ -81,7 +81,7 @@ def _observed(ssp: str, kw: dict, *, pure: bool, drivers: bool):
     # a column of strings or bytes as a list of them (an object array's bytes would be its pointers)
     table = {} if frame is None else {c: (col.tolist() if col.dtype == object else col)
                                       for c, col in ((c, frame[c].to_numpy()) for c in frame.columns)}
-    return {"table": table, **{k: res.metadata.get(k) for k in FACTS}}, res.metadata
+    return {"table": table, "events": list(res.events), **{k: res.metadata.get(k) for k in FACTS}}, res.metadata
 
 
 class _Runs:
