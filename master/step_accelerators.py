@@ -12,8 +12,8 @@ shorter final step), stop time, record interval and step multiple. The compiled 
 short stretch of one of the other scenarios shipped in ``ssp/`` (in-process FMUs whose calls it writes into its
 own code, monitors that take components out and end runs). Each run returns what it observes: the
 recorded table, column by column, the events, and the run's facts (steps done, last time, early end, outcome,
-error, doStep counts, rows). These declarations run whole executions, so they sit above ``runner`` (nothing of the engine
-imports this module).
+error, doStep counts, rows). These declarations run whole executions, so they sit above ``runner`` (nothing of
+the engine imports this module).
 """
 from __future__ import annotations
 
@@ -34,7 +34,8 @@ def _settings(rng, ssp: str) -> dict:
     """A run of ``ssp``: algorithm, step (sometimes one that does not divide the stop time), stop, record
     interval, and sometimes B on a step multiple."""
     h = rng.choice([0.01, 0.02, 0.05, 0.1] if "loop" in ssp else [0.005, 0.01, 0.02, 0.03])
-    kw = {"algorithm": rng.choice(["jacobi", "gauss-seidel"]), "step": h, "record_interval": h * rng.choice([1, 1, 3, 7])}
+    kw = {"algorithm": rng.choice(["jacobi", "gauss-seidel"]), "step": h,
+          "record_interval": h * rng.choice([1, 1, 3, 7])}
     steps = rng.randrange(20, 150)
     if "oscillator" in ssp and rng.random() < 0.4:
         kw["step_multiples"] = {"B": rng.choice([2, 3])}
@@ -76,7 +77,8 @@ def _observed(ssp: str, kw: dict, *, pure: bool, drivers: bool):
     """(what a run observes, its run.json facts)."""
     from .runner import run
     with _pure_python(pure):
-        res = run((COUPLING if (COUPLING / ssp).is_file() else SHIPPED) / ssp, output=None, raise_on_error=False, native_loop=drivers, record=["*"], **kw)
+        res = run((COUPLING if (COUPLING / ssp).is_file() else SHIPPED) / ssp, output=None, raise_on_error=False,
+                  native_loop=drivers, record=["*"], **kw)
     frame = res.frame
     # a column of strings or bytes as a list of them (an object array's bytes would be its pointers)
     table = {} if frame is None else {c: (col.tolist() if col.dtype == object else col)

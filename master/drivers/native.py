@@ -19,8 +19,8 @@ path), no value maps on inputs, and numeric recorded values. Otherwise the Pytho
 run.json's ``native_loop`` says which ran and why.
 
 The C source is compiled on first use by ``master.native_build`` (the system's C compiler, ``$CC`` or ``cc``)
-into the per-user cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would be one, and
-numba a heavy one), and without a compiler everything still runs, on the Python path.
+into the per-user cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would
+be one, and numba a heavy one), and without a compiler everything still runs, on the Python path.
 """
 from __future__ import annotations
 
