@@ -34,7 +34,7 @@ print(time.perf_counter() - t)
 
 def check_cost() -> list[tuple[str, float, float]]:
     import uavstudy.names  # noqa: F401  (imports the installed uavsim)
-    from master.fmi import inprocess
+    from master.fmi import inprocess_import as inprocess
     from master.fmi.cache import load_fmu
     rows = []
     for fmu in sorted((REPO / "fmus").glob("*.fmu")):

@@ -31,8 +31,8 @@ import numpy as np
 from . import interrupts
 from ._version import __version__
 from .algorithms import get_algorithm
-from .algorithms.base import Algorithm
 from .algorithms.finite import finite_check
+from .drivers import driver_for
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order
 from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
@@ -83,7 +83,7 @@ class Options:
                                                       # run's scenario there): use it as it is
     sinks: list[str] | None = None                    # output sinks by name (default: parquet, csv / memory)
     inputs: str | os.PathLike | None = None           # a CSV whose columns drive the one FMU's inputs (--input)
-    native_loop: bool = True                          # native FMUs stepped in C (algorithms/native_loop.py)
+    native_loop: bool = True                          # step drivers (master/drivers/: native FMUs stepped in C)
     # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
     extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
     gs_interpolation: int | None = None               # gauss-seidel: known inputs interpolated (0 off, 1, 2)
@@ -183,6 +183,7 @@ class Execution:
         self.log: LogSink | None = None
         self.prepared: Prepared | None = None
         self.n = 0                       # steps done
+        self._driver, self._driver_asked = None, False    # the step driver (master/drivers/), asked once
         self.closed = False
         self.write_run_json = True       # a supervised child leaves run.json to its parent
         self._set_up = self._initialized = self._claimed = False
@@ -351,38 +352,33 @@ class Execution:
         return self.time
 
     def _steps(self, target: int) -> None:
+        """Steps ``self.n`` .. ``target``-1: THE step loop. Per step: the manipulators' ``before_step``, the
+        algorithm's step (the shorter final step, if any, through ``step_sized``), the observers' ``after_step``,
+        the test that every Real output is finite; the run ends early when an FMU or an observer asks
+        (``rt.stop_reason``). A step driver (master/drivers/, asked once here) may run stretches of full-length
+        steps instead, with the same effect bit for bit. ``n`` and ``last_time`` follow every step, also when one
+        fails or is interrupted (an interrupt between a step and its observers leaves them at the last step the
+        observers saw)."""
         st, meta, rt = self.settings, self.metadata, self.rt
         start, h = st.start, st.step
-        step = self.algorithm.step
-        observers = self.observers
-        manipulators = self.manipulators
+        step, step_sized = self.algorithm.step, self.algorithm.step_sized
+        observers, manipulators = self.observers, self.manipulators
         check = None if self.options.allow_nonfinite else rt.nonfinite_error
+        finite = None if check is None else finite_check(rt.out["Real"], rt.real_zeros)
         last_n = st.steps - 1 if st.last_step is not None else -1       # a shorter final step
-        out_real, zeros = rt.out["Real"], rt.real_zeros
-        finite = None if check is None else finite_check(out_real, zeros)
         bar = None
         if self.options.progress:
             from tqdm import tqdm
             bar = tqdm(total=target - self.n, unit="step", mininterval=0.5, leave=False)
+        driver = self._step_driver() if target - self.n > 1 else None     # one step: not worth a driver's call
         n = self.n
-        from .algorithms.native_loop import native_loop_for
-        native = native_loop_for(self) if target - n > 1 else None
-        plain = native is None and bar is None and not manipulators and target - n > 1
         quiet = np.errstate(invalid="ignore", over="ignore")     # the finiteness check meets NaN on purpose
         quiet.__enter__()
         try:
             while n < target:
-                if native is not None and n != last_n:
-                    try:       # in C up to the shorter final step, if any; the run's end as below
-                        native.advance(n, target if last_n < n else min(target, last_n), bar)
-                    finally:
-                        n = self.n
-                    if rt.stop_reason is not None:
-                        break
-                    continue
-                if plain and n != last_n:
-                    try:       # the same steps with less Python around them; the run's end as below
-                        self._plain_steps(n, target if last_n < n else min(target, last_n), finite, check)
+                if driver is not None and n != last_n:
+                    try:
+                        driver.advance(n, target if last_n < n else min(target, last_n), bar)
                     finally:
                         n = self.n
                     if rt.stop_reason is not None:
@@ -392,7 +388,7 @@ class Execution:
                 for mp in manipulators:
                     mp.before_step(n, t)
                 if n == last_n:
-                    self.algorithm.step_sized(n, t, st.last_step)
+                    step_sized(n, t, st.last_step)
                     t1 = st.stop
                 else:
                     step(n, t)
@@ -411,55 +407,19 @@ class Execution:
                     bar.update(256)
         finally:
             quiet.__exit__(None, None, None)
-            for fold in rt.call_folds:      # the compiled steps' doStep counts, complete again
-                fold()
+            rt.complete_call_counts()
             self.n = n
             meta["steps_done"] = n
-            # an interrupt between a step and its observers leaves n at the last step the results hold
             meta["last_time"] = self.time
             if bar is not None:
                 bar.close()
 
-    def _plain_steps(self, n: int, end: int, finite, check) -> None:
-        """Steps n to ``end`` (excluded) of full length, with no manipulator and no progress bar: what the loop
-        of ``_steps`` does, with what it looks up per step looked up once. The algorithm's step is called without
-        its ``Algorithm.step`` frame when it is that one (rebuilt when a monitor took a component out), and the
-        recording, when it is the last observer, only at the steps where its ``after_step`` samples (the same
-        test, made here: the other steps' calls did nothing)."""
-        st, meta, rt = self.settings, self.metadata, self.rt
-        start, h = st.start, st.step
-        algorithm = self.algorithm
-        step = None if type(algorithm).step is Algorithm.step else algorithm.step
-        observers = self.observers
-        rec = observers[-1] if observers else None
-        if type(rec) is Recording and rec.every > 0:
-            every, last = rec.every, rec.steps
-            sample = rec.after_step
-            observers = observers[:-1]
-        else:
-            sample = None
-        after = [ob.after_step for ob in observers]
-        while n < end:
-            t = start + n * h          # integer step counting: no drift from accumulated additions
-            if step is not None:
-                step(n, t)
-            else:
-                if rt.changed:      # a monitor took a component out: step the others only
-                    algorithm._build()
-                algorithm._step(n, t)
-            t1 = start + (n + 1) * h
-            meta["last_time"] = t1
-            for f in after:
-                f(n, t, t1)
-            if sample is not None and ((n + 1) % every == 0 or n + 1 == last or rt.stop_reason is not None):
-                sample(n, t, t1)
-            n += 1
-            self.n = n
-            if check is not None and not finite():
-                raise check(t1)
-            if rt.stop_reason is not None:
-                meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
-                return
+    def _step_driver(self):
+        """The step driver of this execution (master/drivers/), chosen at its first call, or None."""
+        if not self._driver_asked:
+            self._driver_asked = True
+            self._driver = driver_for(self)
+        return self._driver
 
     # -- values by name ---------------------------------------------------------------------------------
     # What a script or a notebook reads and writes ("component.variable", as in results and --param). A value
@@ -522,11 +482,12 @@ class Execution:
                 raise CosimError(f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not read every "
                                  "step; add this observer before initialize()", element="add_observer")
             observer.attach(self.ctx, self.time)
-            if self.metadata.get("native_loop", {}).get("used"):
-                # the loop in C, chosen once, has no observers: the steps from here on go through Python
-                self._native_loop = None
-                self.metadata["native_loop"] = {"used": True, "until": self.time,
-                                                "reason": f"an observer was added at t={self.time:g}"}
+            if self._driver is not None:
+                # a step driver was chosen for the observers there were: the reference loop runs the steps from here
+                key = self._driver.name
+                self.metadata[key] = {**self.metadata[key], "until": self.time,
+                                      "reason": f"an observer was added at t={self.time:g}"}
+                self._driver = None
         self.extra_observers.append(observer)
         if self._set_up:        # before the recording, as the observers given to the constructor
             at = self.observers.index(self.recording) if self.recording in self.observers else len(self.observers)

@@ -207,6 +207,12 @@ class Runtime:
         if self.probe is not None:
             self.probe[0], self.probe[1] = phase, i
 
+    def calling(self, i: int) -> None:
+        """Slave i's calls of a step come next (-1: none), for a supervisor that names the component a crash or a
+        hang is in (supervise.py); a step whose code the supervisor maps line by line need not say it."""
+        if self.probe is not None:
+            self.probe[1] = i
+
     # -- life cycle -----------------------------------------------------------------------
     def instantiate(self, start: float, stop: float | None, tolerance: float | None = None):
         """``tolerance``: for every FMU; None gives each FMU its own default experiment tolerance."""
@@ -403,6 +409,11 @@ class Runtime:
             st = slave.get_port(typ, port)
             if st > WARNING:
                 raise slave.fail(f"getting outputs ({typ})", st, t)
+
+    def complete_call_counts(self) -> None:
+        """``do_step_calls`` complete again: the doStep counts an accelerated step defers (compiled.py) added in."""
+        for fold in self.call_folds:
+            fold()
 
     def publish(self, i: int):
         for buf, view in self.staging[i]:

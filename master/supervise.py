@@ -13,7 +13,7 @@ An FMU is foreign code in the master's address space: it can abort, segfault or 
   and the line of the compiled step it was in tells which component's FMI call it was; in the native step
   loop and outside the step loop a shared probe tells the phase and component.
 
-The native step loop (algorithms/native_loop.py) runs in the child too: it keeps the header as the Python path
+The native step loop (drivers/native.py) runs in the child too: it keeps the header as the Python path
 does (time reached, rows) and writes the index of the component whose FMI call it is in before each call, so
 a crash there names the same component and time.
 
@@ -97,7 +97,7 @@ class _ChildRecording(Recording):
         self.header[H_PHASE] = PHASE_STEP
 
     def native_progress(self) -> dict:
-        """Where the native loop reports what after_step and sample report here (native_loop.PROGRESS_SLOTS);
+        """Where the native loop reports what after_step and sample report here (drivers/native.py PROGRESS_SLOTS);
         by offering it this recording lets the loop run its steps in C. The parent is told, for the run.json
         of a child that dies."""
         self.conn.send(("native_loop",))
@@ -360,8 +360,10 @@ class _Supervisor:
                 return self.names[i], PHASE_NAMES[PHASE_STEP]
         if self.header is not None and self.names:
             phase, i = int(self.header[H_PHASE]), int(self.header[H_COMPONENT])
-            if phase == PHASE_STEP:         # only the native loop says which component's call a step is in
-                i = int(self.header[H_NATIVE])
+            if phase == PHASE_STEP:         # the native loop says which component's call a step is in, or the
+                i = int(self.header[H_NATIVE])      # reference step (Runtime.calling), or nobody
+                if i < 0:
+                    i = int(self.header[H_COMPONENT])
             if 0 <= i < len(self.names):
                 return self.names[i], PHASE_NAMES.get(phase, "setup")
         return None, ""

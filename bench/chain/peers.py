@@ -190,7 +190,7 @@ def peer_cosim_master(a: dict) -> dict:
 
     simulate(a["ssp"], stop_time=h, **kw)          # warm-up: lazy imports, page cache
     try:        # a one-step run does not reach the native loop; a supervised child would import it each time
-        from master.algorithms.native_loop import library
+        from master.drivers.native import library
         library()
     except ImportError:       # versions before the native loop
         pass

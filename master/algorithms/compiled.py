@@ -1,4 +1,6 @@
-"""Compiling a step of a fixed-step algorithm into straight-line Python.
+"""Compiling a step of a fixed-step algorithm into straight-line Python: an accelerator (master/accel.py) of the
+reference step ``fixed_step.reference_step``, which runs instead when ``COSIM_MASTER_PURE_PYTHON=1``; both give the
+same results bit for bit (tests/accelerators/, ``master.compiled-step``).
 
 The generated function calls, per component, prebound callables (FMI getters/setters with their value
 reference and buffer pointers fixed, the doStep with its instance fixed): no loops over lists, no tuple
@@ -26,10 +28,17 @@ from __future__ import annotations
 import re
 import struct
 
+from .. import accel
+from .fixed_step import reference_step
+
 CHUNK_LINES = 400
 
 
 def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
+    """``step(n, t)``: what ``fixed_step.reference_step`` returns, generated as straight-line code (unless
+    accelerators are switched off)."""
+    if not accel.enabled():
+        return reference_step(rt, order, h, gauss_seidel)
     from ctypes import c_double
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
@@ -131,12 +140,11 @@ def _inline_cycle(ns: dict, i: int, c, values: list[list[str]] | None = None) ->
     if c.sets:
         ns[f"R{i}"] = c.sets_failed
         lines.append("try:")
-        attrs = getattr(c.obj, "__dict__", None)
-        direct = attrs is not None and all(u == attrs.update for u, _, _ in c.sets)
+        direct = c.stores is not None
         if direct:
-            # update(zip(names, values)) on the instance's __dict__ is a store of each value under its name, in
-            # order: written as such, without the call, the zip and its pairs
-            ns[f"S{i}"] = attrs
+            # update(zip(names, values)) on that mapping is a store of each value under its name, in order: written
+            # as such, without the call, the zip and its pairs
+            ns[f"S{i}"] = c.stores
         for j, (update, names, tolist) in enumerate(c.sets):
             ns[f"U{i}_{j}"], ns[f"N{i}_{j}"], ns[f"L{i}_{j}"] = update, names, tolist
             if direct and values is not None:

@@ -111,19 +111,16 @@ class Fmi2Slave(NativeSlave):
         get = self._f.get("fmi2GetBooleanStatus")
         return get is not None and get(self.c, FMI2_TERMINATED, byref(terminated)) <= WARNING and bool(terminated.value)
 
-    def _raw(self, name):
-        return self.lib.raw(name)
-
     def bound_get(self, typ, port):
         if typ == "String":
             return super().bound_get(typ, port)
-        return functools.partial(self._raw(f"fmi2Get{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+        return functools.partial(self.raw_function(f"fmi2Get{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
                                  port.buf_ptr)
 
     def bound_set(self, typ, port):
         if typ == "String":
             return super().bound_set(typ, port)
-        return functools.partial(self._raw(f"fmi2Set{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
+        return functools.partial(self.raw_function(f"fmi2Set{typ}"), c_void_p(self.c), port.vr_ptr, ctypes.c_size_t(port.n),
                                  port.buf_ptr)
 
     def bound_step(self):
@@ -135,4 +132,4 @@ class Fmi2Slave(NativeSlave):
 
     @property
     def raw_step(self):
-        return functools.partial(self._raw("fmi2DoStep"), c_void_p(self.c)) if self._do_step is not None else None
+        return functools.partial(self.raw_function("fmi2DoStep"), c_void_p(self.c)) if self._do_step is not None else None

@@ -201,6 +201,24 @@ class Fmi3Slave(NativeSlave):
 
     _may_roll_back = False
 
+    @property
+    def may_roll_back(self) -> bool:
+        """Whether the master may set a state saved before the current point (then every fmi3DoStep is called
+        with noSetFMUStatePriorToCurrentPoint false); true from the first ``save_state`` on."""
+        return self._may_roll_back
+
+    @property
+    def step_cells(self) -> tuple:
+        """The ctypes cells fmi3DoStep writes: (eventHandlingNeeded, terminateSimulation, earlyReturn,
+        lastSuccessfulTime). A step driver that calls fmi3DoStep itself passes these and hands the status to
+        ``after_do_step``, which reads them."""
+        return (*self._flags, self._last_successful)
+
+    @property
+    def last_successful_time(self) -> float:
+        """The lastSuccessfulTime of the last fmi3DoStep."""
+        return self._last_successful.value
+
     def save_state(self, t=None):
         self._may_roll_back = True
         return super().save_state(t)
@@ -227,7 +245,7 @@ class Fmi3Slave(NativeSlave):
 
     def after_do_step(self, t, h, st) -> int:
         """The rest of ``do_step`` once its first fmi3DoStep (t, h) returned ``st``, with its flags in
-        ``self._flags`` and ``self._last_successful`` (the native loop makes that first call itself)."""
+        ``step_cells`` (a step driver may make that first call itself)."""
         end = t + h
         event, terminate, early = self._flags
         last = self._last_successful

@@ -11,6 +11,11 @@ class NativeSlave(Slave):
     functions (FMI 2.0 and 3.0 differ in prefix and in the spelling of FMUstate)."""
     GET_STATE = SET_STATE = FREE_STATE = TERMINATE = FREE_INSTANCE = ""
 
+    def raw_function(self, name: str):
+        """The FMU's C function ``name`` (e.g. "fmi2DoStep") as ctypes holds it, called without argument
+        conversion: what the bound getters, setters and steps wrap, and what a step driver in C calls itself."""
+        return self.lib.raw(name)
+
     def save_state(self, t=None):
         if not self.can_save_state:
             return super().save_state(t)

@@ -229,10 +229,19 @@ class Recording(Observer):
     def _new_block(self, rows: int, cols: int) -> np.ndarray:
         return np.empty((rows, cols), dtype=np.float64)
 
+    def samples_after(self, n: int) -> bool:
+        """Whether a row is taken after step n: every ``every`` steps, after the last step (``steps``) and when the
+        run ends early. A step driver that records itself takes its rows exactly there."""
+        return (n + 1) % self.every == 0 or n + 1 == self.steps or self.rt.stop_reason is not None
+
+    @property
+    def has_object_columns(self) -> bool:
+        """Whether String or Binary values are recorded (kept per row as Python objects, outside ``block``)."""
+        return bool(self.str_)
+
     def after_step(self, n: int, t0: float, t1: float) -> None:
         rt = self.rt
-        # Execution._plain_steps makes this same test inline, to skip the calls that sample nothing: change
-        # both (tests/core/test_loop_plain.py runs the two loops side by side)
+        # the test of samples_after, written out: it runs after every step, and a call is most of its cost
         if (n + 1) % self.every == 0 or n + 1 == self.steps or rt.stop_reason is not None:
             rt.read_samples(t1)
             self.sample(t1)

@@ -1,14 +1,12 @@
-"""The compiled step with in-process FMUs written into it (master/algorithms/compiled.py: inputs stored into each
-shell's __dict__, doStep, outputs read from __dict__, all in the step's own frame; Jacobi's inputs from one list of
-the output values per step; large steps in chunks). The reference is the FMU binaries, run by pythonfmu's own
-wrapper (inprocess=False): same rows bit for bit, same doStep counts, and failures reported as before."""
+"""In-process FMUs (master/fmi/inprocess.py, written into the compiled step) against their binaries, run by
+pythonfmu's own wrapper (inprocess=False): same rows bit for bit, same doStep counts, and failures reported as
+through the FMI calls."""
 import json
 from pathlib import Path
 
 import pytest
 
 import master
-from master.algorithms import compiled
 from master.errors import CosimError
 from master.execution import Execution
 from master.fmi.inprocess import PythonFmuSlave
@@ -31,25 +29,6 @@ def test_inline_step_equals_the_binaries(tmp_path, algorithm, multiples):
     assert a.equals(b)
     assert calls_a == calls_b
     assert a["uav1_dyn.z"].max() > 5.0          # the vehicles flew: the inputs really reached them
-
-
-def test_the_step_is_written_inline():
-    with Execution(SSP, output=None, **KW) as ex:
-        ex.initialize()
-        src = ex.algorithm._step.source
-    assert "VReal = _unpackReal(_memReal)" in src        # Jacobi: inputs from the output values the step uses
-    assert "S1['" in src and "A1_0['" in src             # inputs stored into / outputs read from __dict__
-    assert "c1(t, H1)" not in src and "g1_0()" not in src      # no op called for them
-
-
-def test_a_chunked_step_gives_the_same_results(tmp_path, monkeypatch):
-    a, calls_a = _run(tmp_path, "a")
-    monkeypatch.setattr(compiled, "CHUNK_LINES", 25)
-    with Execution(SSP, output=None, **KW) as ex:
-        ex.initialize()
-        assert "_part3(n, t, VInteger, VReal)" in ex.algorithm._step.source
-    b, calls_b = _run(tmp_path, "b")
-    assert a.equals(b) and calls_a == calls_b
 
 
 def _dict_read_fails(monkeypatch, component):

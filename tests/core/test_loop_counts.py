@@ -1,7 +1,6 @@
-"""The compiled step's deferred doStep counts (compiled._defer_counts): a complete step counts itself once and the
-counts are folded into rt.do_step_calls when the step loop returns; a step cut short by an exception (an Exception
-the FMU raised, reported as a doStep failure, or a KeyboardInterrupt that goes straight through) counts exactly the
-components it reached. The expectation is derived from the stepping order alone: every component stepped in each
+"""The doStep counts of run.json (``fmu_calls``) and ``Runtime.do_step_calls``: every complete step counts each
+component it stepped; a step cut short by an exception (an Exception the FMU raised, reported as a doStep failure,
+or a KeyboardInterrupt that goes straight through) counts exactly the components it reached. The expectation is derived from the stepping order alone: every component stepped in each
 complete step, and in the failing step those up to and including the failing one."""
 import json
 from pathlib import Path
@@ -9,7 +8,6 @@ from pathlib import Path
 import pytest
 
 import master
-from master.algorithms import compiled
 from master.errors import CosimError
 from master.execution import Execution
 from master.fmi.inprocess import PythonFmuSlave
@@ -47,11 +45,8 @@ def _names_and_order():
         return list(ex.rt.names), list(ex.algorithm.order)
 
 
-@pytest.mark.parametrize("chunk_lines", [None, 25])
 @pytest.mark.parametrize("failing", ["wind", "uav1_dyn", "uav3_bat", "uav4_strat"])
-def test_a_failing_step_counts_the_components_it_reached(tmp_path, monkeypatch, failing, chunk_lines):
-    if chunk_lines:
-        monkeypatch.setattr(compiled, "CHUNK_LINES", chunk_lines)
+def test_a_failing_step_counts_the_components_it_reached(tmp_path, monkeypatch, failing):
     names, order = _names_and_order()
     assert failing in names
     _fail_in(monkeypatch, failing, ZeroDivisionError("broke"))
@@ -62,16 +57,11 @@ def test_a_failing_step_counts_the_components_it_reached(tmp_path, monkeypatch, 
     assert meta["fmu_calls"]["do_step"] == _expected(names, order, failing, 6)
 
 
-@pytest.mark.parametrize("chunk_lines", [None, 25])
-def test_an_interrupt_in_a_step_counts_the_components_it_reached(monkeypatch, chunk_lines):
-    if chunk_lines:
-        monkeypatch.setattr(compiled, "CHUNK_LINES", chunk_lines)
+def test_an_interrupt_in_a_step_counts_the_components_it_reached(monkeypatch):
     names, order = _names_and_order()
     _fail_in(monkeypatch, "uav2_dyn", KeyboardInterrupt())
     ex = Execution(SSP, output=None, **KW)
     ex.initialize()
-    if chunk_lines:
-        assert "_part1(" in ex.algorithm._step.source
     with pytest.raises(KeyboardInterrupt):
         ex.simulate_until()
     assert ex.n == 6

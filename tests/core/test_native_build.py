@@ -1,5 +1,7 @@
 """master.native_build: C compiled once per content into the cache, the reason given when it cannot be."""
 import ctypes
+import os
+import shutil
 
 import pytest
 
@@ -9,12 +11,17 @@ SOURCE = "double twice(double x) { return 2.0 * x; }\n"
 FLAGS = ["-O2", "-fPIC", "-shared"]
 
 
+NO_COMPILER = not (os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc"))
+needs_cc = pytest.mark.skipif(NO_COMPILER, reason="no C compiler ($CC, cc, gcc): nothing to build with")
+
+
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("COSIM_MASTER_CACHE", str(tmp_path / "cache"))
     return tmp_path / "cache"
 
 
+@needs_cc
 def test_built_once_and_rebuilt_when_the_source_changes(tmp_path, cache):
     src = tmp_path / "twice.c"
     src.write_text(SOURCE)
@@ -40,6 +47,7 @@ def test_without_a_compiler_the_reason_is_given(tmp_path, cache, monkeypatch):
     assert path is None and "cannot compile the probe" in why
 
 
+@needs_cc
 def test_a_compile_error_is_reported_with_its_first_line(tmp_path, cache):
     src = tmp_path / "broken.c"
     src.write_text("double twice(double x) { return 2.0 * ; }\n")
@@ -48,6 +56,7 @@ def test_a_compile_error_is_reported_with_its_first_line(tmp_path, cache):
     assert not list((cache / "probe").glob("*.so"))
 
 
+@needs_cc
 def test_an_extension_module_is_built_and_imported(tmp_path, cache):
     src = tmp_path / "probe_ext.c"
     src.write_text('#include <Python.h>\n'

@@ -1,15 +1,18 @@
-"""The master loop in C (master/algorithms/native_loop.py) gives the results of the Python path bit for bit:
-every scenario runs with it on and off and the recorded tables, errors and run facts must be equal (the
-Python path is the reference, itself tested against analytic solutions elsewhere); one chain is also
-checked against its explicit-Euler recurrence recomputed here."""
+"""The native step driver (master/drivers/native.py) where tests/accelerators/ does not reach (its cases are the
+shipped coupling SSPs): connections with a transformation, Integer and Boolean transfers, FMI 3.0 FMUs, failures,
+a request to terminate, non-finite outputs, small blocks, the test FMUs of tests/fmu_factory.py. Each runs with the
+driver on and off (the reference loop) and must give the same tables, errors and run facts; one chain is also
+checked against its explicit-Euler recurrence recomputed here, and run.json says why the driver did not run."""
 import numpy as np
 import pytest
 
 import master
-from master.algorithms.native_loop import library
+from master import accel
+from master.drivers.native import library
 from master.ssp.writer import SspBuilder
 
-pytestmark = pytest.mark.skipif(library()[0] is None, reason=f"native loop unavailable: {library()[1]}")
+pytestmark = [pytest.mark.skipif(library()[0] is None, reason=f"native loop unavailable: {library()[1]}"),
+              pytest.mark.skipif(not accel.enabled(), reason=f"{accel.ENV} is set: no step driver runs")]
 
 
 def _both(ssp, **kw):
@@ -74,16 +77,6 @@ def _masses(tmp_path, test_fmus):
     b.connect("A", "x", "B", "x_in")
     b.connect("B", "F", "A", "F")
     return b.write(tmp_path / "masses.ssp")
-
-
-def test_feedthrough_loop_with_step_multiple(tmp_path, test_fmus):
-    """The masses, B on 3 master steps."""
-    ssp = _masses(tmp_path, test_fmus)
-    for algorithm in ("jacobi", "gauss-seidel"):
-        on, off = _both(ssp, algorithm=algorithm, step_multiples={"B": 3}, record_interval=0.07)
-        assert on.metadata["native_loop"]["used"]
-        assert on.metadata["fmu_calls"]["do_step"] == {"A": 200, "B": 67}
-        _same(on, off)
 
 
 def test_integer_and_boolean_transfers(tmp_path, reference_fmus):

@@ -15,10 +15,12 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
-from master.algorithms.native_loop import library
+from master import accel
+from master.drivers.native import library
 from master.ssp.writer import SspBuilder
 
-pytestmark = pytest.mark.skipif(library()[0] is None, reason=f"native loop unavailable: {library()[1]}")
+pytestmark = [pytest.mark.skipif(library()[0] is None, reason=f"native loop unavailable: {library()[1]}"),
+              pytest.mark.skipif(not accel.enabled(), reason=f"{accel.ENV} is set: no step driver runs")]
 
 CLI = [sys.executable, "-m", "master.cli"]
 

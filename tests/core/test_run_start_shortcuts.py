@@ -1,12 +1,11 @@
-"""The shortcuts of a run's start (Execution.initialize), each of which must leave what a run does unchanged: the
-step's code shared by the runs of one structure (compiled.py ``_code``), start values set in one update per slave
-and type (``Slave.values_setter``), in-process ports without ctypes pointers."""
+"""The shortcuts of a run's start (Execution.initialize), each of which must leave what a run does unchanged: start
+values set in one update per slave and type (``Slave.values_setter``), in-process ports without ctypes pointers,
+and what one run leaves for the next in the same process (the step code shared by the runs of one structure)."""
 from pathlib import Path
 
 import pytest
 
 import master
-from master.algorithms import compiled
 from master.execution import Execution
 from master.fmi.inprocess import PythonFmuSlave
 from master.runtime import Runtime
@@ -19,47 +18,6 @@ KW = dict(stop_time=40.0, step=0.5, record=["*"], record_interval=0.5)
 
 def _run(ssp, folder, **kw):
     return master.run(ssp, output=folder, **{**KW, **kw}).frame
-
-
-def _counting_compile(monkeypatch):
-    """Counts the compilations of step sources (compiled.py looks ``compile`` up in its module first)."""
-    calls = []
-
-    def spy(src, name, mode):
-        calls.append(name)
-        return compile(src, name, mode)
-    monkeypatch.setattr(compiled, "compile", spy, raising=False)
-    return calls
-
-
-def test_step_code_from_the_cache_runs_as_a_fresh_compile(tmp_path, monkeypatch):
-    monkeypatch.setattr(compiled, "_CODE_CACHE", {})
-    monkeypatch.setattr(compiled, "CODE_CACHE_SIZE", 0)        # emptied before every store: always compiled anew
-    fresh = {ssp: _run(ssp, tmp_path / f"fresh_{ssp.stem}") for ssp in (FOUR, ONE)}
-    monkeypatch.setattr(compiled, "CODE_CACHE_SIZE", 64)
-    monkeypatch.setattr(compiled, "_CODE_CACHE", {})
-    calls = _counting_compile(monkeypatch)
-    _run(FOUR, tmp_path / "warm")
-    compiled_first = len(calls)
-    assert compiled_first >= 1
-    one = _run(ONE, tmp_path / "one")                 # another structure: its own code, not the cached one
-    assert len(calls) > compiled_first
-    before = len(calls)
-    four = _run(FOUR, tmp_path / "four")              # the same structure again: every chunk from the cache
-    assert len(calls) == before
-    assert four.equals(fresh[FOUR])
-    assert one.equals(fresh[ONE])
-
-
-def test_the_code_cache_is_bounded(monkeypatch):
-    monkeypatch.setattr(compiled, "_CODE_CACHE", {})
-    monkeypatch.setattr(compiled, "CODE_CACHE_SIZE", 3)
-    codes = [compiled._code(f"def step(n, t):\n    return {k}\n", "<s>") for k in range(7)]
-    assert len(compiled._CODE_CACHE) <= 3
-    assert compiled._code("def step(n, t):\n    return 6\n", "<s>") is codes[6]
-    ns: dict = {}
-    exec(codes[4], ns)
-    assert ns["step"](0, 0.0) == 4
 
 
 def _variable_values(obj) -> dict:

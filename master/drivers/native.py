@@ -1,13 +1,13 @@
-"""The master step loop in C for systems of native FMI 2.0 and 3.0 co-simulation FMUs.
+"""The step driver in C for systems of native FMI 2.0 and 3.0 co-simulation FMUs (a ``base.StepDriver``).
 
 From Python, each FMI call costs ~0.4 µs of ctypes overhead, three calls per FMU step, several times what a
 cheap FMU itself costs. Here the compiled step (compiled.py) is described once as a list of operations on
 the master's own buffers (transfers with their factor/offset, setters, doStep, getters, staging of
 components on a step multiple) and ``native_loop.c`` runs many master steps of it per call, recording the
-samples into the recording's block itself. It returns to Python at every point where Python must look (a
-status above Warning, an FMI 3.0 doStep that returned early or asks to terminate, a full block, a non-finite
-output, the end of the chunk), and Python then does exactly what the Python path does there, so results,
-errors and rows kept are the same, bit for bit.
+samples into the recording's block itself (after the steps ``Recording.samples_after`` names). It returns to
+Python at every point where Python must look (a status above Warning, an FMI 3.0 doStep that returned early or asks
+to terminate, a full block, a non-finite output, the end of the chunk), and Python then does exactly what the
+reference loop (``Execution._steps``) does there, so results, errors and rows kept are the same, bit for bit.
 
 It applies only when nothing else needs Python between steps: a fixed-step algorithm whose step is the
 compiled one (jacobi, gauss-seidel; no extrapolation, no rollback), no monitors, observers or manipulators
@@ -18,9 +18,9 @@ neither event mode nor early return (pythonfmu FMUs in process, model exchange a
 path), no value maps on inputs, and numeric recorded values. Otherwise the Python path runs, unchanged;
 run.json's ``native_loop`` says which ran and why.
 
-The C source is compiled on first use with the system's C compiler (``$CC`` or ``cc``) into the per-user
-cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would be one, and
-numba a heavy one), and without a compiler everything still runs, on the Python path.
+The C source is compiled on first use by ``master.native_build`` (the system's C compiler, ``$CC`` or ``cc``)
+into the per-user cache and loaded with ctypes: no build step at install, no new dependency (cffi or numba would
+be one, and numba a heavy one), and without a compiler everything still runs, on the Python path.
 """
 from __future__ import annotations
 
@@ -33,8 +33,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import interrupts
-from ..native_build import compile_cached
+from ..algorithms.gauss_seidel import GaussSeidel
+from ..algorithms.jacobi import Jacobi
+from ..observers.recording import Recording
+from ..fmi.fmi2 import Fmi2Slave
+from ..fmi.fmi3 import Fmi3Slave
 from ..fmi.slave import WARNING
+from ..native_build import compile_cached
 
 SOURCE = Path(__file__).with_name("native_loop.c")
 # Ctrl-C, SIGTERM and the progress bar are served between calls: a call runs at most CHUNK steps and about
@@ -98,13 +103,10 @@ def _addr(x) -> int | None:
 
 
 def _fmi3(slave) -> bool:
-    from ..fmi.fmi3 import Fmi3Slave
     return isinstance(slave, Fmi3Slave)
 
 
 def _why_not_component(slave, rt, i) -> str | None:
-    from ..fmi.fmi2 import Fmi2Slave
-    from ..fmi.fmi3 import Fmi3Slave
     ports = rt.write_ports[i] + rt.read_ports[i] + rt.sample_ports[i]
     if type(slave) is Fmi2Slave and slave.raw_step is not None:
         bad = sorted({t for t, _ in ports} - set(SUPPORTED_TYPES))
@@ -124,10 +126,6 @@ def _why_not_component(slave, rt, i) -> str | None:
 
 def why_not(ex) -> str | None:
     """None when the native loop can run this execution, else the reason it cannot (for run.json)."""
-    from ..observers.recording import Recording
-    from .base import Algorithm
-    if not getattr(ex.options, "native_loop", True):
-        return "switched off"
     if ex.manipulators:
         return "manipulators act before every step"
     others = [ob for ob in ex.observers if ob is not ex.recording]
@@ -139,13 +137,13 @@ def why_not(ex) -> str | None:
     # a subclass may look at every step; a supervised child's lets the loop report its progress instead
     if type(rec) is not Recording and getattr(rec, "native_progress", None) is None:
         return f"the recording ({type(rec).__name__}) looks at every step"
-    if rec.str_ or rec.block.dtype != np.float64:
+    if rec.has_object_columns or rec.block.dtype != np.float64:
         return "the recording has String or Binary columns"
     if ex.algorithm.threads > 1:
         return "threads: the doSteps run concurrently in Python threads"
-    alg = type(ex.algorithm)
-    # feeds_inputs: extrapolated (globally or per output) or interpolated inputs, a step the C loop does not know
-    if alg.step is not Algorithm.step or alg._compile is not Algorithm._compile or ex.algorithm.feeds_inputs:
+    # the two fixed sequences of FMI calls themselves (a subclass may step otherwise); feeds_inputs: extrapolated
+    # (globally or per output) or interpolated inputs, a step the C loop does not know
+    if type(ex.algorithm) not in (Jacobi, GaussSeidel) or ex.algorithm.feeds_inputs:
         return f"the {ex.algorithm.name} algorithm's step is not a fixed sequence of FMI calls"
     rt = ex.rt
     for i, slave in enumerate(rt.slaves):
@@ -206,20 +204,20 @@ class _Program:
     def _port_op(self, op, slave, i, every, typ, port):
         """A getter or setter of one port (``op`` "Get" or "Set")."""
         if _fmi3(slave):
-            return self._op(OP_GET3 if op == "Get" else OP_SET3, i, every, 0, fn=slave.lib.raw(f"fmi3{op}Float64"),
+            return self._op(OP_GET3 if op == "Get" else OP_SET3, i, every, 0, fn=slave.raw_function(f"fmi3{op}Float64"),
                             inst=slave.c, vr=port.vrs, n=port.n, dst=port.buf, nvalues=len(port.buf))
-        return self._op(OP_GET if op == "Get" else OP_SET, i, every, 0, fn=slave._raw(f"fmi2{op}{typ}"),
+        return self._op(OP_GET if op == "Get" else OP_SET, i, every, 0, fn=slave.raw_function(f"fmi2{op}{typ}"),
                         inst=slave.c, vr=port.vrs, n=port.n, dst=port.buf)
 
     def _step_op(self, slave, i, k, h):
         if not _fmi3(slave):
-            return self._op(OP_STEP, i, k, 0, fn=slave._raw("fmi2DoStep"), inst=slave.c, h=h)
-        event, terminate, early = slave._flags
-        self.keep.append(slave._flags)
-        return self._op(OP_STEP3, i, k, 0, fn=slave.lib.raw("fmi3DoStep"), inst=slave.c, h=h,
-                        no_set_prior=int(not slave._may_roll_back), event=ctypes.addressof(event),
+            return self._op(OP_STEP, i, k, 0, fn=slave.raw_function("fmi2DoStep"), inst=slave.c, h=h)
+        cells = event, terminate, early, last = slave.step_cells
+        self.keep.append(cells)
+        return self._op(OP_STEP3, i, k, 0, fn=slave.raw_function("fmi3DoStep"), inst=slave.c, h=h,
+                        no_set_prior=int(not slave.may_roll_back), event=ctypes.addressof(event),
                         terminate=ctypes.addressof(terminate), early=ctypes.addressof(early),
-                        last=ctypes.addressof(slave._last_successful))
+                        last=ctypes.addressof(last))
 
     def _op(self, kind, comp, every, phase, fn=None, inst=None, vr=None, n=0, dst=None, src=None, idx=None,
             factor=None, offset=None, h=0.0, nvalues=0, no_set_prior=0, event=None, terminate=None, early=None,
@@ -233,6 +231,7 @@ class _Program:
 
 class NativeLoop:
     """Runs an execution's steps in C between the points where Python must look (see the module's doc)."""
+    name = "native_loop"
 
     def __init__(self, ex, lib):
         self.ex, self.lib = ex, lib
@@ -276,7 +275,7 @@ class NativeLoop:
     def _bind(self):
         rt = self.ex.rt
         # FMI 3.0's noSetFMUStatePriorToCurrentPoint changes once someone saves a state (Execution.save_state)
-        active = (tuple(rt.active), tuple(getattr(s, "_may_roll_back", False) for s in rt.slaves))
+        active = (tuple(rt.active), tuple(getattr(s, "may_roll_back", False) for s in rt.slaves))
         if self._program is None or active != self._active:
             self._program = _Program(self.ex)
             self._active = active
@@ -369,10 +368,15 @@ class NativeLoop:
         meta["ended_early"] = {"time": t1, "reason": rt.stop_reason}
 
 
-def native_loop_for(ex) -> NativeLoop | None:
-    """The execution's native loop, decided once (after initialization) and noted in run.json."""
-    if "native_loop" not in ex.metadata:
-        reason = why_not(ex)
-        ex._native_loop = None if reason else NativeLoop(ex, library()[0])
-        ex.metadata["native_loop"] = {"used": reason is None, **({"reason": reason} if reason else {})}
-    return ex._native_loop
+class NativeDriver:
+    """The native loop as a step driver (``base.StepDriver``)."""
+    name = NativeLoop.name
+
+    def why_not(self, ex) -> str | None:
+        return why_not(ex)
+
+    def bind(self, ex) -> NativeLoop:
+        return NativeLoop(ex, library()[0])
+
+
+NATIVE = NativeDriver()
