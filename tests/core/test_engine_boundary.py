@@ -198,6 +198,7 @@ LAYERS = {
     "master.execution": 5, "master.results": 5, "master.drivers": 5,
     # L6 running it
     "master.runner": 6, "master.supervise": 6, "master.inspect_scenario": 6,
+    "master.step_accelerators": 6,     # the step accelerators' declarations run whole executions
     # L7 many runs
     "master.campaign": 7, "master.study": 7, "master.scenario_kinds": 7,
     # L8 the faces
@@ -210,15 +211,6 @@ FORBIDDEN_BESIDE = [
     *((("master.algorithms", other) for other in ("master.observers", "master.monitors", "master.sinks",
                                                   "master.live", "master.manipulators"))),
 ]
-
-#: PENDING_MOVE: the step driver algorithms/native_loop.py reads the execution's recording (observers/recording),
-#: which no algorithm may; engineer "loop" moves it to master/drivers/ (L5), where that import goes down. Delete
-#: this allowance (and its use below) once master/algorithms/native_loop.py is gone.
-PENDING_MOVE = {("master.algorithms.native_loop", "master.observers.recording")}
-
-#: packages another branch of issue 24 creates (engineer "loop": master/drivers/); not yet in this tree
-ARRIVING = {"master.drivers"}
-
 
 def layer_of(module: str) -> int | None:
     if module in LAYERS:
@@ -237,15 +229,13 @@ def _in(module: str, package: str) -> bool:
 
 def test_every_module_has_a_layer_and_every_entry_names_a_module():
     assert [m for m in MODULES if layer_of(m) is None] == []
-    assert [k for k in LAYERS if k not in MODULES and k not in ARRIVING] == []
+    assert [k for k in LAYERS if k not in MODULES] == []
 
 
 def test_no_module_imports_from_a_layer_above_it_or_beside_it_where_refused():
     offenders = []
     for module, edges in import_graph().items():
         for target, line in edges.items():
-            if (module, target) in PENDING_MOVE:
-                continue
             mine, theirs = layer_of(module), layer_of(target)
             if target == "master":
                 offenders.append(f"{_where(module, line)}: {module} imports a name of the package face "
@@ -258,13 +248,6 @@ def test_no_module_imports_from_a_layer_above_it_or_beside_it_where_refused():
     assert offenders == [], "imports against the layers:\n" + "\n".join(offenders)
 
 
-def test_the_pending_move_allowance_is_still_needed():
-    graph = import_graph()
-    assert [(m, t) for m, t in PENDING_MOVE if t not in graph.get(m, {})] == [], \
-        "an import of PENDING_MOVE is gone: delete it from the allowance"
-
-
-# -- 3. no circle ----------------------------------------------------------------------------------------------------
 def strongly_connected(graph: dict[str, dict[str, int]]) -> list[list[str]]:
     """Tarjan's strongly connected components of more than one module (iterative: the graph is ~100 deep)."""
     index: dict[str, int] = {}
