@@ -10,10 +10,10 @@ signal's range (the cross-check band), "off" with the worst excess otherwise, or
 table (and the wall time of each run).
 
 Feedthrough runs without its input file, as its reference results were made (every output stays at its start
-value); driven by ref/Feedthrough_in.csv it is checked by the hold rule in tests/core/test_input_files.py.
+value); driven by ref/Feedthrough_in.csv it is checked by the hold rule in tests/master/fmi/test_input_files.py.
 BouncingBall and VanDerPol as model exchange are "off" for both tools for a reason no importer can change:
 their references are forward Euler at the FMU's fixed step, and the exact solutions are themselves outside
-the band (tests/core/test_reference_fmus.py shows it, and that ``--solver euler`` reproduces them).
+the band (tests/master/fmi/test_reference_fmus.py shows it, and that ``--solver euler`` reproduces them).
 """
 from __future__ import annotations
 

@@ -155,7 +155,7 @@ def final_values(out_dir) -> dict:
 # False) hand to the csv module (the dtype pandas infers, numpy's float formatting, empty cells for missing
 # values), written by the csv module with pandas' dialect.  Any other value, or a case whose pandas outcome is
 # an error, makes them decline (nothing written) and the frame is built as before
-# (tests/campaign/test_campaign_outputs_csv.py and tests/core/test_events_csv.py compare both on thousands
+# (tests/master/campaign/test_campaign_outputs_csv.py and tests/master/test_events_csv.py compare both on thousands
 # of random tables).
 _CSV_PLAIN_TYPES = frozenset((str, int, float, bool, type(None)))
 

@@ -500,7 +500,7 @@ def _fmi3_model_description(spec: CModel, variables: list[Var], guid: str) -> st
 
 # FMI 1.0 co-simulation builds (tests/fmus_c/fmi1_framework.c) of models whose FMI 2.0 twins they must match.
 # Built by key (build_by_key("c1:Gain", ...)) but not among available_keys(), the test_fmus fixture's keys:
-# tests/test_fmu_factory.py checks those as FMI 2.0/3.0 FMUs; tests/core/test_fmi1.py builds and checks these.
+# tests/test_fmu_factory.py checks those as FMI 2.0/3.0 FMUs; tests/master/fmi/test_fmi1.py builds and checks these.
 FMI1_MODELS = ("Integrator", "Gain", "Faulty")
 FMI1_KEYS = tuple(f"c1:{name}" for name in FMI1_MODELS)
 for _name in FMI1_MODELS:

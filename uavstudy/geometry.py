@@ -73,7 +73,7 @@ skips by this bound, and ``uavstudy/monitor_step.c`` repeats the tests, ``pair_c
 ``ZoneDetector.clearance`` / ``may_enter`` and the broad phase of ``CollisionDetector.check_few`` in C with
 the same operations: a change here must be made there too.  The accelerator harness (tests/accelerators/,
 fleets from ``uavstudy.monitor_accel``) compares both with the reference bit for bit;
-tests/uav/test_uav_monitor_precheck.py checks the bound where it is tight.
+tests/uavstudy/test_uav_monitor_precheck.py checks the bound where it is tight.
 """
 from __future__ import annotations
 

@@ -400,7 +400,7 @@ def summary_frame(uavs: list[dict], total: dict):
 # A campaign run writes photos.csv and summary.csv of a few rows each, and building the pandas frames for them
 # cost more than the rest of the run's outputs: master.results' pandas twin writes pandas' bytes for them, or
 # declines (nothing written) and the frame is built as before
-# (tests/campaign/test_campaign_outputs_csv.py compares both on thousands of random tables).
+# (tests/master/campaign/test_campaign_outputs_csv.py compares both on thousands of random tables).
 _column_cells = csv_column_cells
 _write_csv = write_csv_cells
 
