@@ -8,7 +8,7 @@ Usage::
     python bench/bench_sitl_determinism.py --pairs 20 --jobs 3           # three pairs at a time (more load)
     python bench/bench_sitl_determinism.py --pairs 4 --random-stalls 12  # 12 stalls of random length each
 
-The scenario is the determinism test's (tests/sitlsim/test_sitl_vehicle.py: one UAV, one target 36 m out, 5 m
+The scenario is the determinism test's (tests/fmu_sources/sitlsim/test_sitl_vehicle.py: one UAV, one target 36 m out, 5 m
 takeoff, seed 3).  A pair is two ``master.run`` calls of one SSP in one process; ``--stall`` adds the test's
 ``StallAfterSteps`` observer to the second run (a 1.5 s pause of the master after steps 15 and 120, so that
 SITL re-sends its servo frame, then SITL frozen for 0.6 s: the wall-clock accidents of a loaded machine, made

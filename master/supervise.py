@@ -107,12 +107,12 @@ class _ChildRecording(Recording):
 
     def after_step(self, n, t0, t1):
         self.header[H_TIME] = t1
-        if self.algorithm._step is not self._step_sent:      # rebuilt after a component was taken out
+        if self.algorithm.current_step is not self._step_sent:      # rebuilt after a component was taken out
             self.send_names()
         super().after_step(n, t0, t1)
 
     def send_names(self):
-        self._step_sent = getattr(self.algorithm, "_step", None)
+        self._step_sent = self.algorithm.current_step
         self.conn.send(("names", list(self.rt.names), _step_lines(self._step_sent)))
 
     def flush(self):

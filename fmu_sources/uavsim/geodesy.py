@@ -22,7 +22,7 @@ Error bound
 ``geodetic_from_enu(*enu_from_geodetic(p, origin), origin)`` reproduces ``p``
 to better than **1 mm** within 50 km of the origin (and for altitudes between
 -1 km and +50 km); measured: the maximum round-trip position error over
-random points within 50 km (tests/uavsim/test_geodesy.py) is ~3e-9 m (limited by
+random points within 50 km (tests/fmu_sources/uavsim/test_geodesy.py) is ~3e-9 m (limited by
 float64 rounding of ECEF coordinates of size ~6.4e6 m, i.e. ~1e-9 m per ulp).
 The forward transform has no approximation error beyond float64 rounding.
 

@@ -235,7 +235,7 @@ class Wind:
             self.calm = self._calm_window(k0, k1)
             return 0.0, 0.0, 0.0, 0          # calm intervals (most of them): every sample is zero
         # the samples of at(t), written out in one loop (this runs every step of every UAV in wind): the
-        # same expressions in the same order, so the same bits as summing at(t) (tests/uavsim/test_uav_wind.py)
+        # same expressions in the same order, so the same bits as summing at(t) (tests/fmu_sources/uavsim/test_uav_wind.py)
         D = self._episode_length()
         ramp = p.ramp
         gusts = p.gusts

@@ -78,6 +78,12 @@ class Algorithm:
     def stepping_order(self, rt, plan) -> list[int]:
         return list(range(len(rt.slaves)))
 
+    @property
+    def current_step(self):
+        """The step function the next ``step`` calls (None before ``prepare``): a supervisor maps a crash inside
+        it to a line of its source, and notices a rebuild by its identity."""
+        return getattr(self, "_step", None)
+
     def _build(self):
         self._step = self._compile(self.h)
         self.rt.changed = False

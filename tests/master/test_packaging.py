@@ -36,3 +36,14 @@ def test_every_declared_package_exists():
     declared, package_dir = _declared()
     missing = {n for n in declared if not (_package_folder(n, package_dir) / "__init__.py").is_file()}
     assert missing == set()
+
+
+def test_no_test_folder_shadows_a_package_of_the_project():
+    """tests/ is on sys.path (the root conftest): a folder there named like a package the project installs would
+    be imported as an empty namespace package in its place (uavsim.__file__ None) wherever that package is not on
+    sys.path itself, as the editable install's own finder comes after sys.path."""
+    import importlib
+
+    for name in ("master", "uavstudy", "uavsim", "sitlsim"):
+        module = importlib.import_module(name)
+        assert module.__file__ is not None and module.__file__.endswith("__init__.py"), (name, module.__path__)

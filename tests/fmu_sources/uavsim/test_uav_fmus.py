@@ -16,7 +16,7 @@ from fmpy.validation import validate_fmu
 
 from build_script import build_fmus_module, load_shell
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 SRC = REPO / "fmu_sources"
 
 

@@ -21,7 +21,7 @@ from uavstudy.scenario import RULE_SETS, load_scenario_yaml, scenario_from_dict
 import master
 
 BASE = (-7.275, -35.965, 540.0)
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def latlon(x, y):

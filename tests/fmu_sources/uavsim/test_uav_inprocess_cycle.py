@@ -9,7 +9,7 @@ import master
 from master.errors import CosimError
 from master.fmi.inprocess import PythonFmuSlave
 
-SSP = Path(__file__).resolve().parents[2] / "ssp" / "paper_zones_4uav_B.ssp"
+SSP = Path(__file__).resolve().parents[3] / "ssp" / "paper_zones_4uav_B.ssp"
 KW = dict(stop_time=30.0, step=0.5, record=["*"], record_interval=0.5)
 
 

@@ -1,7 +1,7 @@
 /*
  * UavBatteryC -- a native C FMI 2.0 Co-Simulation twin of the pythonfmu FMU UavBattery
  * (fmu_sources/UavBattery.py over fmu_sources/uavsim/battery.py), written for
- * tests/uavsim/test_battery_swap_c.py.  No Python anywhere: only libc and libm.
+ * tests/fmu_sources/uavsim/test_battery_swap_c.py.  No Python anywhere: only libc and libm.
  *
  * Variables (names, value references, types, causalities, units, start values) are NOT written
  * here: the test generates "UavBatteryC_vars.h" from the Python FMU's own modelDescription.xml
