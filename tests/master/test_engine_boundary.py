@@ -17,7 +17,8 @@
          names the algorithm, so it sits beside the algorithms; the SSD reader below returns the name as text);
          an algorithm sees only the runtime: algorithms/ imports no observer, monitor, sink or live stream
    L5    execution, results, drivers/* (the step drivers of an execution)
-   L6    runner, supervise, inspect_scenario
+   L6    runner, supervise, inspect_scenario, step_accelerators (the step accelerators' declarations for the
+         harness run whole executions)
    L7    campaign/*, study/*, scenario_kinds
    L8    cli, master/__init__ (the package face: it may import anything; nothing imports its names)
    ====  ==========================================================================================================
