@@ -62,12 +62,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder or .ssd)",
+    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder, .ssd or a bare .fmu)",
                        description="Run a scenario from its start to its stop time and write its results (Parquet, "
                                    "CSV, run.json, events and monitor files) into one folder. Settings not given "
                                    "here come from the SSD's settings annotation, then from the FMUs' default "
                                    "experiments.")
-    r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, or a SystemStructure.ssd file")
+    r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare .fmu "
+                   "(run as an SSP of that one component, named as the file)")
     r.add_argument("--stop-time", type=float, metavar="SECONDS", help="simulated time to stop at, in seconds")
     r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
     r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")

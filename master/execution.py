@@ -43,6 +43,7 @@ from .observers.base import ObserverContext
 from .observers.pacing import Pacer
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
+from .plan.bare_fmu import bare_fmu_scenario, is_bare_fmu
 from .results import claim_output_folder, products, write_events_csv
 from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
@@ -126,6 +127,8 @@ def prepare(scenario, *, params: dict | None = None, seed: int | None = None, al
     ``plan._plan_key``) when there are any; the run's values are read and applied as always."""
     scenario = Path(scenario)
     shown_as = str(scenario)
+    if is_bare_fmu(scenario):                         # run and inspected as an SSP of that one component
+        scenario = bare_fmu_scenario(scenario)
     src = open_scenario(scenario, in_memory=True)     # an archive this process wrote: as the writer kept it
     try:
         model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root, reuse_structure=reuse_structure,

@@ -436,6 +436,22 @@ class SspBuilder:
         return path
 
 
+def one_fmu_system(fmu_path) -> SspBuilder:
+    """A system of one component, the FMU at ``fmu_path`` named as its file's stem: every input and output a
+    connector (so ``--input`` drives its inputs), its outputs recorded by default (FMPy's default; every variable
+    where it has no output), and nothing set that its own default experiment gives (start, stop, step)."""
+    fmu_path = Path(fmu_path)
+    md = _description(fmu_path)
+    name = fmu_path.stem
+    de = getattr(md, "defaultExperiment", None)
+    start = getattr(de, "startTime", None) if de is not None else None
+    b = SspBuilder(name, start=float(start) if start not in (None, "") else 0.0)
+    b.add_component(name, fmu_path)
+    outputs = [c[0] for c in b.components[0].connectors if c[1] == "output"]
+    b.record = [f"{name}.{o}" for o in outputs] or [f"{name}.*"]
+    return b
+
+
 _FMU_BYTES: dict[tuple, tuple[bytes, str, int]] = {}
 
 
