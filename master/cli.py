@@ -113,7 +113,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="run the component's FMU as model exchange or co-simulation (default: the SSD's "
                         "implementation attribute, else co-simulation when the FMU offers both); repeatable")
     r.add_argument("--lenient", action="store_true",
-                   help="accept slightly non-conforming modelDescription.xml files, saying what was tolerated")
+                   help="accept slightly non-conforming modelDescription.xml files, and --input columns that name no "
+                        "input (ignored), saying what was tolerated")
     r.add_argument("--allow-nonfinite", action="store_true",
                    help="let NaN and infinite values through (default: a parameter or output that is not finite "
                         "ends the run with an error at the step it appears)")
