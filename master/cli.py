@@ -48,8 +48,11 @@ def _algorithm_option_flags(p) -> None:
     from .algorithm_options import ALGORITHM_OPTIONS
     for opt in ALGORITHM_OPTIONS.values():
         default = "" if opt.default is None else f" (default: {opt.default})"
+        # the values are checked by the option's own parser (the same for the SSD and a campaign), so a choice
+        # is listed in the help rather than given to argparse
+        one_of = f"; one of {', '.join(map(str, opt.choices))}" if opt.choices else ""
         p.add_argument(opt.flag, dest=opt.name, default=None, metavar=opt.name.split("_")[-1].upper(),
-                       help=f"{opt.help}{default}")
+                       help=f"{opt.help}{one_of}{default}")
 
 
 def _algorithm_option_values(args) -> dict:
@@ -133,28 +136,38 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
-    i.add_argument("scenario")
-    i.add_argument("--json", action="store_true")
-    i.add_argument("--step", type=float)
-    i.add_argument("--stop-time", type=float)
-    i.add_argument("--algorithm", choices=ALGORITHMS.names())
-    i.add_argument("--debug", action="store_true")
+    i.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare "
+                                    ".fmu (shown as an SSP of that one component)")
+    i.add_argument("--json", action="store_true", help="print the description as JSON instead of text")
+    i.add_argument("--step", type=float, metavar="SECONDS",
+                   help="show the settings a run with this master step size would use")
+    i.add_argument("--stop-time", type=float, metavar="SECONDS",
+                   help="show the settings a run to this simulated time would use")
+    i.add_argument("--algorithm", choices=ALGORITHMS.names(),
+                   help="show the settings and loop treatment of this algorithm (default: the scenario's)")
+    i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)")
-    c.add_argument("campaign_yaml")
-    c.add_argument("--output", "-o", default=None, help="campaign folder (default: results/<campaign name>)")
-    c.add_argument("--workers", type=int, default=None, help="local worker processes (default: every core)")
-    c.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    c.add_argument("campaign_yaml", help="the campaign file: its scenarios, grid or list of runs, run settings and "
+                                         "repetitions (docs/campaigns.md)")
+    c.add_argument("--output", "-o", default=None, metavar="DIR",
+                   help="campaign folder (default: results/<campaign name>); the same command again resumes the "
+                        "campaign there")
+    c.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: every core)")
+    c.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a Dask distributed scheduler (tcp://host:8786) to run on instead of local workers")
     c.add_argument("--retry-failed", action="store_true", help="run the runs recorded as failed again")
     c.add_argument("--max-runs", type=int, default=None, metavar="N",
                    help="run at most N of the missing runs now (the rest stay for the next invocation)")
-    c.add_argument("--no-progress", action="store_true")
-    c.add_argument("--debug", action="store_true")
+    c.add_argument("--no-progress", action="store_true", help="no progress bar")
+    c.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign "
                                        "(as the scenario kind recorded in its campaign.json writes it)")
-    rp.add_argument("campaign_dir")
-    rp.add_argument("--debug", action="store_true")
+    rp.add_argument("campaign_dir", help="the folder of a campaign run by `cosim-master campaign` (holding its "
+                                         "campaign.json); report.md and the figures are written into it")
+    rp.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
                                       "reference: study.csv (errors, observed order, FMU calls) and figures",
@@ -162,28 +175,38 @@ def _parser() -> argparse.ArgumentParser:
                                     "scenario (as a resumable campaign), compare each run with the reference at its "
                                     "recorded times and write study.csv and PNG figures into --output "
                                     "(docs/coupling.md).")
-    st.add_argument("scenario")
-    st.add_argument("--algorithm", nargs="+", required=True, metavar="A")
-    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K")
-    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H")
+    st.add_argument("scenario", help="the scenario studied: an .ssp archive, an unpacked SSP folder or a "
+                                     "SystemStructure.ssd file")
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A",
+                    help=f"the algorithms compared, one or more of: {', '.join(ALGORITHMS.names())}")
+    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
+                    help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
+    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H",
+                    help="the master step sizes, in seconds (at least two for an observed order)")
     st.add_argument("--reference", required=True, metavar="REF",
                     help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
                          "signals by name), fine:H (the scenario at step H with iterative coupling) or a results "
                          "file (.parquet, .csv)")
     st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
                                                                    "connected output the reference knows)")
-    st.add_argument("--stop-time", type=float, metavar="SECONDS")
-    st.add_argument("--output", "-o", required=True, metavar="DIR")
-    st.add_argument("--workers", type=int, default=None)
-    st.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
-    st.add_argument("--no-progress", action="store_true")
-    st.add_argument("--debug", action="store_true")
+    st.add_argument("--stop-time", type=float, metavar="SECONDS",
+                    help="simulated time to stop every run at (default: the scenario's)")
+    st.add_argument("--output", "-o", required=True, metavar="DIR",
+                    help="study folder: the runs, study.csv and the figures; a study run there before resumes")
+    st.add_argument("--workers", type=int, default=None, metavar="N",
+                    help="local worker processes (default: every core)")
+    st.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of a Dask distributed scheduler (tcp://host:8786) to run on instead of local workers")
+    st.add_argument("--no-progress", action="store_true", help="no progress bar")
+    st.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
-    b.add_argument("scenario_yaml")
-    b.add_argument("-o", "--output", required=True)
-    b.add_argument("--debug", action="store_true")
+    b.add_argument("scenario_yaml", help="the scenario description, e.g. a UAV study YAML "
+                                         "(ssp/scenarios/paper_area.yaml)")
+    b.add_argument("-o", "--output", required=True, metavar="FILE.ssp",
+                   help="the SSP to write: an .ssp archive, or a folder for an unpacked SSP")
+    b.add_argument("--debug", action="store_true", help="show Python tracebacks")
     return p
 
 
