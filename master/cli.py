@@ -109,7 +109,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--no-native-loop", action="store_true",
                    help="step native FMUs from Python instead of the loop in C (same results, slower)")
-    r.add_argument("--progress", action="store_true", help="show a progress bar")
+    r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="show a progress bar on stderr (default: when stderr is a terminal, so that nothing floods "
+                        "a log)")
     r.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
     r.add_argument("--implementation", action="append", metavar="COMPONENT=me|cs", default=[],
@@ -160,7 +162,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--retry-failed", action="store_true", help="run the runs recorded as failed again")
     c.add_argument("--max-runs", type=int, default=None, metavar="N",
                    help="run at most N of the missing runs now (the rest stay for the next invocation)")
-    c.add_argument("--no-progress", action="store_true", help="no progress bar")
+    c.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (default: one when stderr is a terminal)")
     c.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign "
@@ -197,7 +200,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="local worker processes (default: every core)")
     st.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="address of a Dask distributed scheduler (tcp://host:8786) to run on instead of local workers")
-    st.add_argument("--no-progress", action="store_true", help="no progress bar")
+    st.add_argument("--no-progress", action="store_true",
+                    help="no progress bar (default: one when stderr is a terminal)")
     st.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
@@ -268,6 +272,16 @@ def _refuse_other_kinds(scenario) -> None:
                             f"{path} -o scenario.ssp` and run that", file=path)
 
 
+def _progress(asked: bool | None) -> bool:
+    """A bar when asked, else when a person watches: stderr a terminal (a pipe or a log file gets none)."""
+    if asked is not None:
+        return asked
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):      # replaced or closed stderr
+        return False
+
+
 def _dispatch(args) -> int:
     if args.command in ("run", "inspect"):
         _refuse_other_kinds(args.scenario)
@@ -285,7 +299,7 @@ def _dispatch(args) -> int:
         options = dict(stop_time=args.stop_time, start_time=args.start_time, step=args.step,
                        algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
-                       seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
+                       seed=args.seed, step_multiples=multiples, progress=_progress(args.progress), write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
                        native_loop=not args.no_native_loop,
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
@@ -337,7 +351,7 @@ def _dispatch(args) -> int:
     if args.command == "campaign":
         from .campaign.runner import run_campaign
         summary = run_campaign(args.campaign_yaml, output=args.output, workers=args.workers,
-                               scheduler=args.scheduler, progress=not args.no_progress,
+                               scheduler=args.scheduler, progress=not args.no_progress and _progress(None),
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
         return 0 if summary.ok else 1
@@ -346,7 +360,7 @@ def _dispatch(args) -> int:
         summary = run_study(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
                             steps=args.step, reference=args.reference, record=args.record, output=args.output,
                             workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
-                            progress=not args.no_progress)
+                            progress=not args.no_progress and _progress(None))
         print(summary.describe())
         return 0
     if args.command == "report":
