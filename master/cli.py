@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from ._version import __version__
@@ -19,6 +20,28 @@ def _kv(items, what):
             raise CosimError(f"expected NAME=VALUE, got {item!r}", element=what)
         out[key.strip()] = value
     return out
+
+
+class _AsWritten(float):
+    """A number that is not finite, shown as the user wrote it (1e400, not inf) in the one-line error that
+    refuses it; finite numbers stay plain floats."""
+    def __new__(cls, text: str):
+        self = super().__new__(cls, text)
+        self.text = text
+        return self
+
+    def __repr__(self):
+        return self.text
+
+    __str__ = __repr__
+
+
+def _number(text: str) -> float:
+    value = float(text)     # a ValueError is argparse's "invalid _number value"
+    return value if math.isfinite(value) else _AsWritten(text)
+
+
+_number.__name__ = "number"
 
 
 IMPLEMENTATIONS = {"me": "ModelExchange", "cs": "CoSimulation", "any": "any"}
@@ -72,15 +95,15 @@ def _parser() -> argparse.ArgumentParser:
                                    "experiments.")
     r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare .fmu "
                    "(run as an SSP of that one component, named as the file)")
-    r.add_argument("--stop-time", type=float, metavar="SECONDS", help="simulated time to stop at, in seconds")
-    r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
-    r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
+    r.add_argument("--stop-time", type=_number, metavar="SECONDS", help="simulated time to stop at, in seconds")
+    r.add_argument("--start-time", type=_number, metavar="SECONDS", help="simulated start time, in seconds")
+    r.add_argument("--step", type=_number, metavar="SECONDS", help="master (communication) step size, in seconds")
     r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
     _algorithm_option_flags(r)
     r.add_argument("--extrapolate", action="append", metavar="COMPONENT.VARIABLE=K", default=[],
                    help="extrapolation order K (0, 1, 2) of one coupled output, overriding --extrapolation for it "
                         "(jacobi, gauss-seidel); repeatable")
-    r.add_argument("--tolerance", type=float, metavar="REL",
+    r.add_argument("--tolerance", type=_number, metavar="REL",
                    help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
                    help="result folder (default: results/<scenario name>); an earlier run's folder is replaced, "
@@ -93,7 +116,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--record", action="append", metavar="PATTERN", default=[],
                    help="record the variables whose 'component.variable' matches this shell pattern "
                         "(default: every connected output); repeatable")
-    r.add_argument("--record-interval", type=float, metavar="SECONDS",
+    r.add_argument("--record-interval", type=_number, metavar="SECONDS",
                    help="time between recorded rows, in seconds: a whole multiple of the step (default: every step)")
     r.add_argument("--step-multiple", action="append", metavar="COMPONENT=K", default=[],
                    help="the component steps every K master steps (K a positive integer); repeatable")
@@ -103,7 +126,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-csv", action="store_true", help="write results.parquet only, no results.csv")
     r.add_argument("--solver", choices=SOLVERS, default="cvode-bdf",
                    help="integrator of model-exchange components (default: cvode-bdf; euler: explicit fixed step)")
-    r.add_argument("--solver-step", type=float, metavar="S",
+    r.add_argument("--solver-step", type=_number, metavar="S",
                    help="euler's internal step (default: each communication step whole)")
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
@@ -112,7 +135,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar on stderr (default: when stderr is a terminal, so that nothing floods "
                         "a log)")
-    r.add_argument("--timeout", type=float, metavar="SECONDS",
+    r.add_argument("--timeout", type=_number, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
     r.add_argument("--implementation", action="append", metavar="COMPONENT=me|cs", default=[],
                    help="run the component's FMU as model exchange or co-simulation (default: the SSD's "
@@ -130,9 +153,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="stream the run live to a ground station at this pymavlink address (udpout:HOST:PORT, "
                         "udpin:HOST:PORT, tcpin:HOST:PORT, tcp:HOST:PORT) and take its commands; repeatable "
                         "(docs/ground_station.md)")
-    r.add_argument("--mavlink-rate", type=float, default=10.0, metavar="HZ",
+    r.add_argument("--mavlink-rate", type=_number, default=10.0, metavar="HZ",
                    help="position and attitude messages per vehicle and simulated second (default: 10)")
-    r.add_argument("--realtime", type=float, metavar="FACTOR",
+    r.add_argument("--realtime", type=_number, metavar="FACTOR",
                    help="pace the run to the wall clock: FACTOR simulated seconds per second (1: real time, "
                         "10: ten times faster); results are the same as unpaced")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
@@ -141,9 +164,9 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare "
                                     ".fmu (shown as an SSP of that one component)")
     i.add_argument("--json", action="store_true", help="print the description as JSON instead of text")
-    i.add_argument("--step", type=float, metavar="SECONDS",
+    i.add_argument("--step", type=_number, metavar="SECONDS",
                    help="show the settings a run with this master step size would use")
-    i.add_argument("--stop-time", type=float, metavar="SECONDS",
+    i.add_argument("--stop-time", type=_number, metavar="SECONDS",
                    help="show the settings a run to this simulated time would use")
     i.add_argument("--algorithm", choices=ALGORITHMS.names(),
                    help="show the settings and loop treatment of this algorithm (default: the scenario's)")
@@ -184,7 +207,7 @@ def _parser() -> argparse.ArgumentParser:
                     help=f"the algorithms compared, one or more of: {', '.join(ALGORITHMS.names())}")
     st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
                     help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
-    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H",
+    st.add_argument("--step", nargs="+", type=_number, required=True, metavar="H",
                     help="the master step sizes, in seconds (at least two for an observed order)")
     st.add_argument("--reference", required=True, metavar="REF",
                     help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
@@ -192,7 +215,7 @@ def _parser() -> argparse.ArgumentParser:
                          "file (.parquet, .csv)")
     st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
                                                                    "connected output the reference knows)")
-    st.add_argument("--stop-time", type=float, metavar="SECONDS",
+    st.add_argument("--stop-time", type=_number, metavar="SECONDS",
                     help="simulated time to stop every run at (default: the scenario's)")
     st.add_argument("--output", "-o", required=True, metavar="DIR",
                     help="study folder: the runs, study.csv and the figures; a study run there before resumes")
@@ -272,6 +295,19 @@ def _refuse_other_kinds(scenario) -> None:
                             f"{path} -o scenario.ssp` and run that", file=path)
 
 
+def _refuse_file_as_folder(output: str) -> None:
+    """An output folder whose path is a file (or runs through one) says so, instead of the OS's "File exists"."""
+    from pathlib import Path
+    path = Path(output)
+    for p in (path, *path.parents):
+        if p.exists() or p.is_symlink():
+            if not p.is_dir():
+                what = "is a file" if p == path else f"is inside {p}, which is a file"
+                raise CosimError(f"the output folder {what}, not a folder: give another -o DIR", file=output,
+                                 element="--output")
+            return
+
+
 def _progress(asked: bool | None) -> bool:
     """A bar when asked, else when a person watches: stderr a terminal (a pipe or a log file gets none)."""
     if asked is not None:
@@ -307,7 +343,8 @@ def _dispatch(args) -> int:
                        implementation=_implementations(args.implementation), inputs=args.input,
                        mavlink=args.mavlink or None, mavlink_rate=args.mavlink_rate, realtime=args.realtime,
                        extrapolation_for=_orders(args.extrapolate), **_algorithm_option_values(args))
-        if args.timeout is not None and not (args.timeout > 0):
+        _refuse_file_as_folder(output)
+        if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:
             if args.no_supervise and args.timeout is None:
