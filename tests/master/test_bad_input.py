@@ -355,3 +355,16 @@ def test_an_fmu_without_binaries_for_this_platform_says_which_it_has(tmp_path, t
                           {"Gain.fmu": fmu})
     with pytest.raises(FmuError, match="component g: this FMU has binaries for win64 only, not for linux64"):
         master.run(folder, output=None)
+
+
+def test_a_fleet_too_large_to_build_is_refused_at_once(tmp_path):
+    """issue 25: `build-scenario` with n_uavs: 100000 worked silently for minutes."""
+    shipped = Path(master.__file__).parents[1] / "ssp" / "scenarios" / "paper_area.yaml"
+    text = shipped.read_text()
+    assert "\nn_uavs:" in text
+    big = tmp_path / "big.yaml"
+    big.write_text("\n".join("n_uavs: 100000" if line.startswith("n_uavs:") else line for line in text.splitlines()))
+    r = _cli(["build-scenario", str(big), "-o", str(tmp_path / "big.ssp")], tmp_path)
+    assert r.returncode == 1 and "n_uavs: 100000 UAVs, at most 4096" in r.stderr, r.stderr
+    _one_line(r.stderr)
+    assert not (tmp_path / "big.ssp").exists()
