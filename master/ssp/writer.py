@@ -180,7 +180,7 @@ class SspBuilder:
     components: list = field(default_factory=list)
     connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress, extrapolation)
     units: dict = field(default_factory=dict)         # name -> dict(base exponents, factor, offset)
-    start: float = 0.0
+    start: float | None = 0.0
     stop: float | None = None
     step: float | None = None
     algorithm: str | None = None
@@ -329,7 +329,9 @@ class SspBuilder:
             for name, spec in self.units.items():
                 u = etree.SubElement(us, _q("ssc", "Unit"), name=name)
                 etree.SubElement(u, _q("ssc", "BaseUnit"), **{k: _fmt(v) for k, v in spec.items()})
-        exp = etree.SubElement(root, _q("ssd", "DefaultExperiment"), startTime=_fmt(float(self.start)))
+        exp = etree.SubElement(root, _q("ssd", "DefaultExperiment"))
+        if self.start is not None:         # None: the FMUs' default experiments say (a bare FMU's system)
+            exp.set("startTime", _fmt(float(self.start)))
         if self.stop is not None:
             exp.set("stopTime", _fmt(float(self.stop)))
         self._settings_annotation(exp)
@@ -439,13 +441,11 @@ class SspBuilder:
 def one_fmu_system(fmu_path) -> SspBuilder:
     """A system of one component, the FMU at ``fmu_path`` named as its file's stem: every input and output a
     connector (so ``--input`` drives its inputs), its outputs recorded by default (FMPy's default; every variable
-    where it has no output), and nothing set that its own default experiment gives (start, stop, step)."""
+    where it has no output), and no time or step of its own: the FMU's default experiment gives them, and run.json
+    says so."""
     fmu_path = Path(fmu_path)
-    md = _description(fmu_path)
     name = fmu_path.stem
-    de = getattr(md, "defaultExperiment", None)
-    start = getattr(de, "startTime", None) if de is not None else None
-    b = SspBuilder(name, start=float(start) if start not in (None, "") else 0.0)
+    b = SspBuilder(name, start=None)
     b.add_component(name, fmu_path)
     outputs = [c[0] for c in b.components[0].connectors if c[1] == "output"]
     b.record = [f"{name}.{o}" for o in outputs] or [f"{name}.*"]

@@ -36,6 +36,7 @@ def test_reference_bouncing_ball_runs_from_its_default_experiment(tmp_path, vers
     assert r.returncode == 0, r.stderr
     meta = json.loads((tmp_path / "out" / "run.json").read_text())
     assert meta["outcome"] == "completed" and meta["stop_time"] == 3.0 and meta["step_size"] == 0.01
+    assert meta["settings_sources"]["start"] == meta["settings_sources"]["stop"] == "FMU DefaultExperiment"
     got = pd.read_parquet(tmp_path / "out" / "results.parquet")
     ref = pd.read_csv(REFERENCE / "ref" / "BouncingBall_out.csv")
     for col in ("h", "v"):     # the FMI cross-check band: within 10 % of the signal's range
@@ -52,7 +53,10 @@ def test_reference_bouncing_ball_inspects(tmp_path):
     assert comp["fmi_version"] == "3.0"
     assert {c["name"] for c in comp["connectors"]} >= {"h", "v"}
     assert info["settings"]["stop_time"] == 3.0
-    assert _cli(["inspect", fmu], cwd=tmp_path).stdout.startswith("scenario")
+    assert info["default_experiment"] == {"start_time": 0.0, "stop_time": 3.0} and info["annotations"] == []
+    text = _cli(["inspect", fmu], cwd=tmp_path).stdout
+    assert "(a bare FMU, run as a system of this one component)" in text.splitlines()[0]
+    assert "the FMU's default experiment: start 0.0, stop 3.0" in text
 
 
 def test_reference_feedthrough_driven_by_its_input_file(tmp_path):
