@@ -6,10 +6,12 @@ annotations, so libcosim and OMSimulator pick the same step without extra option
 from __future__ import annotations
 
 import copy
+import glob
 import hashlib
 import io
 import itertools
 import os
+import re
 import shutil
 import struct
 import threading
@@ -398,11 +400,13 @@ class SspBuilder:
             if key is None:
                 key = resolved[comp.fmu] = str(comp.fmu.resolve())
             if key not in seen:
-                base = comp.fmu.name
+                # the member's name is a URI in the SSD: "my model.fmu" is written as my_model.fmu
+                stem = _URI_UNSAFE.sub("_", comp.fmu.stem)
+                base = stem + comp.fmu.suffix
                 taken = set(seen.values())
                 name, k = base, 1
                 while name in taken:
-                    name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
+                    name, k = f"{stem}_{k}{comp.fmu.suffix}", k + 1
                 seen[key] = name
             fmu_names[comp.name] = seen[key]
         ssd_bytes, ssv_files, shape = self._ssd_bytes(fmu_names, path)
@@ -448,10 +452,12 @@ def one_fmu_system(fmu_path) -> SspBuilder:
     b = SspBuilder(name, start=None)
     b.add_component(name, fmu_path)
     outputs = [c[0] for c in b.components[0].connectors if c[1] == "output"]
-    b.record = [f"{name}.{o}" for o in outputs] or [f"{name}.*"]
+    # each output, and each element of an array output (an FMI 3.0 y[2] records as y[0], y[1])
+    b.record = [p for o in outputs for p in (f"{name}.{o}", glob.escape(f"{name}.{o}") + "[[]*]")] or [f"{name}.*"]
     return b
 
 
+_URI_UNSAFE = re.compile(r"[^A-Za-z0-9._~-]")
 _FMU_BYTES: dict[tuple, tuple[bytes, str, int]] = {}
 
 

@@ -103,3 +103,20 @@ def test_bad_bare_fmu_is_one_line(tmp_path, content):
         r = _cli(command, cwd=tmp_path)
         assert r.returncode == 1
         assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr and "Bad.fmu" in r.stderr, r.stderr
+
+
+def test_array_outputs_are_recorded_by_default(tmp_path):
+    fmu = _reference("fmi3/StateSpace.fmu")
+    r = master.run(fmu, output=None, stop_time=0.1)
+    assert [c for c in r.frame.columns if c != "time"] and all(c.startswith("StateSpace.y[")
+                                                                for c in r.frame.columns if c != "time")
+
+
+def test_a_file_name_that_is_no_uri(tmp_path, test_fmus):
+    """Spaces and brackets in the file name: the component is named as the file, its archive member is not."""
+    fmu = tmp_path / "my gain [v2].fmu"
+    fmu.write_bytes(Path(test_fmus["c2:Gain"]).read_bytes())
+    r = _cli(["run", fmu, "--param", "my gain [v2].k=2", "--record", "my gain [v2].k", "--stop-time", "0.2",
+              "--step", "0.1", "-o", "out"], cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert list(pd.read_csv(tmp_path / "out" / "results.csv")["my gain [v2].k"]) == [2, 2, 2]
