@@ -83,8 +83,14 @@ def _algorithm_option_values(args) -> dict:
     return {name: getattr(args, name) for name in ALGORITHM_OPTIONS if getattr(args, name, None) is not None}
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """A usage error as one line, like every other error (the usage itself is a --help away); exit code 2."""
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
+    p = _OneLineParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 

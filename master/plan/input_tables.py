@@ -58,7 +58,8 @@ def _unknown_columns(unknown: list[str], target: str, inputs: list[str]) -> str:
 def csv_component(name: str, comp: Component, model: SystemModel, variables: dict, shown_as: str):
     """An input table's stand-in for an FMU and its variables: one per connected column, typed as the input it
     drives and interpolated as that input's variability asks (linear for a continuous Real, else hold)."""
-    shown = shown_source(shown_as, comp.source)
+    # the --input file is named as the user gave it, not as a member of the scenario
+    shown = comp.source if name == INPUT_FILE_COMPONENT else shown_source(shown_as, comp.source)
     table = read_csv_table(comp.fmu_path, shown)
     for conn in comp.connectors.values():
         if conn.name not in table.columns:

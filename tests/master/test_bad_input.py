@@ -368,3 +368,28 @@ def test_a_fleet_too_large_to_build_is_refused_at_once(tmp_path):
     assert r.returncode == 1 and "n_uavs: 100000 UAVs, at most 4096" in r.stderr, r.stderr
     _one_line(r.stderr)
     assert not (tmp_path / "big.ssp").exists()
+
+
+@pytest.mark.parametrize("args,expected", [
+    (["run", "x.ssp", "--seed", "abc"], "cosim-master run: error: argument --seed: invalid int value: 'abc' "
+                                        "(see cosim-master run --help)"),
+    (["run", "x.ssp", "--stop-time", "abc"], "argument --stop-time: invalid number value: 'abc'"),
+    (["inspect", "x.ssp", "--step", "abc"], "cosim-master inspect: error: argument --step: invalid number value"),
+    (["run"], "the following arguments are required: scenario"),
+    (["bogus"], "argument command: invalid choice: 'bogus'"),
+])
+def test_usage_errors_are_one_line(tmp_path, args, expected):
+    """A usage error was the whole usage (a dozen lines for run) and then the reason."""
+    r = _cli(args, tmp_path)
+    assert r.returncode == 2 and expected in r.stderr, r.stderr
+    _one_line(r.stderr)
+
+
+def test_an_input_file_is_named_as_given(tmp_path, test_fmus):
+    """A bad cell of --input FILE was named as a member of the scenario (scenario.ssp/in.csv:2)."""
+    gain = tmp_path / "Gain.fmu"
+    gain.write_bytes(Path(test_fmus["c2:Gain"]).read_bytes())
+    (tmp_path / "in.csv").write_text("time,u\n0,abc\n")
+    r = _cli(["run", "Gain.fmu", "--input", "in.csv", "-o", "out"], tmp_path)
+    assert r.returncode == 1 and "error: in.csv:2: 'abc' in column 'u' is not a valid Real" in r.stderr, r.stderr
+    _one_line(r.stderr)
