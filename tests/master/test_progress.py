@@ -68,3 +68,18 @@ def test_asked_for_either_way(tmp_path, fmu):
     assert code == 0 and "step/s" in err
     code, err = _run(RUN + ["out2", "--no-progress"], tmp_path, stderr_tty=True)
     assert code == 0 and "step/s" not in err and "%|" not in err
+
+
+def test_campaign_and_study_decide_alike(monkeypatch):
+    """campaign and study had a bar in a pipe too (--no-progress aside): the same test as run's now."""
+    import io
+
+    from master.cli import _progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    assert _progress(None) is False and _progress(True) is True
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    assert _progress(None) is True and _progress(False) is False
