@@ -275,9 +275,14 @@ def main(argv=None) -> int:
             raise
         print(f"cosim-master: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("cosim-master: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        from .errors import Terminated
+        term = isinstance(exc, Terminated)
+        print(f"cosim-master: {'stopped by SIGTERM' if term else 'interrupted'}"
+              + ("; the same command resumes the campaign" if args.command == "campaign" else ""), file=sys.stderr)
+        if args.command == "campaign":
+            return 1         # docs/campaigns.md: not every run has a record
+        return 143 if term else 130
 
 
 def _refuse_other_kinds(scenario) -> None:
@@ -312,6 +317,18 @@ def _refuse_file_as_folder(output: str) -> None:
                 raise CosimError(f"the output folder {what}, not a folder: give another -o DIR", file=output,
                                  element="--output")
             return
+
+
+def _stop_on_sigterm() -> None:
+    """SIGTERM (timeout, systemd, kill) raises Terminated, a KeyboardInterrupt, in this process only: spawned
+    workers start with their own handlers."""
+    import signal
+
+    from .errors import Terminated
+
+    def terminated(signum, frame):
+        raise Terminated()
+    signal.signal(signal.SIGTERM, terminated)
 
 
 def _progress(asked: bool | None) -> bool:
@@ -354,13 +371,7 @@ def _dispatch(args) -> int:
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:
             if args.no_supervise and args.timeout is None:
-                import signal
-
-                from .errors import Terminated
-
-                def terminated(signum, frame):
-                    raise Terminated()
-                signal.signal(signal.SIGTERM, terminated)
+                _stop_on_sigterm()
                 result = run(args.scenario, **options)
             else:
                 from .supervise import run_supervised
@@ -393,6 +404,7 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "campaign":
         from .campaign.runner import run_campaign
+        _stop_on_sigterm()      # as Ctrl-C: workers stopped, complete records kept, a last line saying so
         summary = run_campaign(args.campaign_yaml, output=args.output, workers=args.workers,
                                scheduler=args.scheduler, progress=not args.no_progress and _progress(None),
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
