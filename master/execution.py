@@ -138,8 +138,10 @@ def prepare(scenario, *, params: dict | None = None, seed: int | None = None, al
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
         user_params.update(params or {})
         add_overrides(plan, user_params, allow_nonfinite)
-    except BaseException:
+    except BaseException as exc:
         src.close()
+        if scenario != Path(shown_as) and isinstance(exc, CosimError) and exc.file == shown_as:
+            exc.line = None                 # a line of the SSD made for a bare FMU: no file the user has
         raise
     return Prepared(shown_as, src, model, plan, user_params)
 

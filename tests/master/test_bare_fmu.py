@@ -120,3 +120,10 @@ def test_a_file_name_that_is_no_uri(tmp_path, test_fmus):
               "--step", "0.1", "-o", "out"], cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert list(pd.read_csv(tmp_path / "out" / "results.csv")["my gain [v2].k"]) == [2, 2, 2]
+
+
+def test_a_refused_bare_fmu_names_no_line_of_the_ssd_made_for_it(tmp_path):
+    fmu = _reference("fmi3/Clocks.fmu")
+    r = _cli(["run", fmu, "-o", tmp_path / "out"], cwd=tmp_path)
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert f"error: {fmu}: Component Clocks: the FMU offers FMI 3.0 scheduled execution only" in r.stderr
