@@ -35,6 +35,8 @@ def inspect(scenario, **overrides) -> dict:
         info["default_experiment"] = {"start_time": model.start_time, "stop_time": model.stop_time}
         if is_bare_fmu(scenario):     # the system around it is ours: show the FMU's own experiment, not that
             info["bare_fmu"] = True
+            for c in info["components"].values():
+                c["source"] = shown_as          # not the member of the archive made for it
             de = next(iter(plan.fmus.values())).md.defaultExperiment
             given = {k: getattr(de, f"{k}Time", None) if de is not None else None for k in ("start", "stop")}
             info["default_experiment"] = {f"{k}_time": float(v) if v not in (None, "") else None

@@ -50,7 +50,7 @@ def test_reference_bouncing_ball_inspects(tmp_path):
     assert r.returncode == 0, r.stderr
     info = json.loads(r.stdout)
     comp = info["components"]["BouncingBall"]
-    assert comp["fmi_version"] == "3.0"
+    assert comp["fmi_version"] == "3.0" and comp["source"] == str(fmu)
     assert {c["name"] for c in comp["connectors"]} >= {"h", "v"}
     assert info["settings"]["stop_time"] == 3.0
     assert info["default_experiment"] == {"start_time": 0.0, "stop_time": 3.0} and info["annotations"] == []
