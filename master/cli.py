@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from ._version import __version__
@@ -19,6 +20,28 @@ def _kv(items, what):
             raise CosimError(f"expected NAME=VALUE, got {item!r}", element=what)
         out[key.strip()] = value
     return out
+
+
+class _AsWritten(float):
+    """A number that is not finite, shown as the user wrote it (1e400, not inf) in the one-line error that
+    refuses it; finite numbers stay plain floats."""
+    def __new__(cls, text: str):
+        self = super().__new__(cls, text)
+        self.text = text
+        return self
+
+    def __repr__(self):
+        return self.text
+
+    __str__ = __repr__
+
+
+def _number(text: str) -> float:
+    value = float(text)     # a ValueError is argparse's "invalid _number value"
+    return value if math.isfinite(value) else _AsWritten(text)
+
+
+_number.__name__ = "number"
 
 
 IMPLEMENTATIONS = {"me": "ModelExchange", "cs": "CoSimulation", "any": "any"}
@@ -48,8 +71,11 @@ def _algorithm_option_flags(p) -> None:
     from .algorithm_options import ALGORITHM_OPTIONS
     for opt in ALGORITHM_OPTIONS.values():
         default = "" if opt.default is None else f" (default: {opt.default})"
+        # the values are checked by the option's own parser (the same for the SSD and a campaign), so a choice
+        # is listed in the help rather than given to argparse
+        one_of = f"; one of {', '.join(map(str, opt.choices))}" if opt.choices else ""
         p.add_argument(opt.flag, dest=opt.name, default=None, metavar=opt.name.split("_")[-1].upper(),
-                       help=f"{opt.help}{default}")
+                       help=f"{opt.help}{one_of}{default}")
 
 
 def _algorithm_option_values(args) -> dict:
@@ -57,26 +83,33 @@ def _algorithm_option_values(args) -> dict:
     return {name: getattr(args, name) for name in ALGORITHM_OPTIONS if getattr(args, name, None) is not None}
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """A usage error as one line, like every other error (the usage itself is a --help away); exit code 2."""
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
+    p = _OneLineParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder or .ssd)",
+    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder, .ssd or a bare .fmu)",
                        description="Run a scenario from its start to its stop time and write its results (Parquet, "
                                    "CSV, run.json, events and monitor files) into one folder. Settings not given "
                                    "here come from the SSD's settings annotation, then from the FMUs' default "
                                    "experiments.")
-    r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, or a SystemStructure.ssd file")
-    r.add_argument("--stop-time", type=float, metavar="SECONDS", help="simulated time to stop at, in seconds")
-    r.add_argument("--start-time", type=float, metavar="SECONDS", help="simulated start time, in seconds")
-    r.add_argument("--step", type=float, metavar="SECONDS", help="master (communication) step size, in seconds")
+    r.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare .fmu "
+                   "(run as an SSP of that one component, named as the file)")
+    r.add_argument("--stop-time", type=_number, metavar="SECONDS", help="simulated time to stop at, in seconds")
+    r.add_argument("--start-time", type=_number, metavar="SECONDS", help="simulated start time, in seconds")
+    r.add_argument("--step", type=_number, metavar="SECONDS", help="master (communication) step size, in seconds")
     r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
     _algorithm_option_flags(r)
     r.add_argument("--extrapolate", action="append", metavar="COMPONENT.VARIABLE=K", default=[],
                    help="extrapolation order K (0, 1, 2) of one coupled output, overriding --extrapolation for it "
                         "(jacobi, gauss-seidel); repeatable")
-    r.add_argument("--tolerance", type=float, metavar="REL",
+    r.add_argument("--tolerance", type=_number, metavar="REL",
                    help="relative tolerance given to every FMU (default: each FMU's own default experiment)")
     r.add_argument("--output", "-o", default=None, metavar="DIR",
                    help="result folder (default: results/<scenario name>); an earlier run's folder is replaced, "
@@ -89,7 +122,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--record", action="append", metavar="PATTERN", default=[],
                    help="record the variables whose 'component.variable' matches this shell pattern "
                         "(default: every connected output); repeatable")
-    r.add_argument("--record-interval", type=float, metavar="SECONDS",
+    r.add_argument("--record-interval", type=_number, metavar="SECONDS",
                    help="time between recorded rows, in seconds: a whole multiple of the step (default: every step)")
     r.add_argument("--step-multiple", action="append", metavar="COMPONENT=K", default=[],
                    help="the component steps every K master steps (K a positive integer); repeatable")
@@ -99,20 +132,23 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-csv", action="store_true", help="write results.parquet only, no results.csv")
     r.add_argument("--solver", choices=SOLVERS, default="cvode-bdf",
                    help="integrator of model-exchange components (default: cvode-bdf; euler: explicit fixed step)")
-    r.add_argument("--solver-step", type=float, metavar="S",
+    r.add_argument("--solver-step", type=_number, metavar="S",
                    help="euler's internal step (default: each communication step whole)")
     r.add_argument("--no-inprocess", action="store_true",
                    help="call pythonfmu FMUs through their binary instead of loading their slave class in process")
     r.add_argument("--no-native-loop", action="store_true",
                    help="step native FMUs from Python instead of the loop in C (same results, slower)")
-    r.add_argument("--progress", action="store_true", help="show a progress bar")
-    r.add_argument("--timeout", type=float, metavar="SECONDS",
+    r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="show a progress bar on stderr (default: when stderr is a terminal, so that nothing floods "
+                        "a log)")
+    r.add_argument("--timeout", type=_number, metavar="SECONDS",
                    help="wall-clock limit of the run, in seconds; the simulation is stopped and its results kept")
     r.add_argument("--implementation", action="append", metavar="COMPONENT=me|cs", default=[],
                    help="run the component's FMU as model exchange or co-simulation (default: the SSD's "
                         "implementation attribute, else co-simulation when the FMU offers both); repeatable")
     r.add_argument("--lenient", action="store_true",
-                   help="accept slightly non-conforming modelDescription.xml files, saying what was tolerated")
+                   help="accept slightly non-conforming modelDescription.xml files, and --input columns that name no "
+                        "input (ignored), saying what was tolerated")
     r.add_argument("--allow-nonfinite", action="store_true",
                    help="let NaN and infinite values through (default: a parameter or output that is not finite "
                         "ends the run with an error at the step it appears)")
@@ -123,36 +159,47 @@ def _parser() -> argparse.ArgumentParser:
                    help="stream the run live to a ground station at this pymavlink address (udpout:HOST:PORT, "
                         "udpin:HOST:PORT, tcpin:HOST:PORT, tcp:HOST:PORT) and take its commands; repeatable "
                         "(docs/ground_station.md)")
-    r.add_argument("--mavlink-rate", type=float, default=10.0, metavar="HZ",
+    r.add_argument("--mavlink-rate", type=_number, default=10.0, metavar="HZ",
                    help="position and attitude messages per vehicle and simulated second (default: 10)")
-    r.add_argument("--realtime", type=float, metavar="FACTOR",
+    r.add_argument("--realtime", type=_number, metavar="FACTOR",
                    help="pace the run to the wall clock: FACTOR simulated seconds per second (1: real time, "
                         "10: ten times faster); results are the same as unpaced")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
-    i.add_argument("scenario")
-    i.add_argument("--json", action="store_true")
-    i.add_argument("--step", type=float)
-    i.add_argument("--stop-time", type=float)
-    i.add_argument("--algorithm", choices=ALGORITHMS.names())
-    i.add_argument("--debug", action="store_true")
+    i.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare "
+                                    ".fmu (shown as an SSP of that one component)")
+    i.add_argument("--json", action="store_true", help="print the description as JSON instead of text")
+    i.add_argument("--step", type=_number, metavar="SECONDS",
+                   help="show the settings a run with this master step size would use")
+    i.add_argument("--stop-time", type=_number, metavar="SECONDS",
+                   help="show the settings a run to this simulated time would use")
+    i.add_argument("--algorithm", choices=ALGORITHMS.names(),
+                   help="show the settings and loop treatment of this algorithm (default: the scenario's)")
+    i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)")
-    c.add_argument("campaign_yaml")
-    c.add_argument("--output", "-o", default=None, help="campaign folder (default: results/<campaign name>)")
-    c.add_argument("--workers", type=int, default=None, help="local worker processes (default: every core)")
-    c.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    c.add_argument("campaign_yaml", help="the campaign file: its scenarios, grid or list of runs, run settings and "
+                                         "repetitions (docs/campaigns.md)")
+    c.add_argument("--output", "-o", default=None, metavar="DIR",
+                   help="campaign folder (default: results/<campaign name>); the same command again resumes the "
+                        "campaign there")
+    c.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: every core)")
+    c.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a Dask distributed scheduler (tcp://host:8786) to run on instead of local workers")
     c.add_argument("--retry-failed", action="store_true", help="run the runs recorded as failed again")
     c.add_argument("--max-runs", type=int, default=None, metavar="N",
                    help="run at most N of the missing runs now (the rest stay for the next invocation)")
-    c.add_argument("--no-progress", action="store_true")
-    c.add_argument("--debug", action="store_true")
+    c.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (default: one when stderr is a terminal)")
+    c.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign "
                                        "(as the scenario kind recorded in its campaign.json writes it)")
-    rp.add_argument("campaign_dir")
-    rp.add_argument("--debug", action="store_true")
+    rp.add_argument("campaign_dir", help="the folder of a campaign run by `cosim-master campaign` (holding its "
+                                         "campaign.json); report.md and the figures are written into it")
+    rp.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
                                       "reference: study.csv (errors, observed order, FMU calls) and figures",
@@ -160,28 +207,39 @@ def _parser() -> argparse.ArgumentParser:
                                     "scenario (as a resumable campaign), compare each run with the reference at its "
                                     "recorded times and write study.csv and PNG figures into --output "
                                     "(docs/coupling.md).")
-    st.add_argument("scenario")
-    st.add_argument("--algorithm", nargs="+", required=True, metavar="A")
-    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K")
-    st.add_argument("--step", nargs="+", type=float, required=True, metavar="H")
+    st.add_argument("scenario", help="the scenario studied: an .ssp archive, an unpacked SSP folder or a "
+                                     "SystemStructure.ssd file")
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A",
+                    help=f"the algorithms compared, one or more of: {', '.join(ALGORITHMS.names())}")
+    st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
+                    help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
+    st.add_argument("--step", nargs="+", type=_number, required=True, metavar="H",
+                    help="the master step sizes, in seconds (at least two for an observed order)")
     st.add_argument("--reference", required=True, metavar="REF",
                     help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
                          "signals by name), fine:H (the scenario at step H with iterative coupling) or a results "
                          "file (.parquet, .csv)")
     st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
                                                                    "connected output the reference knows)")
-    st.add_argument("--stop-time", type=float, metavar="SECONDS")
-    st.add_argument("--output", "-o", required=True, metavar="DIR")
-    st.add_argument("--workers", type=int, default=None)
-    st.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
-    st.add_argument("--no-progress", action="store_true")
-    st.add_argument("--debug", action="store_true")
+    st.add_argument("--stop-time", type=_number, metavar="SECONDS",
+                    help="simulated time to stop every run at (default: the scenario's)")
+    st.add_argument("--output", "-o", required=True, metavar="DIR",
+                    help="study folder: the runs, study.csv and the figures; a study run there before resumes")
+    st.add_argument("--workers", type=int, default=None, metavar="N",
+                    help="local worker processes (default: every core)")
+    st.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of a Dask distributed scheduler (tcp://host:8786) to run on instead of local workers")
+    st.add_argument("--no-progress", action="store_true",
+                    help="no progress bar (default: one when stderr is a terminal)")
+    st.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
-    b.add_argument("scenario_yaml")
-    b.add_argument("-o", "--output", required=True)
-    b.add_argument("--debug", action="store_true")
+    b.add_argument("scenario_yaml", help="the scenario description, e.g. a UAV study YAML "
+                                         "(ssp/scenarios/paper_area.yaml)")
+    b.add_argument("-o", "--output", required=True, metavar="FILE.ssp",
+                   help="the SSP to write: an .ssp archive, or a folder for an unpacked SSP")
+    b.add_argument("--debug", action="store_true", help="show Python tracebacks")
     return p
 
 
@@ -217,9 +275,14 @@ def main(argv=None) -> int:
             raise
         print(f"cosim-master: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("cosim-master: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        from .errors import Terminated
+        term = isinstance(exc, Terminated)
+        print(f"cosim-master: {'stopped by SIGTERM' if term else 'interrupted'}"
+              + ("; the same command resumes the campaign" if args.command == "campaign" else ""), file=sys.stderr)
+        if args.command == "campaign":
+            return 1         # docs/campaigns.md: not every run has a record
+        return 143 if term else 130
 
 
 def _refuse_other_kinds(scenario) -> None:
@@ -243,6 +306,41 @@ def _refuse_other_kinds(scenario) -> None:
                             f"{path} -o scenario.ssp` and run that", file=path)
 
 
+def _refuse_file_as_folder(output: str) -> None:
+    """An output folder whose path is a file (or runs through one) says so, instead of the OS's "File exists"."""
+    from pathlib import Path
+    path = Path(output)
+    for p in (path, *path.parents):
+        if p.exists() or p.is_symlink():
+            if not p.is_dir():
+                what = "is a file" if p == path else f"is inside {p}, which is a file"
+                raise CosimError(f"the output folder {what}, not a folder: give another -o DIR", file=output,
+                                 element="--output")
+            return
+
+
+def _stop_on_sigterm() -> None:
+    """SIGTERM (timeout, systemd, kill) raises Terminated, a KeyboardInterrupt, in this process only: spawned
+    workers start with their own handlers."""
+    import signal
+
+    from .errors import Terminated
+
+    def terminated(signum, frame):
+        raise Terminated()
+    signal.signal(signal.SIGTERM, terminated)
+
+
+def _progress(asked: bool | None) -> bool:
+    """A bar when asked, else when a person watches: stderr a terminal (a pipe or a log file gets none)."""
+    if asked is not None:
+        return asked
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):      # replaced or closed stderr
+        return False
+
+
 def _dispatch(args) -> int:
     if args.command in ("run", "inspect"):
         _refuse_other_kinds(args.scenario)
@@ -260,7 +358,7 @@ def _dispatch(args) -> int:
         options = dict(stop_time=args.stop_time, start_time=args.start_time, step=args.step,
                        algorithm=args.algorithm, output=output, params=_kv(args.param, "--param"),
                        record=args.record or None, record_interval=args.record_interval, log_level=args.log_level,
-                       seed=args.seed, step_multiples=multiples, progress=args.progress, write_csv=not args.no_csv,
+                       seed=args.seed, step_multiples=multiples, progress=_progress(args.progress), write_csv=not args.no_csv,
                        inprocess=not args.no_inprocess, allow_nonfinite=args.allow_nonfinite,
                        native_loop=not args.no_native_loop,
                        tolerance=args.tolerance, solver=args.solver, solver_step=args.solver_step,
@@ -268,17 +366,12 @@ def _dispatch(args) -> int:
                        implementation=_implementations(args.implementation), inputs=args.input,
                        mavlink=args.mavlink or None, mavlink_rate=args.mavlink_rate, realtime=args.realtime,
                        extrapolation_for=_orders(args.extrapolate), **_algorithm_option_values(args))
-        if args.timeout is not None and not (args.timeout > 0):
+        _refuse_file_as_folder(output)
+        if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
             raise CosimError(f"must be a positive number of seconds, got {args.timeout}", element="--timeout")
         try:
             if args.no_supervise and args.timeout is None:
-                import signal
-
-                from .errors import Terminated
-
-                def terminated(signum, frame):
-                    raise Terminated()
-                signal.signal(signal.SIGTERM, terminated)
+                _stop_on_sigterm()
                 result = run(args.scenario, **options)
             else:
                 from .supervise import run_supervised
@@ -311,8 +404,9 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "campaign":
         from .campaign.runner import run_campaign
+        _stop_on_sigterm()      # as Ctrl-C: workers stopped, complete records kept, a last line saying so
         summary = run_campaign(args.campaign_yaml, output=args.output, workers=args.workers,
-                               scheduler=args.scheduler, progress=not args.no_progress,
+                               scheduler=args.scheduler, progress=not args.no_progress and _progress(None),
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
         return 0 if summary.ok else 1
@@ -321,7 +415,7 @@ def _dispatch(args) -> int:
         summary = run_study(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
                             steps=args.step, reference=args.reference, record=args.record, output=args.output,
                             workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
-                            progress=not args.no_progress)
+                            progress=not args.no_progress and _progress(None))
         print(summary.describe())
         return 0
     if args.command == "report":

@@ -43,6 +43,7 @@ from .observers.base import ObserverContext
 from .observers.pacing import Pacer
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
+from .plan.bare_fmu import bare_fmu_scenario, is_bare_fmu
 from .results import claim_output_folder, products, write_events_csv
 from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
@@ -126,6 +127,8 @@ def prepare(scenario, *, params: dict | None = None, seed: int | None = None, al
     ``plan._plan_key``) when there are any; the run's values are read and applied as always."""
     scenario = Path(scenario)
     shown_as = str(scenario)
+    if is_bare_fmu(scenario):                         # run and inspected as an SSP of that one component
+        scenario = bare_fmu_scenario(scenario)
     src = open_scenario(scenario, in_memory=True)     # an archive this process wrote: as the writer kept it
     try:
         model = read_ssd(src.ssd_path, src.root, shown_root=src.shown_root, reuse_structure=reuse_structure,
@@ -135,8 +138,10 @@ def prepare(scenario, *, params: dict | None = None, seed: int | None = None, al
         user_params = dict(_seed_params(plan.variables, seed) if seed is not None else {})
         user_params.update(params or {})
         add_overrides(plan, user_params, allow_nonfinite)
-    except BaseException:
+    except BaseException as exc:
         src.close()
+        if scenario != Path(shown_as) and isinstance(exc, CosimError) and exc.file == shown_as:
+            exc.line = None                 # a line of the SSD made for a bare FMU: no file the user has
         raise
     return Prepared(shown_as, src, model, plan, user_params)
 

@@ -6,6 +6,7 @@ from pathlib import Path
 from .algorithms import ALGORITHMS
 from .algorithms.ordering import algebraic_loops, gauss_seidel_order, loop_cycles
 from .execution import prepare
+from .plan.bare_fmu import is_bare_fmu
 from .settings import resolve_settings
 
 
@@ -32,6 +33,14 @@ def inspect(scenario, **overrides) -> dict:
         info["parameters"] = [{"variable": v.qualified, "value": value, "from": origin}
                               for v, value, origin in plan.params]
         info["default_experiment"] = {"start_time": model.start_time, "stop_time": model.stop_time}
+        if is_bare_fmu(scenario):     # the system around it is ours: show the FMU's own experiment, not that
+            info["bare_fmu"] = True
+            for c in info["components"].values():
+                c["source"] = shown_as          # not the member of the archive made for it
+            de = next(iter(plan.fmus.values())).md.defaultExperiment
+            given = {k: getattr(de, f"{k}Time", None) if de is not None else None for k in ("start", "stop")}
+            info["default_experiment"] = {f"{k}_time": float(v) if v not in (None, "") else None
+                                          for k, v in given.items()}
         try:
             st = resolve_settings(model, shown_as, fmus=plan.fmus, **overrides)
             info["settings"] = {"algorithm": st.algorithm, "step_size": st.step, "step_size_from": st.step_source,
@@ -46,14 +55,16 @@ def inspect(scenario, **overrides) -> dict:
         info["algebraic_loops"] = algebraic_loops(plan)
         info["algebraic_loop_cycles"] = [[{"from": a, "to": b, "via": how} for a, b, how in cyc]
                                          for cyc in loop_cycles(plan)]
-        info["annotations"] = sorted(k for k in model.annotations if k)
+        info["annotations"] = [] if info.get("bare_fmu") else sorted(k for k in model.annotations if k)
         return info
     finally:
         p.source.close()
 
 
 def format_inspect(info: dict) -> str:
-    lines = [f"scenario   {info['scenario']}  (SSP {info['ssp_version']}, system {info['name']})", "", "components:"]
+    what = ("a bare FMU, run as a system of this one component" if info.get("bare_fmu")
+            else f"SSP {info['ssp_version']}, system {info['name']}")
+    lines = [f"scenario   {info['scenario']}  ({what})", "", "components:"]
     for name, c in info["components"].items():
         lines.append(f"  {name}: {c['source']}  FMI {c['fmi_version']} {c['kind']}  model {c['model_name']}"
                      f"  tool {c['generation_tool'] or '-'}")
@@ -71,7 +82,8 @@ def format_inspect(info: dict) -> str:
     for p in info["parameters"]:
         lines.append(f"  {p['variable']} = {p['value']!r}  ({p['from']})")
     de = info["default_experiment"]
-    lines += ["", f"default experiment: start {de['start_time']}, stop {de['stop_time']}", "", "master settings:"]
+    whose = "the FMU's default experiment" if info.get("bare_fmu") else "default experiment"
+    lines += ["", f"{whose}: start {de['start_time']}, stop {de['stop_time']}", "", "master settings:"]
     for k, v in info["settings"].items():
         lines.append(f"  {k}: {v}")
     lines.append(f"  gauss-seidel order: {' -> '.join(info['gauss_seidel_order'])}")

@@ -54,10 +54,18 @@ def _finite(value, what):
         raise CosimError(f"must be a finite time in seconds, got {value}", element=what)
 
 
+#: more master steps than any run can take (31 years at a microsecond a step), and beyond 2**53 the step count
+#: t = start + n h would no longer be exact: refused in one line instead of an OverflowError or a run for ever
+MAX_STEPS = 10**15
+
+
 def count_steps(start: float, stop: float, h: float, allow_partial: bool) -> tuple[int, float | None]:
     """(steps, last step length or None): a final partial step when the interval is not a whole number of
     steps (and that is allowed), the remainder below 1e-9 steps counting as whole."""
     exact = (stop - start) / h
+    if not exact <= MAX_STEPS:        # also inf: (1e308 - -1e308) / h
+        raise CosimError(f"{start:g}..{stop:g} s in steps of {h:g} s is {exact:.3g} steps, more than any run can "
+                         f"take (at most {MAX_STEPS:.0e})", element="settings")
     n = int(round(exact))
     if n >= 1 and abs(n - exact) <= 1e-9 * max(1.0, exact):
         return n, None
@@ -85,8 +93,13 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
         raise ScenarioError("no stop time: neither --stop-time, the SSD's DefaultExperiment nor an FMU's default "
                             "experiment gives one", file=shown_as, element="DefaultExperiment")
     if stop <= start:
-        raise ScenarioError(f"stop time {stop:g} is not after start time {start:g}", file=shown_as,
-                            element="DefaultExperiment")
+        # named as where each came from: a --stop-time -5 is the command line's mistake, not the SSD's
+        both = f"stop time {stop:g} ({sources['stop']}) is not after start time {start:g} ({sources['start']})"
+        if sources["stop"] == "command line":
+            raise CosimError(both, element="--stop-time")
+        if sources["start"] == "command line":
+            raise CosimError(both, element="--start-time")
+        raise ScenarioError(both, file=shown_as, element="DefaultExperiment")
     source = "command line"
     if step is None:
         step, source = s.step_size, s.source
@@ -97,7 +110,7 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
     if step is None:
         step, source = (stop - start) / DEFAULT_STEPS, f"default: (stop - start) / {DEFAULT_STEPS}"
     if not (step > 0 and math.isfinite(step)):
-        raise CosimError(f"step size must be positive, got {step}", element="--step")
+        raise CosimError(f"step size must be a positive finite number of seconds, got {step}", element="--step")
     multiples = dict(s.step_multiples)
     multiples.update(step_multiples or {})
     for name, k in multiples.items():
@@ -109,12 +122,18 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
     record_every = 1
     if interval is not None:
         if not (math.isfinite(interval) and interval > 0):
-            raise CosimError(f"record interval must be positive, got {interval}", element="--record-interval")
+            raise CosimError(f"record interval must be a positive finite number of seconds, got {interval}",
+                             element="--record-interval")
         k = interval / step
         record_every = int(round(k))
         if record_every < 1 or abs(record_every - k) > 1e-9 * max(1.0, k):
-            raise CosimError(f"record interval {interval:g} is not a whole multiple of the step {step:g}",
-                             element="--record-interval")
+            # say which was given: a --step 0.3 against the SSD's recordInterval is not a --record-interval mistake
+            why = (f"record interval {interval:g} ({'command line' if record_interval is not None else 'SSD'}) "
+                   f"is not a whole multiple of the step {step:g} ({source or 'command line'})")
+            if record_interval is not None:
+                raise CosimError(why, element="--record-interval")
+            raise ScenarioError(why + "; give a --record-interval that is", file=shown_as,
+                                element="Settings recordInterval")
     if tolerance is not None and not (math.isfinite(tolerance) and tolerance > 0):
         raise CosimError(f"tolerance must be positive, got {tolerance}", element="--tolerance")
     sources["tolerance"] = "command line" if tolerance is not None else "each FMU's DefaultExperiment"

@@ -243,6 +243,8 @@ class _V:
 _TOP_FIELDS = [f.name for f in fields(UavScenario)]
 _REQUIRED = ("name", "base", "n_uavs", "strategy", "targets")
 # the strategy FMU takes the mission as indexed scalar parameters, a fixed number of them
+#: the largest fleet a scenario file may ask for: 16 times the largest studied (256, bench/bench_uav_scaling.py)
+MAX_UAVS = 4096
 _FMU_LIMIT = "(the strategy FMU's indexed parameters, docs/uav_models.md)"
 _WIND_FIELDS = [f.name for f in fields(WindConfig)]
 
@@ -332,6 +334,9 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
                   v.number("base.lon", b[1], lo=-180, hi=180),
                   v.number("base.alt", b[2], lo=-1000, hi=20000))
     kw["n_uavs"] = v.integer("n_uavs", data["n_uavs"], lo=1)
+    if kw["n_uavs"] > MAX_UAVS:
+        v.fail("n_uavs", f"{kw['n_uavs']} UAVs, at most {MAX_UAVS} (every UAV adds three components to the SSP, "
+                         "about 34 kB: 256 UAVs are a 9 MB archive; a typo's 100000 would build for minutes)")
     kw["strategy"] = v.choice("strategy", data["strategy"], STRATEGIES)
     t = data["targets"]
     if not isinstance(t, list) or not t:

@@ -60,7 +60,7 @@ def _plan_structure(model: SystemModel, shown_as: str, lenient: bool, implementa
             kind = (implementation or {}).get(name) or comp.implementation
             fmus[name], variables[name], feed[name] = _fmu_component(name, comp, kind, shown_as, lenient)
     if inputs is not None:
-        add_input_file(model, Path(inputs), variables, shown_as)
+        add_input_file(model, Path(inputs), variables, shown_as, lenient)
     # input tables last: their columns take the types of the FMU inputs they drive
     for name, comp in model.components.items():
         if comp.type == CSV_SOURCE_TYPE:

@@ -2,6 +2,7 @@
 stands in for an FMU whose outputs are its connected columns, typed as the inputs they drive."""
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from ..errors import ScenarioError
@@ -15,9 +16,11 @@ from .variable_values import value_error
 INPUT_FILE_COMPONENT = "inputs"
 
 
-def add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: str) -> None:
+def add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: str, lenient: bool = False) -> None:
     """``run --input FILE``: the file as an input table whose columns drive the inputs of the scenario's one FMU
-    of the same names."""
+    of the same names. A column that names no input is a typo until the user says otherwise: ``lenient`` (``run
+    --lenient``) ignores such columns with a warning naming them (the Reference FMUs ship one ``Feedthrough_in.csv``
+    for FMI 2.0 and 3.0, whose FMI 2.0 model lacks the FMI 3.0 types)."""
     targets = [name for name, comp in model.components.items() if comp.type != CSV_SOURCE_TYPE]
     if len(targets) != 1:
         raise ScenarioError(f"--input drives the inputs of a scenario with one FMU; this one has {len(targets)} "
@@ -28,18 +31,35 @@ def add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: st
     target, columns = targets[0], list(read_csv_table(path, str(path)).columns)
     inputs = sorted(n for n, v in variables[target].items() if v.causality == "input" and not v.is_array)
     unknown = [c for c in columns if c not in inputs]
+    if unknown and not lenient:
+        raise ScenarioError(_unknown_columns(unknown, target, inputs), file=str(path), element="--input")
     if unknown:
-        raise ScenarioError(f"column {unknown[0]!r} is not an input of {target} (its inputs: "
-                            f"{', '.join(inputs) or 'none'})", file=str(path), element="--input")
+        logging.getLogger("cosim_master").warning(
+            "%s: --input: ignoring column%s %s, which name%s no input of %s (--lenient)", path,
+            "s" if len(unknown) > 1 else "", ", ".join(unknown), "" if len(unknown) > 1 else "s", target)
+        columns = [c for c in columns if c in inputs]
     model.components[INPUT_FILE_COMPONENT] = Component(INPUT_FILE_COMPONENT, str(path), path, CSV_SOURCE_TYPE,
                                                        {c: Connector(c, "output") for c in columns})
     model.connections += [Connection(INPUT_FILE_COMPONENT, c, target, c) for c in columns]
 
 
+def _unknown_columns(unknown: list[str], target: str, inputs: list[str]) -> str:
+    """What is wrong with the columns that name no input, the inputs they may have meant, and the way past."""
+    import difflib
+    # close enough to be a slip of the keyboard; Int8_input is not a misspelt Int32_input
+    near = {c: difflib.get_close_matches(c, inputs, n=1, cutoff=0.9) for c in unknown}
+    named = [f"{c!r} (did you mean {m[0]!r}?)" if m else repr(c) for c, m in near.items()]
+    named = named[:5] + ([f"{len(named) - 5} more"] if len(named) > 5 else [])
+    return (f"{len(unknown)} column{'s' if len(unknown) > 1 else ''} name{'' if len(unknown) > 1 else 's'} no input "
+            f"of {target}: {', '.join(named)} (its inputs: {', '.join(inputs) or 'none'}); --lenient ignores "
+            "such columns with a warning")
+
+
 def csv_component(name: str, comp: Component, model: SystemModel, variables: dict, shown_as: str):
     """An input table's stand-in for an FMU and its variables: one per connected column, typed as the input it
     drives and interpolated as that input's variability asks (linear for a continuous Real, else hold)."""
-    shown = shown_source(shown_as, comp.source)
+    # the --input file is named as the user gave it, not as a member of the scenario
+    shown = comp.source if name == INPUT_FILE_COMPONENT else shown_source(shown_as, comp.source)
     table = read_csv_table(comp.fmu_path, shown)
     for conn in comp.connectors.values():
         if conn.name not in table.columns:

@@ -6,10 +6,12 @@ annotations, so libcosim and OMSimulator pick the same step without extra option
 from __future__ import annotations
 
 import copy
+import glob
 import hashlib
 import io
 import itertools
 import os
+import re
 import shutil
 import struct
 import threading
@@ -180,7 +182,7 @@ class SspBuilder:
     components: list = field(default_factory=list)
     connections: list = field(default_factory=list)   # (a, x, b, y, factor, offset, suppress, extrapolation)
     units: dict = field(default_factory=dict)         # name -> dict(base exponents, factor, offset)
-    start: float = 0.0
+    start: float | None = 0.0
     stop: float | None = None
     step: float | None = None
     algorithm: str | None = None
@@ -329,7 +331,9 @@ class SspBuilder:
             for name, spec in self.units.items():
                 u = etree.SubElement(us, _q("ssc", "Unit"), name=name)
                 etree.SubElement(u, _q("ssc", "BaseUnit"), **{k: _fmt(v) for k, v in spec.items()})
-        exp = etree.SubElement(root, _q("ssd", "DefaultExperiment"), startTime=_fmt(float(self.start)))
+        exp = etree.SubElement(root, _q("ssd", "DefaultExperiment"))
+        if self.start is not None:         # None: the FMUs' default experiments say (a bare FMU's system)
+            exp.set("startTime", _fmt(float(self.start)))
         if self.stop is not None:
             exp.set("stopTime", _fmt(float(self.stop)))
         self._settings_annotation(exp)
@@ -396,11 +400,13 @@ class SspBuilder:
             if key is None:
                 key = resolved[comp.fmu] = str(comp.fmu.resolve())
             if key not in seen:
-                base = comp.fmu.name
+                # the member's name is a URI in the SSD: "my model.fmu" is written as my_model.fmu
+                stem = _URI_UNSAFE.sub("_", comp.fmu.stem)
+                base = stem + comp.fmu.suffix
                 taken = set(seen.values())
                 name, k = base, 1
                 while name in taken:
-                    name, k = f"{comp.fmu.stem}_{k}{comp.fmu.suffix}", k + 1
+                    name, k = f"{stem}_{k}{comp.fmu.suffix}", k + 1
                 seen[key] = name
             fmu_names[comp.name] = seen[key]
         ssd_bytes, ssv_files, shape = self._ssd_bytes(fmu_names, path)
@@ -436,6 +442,22 @@ class SspBuilder:
         return path
 
 
+def one_fmu_system(fmu_path) -> SspBuilder:
+    """A system of one component, the FMU at ``fmu_path`` named as its file's stem: every input and output a
+    connector (so ``--input`` drives its inputs), its outputs recorded by default (FMPy's default; every variable
+    where it has no output), and no time or step of its own: the FMU's default experiment gives them, and run.json
+    says so."""
+    fmu_path = Path(fmu_path)
+    name = fmu_path.stem
+    b = SspBuilder(name, start=None)
+    b.add_component(name, fmu_path)
+    outputs = [c[0] for c in b.components[0].connectors if c[1] == "output"]
+    # each output, and each element of an array output (an FMI 3.0 y[2] records as y[0], y[1])
+    b.record = [p for o in outputs for p in (f"{name}.{o}", glob.escape(f"{name}.{o}") + "[[]*]")] or [f"{name}.*"]
+    return b
+
+
+_URI_UNSAFE = re.compile(r"[^A-Za-z0-9._~-]")
 _FMU_BYTES: dict[tuple, tuple[bytes, str, int]] = {}
 
 

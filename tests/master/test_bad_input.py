@@ -234,15 +234,57 @@ def test_step_multiple_must_be_positive(tmp_path, test_fmus, k):
     (["--stop-time", "nan"], "--stop-time: must be a finite time in seconds, got nan"),
     (["--stop-time", "inf"], "--stop-time: must be a finite time in seconds, got inf"),
     (["--start-time=-inf"], "--start-time: must be a finite time in seconds, got -inf"),
-    (["--record-interval", "nan"], "--record-interval: record interval must be positive, got nan"),
-    (["--record-interval", "0"], "--record-interval: record interval must be positive, got 0.0"),
-    (["--record-interval", "-1"], "--record-interval: record interval must be positive, got -1.0"),
+    (["--record-interval", "nan"], "--record-interval: record interval must be a positive finite number of seconds, "
+                                   "got nan"),
+    (["--record-interval", "0"], "--record-interval: record interval must be a positive finite number of seconds, "
+                                 "got 0.0"),
+    (["--record-interval", "-1"], "--record-interval: record interval must be a positive finite number of seconds, "
+                                  "got -1.0"),
     (["--timeout", "0"], "--timeout: must be a positive number of seconds"),
+    # issue 25: an OverflowError traceback; a warning of a 300-digit step count and a run for ever
+    (["--stop-time", "1e308"], "settings: 0..1e+308 s in steps of 0.1 s is inf steps, more than any run can take"),
+    (["--step", "1e-300"], "settings: 0..1 s in steps of 1e-300 s is 1e+300 steps, more than any run can take"),
+    # issue 25: shown as "inf", not as written; --timeout 1e400 ran without a timeout
+    (["--stop-time", "1e400"], "--stop-time: must be a finite time in seconds, got 1e400"),
+    (["--step", "1e400"], "--step: step size must be a positive finite number of seconds, got 1e400"),
+    (["--record-interval=-1e400"], "--record-interval: record interval must be a positive finite number of "
+                                      "seconds, got -1e400"),
+    (["--timeout", "1e400"], "--timeout: must be a positive number of seconds, got 1e400"),
+    # issue 25: blamed on the SSD's DefaultExperiment
+    (["--stop-time=-5"], "--stop-time: stop time -5 (command line) is not after start time 0 (SSD DefaultExperiment)"),
+    (["--start-time", "5"], "--start-time: stop time 1 (SSD DefaultExperiment) is not after start time 5 "
+                            "(command line)"),
+    (["--step", "0.3", "--record-interval", "1"], "--record-interval: record interval 1 (command line) is not a "
+                                                  "whole multiple of the step 0.3 (command line)"),
 ])
 def test_bad_numbers_on_the_command_line_are_one_line(tmp_path, test_fmus, args, expected):
     r = _cli(["run", str(_two(tmp_path, test_fmus)), "-o", str(tmp_path / "o")] + args, tmp_path)
     assert r.returncode == 1 and expected in r.stderr, r.stderr
     _one_line(r.stderr)
+
+
+def test_a_step_against_the_ssds_record_interval_names_both(tmp_path, test_fmus):
+    """issue 25: --step 0.3 against an SSD's recordInterval was reported as a --record-interval problem when no
+    --record-interval was given."""
+    folder = _two(tmp_path, test_fmus)
+    ssd_file = folder / "SystemStructure.ssd"
+    ssd_file.write_text(ssd_file.read_text().replace('stepSize="0.1"', 'stepSize="0.1" recordInterval="0.5"'))
+    r = _cli(["run", str(folder), "--step", "0.3", "-o", str(tmp_path / "o")], tmp_path)
+    assert r.returncode == 1, r.stderr
+    assert ("Settings recordInterval: record interval 0.5 (SSD) is not a whole multiple of the step 0.3 "
+            "(command line); give a --record-interval that is") in r.stderr
+    _one_line(r.stderr)
+
+
+@pytest.mark.parametrize("where", ["afile", "afile/sub"])
+def test_an_output_folder_that_is_a_file(tmp_path, test_fmus, where):
+    """issue 25: "File exists"."""
+    (tmp_path / "afile").write_text("mine")
+    r = _cli(["run", str(_two(tmp_path, test_fmus)), "-o", where], tmp_path)
+    assert r.returncode == 1 and "--output: the output folder " in r.stderr and "which is a file" in r.stderr \
+        if "/" in where else "is a file, not a folder" in r.stderr, r.stderr
+    _one_line(r.stderr)
+    assert (tmp_path / "afile").read_text() == "mine"
 
 
 def _faulty_only(tmp_path, test_fmus):
@@ -313,3 +355,41 @@ def test_an_fmu_without_binaries_for_this_platform_says_which_it_has(tmp_path, t
                           {"Gain.fmu": fmu})
     with pytest.raises(FmuError, match="component g: this FMU has binaries for win64 only, not for linux64"):
         master.run(folder, output=None)
+
+
+def test_a_fleet_too_large_to_build_is_refused_at_once(tmp_path):
+    """issue 25: `build-scenario` with n_uavs: 100000 worked silently for minutes."""
+    shipped = Path(master.__file__).parents[1] / "ssp" / "scenarios" / "paper_area.yaml"
+    text = shipped.read_text()
+    assert "\nn_uavs:" in text
+    big = tmp_path / "big.yaml"
+    big.write_text("\n".join("n_uavs: 100000" if line.startswith("n_uavs:") else line for line in text.splitlines()))
+    r = _cli(["build-scenario", str(big), "-o", str(tmp_path / "big.ssp")], tmp_path)
+    assert r.returncode == 1 and "n_uavs: 100000 UAVs, at most 4096" in r.stderr, r.stderr
+    _one_line(r.stderr)
+    assert not (tmp_path / "big.ssp").exists()
+
+
+@pytest.mark.parametrize("args,expected", [
+    (["run", "x.ssp", "--seed", "abc"], "cosim-master run: error: argument --seed: invalid int value: 'abc' "
+                                        "(see cosim-master run --help)"),
+    (["run", "x.ssp", "--stop-time", "abc"], "argument --stop-time: invalid number value: 'abc'"),
+    (["inspect", "x.ssp", "--step", "abc"], "cosim-master inspect: error: argument --step: invalid number value"),
+    (["run"], "the following arguments are required: scenario"),
+    (["bogus"], "argument command: invalid choice: 'bogus'"),
+])
+def test_usage_errors_are_one_line(tmp_path, args, expected):
+    """A usage error was the whole usage (a dozen lines for run) and then the reason."""
+    r = _cli(args, tmp_path)
+    assert r.returncode == 2 and expected in r.stderr, r.stderr
+    _one_line(r.stderr)
+
+
+def test_an_input_file_is_named_as_given(tmp_path, test_fmus):
+    """A bad cell of --input FILE was named as a member of the scenario (scenario.ssp/in.csv:2)."""
+    gain = tmp_path / "Gain.fmu"
+    gain.write_bytes(Path(test_fmus["c2:Gain"]).read_bytes())
+    (tmp_path / "in.csv").write_text("time,u\n0,abc\n")
+    r = _cli(["run", "Gain.fmu", "--input", "in.csv", "-o", "out"], tmp_path)
+    assert r.returncode == 1 and "error: in.csv:2: 'abc' in column 'u' is not a valid Real" in r.stderr, r.stderr
+    _one_line(r.stderr)

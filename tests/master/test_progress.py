@@ -1,0 +1,85 @@
+"""``run`` shows a progress bar by default when a person watches (stderr a terminal) and nothing that would flood
+a log when stderr is a pipe or a file; ``--progress``/``--no-progress`` decide either way."""
+import fcntl
+import os
+import pty
+import struct
+import subprocess
+import sys
+import termios
+from pathlib import Path
+
+import pytest
+
+import master
+
+
+def _run(args, cwd, stderr_tty: bool) -> tuple[int, str]:
+    """The CLI run in a subprocess with its stderr a pseudo-terminal (of 24 x 100 characters: a fresh pty has no
+    size, and a bar fits in none) or a pipe; returns the exit code and what reached stderr."""
+    cmd = [sys.executable, "-m", "master.cli", *map(str, args)]
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+    env.pop("COLUMNS", None)
+    if not stderr_tty:
+        r = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, timeout=120)
+        return r.returncode, r.stderr.decode(errors="replace")
+    parent, child = pty.openpty()
+    fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    p = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=child)
+    os.close(child)
+    out = b""
+    while True:
+        try:
+            data = os.read(parent, 4096)
+        except OSError:         # EIO: every holder of the terminal's other end has closed it
+            break
+        if not data:
+            break
+        out += data
+    os.close(parent)
+    return p.wait(timeout=120), out.decode(errors="replace")
+
+
+@pytest.fixture
+def fmu(tmp_path, test_fmus):
+    path = tmp_path / "Integrator.fmu"
+    path.write_bytes(Path(test_fmus["c2:Integrator"]).read_bytes())
+    return path
+
+
+RUN = ["run", "Integrator.fmu", "--stop-time", "20", "--step", "1e-3", "-o"]
+
+
+@pytest.mark.parametrize("supervise", [[], ["--no-supervise"]])
+def test_a_bar_on_a_terminal_by_default(tmp_path, fmu, supervise):
+    code, err = _run(RUN + ["out", *supervise], tmp_path, stderr_tty=True)
+    assert code == 0, err
+    assert "0/20000" in err and "step/s" in err
+
+
+def test_no_bar_in_a_pipe_by_default(tmp_path, fmu):
+    code, err = _run(RUN + ["out"], tmp_path, stderr_tty=False)
+    assert code == 0, err
+    assert err == ""
+
+
+def test_asked_for_either_way(tmp_path, fmu):
+    code, err = _run(RUN + ["out1", "--progress"], tmp_path, stderr_tty=False)
+    assert code == 0 and "step/s" in err
+    code, err = _run(RUN + ["out2", "--no-progress"], tmp_path, stderr_tty=True)
+    assert code == 0 and "step/s" not in err and "%|" not in err
+
+
+def test_campaign_and_study_decide_alike(monkeypatch):
+    """campaign and study had a bar in a pipe too (--no-progress aside): the same test as run's now."""
+    import io
+
+    from master.cli import _progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    assert _progress(None) is False and _progress(True) is True
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    assert _progress(None) is True and _progress(False) is False
