@@ -193,7 +193,7 @@ def test_an_output_path_that_is_a_file_is_one_line(tmp_path, test_fmus):
         r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(target)] + extra,
                            capture_output=True, text=True, env=_env(), timeout=120)
         assert r.returncode == 1
-        assert "cannot create the output folder" in _one_line(r.stderr)
+        assert "the output folder is a file, not a folder" in _one_line(r.stderr)
         assert target.read_text() == "mine"
 
 
