@@ -62,10 +62,10 @@ FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "
              WIND: "UavWind.fmu"}
 #: the dynamics FMU of a UAV with ``vehicle: sitl`` (docs/sitl.md)
 SITL_FMU = "UavSitl.fmu"
-#: what results.parquet records in addition for the SITL vehicles
+#: what results.parquet records in addition for the SITL vehicles (not ``sitl_instance``: which instance number was
+#: free is bookkeeping, kept in run.json by the sitl-clock monitor, so that two runs give the same results)
 SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "max_slip",
-                                                              "tilt", "motor_power", "ready_time",
-                                                              "sitl_instance")]
+                                                              "tilt", "motor_power", "ready_time")]
 
 #: what results.parquet records (trajectory, battery, mission and photo outputs, wind)
 RECORD_PATTERNS = (

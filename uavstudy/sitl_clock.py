@@ -7,10 +7,13 @@ annotation ``org.cosim-master.sitl-clock`` that ``uavstudy.build`` writes for sc
 reads them after every master step and returns per vehicle::
 
     {"coupling": "paced", "steps": 9926, "max_slip_s": 0.093, "mean_slip_s": 0.012, "p95_slip_s": 0.031,
-     "ready_time_s": 41.9}
+     "ready_time_s": 41.9, "sitl_instance": 2}
 
 which the engine stores under ``monitors["org.cosim-master.sitl-clock"]`` in run.json, without knowing what
-a SITL is.  Slips are absolute values; a removed (collided) vehicle stops counting.
+a SITL is.  Slips are absolute values; a removed (collided) vehicle stops counting.  ``sitl_instance`` (the
+instance number N that was free on the machine: ports 5760+10N) is bookkeeping of where the vehicle ran, not
+what it did, so it is kept here and not in the recorded results: two runs of one scenario and seed give the same
+results.parquet whichever instances they got.
 """
 from __future__ import annotations
 
@@ -27,6 +30,9 @@ SITL_CLOCK_TYPE = "org.cosim-master.sitl-clock"
 SITL_NS = "https://cosim-master.org/ssp/sitl"
 
 __all__ = ["SitlClockMonitor", "sitl_clock_annotation", "SITL_CLOCK_TYPE"]
+
+#: the SITL vehicle's outputs this monitor reads after every step
+WATCHED = ("slip", "ready_time", "sitl_instance")
 
 
 def sitl_clock_annotation(vehicles: dict[str, str]) -> etree._Element:
@@ -59,7 +65,7 @@ class SitlClockMonitor(Monitor):
         self.vehicles = _vehicles(element, shown_as)
         if plan is not None:
             for c in self.vehicles:
-                for v in ("slip", "ready_time"):
+                for v in WATCHED:
                     try:
                         plan.var(f"{c}.{v}")
                     except (KeyError, ValueError, TypeError):
@@ -67,23 +73,24 @@ class SitlClockMonitor(Monitor):
                                             file=shown_as, element="sitl:SitlClock") from None
         self.slips: list[list[float]] = [[] for _ in self.vehicles]
         self.ready = [float("nan")] * len(self.vehicles)
+        self.instance = [-1] * len(self.vehicles)
         self.ctx = None
 
     def required_variables(self) -> list[str]:
-        return [f"{c}.{v}" for c in self.vehicles for v in ("slip", "ready_time")]
+        return [f"{c}.{v}" for c in self.vehicles for v in WATCHED]
 
     def attach(self, ctx, start: float) -> None:
         self.ctx = ctx
-        self._where = [(ctx.position(f"{c}.slip"), ctx.position(f"{c}.ready_time"), ctx.rt.index[c])
-                       for c in self.vehicles]
+        self._where = [(*(ctx.position(f"{c}.{v}") for v in WATCHED), ctx.rt.index[c]) for c in self.vehicles]
 
     def after_step(self, n: int, t0: float, t1: float) -> None:
         rt = self.ctx.rt
-        for k, ((ts, js), (tr, jr), ci) in enumerate(self._where):
+        for k, ((ts, js), (tr, jr), (ti, ji), ci) in enumerate(self._where):
             if not rt.active[ci]:
                 continue
             self.slips[k].append(abs(float(self.ctx.buffer(ts)[js])))
             self.ready[k] = float(self.ctx.buffer(tr)[jr])
+            self.instance[k] = int(self.ctx.buffer(ti)[ji])
 
     def finish(self, out_dir: Path | None, outcome: str) -> dict:
         out = {}
@@ -95,5 +102,7 @@ class SitlClockMonitor(Monitor):
                              "p95_slip_s": float(np.percentile(s, 95))})
             if self.ready[k] == self.ready[k]:
                 info["ready_time_s"] = self.ready[k]
+            if self.instance[k] >= 0:
+                info["sitl_instance"] = self.instance[k]
             out[c] = info
         return {"vehicles": out}

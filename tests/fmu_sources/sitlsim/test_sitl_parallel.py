@@ -20,7 +20,8 @@ def test_two_lockstep_sitl_uavs_step_concurrently(tmp_path, monkeypatch):
     assert res.metadata["algorithm_info"]["threads"] == 2
     f = res.frame
     assert f["time"].iloc[-1] == pytest.approx(6.0)
-    assert len({int(f[f"uav{k}_dyn.sitl_instance"].iloc[-1]) for k in (1, 2)}) == 2
+    vehicles = res.metadata["monitors"]["org.cosim-master.sitl-clock"]["vehicles"]
+    assert len({vehicles[f"uav{k}_dyn"]["sitl_instance"] for k in (1, 2)}) == 2
     for k in (1, 2):
         assert f[f"uav{k}_dyn.z"].max() > 1.0, f"uav{k} did not take off"
         assert (f[f"uav{k}_dyn.slip"] == 0.0).all()      # lock-step: the firmware clock is the master's
