@@ -1,0 +1,142 @@
+"""A supervised run's whole life, with the signals sent where they come from in practice: ``kill -9`` of the
+``cosim-master run`` parent leaves no process behind and a readable, consistent folder; a ``--timeout`` and
+SIGTERM (to the supervisor alone, and to its process group as ``timeout``/systemd send it) end a run whose
+rows stream fast, with a readable Parquet file and run.json. Real runs of the CLI in a subprocess; every wait
+is on a condition with a generous deadline, no duration is asserted."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+import master
+
+CLI = [sys.executable, "-m", "master.cli"]
+REPO = Path(master.__file__).parents[1]
+OSCILLATOR = REPO / "ssp" / "coupling" / "oscillator_fd.ssp"
+DEADLINE_S = 90.0
+
+
+def _env():
+    return dict(os.environ, PYTHONPATH=str(REPO))
+
+
+def _stat(pid: int):
+    """(state, ppid) of a process, None when it is gone (a zombie counts as gone: nothing of it runs)."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    state, ppid = text.rsplit(")", 1)[1].split()[:2]
+    return None if state in ("Z", "X") else (state, int(ppid))
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every living process below ``pid``, from the ppid field of /proc/<pid>/stat."""
+    children: dict[int, list[int]] = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            st = _stat(int(d.name))
+            if st is not None:
+                children.setdefault(st[1], []).append(int(d.name))
+    out, todo = set(), [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            if c not in out:
+                out.add(c)
+                todo.append(c)
+    return out
+
+
+def _wait_for(cond, what: str, p=None):
+    deadline = time.monotonic() + DEADLINE_S
+    while not cond():
+        if time.monotonic() > deadline:
+            if p is not None and p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+            pytest.fail(f"not within {DEADLINE_S:g} s: {what}")
+        time.sleep(0.05)
+
+
+def _start(out: Path, *extra) -> subprocess.Popen:
+    return subprocess.Popen(CLI + ["run", str(OSCILLATOR), "-o", str(out), *extra], env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _rows_streaming(out: Path, p: subprocess.Popen):
+    """Waits until rows are being written (a first block is in the CSV)."""
+    csv = out / "results.csv"
+    _wait_for(lambda: (csv.is_file() and csv.stat().st_size > 1 << 20) or p.poll() is not None,
+              "the first rows written", p)
+    assert p.poll() is None, p.communicate()
+
+
+def _readable_and_consistent(out: Path) -> dict:
+    meta = json.loads((out / "run.json").read_text())
+    rows = pq.ParquetFile(out / "results.parquet").metadata.num_rows
+    assert rows == meta["rows_recorded"] > 0, (rows, meta)
+    if (out / "results.csv").exists():
+        assert len(pd.read_csv(out / "results.csv", usecols=["time"])) == rows
+    assert not (out / ".cosim-master.reserve").exists() and not (out / ".cosim-master.stack").exists()
+    assert not list(out.glob("*.tmp"))
+    return meta
+
+
+# -- kill -9 of the parent --------------------------------------------------------------------------------
+def test_kill_9_of_the_parent_leaves_no_process_and_a_readable_folder(tmp_path):
+    out = tmp_path / "out"
+    p = _start(out, "--step", "1e-4", "--stop-time", "1e6")
+    try:
+        _rows_streaming(out, p)
+        below = _descendants(p.pid)
+        assert below, "the supervised run has a simulation process"
+        p.kill()
+        p.wait(timeout=60)
+        _wait_for(lambda: not any(_stat(c) for c in below), f"the simulation processes {below} end")
+    finally:
+        for c in _descendants(p.pid):       # a failing test leaves nothing running either
+            os.kill(c, signal.SIGKILL)
+    # the simulation process wrote what it could: the CSV to its last whole line (and its own unsent rows), the
+    # Parquet file rebuilt from it, and run.json saying what happened
+    meta = _readable_and_consistent(out)
+    assert meta["outcome"] == "interrupted" and "supervising cosim-master process died" in meta["error"]
+    assert meta["supervised"] == {"parent_died": True}
+
+
+# -- stop requests while rows stream fast ---------------------------------------------------------------
+FAST = ["--step", "1e-5", "--stop-time", "1000"]     # every-step recording: the pipe is never empty
+
+
+def test_a_timeout_is_honoured_while_rows_stream(tmp_path):
+    out = tmp_path / "out"
+    p = _start(out, *FAST, "--timeout", "5")
+    _wait_for(lambda: p.poll() is not None, "the run ends after its 5 s timeout", p)
+    _, err = p.communicate()
+    assert p.returncode == 1 and "timed out after 5 s" in err and "Traceback" not in err, err
+    meta = _readable_and_consistent(out)
+    assert "timed out after 5 s" in meta["error"]
+
+
+@pytest.mark.parametrize("to", ["supervisor", "group", "group", "group"])
+def test_sigterm_ends_a_fast_streaming_run_with_its_files_whole(tmp_path, to):
+    out = tmp_path / "out"
+    p = _start(out, *FAST)
+    _rows_streaming(out, p)
+    if to == "supervisor":
+        p.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(p.pid, signal.SIGTERM)        # as `timeout`, systemd or `kill -- -PGID` send it
+    _wait_for(lambda: p.poll() is not None, f"SIGTERM to the {to} ends the run", p)
+    _, err = p.communicate()
+    assert p.returncode == 143, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("cosim-master:") and "WARNING" not in ln]
+    assert len(lines) == 1 and "stopped by SIGTERM" in lines[0] and "Traceback" not in err, err
+    assert "component" not in lines[0], lines[0]        # an interrupt is nobody's fault
+    meta = _readable_and_consistent(out)
+    assert meta["outcome"] == "interrupted"
