@@ -649,6 +649,7 @@ class Execution:
                 if any(solvers.values()):
                     meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
+                self.rt._at(0, -1)       # no component's call runs any more: a supervisor must not name the last
             for m in self.live_observers if not self._initialized else ():
                 m.finish(self.out_dir, meta["outcome"])     # a stream opened before a failed start lets go
             if self._initialized:

@@ -52,6 +52,7 @@ H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
 GRACE_S = 3.0                    # how long a child may take to stop after Ctrl-C/SIGTERM before it is killed
 ORPHAN_GRACE_S = 5.0             # how long an orphaned child's main thread gets to notice before its watchdog acts
 PARENT_DEATH_SIGNAL = signal.SIGUSR2
+FINISH_S = 120.0                 # how long a child that has ended its simulation may take to write its products
 TURN_S = 0.05                    # the most time the supervisor spends on messages before its stop checks
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
@@ -124,6 +125,9 @@ class _ChildRecording(Recording):
         super().flush()
 
     def finish(self, out_dir, outcome):
+        # the simulation is over: no component's call is running now (the probe would still name the last one)
+        if self.header is not None:
+            self.header[H_PHASE], self.header[H_COMPONENT], self.header[H_NATIVE] = 0, -1, -1
         info = super().finish(out_dir, outcome)
         # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete
         _send(self.conn, ("close",))
@@ -335,9 +339,12 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
             signal.signal(s, signal.SIG_IGN)
         sigterm = isinstance(exc, Terminated)
         why = "stopped by SIGTERM" if sigterm else "interrupted by the user"
-        if not orphaned():
-            ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
-        status = 143 if sigterm else 130
+        if ex.closed and ex.metadata.get("outcome") == "completed":
+            status = 0      # it came while the completed run was written, which it held back: nothing was cut
+        else:
+            if not orphaned():
+                ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
+            status = 143 if sigterm else 130
     except BaseException as exc:  # noqa: BLE001 - a bug must still leave run.json
         if not orphaned():
             ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
@@ -383,6 +390,9 @@ class _Supervisor:
         self.forward_signal = signal.SIGINT
         self.write_error: CosimError | None = None
         self.native_loop = False                    # the child steps in the native loop
+        self.finishing = False                      # the child's simulation has ended: it writes its products
+        self.hard_stop = False                      # a kill that no finishing phase postpones
+        self.interrupts = 0
 
     # messages ---------------------------------------------------------------------------------------------
     def handle(self, msg, conn):
@@ -418,6 +428,7 @@ class _Supervisor:
             self.group.open(self.schema)
             conn.send(("shm", path))
         elif kind == "close":
+            self.finishing_started()
             self.group.close()
             conn.send(("closed", {"rows": self.group.rows, **({"notes": self.group.notes} if self.group.notes
                                                                   else {})}))
@@ -433,8 +444,17 @@ class _Supervisor:
             self.stop_reason = reason
         if kill:
             self.kill_at = time.monotonic()
+            self.hard_stop = True
         elif self.kill_at is None:
-            self.kill_at = time.monotonic() + GRACE_S
+            self.kill_at = time.monotonic() + (FINISH_S if self.finishing else GRACE_S)
+
+    def finishing_started(self):
+        """The child has ended its simulation and writes its products (the monitors' summaries, maps, CSVs),
+        which an unsupervised run takes seconds to write: an interrupt asked for no more than that, so the
+        grace of a child that did not answer no longer applies (a second interrupt, a timeout still kill)."""
+        self.finishing = True
+        if self.kill_at is not None and not self.hard_stop:
+            self.kill_at = max(self.kill_at, time.monotonic() + FINISH_S)
 
     # the run --------------------------------------------------------------------------------------------
     def run(self) -> dict:
@@ -447,7 +467,8 @@ class _Supervisor:
 
         def on_signal(signum, frame):
             name = "interrupted by the user" if signum == signal.SIGINT else f"stopped by {SIGNAL_NAMES[signum]}"
-            self.stop(name)
+            self.interrupts += 1
+            self.stop(name, kill=self.finishing and self.interrupts > 1)      # the second one still kills
             # a Ctrl-C in a terminal reaches the child too: pass it on only if the child has not ended soon after
             # (a second interrupt could cut the child's own orderly close short); SIGTERM at once
             if self.forward_at is None:
@@ -563,7 +584,8 @@ class _Supervisor:
     def _finish(self, exitcode: int | None, killed: bool) -> dict:
         recovered = 0 if self.meta is not None else self._recover_rows()
         last = self.header_time
-        culprit, phase = self._culprit() if self.meta is None else (None, "")
+        # a full disk is nobody's fault: the component running when the child was stopped for it is not named
+        culprit, phase = self._culprit() if self.meta is None and self.write_error is None else (None, "")
         try:
             self.group.close()
         finally:
@@ -587,7 +609,10 @@ class _Supervisor:
                 meta["outcome"] = "crashed"
             elif self.stop_reason is not None:
                 reason = self.stop_reason
-                if killed and "timed out" not in reason:
+                if killed and self.finishing and culprit is None:
+                    reason += (" (the simulation had ended; it was killed while writing the run's products, "
+                               "which may be incomplete)")
+                elif killed and "timed out" not in reason:
                     reason += f" (the simulation did not stop within {GRACE_S:g} s and was killed{during})"
                 elif killed:
                     reason += f"{during} (the simulation was killed)"

@@ -140,3 +140,75 @@ def test_sigterm_ends_a_fast_streaming_run_with_its_files_whole(tmp_path, to):
     assert "component" not in lines[0], lines[0]        # an interrupt is nobody's fault
     meta = _readable_and_consistent(out)
     assert meta["outcome"] == "interrupted"
+
+
+# -- interrupts after the simulation has ended: the products are written, the status says so -------------------
+UAV = REPO / "ssp" / "paper_zones_1uav_A.ssp"
+# the run's products take seconds to write on a loaded machine (maps, summaries): a first monitor that takes
+# a known while to finish makes that window wide, and tells the test (a marker file) when it has begun
+SLOW_FINISH = """
+import sys, time
+from pathlib import Path
+import master.execution as execution
+from master.observers import Observer
+MARKER = Path(sys.argv[1])
+
+class SlowFinish(Observer):
+    name = "slow_finish"
+    def finish(self, out_dir, outcome):
+        MARKER.touch()
+        time.sleep(8.0)
+        return {}
+
+monitors_for = execution.monitors_for
+execution.monitors_for = lambda *a, **k: [SlowFinish(), *monitors_for(*a, **k)]
+sys.argv = ["cosim-master"] + sys.argv[2:]
+from master.cli import entry
+sys.exit(entry())
+"""
+PRODUCTS = ("summary.json", "map.png", "summary.csv", "photos.csv", "trajectory.csv", "results.parquet")
+
+
+def _uav_run(tmp_path, *extra):
+    out, marker = tmp_path / "out", tmp_path / "finishing"
+    p = subprocess.Popen([sys.executable, "-c", SLOW_FINISH, str(marker), "run", str(UAV), "-o", str(out), *extra],
+                         env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    _wait_for(lambda: marker.exists() or p.poll() is not None, "the run's finishing phase", p)
+    assert p.poll() is None, p.communicate()
+    return p, out
+
+
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm-to-supervisor", "sigterm-to-group", "ctrl-c-no-supervise"])
+def test_an_interrupt_after_the_end_keeps_every_product_and_says_completed(tmp_path, how):
+    p, out = _uav_run(tmp_path, *(["--no-supervise"] if how.endswith("no-supervise") else []))
+    if how == "sigterm-to-supervisor":
+        p.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(p.pid, signal.SIGTERM if how == "sigterm-to-group" else signal.SIGINT)
+    _wait_for(lambda: p.poll() is not None, "the run ends", p)
+    stdout, err = p.communicate()
+    meta = json.loads((out / "run.json").read_text())
+    # the simulation reached its end and every product was written: a completed run, whatever the interrupt
+    assert [f for f in PRODUCTS if not (out / f).is_file()] == []
+    assert meta["outcome"] == "completed", meta.get("error")
+    assert p.returncode == 0 and stdout.startswith("completed"), (p.returncode, stdout, err)
+    if "supervised" in meta:
+        assert meta["supervised"]["child_exit"] == 0
+
+
+def test_a_second_ctrl_c_while_the_products_are_written_still_ends_the_run(tmp_path):
+    p, out = _uav_run(tmp_path)
+    os.killpg(p.pid, signal.SIGINT)
+    time.sleep(1.0)     # not a timing assumption: the second Ctrl-C only has to come after the first
+    os.killpg(p.pid, signal.SIGINT)
+    _wait_for(lambda: p.poll() is not None, "the run ends", p)
+    _, err = p.communicate()
+    assert p.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("cosim-master:") and "WARNING" not in ln]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    # the simulation had ended: no component was running, none is blamed
+    assert "interrupted by the user" in lines[0] and "component" not in lines[0], lines[0]
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["outcome"] == "interrupted" and "failed_component" not in meta
+    assert pq.ParquetFile(out / "results.parquet").metadata.num_rows == meta["rows_recorded"] > 0
