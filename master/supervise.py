@@ -41,7 +41,7 @@ import pyarrow as pa
 from .errors import CosimError, Terminated
 from .execution import Execution, Options, write_run_files
 from .observers.recording import Recording, block_table
-from .results import claim_output_folder
+from .results import claim_output_folder, release_output_folder, settle_output_folder
 from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import SINKS
 from .sinks.base import Sink
@@ -276,6 +276,7 @@ def _write_orphan_results(out_dir: Path, ex) -> None:
     meta["supervised"] = {"parent_died": True}
     meta.setdefault("wall_time_s", None)
     write_run_files(out_dir, meta, list(ex.events))
+    settle_output_folder(out_dir, bool(rows))
 
 
 def _cut_to_whole_lines(path: Path) -> int:
@@ -654,12 +655,17 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
         raise CosimError("a supervised run needs an output folder", element="--output")
     out_dir = Path(opts.output)
     claim_output_folder(out_dir)
-    t0 = time.perf_counter()
-    sup = _Supervisor(scenario, opts, timeout)
-    meta = sup.run()
-    if meta.get("wall_time_s") is None:
-        meta["wall_time_s"] = time.perf_counter() - t0
-        write_run_files(out_dir, meta, sup.events)
+    try:
+        t0 = time.perf_counter()
+        sup = _Supervisor(scenario, opts, timeout)
+        meta = sup.run()
+        if meta.get("wall_time_s") is None:
+            meta["wall_time_s"] = time.perf_counter() - t0
+            write_run_files(out_dir, meta, sup.events)
+        # the earlier run in the folder goes now that this one has rows, or comes back if it has none
+        settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+    finally:
+        release_output_folder(out_dir)
     result = Result(out_dir, meta, sup.events)
     if meta.get("outcome") != "completed":
         err = CosimError(meta.get("error") or f"run ended with outcome {meta.get('outcome')}")

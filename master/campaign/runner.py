@@ -265,7 +265,13 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
     camp = load_campaign(path)
     out = Path(output) if output is not None else Path("results") / camp.name
     out = out.resolve()
-    (out / "runs").mkdir(parents=True, exist_ok=True)
+    try:
+        (out / "runs").mkdir(parents=True, exist_ok=True)
+        with open(out / ".lock", "a+"):     # a read-only existing folder: said here, in one line
+            pass
+    except OSError as exc:
+        raise CosimError(f"cannot write into the campaign folder: {exc.strerror or exc}", file=str(out),
+                         element="--output") from None
     with _Lock(out):
         manifest = camp.manifest()
         # a run's fingerprint is a hash of its canonical inputs: computed once here, not for every plan and task

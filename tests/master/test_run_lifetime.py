@@ -212,3 +212,87 @@ def test_a_second_ctrl_c_while_the_products_are_written_still_ends_the_run(tmp_p
     meta = json.loads((out / "run.json").read_text())
     assert meta["outcome"] == "interrupted" and "failed_component" not in meta
     assert pq.ParquetFile(out / "results.parquet").metadata.num_rows == meta["rows_recorded"] > 0
+
+
+# -- the output folder: a rerun keeps the earlier run until it has results; one line for a folder it cannot use ----
+def _short(out, *extra):
+    return subprocess.run(CLI + ["run", str(OSCILLATOR), "--stop-time", "1", "-o", str(out), *extra],
+                          capture_output=True, text=True, env=_env(), timeout=120)
+
+
+def _one_line(r) -> str:
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("cosim-master:") and "WARNING" not in ln]
+    assert r.returncode == 1 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize("supervised", [True, False])
+def test_a_rerun_without_results_gives_the_earlier_run_back(tmp_path, supervised):
+    out = tmp_path / "out"
+    extra = [] if supervised else ["--no-supervise"]
+    assert _short(out, *extra).returncode == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    # fails before its first row (an FMU that cannot be instantiated with this value)
+    r = _short(out, "--param", "A.nosuch=1", *extra)
+    assert r.returncode == 1
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    # a rerun that has results replaces the earlier run as a whole
+    assert _short(out, "--stop-time", "2", "--no-csv", *extra).returncode == 0
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["rows_recorded"] == 201 and not (out / "results.csv").exists()
+    assert not [p for p in out.iterdir() if p.name.startswith(".cosim-master.previous")]
+
+
+def test_a_rerun_killed_before_its_results_gives_the_earlier_run_back_to_the_next_run(tmp_path):
+    from master.results import claim_output_folder, release_output_folder
+    out = tmp_path / "out"
+    assert _short(out).returncode == 0
+    before = (out / "results.parquet").read_bytes()
+    claim_output_folder(out)            # a rerun claimed the folder, then died (kill -9) before any row
+    release_output_folder(out)
+    assert not (out / "results.parquet").exists()
+    r = _short(out, "--param", "A.nosuch=1")       # the next run fails too: the earlier run is there again
+    assert r.returncode == 1 and (out / "results.parquet").read_bytes() == before
+
+
+def test_a_concurrent_run_into_the_same_folder_is_told_so(tmp_path):
+    out = tmp_path / "out"
+    p = _start(out, "--step", "1e-3", "--stop-time", "1e6")
+    try:
+        _wait_for(lambda: (out / "results.parquet").exists() or p.poll() is not None, "the first run started", p)
+        for extra in ([], ["--no-supervise"]):
+            line = _one_line(_short(out, *extra))
+            assert "another cosim-master run is writing into this output folder" in line, line
+    finally:
+        os.killpg(p.pid, signal.SIGTERM)
+        p.communicate(timeout=120)
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    mnt = tmp_path / "ro"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mnt)], capture_output=True)
+    if r.returncode != 0:       # root sees no permission bits: only a read-only mount makes a folder read-only
+        pytest.skip("cannot mount a tmpfs here (needs root): " + r.stderr.decode().strip())
+    try:
+        assert _short(mnt / "earlier").returncode == 0
+        (mnt / "empty").mkdir()
+        subprocess.run(["mount", "-o", "remount,ro", str(mnt)], check=True, capture_output=True)
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+def test_a_read_only_output_folder_is_one_line(read_only_folder):
+    campaign = REPO / "ssp" / "campaigns" / "smoke.yaml"
+    for name in ("earlier", "empty", "new/sub"):
+        out = read_only_folder / name
+        for extra in ([], ["--no-supervise"]):
+            line = _one_line(_short(out, *extra))
+            assert str(out) in line and "Read-only file system" in line, line
+        r = subprocess.run(CLI + ["campaign", str(campaign), "-o", str(out), "--no-progress"], capture_output=True,
+                           text=True, env=_env(), timeout=120)
+        line = _one_line(r)
+        assert str(out) in line and "Read-only file system" in line, line
+
