@@ -233,14 +233,35 @@ def _orphan_close(out_dir: Path, ex) -> None:
 
 
 def _write_orphan_results(out_dir: Path, ex) -> None:
-    from .sinks.csv import CsvSink
     from .sinks.group import RESERVE_NAME
-    from .sinks.parquet import ParquetSink
     (out_dir / RESERVE_NAME).unlink(missing_ok=True)
     rec = ex.recording if isinstance(ex.recording, _ChildRecording) else None
     meta = dict(ex.metadata)
-    csv_path, pq_path = out_dir / CsvSink.file_name, out_dir / ParquetSink.file_name
     rows, notes = None, []
+    try:
+        rows = _orphan_rows(out_dir, rec, notes)
+    except Exception as exc:   # noqa: BLE001 - run.json still says what happened
+        notes.append(f"the results could not be made whole: {exc}")
+    (out_dir / CRASH_FILE).unlink(missing_ok=True)
+    meta["outcome"] = "interrupted"
+    meta["error"] = str(CosimError("the supervising cosim-master process died (killed?); the simulation process "
+                                   "wrote what it could and stopped", time=meta.get("last_time")))
+    if rows is not None:
+        meta["rows_recorded"] = rows
+    if notes:
+        meta["results_notes"] = notes
+    meta["supervised"] = {"parent_died": True}
+    meta.setdefault("wall_time_s", None)
+    write_run_files(out_dir, meta, list(ex.events))
+    settle_output_folder(out_dir, bool(rows))
+
+
+def _orphan_rows(out_dir: Path, rec, notes: list) -> int | None:
+    """The CSV cut to whole lines (plus this process's unsent rows), the Parquet file rebuilt from it; the rows."""
+    from .sinks.csv import CsvSink
+    from .sinks.parquet import ParquetSink
+    csv_path, pq_path = out_dir / CsvSink.file_name, out_dir / ParquetSink.file_name
+    rows = None
     if csv_path.is_file():
         rows = _cut_to_whole_lines(csv_path)
         if rec is not None and rows == rec.rows_written and getattr(rec, "fill", 0) and rec.block is not None:
@@ -265,18 +286,7 @@ def _write_orphan_results(out_dir: Path, ex) -> None:
             csv.path = csv_path
             sinks = [parquet] + ([csv] if rows is not None else [])
             notes.append(parquet.repair(sinks, rec.schema, rows or 0))
-    (out_dir / CRASH_FILE).unlink(missing_ok=True)
-    meta["outcome"] = "interrupted"
-    meta["error"] = str(CosimError("the supervising cosim-master process died (killed?); the simulation process "
-                                   "wrote what it could and stopped", time=meta.get("last_time")))
-    if rows is not None:
-        meta["rows_recorded"] = rows
-    if notes:
-        meta["results_notes"] = notes
-    meta["supervised"] = {"parent_died": True}
-    meta.setdefault("wall_time_s", None)
-    write_run_files(out_dir, meta, list(ex.events))
-    settle_output_folder(out_dir, bool(rows))
+    return rows
 
 
 def _cut_to_whole_lines(path: Path) -> int:
