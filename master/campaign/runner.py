@@ -244,6 +244,38 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
     missing runs it accepts run now (the others stay pending).
     """
     t_start = time.perf_counter()
+    with _sigterm_as_interrupt():
+        return _run_campaign_with_pool(path, output, workers, scheduler, progress, max_runs, retry_failed,
+                                       run_filter, t_start)
+
+
+def _sigterm_as_interrupt():
+    """SIGTERM (``timeout``, systemd, ``kill``) stops a campaign as Ctrl-C does: runs in flight are dropped, the
+    table is written and the summary says so; by default it killed the process with no word."""
+    import contextlib
+    import signal
+    import threading
+
+    from ..errors import Terminated
+
+    @contextlib.contextmanager
+    def held():
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def terminated(signum, frame):
+            raise Terminated()
+        previous = signal.signal(signal.SIGTERM, terminated)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+    return held()
+
+
+def _run_campaign_with_pool(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter,
+                            t_start) -> CampaignSummary:
     pool = None
     if not scheduler:
         # the local workers start now: their interpreters and imports take a core that would otherwise wait

@@ -296,3 +296,25 @@ def test_a_read_only_output_folder_is_one_line(read_only_folder):
         line = _one_line(r)
         assert str(out) in line and "Read-only file system" in line, line
 
+
+
+# -- a campaign stopped by SIGTERM says so -------------------------------------------------------------------
+@pytest.mark.parametrize("to", ["parent", "group"])
+def test_sigterm_stops_a_campaign_with_its_summary(tmp_path, to):
+    out = tmp_path / "camp"
+    p = subprocess.Popen(CLI + ["campaign", str(REPO / "ssp" / "campaigns" / "smoke.yaml"), "-o", str(out),
+                                "--no-progress", "--workers", "2"], env=_env(), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    _wait_for(lambda: (out / "campaign.json").exists() or p.poll() is not None, "the campaign started", p)
+    below = _descendants(p.pid)
+    if to == "parent":
+        p.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(p.pid, signal.SIGTERM)
+    _wait_for(lambda: p.poll() is not None, "the campaign ends", p)
+    stdout, err = p.communicate()
+    if p.returncode == 0:
+        pytest.skip("the campaign finished before the signal came")
+    assert p.returncode == 1 and "Traceback" not in err, (p.returncode, stdout, err)
+    assert "Interrupted" in stdout, stdout
+    _wait_for(lambda: not any(_stat(c) for c in below), "the workers end")
