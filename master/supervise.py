@@ -219,13 +219,9 @@ def _orphan_close(out_dir: Path, ex) -> None:
     """The parent died with the results half written: make them readable from this side. The CSV the parent
     wrote is cut to its last whole line, the rows of this process's unsent block are added when they follow on
     from it, the Parquet file (no footer) is rebuilt from the CSV, and run.json says what happened. Runs once."""
-    import threading
-    global _orphan_lock
-    if _orphan_lock is None:
-        _orphan_lock = threading.Lock()
-    if not _orphan_lock.acquire(blocking=False):
-        return
-    signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)
+    _orphan_lock.acquire()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)
     try:
         _write_orphan_results(out_dir, ex)
     except BaseException:   # noqa: BLE001 - nothing more to be done for a run nobody waits for
