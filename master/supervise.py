@@ -185,7 +185,12 @@ class ParentGone(KeyboardInterrupt):
     """The supervising process died (``kill -9``): nobody reads the pipe or writes the results any more."""
 
 
+_parent_died = False     # the parent-death signal came (getppid may still name the parent for a moment)
+
+
 def _parent_gone(signum, frame):
+    global _parent_died
+    _parent_died = True
     raise ParentGone()
 
 
@@ -322,7 +327,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
     signal.signal(signal.SIGTERM, _terminated)
 
     def orphaned():
-        return os.getppid() != parent_pid
+        return _parent_died or os.getppid() != parent_pid
     try:
         ex.setup()
         rec = _ChildRecording(ex.recording, conn)
