@@ -44,7 +44,8 @@ from .observers.pacing import Pacer
 from .observers.recording import Recording, select_variables
 from .plan import add_overrides, build_plan, value_error
 from .plan.bare_fmu import bare_fmu_scenario, is_bare_fmu
-from .results import claim_output_folder, products, write_events_csv
+from .results import (claim_output_folder, products, release_output_folder, settle_output_folder,
+                      write_events_csv)
 from .runtime import Runtime, SavedPoint
 from .settings import resolve_settings
 from .sinks import SINKS
@@ -654,6 +655,7 @@ class Execution:
                 if any(solvers.values()):
                     meta["solvers"] = {name: info for name, info in solvers.items() if info}
                 self.rt.terminate()
+                self.rt._at(0, -1)       # no component's call runs any more: a supervisor must not name the last
             for m in self.live_observers if not self._initialized else ():
                 m.finish(self.out_dir, meta["outcome"])     # a stream opened before a failed start lets go
             if self._initialized:
@@ -679,6 +681,10 @@ class Execution:
             meta["wall_time_s"] = _time.perf_counter() - self.wall0
             if self.write_run_json and self._claimed and self.out_dir.is_dir():
                 write_run_files(self.out_dir, meta, self.events)
+                if not self.options.output_prepared:
+                    # the earlier run in the folder goes now that this one has rows, or comes back if it has none
+                    settle_output_folder(self.out_dir, bool(meta.get("rows_recorded")))
+                    release_output_folder(self.out_dir)
         return meta
 
     def memory_table(self):

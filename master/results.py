@@ -2,56 +2,146 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 PARQUET = "results.parquet"
 RUN_JSON = "run.json"
 
 
+LOCK_NAME = ".cosim-master.lock"            # held (flock) by the run writing into the folder
+PREVIOUS_NAME = ".cosim-master.previous"    # the earlier run's products, until the new run has results
+_OWN = (LOCK_NAME, PREVIOUS_NAME)
+_locks: dict = {}                           # folder -> open lock file of a run of this process
+
+
 def claim_output_folder(out_dir) -> None:
-    """A run owns its folder: create it, or take over an earlier run's folder by removing that run's products
-    as a whole (run.json lists them), so that no file of another run is left beside the new results. A
-    non-empty folder that holds no run.json is someone else's and is refused."""
+    """A run owns its folder: create it, or take over an earlier run's folder. The earlier run's products (run.json
+    lists them) are moved aside as a whole, so that no file of another run is left beside the new results, and
+    stay there until the new run has results (``settle_output_folder``): a rerun that fails or is interrupted
+    before its first row gives the folder back as it was. A non-empty folder that holds no run.json is someone
+    else's and is refused; so is a folder another run is writing into."""
     import json
-    import shutil
 
     from .errors import CosimError
     out_dir = Path(out_dir)
+
+    def refuse(reason):
+        return CosimError(reason, file=str(out_dir), element="--output")
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        entries = list(out_dir.iterdir())
+    except FileExistsError:
+        raise refuse("cannot create the output folder: a file of that name exists") from None
     except OSError as exc:
-        raise CosimError(f"cannot create the output folder: {exc.strerror or exc}", file=str(out_dir),
-                         element="--output") from None
-    if not entries:
-        return
-    run_json = out_dir / RUN_JSON
-    if not run_json.is_file():
-        raise CosimError("the output folder is not empty and holds no earlier run (no run.json): choose another "
-                         "folder or empty it", file=str(out_dir), element="--output")
+        raise refuse(f"cannot create the output folder: {exc.strerror or exc}") from None
+    _lock(out_dir, refuse)
     try:
-        products = json.loads(run_json.read_text(encoding="utf-8")).get("products")
-    except (OSError, ValueError):
-        products = None
-    if not isinstance(products, list):      # a run of an older version: its folder held its files only
-        products = [p.name for p in entries if p.is_file()]
-    for name in {*products, RUN_JSON}:
-        p = out_dir / str(name)
-        if p.parent != out_dir:             # only names inside the folder, whatever run.json says
-            continue
+        if (out_dir / PREVIOUS_NAME).is_dir():      # a run killed before it had results: its predecessor comes back
+            _restore_previous(out_dir)
+        entries = [p for p in out_dir.iterdir() if p.name not in _OWN]
+        if not entries:
+            return
+        run_json = out_dir / RUN_JSON
+        if not run_json.is_file():
+            raise refuse("the output folder is not empty and holds no earlier run (no run.json): choose another "
+                         "folder or empty it")
         try:
+            products = json.loads(run_json.read_text(encoding="utf-8")).get("products")
+        except (OSError, ValueError):
+            products = None
+        if not isinstance(products, list):      # a run of an older version: its folder held its files only
+            products = [p.name for p in entries if p.is_file()]
+        aside = out_dir / PREVIOUS_NAME
+        names = [str(n) for n in {*products, RUN_JSON}
+                 if str(n) not in _OWN and (out_dir / str(n)).parent == out_dir and (out_dir / str(n)).exists()]
+        try:
+            aside.mkdir()
+            for n in sorted(names):
+                os.rename(out_dir / n, aside / n)
+        except OSError as exc:
+            _restore_previous(out_dir)
+            raise refuse(f"cannot replace the earlier run's files: {exc.strerror or exc}") from None
+    except BaseException:
+        release_output_folder(out_dir, refused=True)
+        raise
+
+
+def _lock(out_dir: Path, refuse) -> None:
+    import fcntl
+    if out_dir.resolve() in _locks:
+        return
+    path = out_dir / LOCK_NAME
+    try:
+        try:
+            fd, created = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644), True
+        except FileExistsError:
+            fd, created = os.open(path, os.O_RDWR), False
+    except OSError as exc:      # a read-only folder: said here, before anything else tries to write there
+        raise refuse(f"cannot write into the output folder: {exc.strerror or exc}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise refuse("another cosim-master run is writing into this output folder: wait for it to end or choose "
+                     "another folder") from None
+    _locks[out_dir.resolve()] = (fd, path if created else None)
+
+
+def release_output_folder(out_dir, refused: bool = False) -> None:
+    """The run is over: another may take the folder (the lock file stays; it is not a product). A folder that was
+    refused is left as it was found."""
+    fd, created = _locks.pop(Path(out_dir).resolve(), (None, None))
+    if fd is not None:
+        if refused and created is not None:
+            created.unlink(missing_ok=True)
+        os.close(fd)
+
+
+def settle_output_folder(out_dir, has_results: bool) -> bool:
+    """The earlier run's products, moved aside by ``claim_output_folder``, go for good once the new run has results;
+    without any (it failed or was stopped before its first row) they come back in place of the new run's files.
+    Returns True when the earlier run was given back."""
+    import shutil
+    aside = Path(out_dir) / PREVIOUS_NAME
+    if not aside.is_dir():
+        return False
+    if has_results:
+        shutil.rmtree(aside, ignore_errors=True)
+        return False
+    return _restore_previous(Path(out_dir))
+
+
+def _restore_previous(out_dir: Path) -> bool:
+    import json
+    import shutil
+    aside = out_dir / PREVIOUS_NAME
+    try:
+        new = json.loads((out_dir / RUN_JSON).read_text(encoding="utf-8")).get("products")
+    except (OSError, ValueError):
+        new = None
+    kept = set(os.listdir(aside))
+    try:
+        # the new run's files: those its run.json lists, or (none written) the ones the earlier run also had
+        for n in set(new if isinstance(new, list) else []) | kept:
+            p = out_dir / str(n)
+            if str(n) in _OWN or p.parent != out_dir:
+                continue
             if p.is_dir() and not p.is_symlink():
                 shutil.rmtree(p)
             else:
                 p.unlink(missing_ok=True)
-        except OSError as exc:
-            raise CosimError(f"cannot replace the earlier run's {p.name}: {exc.strerror or exc}", file=str(out_dir),
-                             element="--output") from None
+        for n in kept:
+            os.rename(aside / n, out_dir / n)
+        aside.rmdir()
+    except OSError:
+        return False
+    return True
 
 
 def products(out_dir) -> list[str]:
     """What a run wrote into its folder (run.json lists it for the next run into the same folder)."""
-    return sorted({p.name for p in Path(out_dir).iterdir() if not p.name.endswith(".tmp")} | {RUN_JSON})
+    return sorted({p.name for p in Path(out_dir).iterdir()
+                   if not p.name.endswith(".tmp") and p.name not in _OWN} | {RUN_JSON})
 
 
 def results_path(out_dir) -> Path:

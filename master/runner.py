@@ -47,11 +47,12 @@ def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(),
         error = exc
         ex.close("error", exc)
     except KeyboardInterrupt as exc:
-        if ex.closed and ex.metadata.get("outcome") == "completed":
-            raise           # it came after the run was complete and written: nothing to close, the caller decides
-        why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
-        error = CosimError(why, time=ex.metadata.get("last_time"))
-        ex.close("interrupted", error)
+        # one that came while the completed run was written was held until its files were whole: nothing was
+        # cut, so the run is what its run.json says, completed (the exit status and message agree with it)
+        if not (ex.closed and ex.metadata.get("outcome") == "completed"):
+            why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
+            error = CosimError(why, time=ex.metadata.get("last_time"))
+            ex.close("interrupted", error)
     finally:
         ex.close()       # any other exception: the run's files are still closed and run.json written
     result = Result(ex.out_dir, ex.metadata, ex.events, ex.memory_table() if ex.out_dir is None else None)

@@ -30,6 +30,7 @@ import os
 import re
 import signal
 import tempfile
+import threading
 import time
 from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
@@ -40,7 +41,7 @@ import pyarrow as pa
 from .errors import CosimError, Terminated
 from .execution import Execution, Options, write_run_files
 from .observers.recording import Recording, block_table
-from .results import claim_output_folder
+from .results import claim_output_folder, release_output_folder, settle_output_folder
 from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import SINKS
 from .sinks.base import Sink
@@ -49,6 +50,10 @@ from .sinks.group import SinkGroup
 HEADER = 8
 H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
 GRACE_S = 3.0                    # how long a child may take to stop after Ctrl-C/SIGTERM before it is killed
+ORPHAN_GRACE_S = 5.0             # how long an orphaned child's main thread gets to notice before its watchdog acts
+PARENT_DEATH_SIGNAL = signal.SIGUSR2
+FINISH_S = 120.0                 # how long a child that has ended its simulation may take to write its products
+TURN_S = 0.05                    # the most time the supervisor spends on messages before its stop checks
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
 
@@ -65,7 +70,7 @@ class _PipeSink(Sink):
         sink = pa.BufferOutputStream()
         with pa.ipc.new_stream(sink, block.schema) as w:
             w.write_table(block)
-        self.conn.send(("block", sink.getvalue().to_pybytes()))
+        _send(self.conn, ("block", sink.getvalue().to_pybytes()))
         self.sent += 1
         # order matters for the parent's recovery: the rows left in shared memory count only once the block
         # count says they are not the block just sent
@@ -79,7 +84,7 @@ class _ChildRecording(Recording):
         self.conn = conn
 
     def _new_block(self, rows, cols):
-        self.conn.send(("schema", self.schema.serialize().to_pybytes(), rows, cols))
+        _send(self.conn, ("schema", self.schema.serialize().to_pybytes(), rows, cols))
         kind, path = self.conn.recv()
         fd = os.open(path, os.O_RDWR)
         try:
@@ -100,7 +105,7 @@ class _ChildRecording(Recording):
         """Where the native loop reports what after_step and sample report here (drivers/native.py PROGRESS_SLOTS);
         by offering it this recording lets the loop run its steps in C. The parent is told, for the run.json
         of a child that dies."""
-        self.conn.send(("native_loop",))
+        _send(self.conn, ("native_loop",))
         h = self.header
         return {"time_reached": h[H_TIME:H_TIME + 1], "last_row": h[H_LAST_ROW:H_LAST_ROW + 1],
                 "rows": h[H_FILL:H_FILL + 1], "busy": h[H_NATIVE:H_NATIVE + 1]}
@@ -113,16 +118,19 @@ class _ChildRecording(Recording):
 
     def send_names(self):
         self._step_sent = self.algorithm.current_step
-        self.conn.send(("names", list(self.rt.names), _step_lines(self._step_sent)))
+        _send(self.conn, ("names", list(self.rt.names), _step_lines(self._step_sent)))
 
     def flush(self):
         self.header[H_FILL] = self.fill       # the row that filled the block counts if the send is cut short
         super().flush()
 
     def finish(self, out_dir, outcome):
+        # the simulation is over: no component's call is running now (the probe would still name the last one)
+        if self.header is not None:
+            self.header[H_PHASE], self.header[H_COMPONENT], self.header[H_NATIVE] = 0, -1, -1
         info = super().finish(out_dir, outcome)
         # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete
-        self.conn.send(("close",))
+        _send(self.conn, ("close",))
         reply = self.conn.recv()
         info.update(reply[1])
         return info
@@ -130,7 +138,7 @@ class _ChildRecording(Recording):
     def sample(self, t):
         super().sample(t)
         if self.str_:
-            self.conn.send(("str", self.object_row()))
+            _send(self.conn, ("str", self.object_row()))
         self.header[H_LAST_ROW] = t
         self.header[H_FILL] = self.fill
 
@@ -142,7 +150,7 @@ class _SentEvents(list):
 
     def append(self, event):
         super().append(event)
-        self.conn.send(("event", event))
+        _send(self.conn, ("event", event))
 
 
 def _step_lines(fn) -> dict:
@@ -155,22 +163,171 @@ def _step_lines(fn) -> dict:
     return out
 
 
+_HELD = {signal.SIGINT, signal.SIGTERM}
+
+
+def _send(conn, msg):
+    """One whole message: an interrupt raised in the middle of a send left the parent waiting for the rest of a
+    cut message while this process waited for the parent's answer to its next one (a deadlock under SIGTERM to
+    the process group). The interrupt is held for the send and taken right after it."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        conn.send(msg)
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
+
+
 def _terminated(signum, frame):
     raise Terminated()
 
 
-def _child(conn, scenario, options: dict):
+class ParentGone(KeyboardInterrupt):
+    """The supervising process died (``kill -9``): nobody reads the pipe or writes the results any more."""
+
+
+_parent_died = False     # the parent-death signal came (getppid may still name the parent for a moment)
+
+
+def _parent_gone(signum, frame):
+    global _parent_died
+    _parent_died = True
+    raise ParentGone()
+
+
+def _watch_parent(parent_pid: int, out_dir: Path, ex) -> None:
+    """Ask the kernel for PARENT_DEATH_SIGNAL when the parent dies and check that it has not died already (a
+    parent killed before prctl took effect); a watchdog thread covers a main thread stuck in an FMU's C code,
+    which runs no Python signal handler: it writes what can be written and ends the process (a SITL started by
+    it goes with it, by its own parent-death signal)."""
+    import ctypes
+    signal.signal(PARENT_DEATH_SIGNAL, _parent_gone)
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(PARENT_DEATH_SIGNAL), 0, 0, 0)   # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):       # not Linux: the watchdog alone
+        pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(0.2)
+        time.sleep(ORPHAN_GRACE_S)
+        _orphan_close(out_dir, ex)          # the main thread did not get there: it is stuck
+        os._exit(1)
+    threading.Thread(target=watch, name="cosim-master-parent-watch", daemon=True).start()
+
+
+_orphan_lock = threading.Lock()      # taken once, never given back: a second caller waits for the end
+
+
+def _orphan_close(out_dir: Path, ex) -> None:
+    """The parent died with the results half written: make them readable from this side. The CSV the parent
+    wrote is cut to its last whole line, the rows of this process's unsent block are added when they follow on
+    from it, the Parquet file (no footer) is rebuilt from the CSV, and run.json says what happened. Runs once."""
+    _orphan_lock.acquire()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)
+    try:
+        _write_orphan_results(out_dir, ex)
+    except BaseException:   # noqa: BLE001 - nothing more to be done for a run nobody waits for
+        pass
+
+
+def _write_orphan_results(out_dir: Path, ex) -> None:
+    from .sinks.group import RESERVE_NAME
+    (out_dir / RESERVE_NAME).unlink(missing_ok=True)
+    rec = ex.recording if isinstance(ex.recording, _ChildRecording) else None
+    meta = dict(ex.metadata)
+    rows, notes = None, []
+    try:
+        rows = _orphan_rows(out_dir, rec, notes)
+    except Exception as exc:   # noqa: BLE001 - run.json still says what happened
+        notes.append(f"the results could not be made whole: {exc}")
+    (out_dir / CRASH_FILE).unlink(missing_ok=True)
+    meta["outcome"] = "interrupted"
+    meta["error"] = str(CosimError("the supervising cosim-master process died (killed?); the simulation process "
+                                   "wrote what it could and stopped", time=meta.get("last_time")))
+    if rows is not None:
+        meta["rows_recorded"] = rows
+    if notes:
+        meta["results_notes"] = notes
+    meta["supervised"] = {"parent_died": True}
+    meta.setdefault("wall_time_s", None)
+    write_run_files(out_dir, meta, list(ex.events))
+    settle_output_folder(out_dir, bool(rows))
+
+
+def _orphan_rows(out_dir: Path, rec, notes: list) -> int | None:
+    """The CSV cut to whole lines (plus this process's unsent rows), the Parquet file rebuilt from it; the rows."""
+    from .sinks.csv import CsvSink
+    from .sinks.parquet import ParquetSink
+    csv_path, pq_path = out_dir / CsvSink.file_name, out_dir / ParquetSink.file_name
+    rows = None
+    if csv_path.is_file():
+        rows = _cut_to_whole_lines(csv_path)
+        if rec is not None and rows == rec.rows_written and getattr(rec, "fill", 0) and rec.block is not None:
+            csv = CsvSink()
+            csv.path, csv._fh = csv_path, open(csv_path, "a", encoding="utf-8", newline="")
+            try:
+                csv.write(block_table(rec.schema, rec.block[:rec.fill], rec.str_rows))
+                rows += rec.fill
+                notes.append(f"{rec.fill} rows not yet sent to the parent written by the simulation process")
+            finally:
+                csv.close()
+    if pq_path.is_file() and rec is not None:
+        try:
+            import pyarrow.parquet as pq
+            readable = pq.ParquetFile(str(pq_path)).metadata.num_rows == rows
+        except Exception:   # noqa: BLE001 - no footer: the parent died while writing it
+            readable = False
+        if not readable:
+            parquet = ParquetSink()
+            parquet.path = pq_path
+            csv = CsvSink()
+            csv.path = csv_path
+            sinks = [parquet] + ([csv] if rows is not None else [])
+            notes.append(parquet.repair(sinks, rec.schema, rows or 0))
+    return rows
+
+
+def _cut_to_whole_lines(path: Path) -> int:
+    """Cuts a CSV after its last complete line; returns its rows (lines after the header)."""
+    lines = 0
+    last_newline = -1
+    with open(path, "rb+") as fh:
+        pos = 0
+        while True:
+            chunk = fh.read(1 << 22)
+            if not chunk:
+                break
+            n = chunk.count(b"\n")
+            if n:
+                lines += n
+                last_newline = pos + chunk.rindex(b"\n")
+            pos += len(chunk)
+        fh.truncate(last_newline + 1)
+    return max(0, lines - 1)
+
+
+def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
+    # the parent's end of the pipe, held here too, kept the pipe open after the parent died: every send then
+    # blocked for ever on a pipe nobody read
+    parent_end.close()
     out_dir = Path(options["output"])
     stack = open(out_dir / CRASH_FILE, "w", buffering=1)
     faulthandler.enable(file=stack, all_threads=False)
     faulthandler.register(signal.SIGUSR1, file=stack, all_threads=False)
     ex = Execution(scenario, **options)
     ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
+    _watch_parent(parent_pid, out_dir, ex)
     status = 1
     # a forked child starts with the parent's handlers, which only note the signal there: the child's own
     # interrupts end its run in order (its run.json, every row), as in an unsupervised run
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _terminated)
+
+    def orphaned():
+        return _parent_died or os.getppid() != parent_pid
     try:
         ex.setup()
         rec = _ChildRecording(ex.recording, conn)
@@ -184,21 +341,38 @@ def _child(conn, scenario, options: dict):
         ex.simulate_until()
         ex.close("completed")
         status = 0
+    except ParentGone:
+        pass
     except CosimError as exc:
-        ex.close("error", exc)
+        if not orphaned():
+            ex.close("error", exc)
     except KeyboardInterrupt as exc:
         for s in (signal.SIGINT, signal.SIGTERM):      # one interrupt is enough: the close must finish
             signal.signal(s, signal.SIG_IGN)
         sigterm = isinstance(exc, Terminated)
         why = "stopped by SIGTERM" if sigterm else "interrupted by the user"
-        ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
-        status = 143 if sigterm else 130
+        if ex.closed and ex.metadata.get("outcome") == "completed":
+            status = 0      # it came while the completed run was written, which it held back: nothing was cut
+        else:
+            if not orphaned():
+                ex.close("interrupted", CosimError(why, time=ex.metadata.get("last_time")))
+            status = 143 if sigterm else 130
     except BaseException as exc:  # noqa: BLE001 - a bug must still leave run.json
-        ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
+        if not orphaned():
+            ex.close("error", CosimError(f"{type(exc).__name__}: {exc}"))
     finally:
         try:
-            conn.send(("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else []))
-            conn.close()
+            signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)       # from here on the parent is asked, not told
+            if not orphaned():
+                _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else []))
+                conn.close()
+        except BaseException:   # noqa: BLE001 - a dying parent: its pipe breaks before the kernel reparents us
+            deadline = time.monotonic() + 2.0
+            while not orphaned() and time.monotonic() < deadline:
+                time.sleep(0.01)
+        try:
+            if orphaned():
+                _orphan_close(out_dir, ex)
         finally:
             stack.close()
             # no exit-time destructors: some FMU binaries (pythonfmu 0.7) crash in them after the run is done
@@ -228,6 +402,9 @@ class _Supervisor:
         self.forward_signal = signal.SIGINT
         self.write_error: CosimError | None = None
         self.native_loop = False                    # the child steps in the native loop
+        self.finishing = False                      # the child's simulation has ended: it writes its products
+        self.hard_stop = False                      # a kill that no finishing phase postpones
+        self.interrupts = 0
 
     # messages ---------------------------------------------------------------------------------------------
     def handle(self, msg, conn):
@@ -263,6 +440,7 @@ class _Supervisor:
             self.group.open(self.schema)
             conn.send(("shm", path))
         elif kind == "close":
+            self.finishing_started()
             self.group.close()
             conn.send(("closed", {"rows": self.group.rows, **({"notes": self.group.notes} if self.group.notes
                                                                   else {})}))
@@ -278,20 +456,31 @@ class _Supervisor:
             self.stop_reason = reason
         if kill:
             self.kill_at = time.monotonic()
+            self.hard_stop = True
         elif self.kill_at is None:
-            self.kill_at = time.monotonic() + GRACE_S
+            self.kill_at = time.monotonic() + (FINISH_S if self.finishing else GRACE_S)
+
+    def finishing_started(self):
+        """The child has ended its simulation and writes its products (the monitors' summaries, maps, CSVs),
+        which an unsupervised run takes seconds to write: an interrupt asked for no more than that, so the
+        grace of a child that did not answer no longer applies (a second interrupt, a timeout still kill)."""
+        self.finishing = True
+        if self.kill_at is not None and not self.hard_stop:
+            self.kill_at = max(self.kill_at, time.monotonic() + FINISH_S)
 
     # the run --------------------------------------------------------------------------------------------
     def run(self) -> dict:
         ctx = mp.get_context("fork")
         parent, child = ctx.Pipe()
         options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
-        proc = ctx.Process(target=_child, args=(child, self.scenario, options), name="cosim-master-run")
+        proc = ctx.Process(target=_child, args=(child, parent, os.getpid(), self.scenario, options),
+                           name="cosim-master-run")
         previous = {}
 
         def on_signal(signum, frame):
             name = "interrupted by the user" if signum == signal.SIGINT else f"stopped by {SIGNAL_NAMES[signum]}"
-            self.stop(name)
+            self.interrupts += 1
+            self.stop(name, kill=self.finishing and self.interrupts > 1)      # the second one still kills
             # a Ctrl-C in a terminal reaches the child too: pass it on only if the child has not ended soon after
             # (a second interrupt could cut the child's own orderly close short); SIGTERM at once
             if self.forward_at is None:
@@ -308,14 +497,18 @@ class _Supervisor:
             while True:
                 ready = mp_wait([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
                 if open_conn and parent in ready:
+                    # a bounded turn: a child streaming rows keeps the pipe full, and the stop checks below must
+                    # still run (a timeout, an interrupt to pass on, a kill that is due)
+                    turn_end = time.monotonic() + TURN_S
                     try:
                         self.handle(parent.recv(), parent)
+                        while time.monotonic() < turn_end and parent.poll():
+                            self.handle(parent.recv(), parent)
                     except EOFError:
                         open_conn = False
                     except Exception:   # noqa: BLE001 - a message cut short by the child's death
                         open_conn = False
-                    continue
-                if proc.sentinel in ready:
+                elif proc.sentinel in ready:
                     break
                 now = time.monotonic()
                 if self.forward_at is not None and now >= self.forward_at:
@@ -403,7 +596,8 @@ class _Supervisor:
     def _finish(self, exitcode: int | None, killed: bool) -> dict:
         recovered = 0 if self.meta is not None else self._recover_rows()
         last = self.header_time
-        culprit, phase = self._culprit() if self.meta is None else (None, "")
+        # a full disk is nobody's fault: the component running when the child was stopped for it is not named
+        culprit, phase = self._culprit() if self.meta is None and self.write_error is None else (None, "")
         try:
             self.group.close()
         finally:
@@ -427,7 +621,10 @@ class _Supervisor:
                 meta["outcome"] = "crashed"
             elif self.stop_reason is not None:
                 reason = self.stop_reason
-                if killed and "timed out" not in reason:
+                if killed and self.finishing and culprit is None:
+                    reason += (" (the simulation had ended; it was killed while writing the run's products, "
+                               "which may be incomplete)")
+                elif killed and "timed out" not in reason:
                     reason += f" (the simulation did not stop within {GRACE_S:g} s and was killed{during})"
                 elif killed:
                     reason += f"{during} (the simulation was killed)"
@@ -469,12 +666,17 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
         raise CosimError("a supervised run needs an output folder", element="--output")
     out_dir = Path(opts.output)
     claim_output_folder(out_dir)
-    t0 = time.perf_counter()
-    sup = _Supervisor(scenario, opts, timeout)
-    meta = sup.run()
-    if meta.get("wall_time_s") is None:
-        meta["wall_time_s"] = time.perf_counter() - t0
-        write_run_files(out_dir, meta, sup.events)
+    try:
+        t0 = time.perf_counter()
+        sup = _Supervisor(scenario, opts, timeout)
+        meta = sup.run()
+        if meta.get("wall_time_s") is None:
+            meta["wall_time_s"] = time.perf_counter() - t0
+            write_run_files(out_dir, meta, sup.events)
+        # the earlier run in the folder goes now that this one has rows, or comes back if it has none
+        settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+    finally:
+        release_output_folder(out_dir)
     result = Result(out_dir, meta, sup.events)
     if meta.get("outcome") != "completed":
         err = CosimError(meta.get("error") or f"run ended with outcome {meta.get('outcome')}")

@@ -60,7 +60,10 @@ def _warm_up():
 
 
 def _worker_main(conn, parent_pid: int):
+    # the parent stops the workers on Ctrl-C and SIGTERM (sent to the whole group by a terminal, `timeout`, systemd):
+    # a worker dying of them would record its run as failed
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     _pdeathsig()
     if os.getppid() != parent_pid:     # the parent died before prctl took effect
         return

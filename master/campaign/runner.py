@@ -244,6 +244,38 @@ def run_campaign(path, output=None, workers=None, scheduler=None, progress=True,
     missing runs it accepts run now (the others stay pending).
     """
     t_start = time.perf_counter()
+    with _sigterm_as_interrupt():
+        return _run_campaign_with_pool(path, output, workers, scheduler, progress, max_runs, retry_failed,
+                                       run_filter, t_start)
+
+
+def _sigterm_as_interrupt():
+    """SIGTERM (``timeout``, systemd, ``kill``) stops a campaign as Ctrl-C does: runs in flight are dropped, the
+    table is written and the summary says so; by default it killed the process with no word."""
+    import contextlib
+    import signal
+    import threading
+
+    from ..errors import Terminated
+
+    @contextlib.contextmanager
+    def held():
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def terminated(signum, frame):
+            raise Terminated()
+        previous = signal.signal(signal.SIGTERM, terminated)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+    return held()
+
+
+def _run_campaign_with_pool(path, output, workers, scheduler, progress, max_runs, retry_failed, run_filter,
+                            t_start) -> CampaignSummary:
     pool = None
     if not scheduler:
         # the local workers start now: their interpreters and imports take a core that would otherwise wait
@@ -265,7 +297,13 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
     camp = load_campaign(path)
     out = Path(output) if output is not None else Path("results") / camp.name
     out = out.resolve()
-    (out / "runs").mkdir(parents=True, exist_ok=True)
+    try:
+        (out / "runs").mkdir(parents=True, exist_ok=True)
+        with open(out / ".lock", "a+"):     # a read-only existing folder: said here, in one line
+            pass
+    except OSError as exc:
+        raise CosimError(f"cannot write into the campaign folder: {exc.strerror or exc}", file=str(out),
+                         element="--output") from None
     with _Lock(out):
         manifest = camp.manifest()
         # a run's fingerprint is a hash of its canonical inputs: computed once here, not for every plan and task
