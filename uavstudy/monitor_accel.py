@@ -67,15 +67,16 @@ class FleetCase:
 
 
 class ScriptedContext:
-    """What the monitor uses of the master's context, over a Real and an Integer buffer."""
+    """What the monitor uses of the master's context, over a Real and an Integer buffer holding the monitored
+    variables of the UAVs ``names`` (the harness's fleets and the monitor's own tests both script it)."""
 
-    def __init__(self, n: int):
+    def __init__(self, names, variables=tuple(ROLES.values()), integer=INTEGER):
         self.pos = {}
         counts = {"Real": 0, "Integer": 0}
-        for k in range(n):
-            for var in ROLES.values():
-                typ = "Integer" if var in INTEGER else "Real"
-                self.pos[f"u{k}.{var}"] = (typ, counts[typ])
+        for name in names:
+            for var in variables:
+                typ = "Integer" if var in integer else "Real"
+                self.pos[f"{name}.{var}"] = (typ, counts[typ])
                 counts[typ] += 1
         self.buf = {"Real": np.zeros(counts["Real"]), "Integer": np.zeros(counts["Integer"], dtype=np.int32)}
         self.deactivated: list[str] = []
@@ -97,6 +98,11 @@ class ScriptedContext:
 
     def request_stop(self, reason):
         self.stops.append((self.step, reason))
+
+    def set(self, uav, **values):
+        for var, v in values.items():
+            typ, k = self.pos[f"{uav}.{var}"]
+            self.buf[typ][k] = v
 
     def load(self, case: FleetCase, s: int) -> None:
         """The FMUs' outputs at step s; a removed UAV's keep their last values."""
@@ -120,7 +126,7 @@ def fly(case: FleetCase, step_factory, expect_c: bool = False):
     from .monitor import UavMonitor
     mon = UavMonitor(case.annotation(), None, f"{case.what}.ssp")
     mon.step_factory = step_factory
-    ctx = ScriptedContext(case.position.shape[1])
+    ctx = ScriptedContext([f"u{k}" for k in range(case.position.shape[1])])
     ctx.load(case, 0)
     mon.attach(ctx, 0.0)
     if expect_c and getattr(mon.step, "native", None) is None:

@@ -9,6 +9,7 @@ from lxml import etree
 from master.errors import ScenarioError
 from master.monitors import MONITORS
 from uavstudy.monitor import MONITOR_TYPE, UavMonitor, parse_config
+from uavstudy.monitor_accel import ScriptedContext
 
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 UAV = "https://cosim-master.org/ssp/uav"
@@ -35,49 +36,9 @@ def annotation(names, zones=(), targets=(), impact=2.6, homes=None, extra=""):
     return etree.fromstring(xml)
 
 
-class FakeCtx:
-    """The part of MonitorContext the monitor uses, over two numpy buffers."""
-
-    def __init__(self, names):
-        self.pos = {}
-        nr = ni = 0
-        for n in names:
-            for var in ROLES.values():
-                if var in INTEGER:
-                    self.pos[f"{n}.{var}"] = ("Integer", ni)
-                    ni += 1
-                else:
-                    self.pos[f"{n}.{var}"] = ("Real", nr)
-                    nr += 1
-        self.buf = {"Real": np.zeros(nr), "Integer": np.zeros(ni, dtype=np.int32)}
-        self.deactivated = []
-        self.events = []
-        self.stop_reasons = []
-
-    def position(self, q):
-        return self.pos[q]
-
-    def buffer(self, typ):
-        return self.buf[typ]
-
-    def deactivate(self, comps):
-        self.deactivated.extend(comps)
-
-    def emit(self, event):
-        self.events.append(event)
-
-    def request_stop(self, reason):
-        self.stop_reasons.append(reason)
-
-    def set(self, uav, **values):
-        for var, v in values.items():
-            typ, k = self.pos[f"{uav}.{var}"]
-            self.buf[typ][k] = v
-
-
 def make(names, **kw):
     mon = UavMonitor(annotation(names, **kw), None, "unit.ssp")
-    ctx = FakeCtx(names)
+    ctx = ScriptedContext(names, ROLES.values(), INTEGER)
     return mon, ctx
 
 
@@ -394,7 +355,7 @@ def test_fleet_removed_by_a_collision_stops_the_run():
     pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0)}
     fly(mon, ctx, lambda n, t: pos[n](t), steps=5)          # the contact is in the step [4, 5]
     assert all(r.removed for r in mon.records)
-    assert ctx.stop_reasons == ["every UAV has landed or been removed"]
+    assert [reason for _, reason in ctx.stops] == ["every UAV has landed or been removed"]
 
 
 def test_one_uav_left_keeps_the_run_going():
@@ -402,7 +363,7 @@ def test_one_uav_left_keeps_the_run_going():
     pos = {"a": lambda t: (-50 + 10 * t, 0.0, 20.0), "b": lambda t: (0.0, -50 + 10 * t, 20.0),
            "c": lambda t: (300.0, 300.0, 20.0)}
     fly(mon, ctx, lambda n, t: pos[n](t), steps=5)
-    assert [r.removed for r in mon.records] == [True, True, False] and ctx.stop_reasons == []
+    assert [r.removed for r in mon.records] == [True, True, False] and [reason for _, reason in ctx.stops] == []
 
 
 def test_mission_end_time_is_the_last_landing_or_removal():
