@@ -3,6 +3,8 @@ manipulators between steps, and extension points (a new algorithm, a new sink) e
 here, this test module -- through the registries."""
 import json
 
+import sys
+from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -19,6 +21,8 @@ from master.observers import Observer
 from master.sinks import SINKS
 from master.sinks.base import Sink
 from master.ssp.writer import SspBuilder
+sys.path.insert(0, str(Path(__file__).resolve().parent / "algorithms"))   # test_algorithms' chain, wherever
+# this file is collected from
 from test_algorithms import _chain as chain_ssp
 
 

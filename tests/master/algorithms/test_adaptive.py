@@ -4,6 +4,8 @@ product of the accepted steps' maps), steps that end on the record grid, reruns,
 docs/coupling.md gives the measured numbers."""
 import dataclasses
 
+import sys
+from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
@@ -13,6 +15,8 @@ import master
 from master.ssp.writer import SspBuilder
 
 from analytic import chain_exact, two_mass_cosim_steps
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "monitors"))   # test_monitors' annotation
 
 def test_predictor_weights_and_grid_fitting():
     from master.algorithms.adaptive import predictor_weights
@@ -167,7 +171,6 @@ def test_bad_settings_give_one_line(tmp_path, test_fmus, options, message):
     with pytest.raises(master.CosimError) as e:
         _run(_masses(tmp_path, test_fmus, 0.5, 1.0), None, **options)
     assert message in str(e.value) and "\n" not in str(e.value)
-
 
 def test_fmus_that_cannot_roll_back_are_named_before_the_first_step(tmp_path, test_fmus):
     from test_algorithms import _chain as chain_of_three

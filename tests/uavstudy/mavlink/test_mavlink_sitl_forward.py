@@ -29,6 +29,7 @@ from uavstudy.scenario import SitlOptions, UavScenario
 from test_mavlink_forward import FIRMWARE_SYSID, SSP, firmware  # noqa: F401 - the fake firmware fixture
 from test_mavlink_stream import Gcs, free_port
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fmu_sources" / "sitlsim"))   # test_sitl_vehicle
 from sitlveh_helpers import real_binary  # noqa: E402
 from test_sitl_vehicle import sitl_pids  # noqa: E402
 
