@@ -25,6 +25,7 @@ class AlgorithmOption:
     choices: tuple = ()
     minimum: float | None = None        # inclusive
     positive: bool = False
+    applies_to: tuple = ()              # the algorithms that read it (empty: every one); a study sweeps it for these
 
     @property
     def flag(self) -> str:
@@ -65,33 +66,43 @@ class AlgorithmOption:
 
 ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
     AlgorithmOption("extrapolation", "int", 0, "jacobi, gauss-seidel: coupled inputs extrapolated from the last "
-                    "K+1 output samples (0 held, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2)),
+                    "K+1 output samples (0 held, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2),
+                    applies_to=('jacobi', 'gauss-seidel', 'adaptive')),
     AlgorithmOption("gs_interpolation", "int", 0, "gauss-seidel: inputs already computed in the step get the "
                     "mean over the step of the polynomial through the new value and M earlier samples (0 held as "
-                    "computed, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2)),
+                    "computed, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2),
+                    applies_to=('gauss-seidel', 'iterative')),
     AlgorithmOption("coupling_tol", "float", 1e-10, "iterative: relative tolerance of the coupled values",
-                    minimum=0.0),
+                    minimum=0.0, applies_to=('iterative',)),
     AlgorithmOption("coupling_atol", "float", None, "iterative: absolute tolerance of the coupled values "
-                    "(default: coupling_tol)", minimum=0.0),
-    AlgorithmOption("coupling_max_iter", "int", 50, "iterative: iterations per step at most", minimum=1),
+                    "(default: coupling_tol)", minimum=0.0, applies_to=('iterative',)),
+    AlgorithmOption("coupling_max_iter", "int", 50, "iterative: iterations per step at most", minimum=1,
+                    applies_to=('iterative',)),
     AlgorithmOption("coupling_update", "choice", "iqn-ils", "iterative: how the next iterate is formed",
-                    choices=("fixed-point", "aitken", "iqn-ils")),
+                    choices=("fixed-point", "aitken", "iqn-ils"), applies_to=('iterative',)),
+    AlgorithmOption("coupling_interpolation", "int", 0, "iterative: 0 inputs held at the end-of-step iterate "
+                    "(order 1), 1 every coupled input held at the mean over the step of the line from its value at "
+                    "the step's start to the iterate (trapezoidal, order 2; docs/coupling.md)", choices=(0, 1),
+                    applies_to=('iterative',)),
     # adaptive and ecco: the defaults differ per algorithm (algorithms/adaptive.py, ecco.py) and the step limits are
     # checked against each other and the master step there (step_control.StepLimits), so no default here
     AlgorithmOption("step_rtol", "float", None, "adaptive: relative tolerance of the step's error estimate "
-                    "(default 1e-4); ecco: of the energy residual (default 1e-4)", minimum=0.0),
+                    "(default 1e-4); ecco: of the energy residual (default 1e-4)", minimum=0.0,
+                    applies_to=('adaptive', 'ecco')),
     AlgorithmOption("step_atol", "float", None, "adaptive, ecco: absolute tolerance (default: step_rtol)",
-                    minimum=0.0),
-    AlgorithmOption("min_step", "float", None, "adaptive, ecco: smallest step in seconds", positive=True),
+                    minimum=0.0, applies_to=('adaptive', 'ecco')),
+    AlgorithmOption("min_step", "float", None, "adaptive, ecco: smallest step in seconds", positive=True,
+                    applies_to=('adaptive', 'ecco')),
     AlgorithmOption("max_step", "float", None, "adaptive, ecco: largest step in seconds (default and at most: "
-                    "the master step, which the steps end on)", positive=True),
-    AlgorithmOption("initial_step", "float", None, "adaptive, ecco: first step in seconds", positive=True),
+                    "the master step, which the steps end on)", positive=True, applies_to=('adaptive', 'ecco')),
+    AlgorithmOption("initial_step", "float", None, "adaptive, ecco: first step in seconds", positive=True,
+                    applies_to=('adaptive', 'ecco')),
     AlgorithmOption("error_estimate", "choice", None, "adaptive: local error from the extrapolated vs computed "
                     "coupled values (default: extrapolation) or from step doubling (docs/coupling.md)",
-                    choices=("extrapolation", "doubling")),
+                    choices=("extrapolation", "doubling"), applies_to=('adaptive',)),
     AlgorithmOption("threads", "int", 1, "jacobi: threads that run the doSteps of a master step concurrently "
                     "(1: one after another; only doSteps that release the GIL overlap: native FMUs, the SITL "
-                    "vehicle; results bit-identical; docs/coupling.md)", minimum=1),
+                    "vehicle; results bit-identical; docs/coupling.md)", minimum=1, applies_to=('jacobi',)),
 )}
 
 

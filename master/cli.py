@@ -217,8 +217,13 @@ def _parser() -> argparse.ArgumentParser:
                     help="the master step sizes, in seconds (at least two for an observed order)")
     st.add_argument("--reference", required=True, metavar="REF",
                     help="analytic:MODULE:FUNCTION (MODULE a .py file or module name; FUNCTION(t) returns the "
-                         "signals by name), fine:H (the scenario at step H with iterative coupling) or a results "
-                         "file (.parquet, .csv)")
+                         "signals by name), fine:H (the scenario at steps H and H/2 with second-order iterative "
+                         "coupling, its error estimated from the two) or a results file (.parquet, .csv)")
+    from .algorithm_options import ALGORITHM_OPTIONS
+    for opt in ALGORITHM_OPTIONS.values():      # every algorithm setting is an axis (for the algorithms reading it)
+        if opt.name != "extrapolation":
+            st.add_argument(opt.flag, nargs="+", dest=f"sweep_{opt.name}", metavar="V",
+                            help=f"swept: {opt.help}" + (f" (for {', '.join(opt.applies_to)})" if opt.applies_to else ""))
     st.add_argument("--record", nargs="+", metavar="PATTERN", help="the signals to compare (default: every "
                                                                    "connected output the reference knows)")
     st.add_argument("--stop-time", type=_number, metavar="SECONDS",
@@ -415,7 +420,8 @@ def _dispatch(args) -> int:
         summary = run_study(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
                             steps=args.step, reference=args.reference, record=args.record, output=args.output,
                             workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
-                            progress=not args.no_progress and _progress(None))
+                            progress=not args.no_progress and _progress(None),
+                            settings={k[len("sweep_"):]: v for k, v in vars(args).items() if k.startswith("sweep_")})
         print(summary.describe())
         return 0
     if args.command == "report":

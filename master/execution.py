@@ -93,6 +93,7 @@ class Options:
     coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
     coupling_max_iter: int | None = None              # iterative: iterations per step at most
     coupling_update: str | None = None                # iterative: "fixed-point", "aitken", "iqn-ils"
+    coupling_interpolation: int | None = None         # iterative: 1 inputs interpolated over the step (trapezoidal)
     step_rtol: float | None = None                    # adaptive, ecco: relative tolerance of the step's error
     step_atol: float | None = None                    # adaptive, ecco: absolute tolerance (default: step_rtol)
     min_step: float | None = None                     # adaptive, ecco: smallest step (s)

@@ -11,15 +11,29 @@ without loops is solved by its first sweep. The first iterate is the value at th
 1 is the plain Gauss-Seidel step. At convergence every FMU has stepped over [t, t + h] with its inputs held at
 the *end-of-step* coupled values: the implicit (monolithic) coupled step for FMUs that hold inputs constant.
 Integer, Boolean and String couplings and outputs of components on a step multiple are not iterated (held).
+
+A step that has not converged at ``--coupling-max-iter`` iterations (or whose iterate turns NaN or infinite)
+stops the run with one line naming the time, the residual and the update: a coupling iteration that does not
+contract only grows (fixed point on a loop gain above 1), and carrying on from its last iterate ran into NaN.
+
+``--coupling-interpolation 1`` (Jacobi waveform iteration with trapezoidal inputs): the iterate U is every
+coupled Real output at the step's *end*; every component steps (all from the same inputs, from the saved
+point) with its coupled inputs held at the mean over the step of the line from the value at the step's start
+to U, (u_n + U) / 2, and G(U) are the coupled outputs at the step's end, the feedthrough components' outputs
+read again with their inputs set to the end values (as extrapolation.py does). The fixed point is the
+trapezoidal coupled step: global order 2, and on the two-mass oscillator a step map of spectral radius 1 (the
+trapezoidal rule's energy conservation) where inputs held at the end-of-step values give 1.106 on the stiff
+variant at h = 0.02 (docs/coupling.md).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import CosimError
+from ..fmi.slave import WARNING
 from ..runtime import SavedPoint
 from . import ALGORITHMS
-from .extrapolation import coupled_outputs
+from .extrapolation import InputExtrapolation, coupled_outputs
 from .coupling_updates import UPDATES
 from .gauss_seidel import GaussSeidel
 
@@ -43,6 +57,10 @@ class Iterative(GaussSeidel):
             raise CosimError(f"unknown coupling update {options.coupling_update!r} (known: {', '.join(UPDATES)})",
                              element="--coupling-update")
         self.update = UPDATES[options.coupling_update]()
+        self.interpolate_inputs = int(getattr(options, "coupling_interpolation", 0) or 0)
+        if self.interpolate_inputs and self.interpolation:
+            raise CosimError("--coupling-interpolation 1 interpolates every coupled input over the step already; "
+                             "--gs-interpolation does not apply with it", element="--gs-interpolation")
 
     def prepare(self, rt, plan, h: float) -> dict:
         cannot = [s.name for s, on in zip(rt.slaves, rt.active) if on and not s.can_save_state]
@@ -50,7 +68,11 @@ class Iterative(GaussSeidel):
             raise CosimError(f"the iterative algorithm rolls steps back, and {', '.join(cannot)} cannot save and "
                              "restore its state (canGetAndSetFMUstate is not true)", file=plan.shown_as,
                              element="component" + ("s" if len(cannot) > 1 else "") + " " + ", ".join(cannot))
+        self.plan = plan
         info = super().prepare(rt, plan, h)       # the Gauss-Seidel order and its loops (stepping_order)
+        if self.interpolate_inputs:
+            info["inputs"] = ("every coupled input held at (u_n + U) / 2 over the step, U the iterate of the "
+                              "coupled outputs at its end (trapezoidal, Jacobi sweeps)")
         info.update({"update": self.update.name, "rtol": self.rtol, "atol": self.atol,
                      "max_iterations": self.max_iter, "steps": 0, "iterations_mean": 0.0, "iterations_max": 0,
                      "iterations_total": 0, "not_converged_steps": 0, "rollbacks": 0})
@@ -58,7 +80,15 @@ class Iterative(GaussSeidel):
 
     def _build(self):
         super()._build()
-        self.positions = self._loop_values()
+        if self.interpolate_inputs:
+            self._feed = InputExtrapolation(self.rt, self.plan, 0)
+            self._feed._select()
+            self.positions = self._feed.positions
+            rt = self.rt
+            self.components = [(i, rt.multiple[i], *rt.fast_ops(i)) for i in range(len(rt.slaves)) if rt.active[i]]
+            self.rt.changed = False
+        else:
+            self.positions = self._loop_values()
 
     def _loop_values(self) -> np.ndarray:
         """Positions of the coupled outputs some active component reads before (or while) their own component
@@ -74,14 +104,14 @@ class Iterative(GaussSeidel):
     def step(self, n: int, t: float) -> None:
         if self.rt.changed:
             self._build()
-        self._iterate(self._step, n, t)
+        self._iterate(self._interpolated(self.h) if self.interpolate_inputs else self._step, n, t, self.h)
 
     def step_sized(self, n: int, t: float, h: float) -> None:
         if self.rt.changed:
             self._build()
-        self._iterate(self._compile(h), n, t)
+        self._iterate(self._interpolated(h) if self.interpolate_inputs else self._compile(h), n, t, h)
 
-    def _iterate(self, step, n: int, t: float) -> None:
+    def _iterate(self, step, n: int, t: float, h: float) -> None:
         out, pos = self.rt.out["Real"], self.positions
         if not len(pos):            # nothing coupled: one step is the solution
             step(n, t)
@@ -90,6 +120,7 @@ class Iterative(GaussSeidel):
         saved = SavedPoint(self.rt, t)
         self.update.start()
         u = out[pos].copy()
+        self._start = u.copy()
         converged = False
         try:
             for k in range(1, self.max_iter + 1):
@@ -98,14 +129,63 @@ class Iterative(GaussSeidel):
                 out[pos] = u
                 step(n, t)
                 g = out[pos].copy()
-                if np.all(np.abs(g - u) <= self.atol + self.rtol * np.abs(g)):
+                residual = np.abs(g - u)
+                if np.all(residual <= self.atol + self.rtol * np.abs(g)):
                     converged = True
                     break
-                if k < self.max_iter:
-                    u = self.update.next(u, g)
+                if k == self.max_iter or not np.all(np.isfinite(g)):
+                    break
+                u = self.update.next(u, g)
         finally:
             saved.release()
         self._count(k, converged)
+        if not converged:
+            raise self._not_converged(k, residual, g, t + h)
+
+    def _not_converged(self, k: int, residual: np.ndarray, g: np.ndarray, t: float) -> CosimError:
+        names = {p: q for q, p in self.rt.out_pos.items()}
+        worst = int(np.nanargmax(np.where(np.isfinite(residual), residual, np.inf))) if len(residual) else 0
+        size = residual[worst]
+        what = (f"the iterate of {names.get(int(self.positions[worst]), '?')} is {g[worst]}"
+                if not np.isfinite(size) else
+                f"after {k} iterations |G(u) - u| of {names.get(int(self.positions[worst]), '?')} is {size:.3g}, above "
+                f"the tolerance {self.atol + self.rtol * abs(g[worst]):.3g}")
+        return CosimError(f"the coupling iteration ({self.update.name}) did not converge: {what} (raise "
+                          "--coupling-max-iter, loosen --coupling-tol, or use --coupling-update aitken or iqn-ils, "
+                          "which converge where the fixed point does not)",
+                          file=getattr(self.plan, "shown_as", None), element="--coupling-max-iter", time=t)
+
+    def _interpolated(self, h: float):
+        """The Jacobi sweep with trapezoidal inputs (``--coupling-interpolation 1``): out[positions] holds
+        the iterate U on entry and G(U) on return."""
+        rt, pos, feed = self.rt, self.positions, self._feed
+        out = rt.out["Real"]
+
+        def sweep(n: int, t: float) -> None:
+            end = out[pos].copy()
+            out[pos] = 0.5 * (self._start + end)
+            stepped = []
+            for i, k, transfers, setters, do_step, getters, _ in self.components:
+                if k > 1 and n % k:
+                    continue
+                for x in transfers:
+                    x()
+                for s in setters:
+                    if (st := s()) > WARNING:
+                        raise rt.slaves[i].fail("setting inputs", st, t)
+                if (st := do_step(t, h * k)) > WARNING and not rt.ends_run_on_request(i, st):
+                    raise rt.slaves[i].fail("doStep", st, t)
+                rt.do_step_calls[i] += 1
+                stepped.append((i, getters))
+            for i, getters in stepped:
+                for g in getters:
+                    if (st := g()) > WARNING:
+                        raise rt.slaves[i].fail("getting outputs", st, t + h)
+            feed._refresh(t + h)       # feedthrough outputs at the step's end, from the end values
+            for i, k, *_, publish in self.components:
+                if k > 1 and publish is not None and (n + 1) % k == 0:
+                    publish()
+        return sweep
 
     def _count(self, iterations: int, converged: bool) -> None:
         info = self.info

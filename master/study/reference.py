@@ -3,8 +3,15 @@
 - ``analytic:MODULE:FUNCTION``: a Python function of time (a numpy array) returning the signals, a mapping
   'component.variable' -> array (or a pandas DataFrame); MODULE is a file (``ssp/coupling/oscillator_exact.py``)
   or an importable module name;
-- ``fine:H``: the same scenario run at the step H with iterative coupling (a run of the study's campaign);
-- a results file (``.parquet`` or ``.csv`` with a ``time`` column, e.g. another run's results.parquet).
+- ``fine:H``: the same scenario co-simulated with a second-order scheme, iterative coupling with inputs
+  interpolated over the step (``coupling_interpolation`` 1: the trapezoidal coupled step), at the step H and at
+  H / 2 (two runs of the study's campaign). The run at H / 2 is the reference; its error is estimated by
+  Richardson's rule from the two, max |y_H - y_{H/2}| / (2^2 - 1) per signal (Hairer, Noersett and Wanner I,
+  sec. II.4). The FMUs' own integration error is part of both runs and not estimated (the coupling benchmarks'
+  FMUs integrate exactly for held inputs); a scenario whose FMUs cannot save their state cannot be iterated:
+  give a results file or a closed form instead;
+- a results file (``.parquet`` or ``.csv`` with a ``time`` column, e.g. another run's results.parquet): its
+  error is unknown.
 
 Runs are compared at their own recorded times; a reference given as samples (fine, file) is interpolated
 linearly there (exact where the run's times are among the reference's, as for a fine step dividing the
@@ -24,6 +31,9 @@ import numpy as np
 from ..errors import CosimError
 
 ELEMENT = "--reference"
+#: the scheme of a ``fine:`` reference: its campaign run parameters besides the step, and its global order
+FINE_SCHEME = {"algorithm": "iterative", "extrapolation": 0, "coupling_interpolation": 1}
+FINE_ORDER = 2
 
 
 @dataclass
@@ -33,6 +43,40 @@ class Reference:
     function: object = None     # analytic: f(t) -> {signal: array}
     fine_step: float | None = None
     frame: object = None        # file (and fine, once its run is done): pandas DataFrame with "time"
+    errors: dict | None = None  # signal -> the reference's own estimated error (analytic: 0, file: unknown)
+
+    def runs(self) -> list[dict]:
+        """The campaign runs a fine reference needs: at H and at H / 2."""
+        if self.kind != "fine":
+            return []
+        return [{**FINE_SCHEME, "step": self.fine_step}, {**FINE_SCHEME, "step": self.fine_step / 2}]
+
+    def describe(self) -> str:
+        """What the reference is, for study.csv and the figures."""
+        if self.kind == "fine":
+            return (f"{self.text}: iterative, trapezoidal inputs (order {FINE_ORDER}) at {self.fine_step / 2:g} s, "
+                    f"error estimated from {self.fine_step:g} s")
+        if self.kind == "analytic":
+            return f"{self.text} (closed form)"
+        return f"{self.text} (results file, error unknown)"
+
+    def error(self, signal: str) -> float:
+        if self.kind == "analytic":
+            return 0.0
+        return (self.errors or {}).get(signal, math.nan)
+
+    def set_fine(self, coarse, fine) -> None:
+        """The fine reference from its runs at H (``coarse``) and H / 2 (``fine``, DataFrames): the values of
+        the finer one, the error estimate from their difference at the coarser one's times."""
+        self.frame = fine
+        t = coarse["time"].to_numpy(dtype=float)
+        self.errors = {}
+        for s in coarse.columns:
+            if s == "time" or s not in fine.columns:
+                continue
+            d = coarse[s].to_numpy(dtype=float) - np.interp(t, fine["time"].to_numpy(dtype=float),
+                                                            fine[s].to_numpy(dtype=float))
+            self.errors[s] = float(np.max(np.abs(d))) / (2 ** FINE_ORDER - 1) if len(d) else math.nan
 
     def values(self, t: np.ndarray, signals: list[str]) -> dict[str, np.ndarray]:
         """The reference's value of each of ``signals`` it knows at the times ``t``."""
