@@ -5,10 +5,11 @@ or more *adaptive steps* h <= min(--max-step, H); a step that would pass the mas
 that equal steps land on it exactly (``fit_to_grid``), so recorded values are the FMUs' own values at the
 record points, never interpolated. Every adaptive step is a Jacobi step: all components step from the same
 coupled inputs, the mean over the step of the polynomial through the last K + 1 accepted samples of each
-coupled output (``--extrapolation K``; K = 0 holds the last value), on the actual, uneven step times. With
-K > 0, after each step the components with a direct-feedthrough coupled output get their inputs again and are
-read once more (as extrapolation.py does), so every sample is the value at the step's end; with K = 0 a step
-is exactly a ``jacobi`` step of that length.
+coupled output (``--extrapolation K``; K = 0 holds the last value), on the actual, uneven step times. After
+each step the components with a direct-feedthrough coupled output get their inputs again and are read once
+more (as extrapolation.py does), so every sample is the value at the step's end (with K = 0 too: the inputs
+of a step are as a ``jacobi`` step's of that length, the feedthrough outputs recorded at its end are
+consistent with the other outputs there; ECCO, with its own estimate, keeps Jacobi's samples).
 
 Error estimates (``--error-estimate``):
 - ``extrapolation`` (default): the difference between the value the predictor polynomial gives at the
@@ -21,7 +22,11 @@ Error estimates (``--error-estimate``):
   the global order, docs/coupling.md), estimates the local error of the two half steps, which are kept
   (Richardson; Hairer, Noersett and Wanner I, sec. II.4). Three sweeps and a rollback per step.
 
-A step is accepted when max_i |e_i| / (atol + rtol |y_i|) <= 1; otherwise every FMU and the master's buffers
+A step is accepted when max_i |e_i| / (atol + rtol max(|y_i|, M_i)) <= 1, with M_i the largest |y_i| of the
+accepted steps so far (the variable's magnitude: a coupling force of ~1000 and a position of ~1 each get a
+tolerance on their own scale, and an oscillating value passing through zero keeps the tolerance of its
+amplitude instead of falling to atol, which drove the steps of the stiff oscillator to the minimum step);
+otherwise every FMU and the master's buffers
 are restored (runtime.SavedPoint) and the step is retried shorter. At the minimum step a step is accepted
 whatever its estimate and counted (``accepted_above_tolerance``). The next step comes from the PI controller
 of step_control.py. Components on a step multiple k step once per k master steps (with the first adaptive
@@ -95,6 +100,7 @@ class Adaptive(Algorithm):
         self.h_next = self.limits.h_initial
         self.controller = gustafsson(1.0, h_min=self.limits.h_min, h_max=self.limits.h_max)
         self._feed = InputExtrapolation(rt, plan, self.extrapolation)
+        self._refresh_held = type(self)._attempt is Adaptive._attempt
         self.history: list[tuple[float | None, np.ndarray]] = []    # samples of the coupled outputs, newest first
         self.positions = np.zeros(0, dtype=np.intp)
         self._build()
@@ -117,6 +123,15 @@ class Adaptive(Algorithm):
         self.components = [(i, rt.multiple[i], *rt.fast_ops(i)) for i in range(len(rt.slaves)) if rt.active[i]]
         firsts = [(rt.out_slice["Real"][i][0], rt.step_reads(i, "Real")) for i, k, *_ in self.components if k == 1]
         self.outputs = np.array([p for a, m in firsts for p in range(a, a + m)], dtype=np.intp)
+        # the magnitudes M_i of the compared values (the error norm), kept per output position across rebuilds
+        out = rt.out["Real"]
+        known = dict(zip(self._mag_at.tolist(), self._mag.tolist())) if hasattr(self, "_mag_at") else {}
+        self._mag_at = np.union1d(positions, self.outputs).astype(np.intp)
+        now = np.abs(out[self._mag_at])
+        self._mag = np.where(np.isfinite(now), now, 0.0)
+        self._mag = np.maximum(self._mag, [known.get(int(p), 0.0) for p in self._mag_at])
+        self._mag_of = {"positions": np.searchsorted(self._mag_at, positions),
+                        "outputs": np.searchsorted(self._mag_at, self.outputs)}
         rt.changed = False
 
     # -- stepping ---------------------------------------------------------------------------------------
@@ -173,6 +188,7 @@ class Adaptive(Algorithm):
             if saved is not None:
                 saved.release()
         stats.accept(t + h, h, r, extra)
+        self._remember_magnitudes()
         self._set_gains(q)
         # a step shortened only to land on the master step's end: the controller goes on from the step it
         # wanted (else every master step would pull it back to its equal share)
@@ -188,7 +204,8 @@ class Adaptive(Algorithm):
         if self.estimate == "extrapolation":
             samples = len(self.history)
             predicted = self._sweep(n, t, h, first)
-            return self._norm(out[self.positions] - predicted, out[self.positions]), float(samples), ()
+            return (self._norm(out[self.positions] - predicted, out[self.positions], "positions"),
+                    float(samples), ())
         samples = len(self.history)
         self._sweep(n, t, h, first)
         big = out[self.outputs].copy()
@@ -199,12 +216,20 @@ class Adaptive(Algorithm):
         self._sweep(n, t + h / 2, h / 2, False)
         p = 1 if samples == 1 else 2
         small = out[self.outputs]
-        return self._norm((small - big) / (2 ** p - 1), small), float(p + 1), ()
+        return self._norm((small - big) / (2 ** p - 1), small, "outputs"), float(p + 1), ()
 
-    def _norm(self, error: np.ndarray, values: np.ndarray) -> float:
+    def _norm(self, error: np.ndarray, values: np.ndarray, which: str) -> float:
+        """max_i |e_i| / (atol + rtol max(|y_i|, M_i)) (module docstring); ``which``: "positions" (the coupled
+        values) or "outputs" (the values step doubling compares)."""
         if not len(error):
             return 0.0
-        return float(np.max(np.abs(error) / (self.limits.atol + self.limits.rtol * np.abs(values))))
+        magnitude = np.maximum(np.abs(values), self._mag[self._mag_of[which]])
+        return float(np.max(np.abs(error) / (self.limits.atol + self.limits.rtol * magnitude)))
+
+    def _remember_magnitudes(self) -> None:
+        """After an accepted step: the largest finite |y_i| so far of every compared value."""
+        now = np.abs(self.rt.out["Real"][self._mag_at])
+        np.maximum(self._mag, np.where(np.isfinite(now), now, 0.0), out=self._mag)
 
     def _sweep(self, n: int, t: float, h: float, first: bool) -> np.ndarray:
         """A Jacobi step [t, t + h] from the extrapolated coupled values; appends the new sample to the
@@ -239,7 +264,11 @@ class Adaptive(Algorithm):
                 if (st := g()) > WARNING:
                     raise rt.slaves[i].fail("getting outputs", st, t + h)
         self.stats.fmu_calls += len(stepped)
-        if self.extrapolation:      # consistent samples for the polynomial (extrapolation.py); held: as jacobi
+        # consistent samples (extrapolation.py), held inputs too when this class's error estimate reads them: a
+        # feedthrough output read with the inputs it held carries the previous step's input change, an "error"
+        # that no shorter step reduces, which drove the stiff oscillator's steps to the minimum step (an
+        # algorithm with an estimate of its own, ECCO, keeps Jacobi's held-input samples, as libcosim has them)
+        if self.extrapolation or self._refresh_held:
             self._feed._refresh(t + h)
         history.insert(0, (t + h, out[pos].copy()))
         del history[self.extrapolation + 1:]

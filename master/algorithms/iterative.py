@@ -160,6 +160,9 @@ class Iterative(GaussSeidel):
         the iterate U on entry and G(U) on return."""
         rt, pos, feed = self.rt, self.positions, self._feed
         out = rt.out["Real"]
+        fed_through = {i for i, _ in feed._refreshed}
+        through_at = np.array([j for j, p in enumerate(pos) if feed.owner[int(p)] in fed_through], dtype=np.intp)
+        through = pos[through_at]
 
         def sweep(n: int, t: float) -> None:
             end = out[pos].copy()
@@ -181,7 +184,10 @@ class Iterative(GaussSeidel):
                 for g in getters:
                     if (st := g()) > WARNING:
                         raise rt.slaves[i].fail("getting outputs", st, t + h)
-            feed._refresh(t + h)       # feedthrough outputs at the step's end, from the end values
+            # feedthrough outputs at the step's end: from the iterate's end values, not from the mean inputs
+            # they were read with
+            out[through] = end[through_at]
+            feed._refresh(t + h)
             for i, k, *_, publish in self.components:
                 if k > 1 and publish is not None and (n + 1) % k == 0:
                     publish()

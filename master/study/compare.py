@@ -26,8 +26,8 @@ ROUNDOFF = 1e-12
 DIVERGED = 10.0
 
 #: the leading columns of study.csv; the settings swept as axes come after ``step``
-COLUMNS = ["algorithm", "extrapolation", "step", "signal", "error_max", "error_rms", "observed_order", "outcome",
-           "fmu_calls", "wall_s", "steps", "iterations", "rejected", "reference", "reference_error",
+COLUMNS = ["algorithm", "extrapolation", "step", "signal", "error_max", "error_rms", "fmu_calls", "wall_s",
+           "observed_order", "outcome", "steps", "iterations", "rejected", "reference", "reference_error",
            "reference_magnitude"]
 
 #: what a row's grid point is made of besides its settings axes

@@ -78,10 +78,10 @@ def _chain_error(df) -> float:
 
 def test_adaptive_meets_its_tolerance_with_far_fewer_steps_than_a_fixed_step(tmp_path, integrator):
     # held inputs (K = 0): the estimate is the change of each coupled value over the step, i.e. the largest
-    # error of the held input; on this contracting system the global error stays below the tolerance
-    # (measured 7.2e-3 at 1e-2 with 172 steps, 2.8e-4 at 1e-3 with 1072 steps). A fixed step needs ~5200 steps
-    # for 7.2e-3 (error 4.6e-3 at 8000, 1.9e-2 at 2000: first order): the transient needs small steps, the slow
-    # decay after it does not.
+    # error of the held input, against a tolerance on the scale of each value's largest magnitude so far; on
+    # this contracting system the global error stays below the tolerance (measured 1.0e-2 at 1e-2 with 134
+    # steps). A fixed step of 2000 steps (15 times as many) still errs 1.9e-2 (4.6e-3 at 8000: first order):
+    # the transient needs small steps, the slow decay after it does not.
     ssp = _chain(tmp_path, integrator, 0.5)
     steps = {}
     for tol in (1e-2, 1e-3):
@@ -95,7 +95,7 @@ def test_adaptive_meets_its_tolerance_with_far_fewer_steps_than_a_fixed_step(tmp
         steps[tol] = (info["steps"], error)
     n_adaptive, error = steps[1e-2]
     fixed = master.run(_chain(tmp_path, integrator, 0.005), output=None, algorithm="jacobi", record=["I1.y", "I2.y"])
-    assert 10 / 0.005 >= 10 * n_adaptive and _chain_error(fixed.frame) > 2 * error
+    assert 10 / 0.005 >= 10 * n_adaptive and _chain_error(fixed.frame) > 1.5 * error
 
 
 # -- the two-mass oscillator: every step is an exact linear map (analytic.two_mass_cosim_steps) --------------------
@@ -125,12 +125,16 @@ def test_rejected_steps_leave_no_trace_and_steps_end_on_the_record_grid(tmp_path
     # every master step's end is a step's end (steps are shortened to land on it), so the record grid is hit
     grid = 0.25 * np.arange(1, 13)
     assert np.min(np.abs(steps["time"].to_numpy()[:, None] - grid[None, :]), axis=0).max() < 1e-12
-    exact = two_mass_cosim_steps(steps["step"].to_numpy(), "jacobi_delayed")
+    # held inputs with the feedthrough output B.F read again at each step's end (consistent samples): the
+    # "jacobi" semantics of tests/analytic.py, step by step
+    exact = two_mass_cosim_steps(steps["step"].to_numpy(), "jacobi")
     df = r.frame
     np.testing.assert_allclose(df["time"], 0.5 * np.arange(7), rtol=0, atol=0)
     rows = [int(np.argmin(np.abs(exact["time"] - t))) for t in df["time"]]
-    for col, key in (("A.x", "x1"), ("A.v", "v1"), ("B.x", "x2"), ("B.v", "v2"), ("B.F", "F")):
+    for col, key in (("A.x", "x1"), ("A.v", "v1"), ("B.x", "x2"), ("B.v", "v2")):
         np.testing.assert_allclose(df[col], exact[key][rows], rtol=0, atol=1e-12)
+    # B.F from the positions at the same time (kc = 1): no step of delay
+    np.testing.assert_allclose(df["B.F"], exact["x2"][rows] - exact["x1"][rows], rtol=0, atol=1e-12)
 
 
 def test_rerun_is_bit_identical(tmp_path, test_fmus):
