@@ -60,6 +60,16 @@ def _log_ticks(ax) -> None:
     ax.tick_params(axis="y", labelsize=8)
 
 
+def _step_ticks(ax, steps) -> None:
+    """The studied steps as the x tick labels (written as given: 0.005, not 5 x 10^-3), thinned to at most
+    eight so they keep apart."""
+    from matplotlib.ticker import FixedLocator, NullFormatter
+    shown = steps[::max(1, math.ceil(len(steps) / 8))]
+    ax.xaxis.set_major_locator(FixedLocator(shown))
+    ax.xaxis.set_major_formatter(lambda x, _: f"{x:g}")
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _pyplot():
     import matplotlib
     matplotlib.use("Agg")
@@ -68,7 +78,7 @@ def _pyplot():
 
 
 def _save(fig, path: Path) -> Path:
-    fig.tight_layout(rect=(0, 0, 1, 0.9))
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / fig.get_figheight()))
     fig.savefig(path, dpi=120)
     _pyplot().close(fig)
     return path
@@ -101,6 +111,7 @@ def error_vs_step(table: list[dict], path: Path, title: str = "", axes: list[str
         ax.set_title(signal, fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         _log_ticks(ax)
+        _step_ticks(ax, sorted({r["step"] for r in table}))
         ax.legend(fontsize=7)
     for ax in list(grid.flat)[len(signals):]:
         ax.set_visible(False)

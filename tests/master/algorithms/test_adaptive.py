@@ -253,3 +253,33 @@ def test_a_non_finite_value_ends_the_run_with_the_usual_error(tmp_path, integrat
     assert "non-finite output" in str(e.value) and "\n" not in str(e.value)
     info = e.value.result.metadata["algorithm_info"]
     assert e.value.time < 0.1 and 1 <= info["steps"] < 10 and info["accepted_above_tolerance"] >= 1
+
+
+def test_held_inputs_on_the_stiff_oscillator_take_the_steps_the_tolerance_asks_for(tmp_path):
+    # oscillator_stiff.ssp (kc = 1000): the coupling force swings over +-1000 at ~44.7 rad/s while A.x stays
+    # within +-1. With held inputs the estimate of a step is the change of each coupled value over it, h |y'|,
+    # against rtol (1e-2 here) times the value's magnitude so far, so the fewest steps that each meet the
+    # tolerance number N = integral of max_i |y_i'| / (atol + rtol M_i) dt, from the closed form; the controller
+    # (safety 0.9) takes between N and 2 N. A tolerance on |y_i| alone fell to atol where the force crosses
+    # zero, and a held feedthrough sample carried the previous step's change that no shorter step reduces:
+    # 27685 steps down to the 1e-8 minimum over this second, one accepted above the tolerance.
+    import importlib.util
+    repo = Path(__file__).resolve().parents[3]
+    spec = importlib.util.spec_from_file_location("oscillator_exact_adaptive", repo / "ssp/coupling/oscillator_exact.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    stop, rtol = 1.0, 1e-2
+    t = np.linspace(0.0, stop, 200001)
+    x1, v1, x2, v2 = ex.two_mass(t, **ex.STIFF)
+    kc = ex.STIFF["kc"]
+    force, dforce = kc * (x2 - x1), kc * (v2 - v1)
+    rate = np.maximum(np.abs(dforce) / (rtol + rtol * np.maximum.accumulate(np.abs(force))),
+                      np.abs(v1) / (rtol + rtol * np.maximum.accumulate(np.abs(x1))))
+    fewest = float(np.sum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t)))
+    r = master.run(repo / "ssp/coupling/oscillator_stiff.ssp", output=tmp_path / "out", algorithm="adaptive",
+                   step_rtol=rtol, stop_time=stop, record=["A.x", "B.F"])
+    info = r.metadata["algorithm_info"]
+    assert fewest <= info["steps"] <= 2 * fewest, (fewest, info)
+    assert info["accepted_above_tolerance"] == 0 and info["step_min"] > 0.2 / np.max(rate)
+    steps = pd.read_csv(tmp_path / "out" / "steps.csv")
+    assert len(steps) == info["steps"] and steps["error_estimate"].max() <= 1.0

@@ -156,3 +156,66 @@ def test_iterative_settings_are_checked(tmp_path, test_fmus):
         master.run(ssp, output=None, algorithm="iterative", coupling_update="newton")
     with pytest.raises(master.CosimError, match="does not apply to the iterative algorithm"):
         master.run(ssp, output=None, algorithm="iterative", extrapolation=1)
+
+
+# -- iterative coupling with inputs interpolated over the step (--coupling-interpolation 1) ---------------------
+def _trapezoidal_map(h, m1=1.0, kc=1.0, k1=1.0, k2=1.0, m2=1.0) -> np.ndarray:
+    """The 4 x 4 map z_n -> z_{n+1} (z = [x1, v1, x2, v2]) of the trapezoidal coupled step: A steps with F held
+    at (F_n + F') / 2, F = kc (x2 - x1) at both ends, B with x_in held at (x1_n + x1') / 2. With the exact step
+    maps this is linear in the end positions (x1', x2'):
+        (1 + qA[0] kc / 2) x1' - qA[0] kc / 2 x2' = PA[0] z1 + qA[0] kc / 2 (x2 - x1)
+        -qB[0] kc / 2 x1' + x2' = PB[0] z2 + qB[0] kc / 2 x1."""
+    PA, qA = oscillator_step_map(m1, k1, h)
+    PB, qB = oscillator_step_map(m2, k2 + kc, h)
+    lhs = np.array([[1.0 + qA[0] * kc / 2, -qA[0] * kc / 2], [-qB[0] * kc / 2, 1.0]])
+    columns = []
+    for z in np.eye(4):
+        z1, z2 = z[:2], z[2:]
+        x1_end, x2_end = np.linalg.solve(lhs, [PA[0] @ z1 + qA[0] * kc / 2 * (z2[0] - z1[0]),
+                                               PB[0] @ z2 + qB[0] * kc / 2 * z1[0]])
+        force = kc / 2 * ((z2[0] - z1[0]) + (x2_end - x1_end))
+        columns.append(np.concatenate([PA @ z1 + qA * force, PB @ z2 + qB * kc * (z1[0] + x1_end) / 2]))
+    return np.array(columns).T
+
+
+@pytest.mark.parametrize("m1, kc, h", [(1.0, 1.0, 0.05), (1.0, 1000.0, 0.02)])
+def test_interpolated_iteration_is_the_trapezoidal_coupled_step(tmp_path, test_fmus, m1, kc, h):
+    # the run reaches the trapezoidal step's fixed point step by step; its map has spectral radius 1 (energy
+    # conserved, where inputs held at the end values give 1.106 on the stiff system at h = 0.02: docs/coupling.md)
+    n = 60
+    fmus = {m: test_fmus[f"c2:{m}"] for m in ("MassA", "MassB")}
+    r = master.run(_masses(tmp_path, fmus, h, n * h, m1, kc), output=None, algorithm="iterative",
+                   coupling_interpolation=1, coupling_tol=1e-11, coupling_max_iter=100,
+                   record=["A.x", "A.v", "B.x", "B.v"])
+    T = _trapezoidal_map(h, m1, kc)
+    expected = [np.array([1.0, 0.0, 0.0, 0.0])]
+    for _ in range(n):
+        expected.append(T @ expected[-1])
+    expected = np.array(expected)
+    got = r.frame[["A.x", "A.v", "B.x", "B.v"]].to_numpy()
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    assert abs(max(abs(np.linalg.eigvals(T))) - 1.0) < 1e-9
+    assert "(u_n + U) / 2" in r.metadata["algorithm_info"]["inputs"]
+
+
+def test_interpolated_iteration_is_second_order(tmp_path, test_fmus):
+    fmus = {m: test_fmus[f"c2:{m}"] for m in ("MassA", "MassB")}
+    errors, slopes = _observed_orders(tmp_path, fmus, algorithm="iterative", coupling_interpolation=1)
+    assert np.all(np.abs(slopes - 2.0) < 0.15), (errors, slopes)
+    held, held_slopes = _observed_orders(tmp_path, fmus, algorithm="iterative")
+    assert np.all(np.abs(held_slopes - 1.0) < 0.15) and errors[-1] < held[-1] / 10
+
+
+def test_a_coupling_iteration_that_does_not_converge_stops_at_the_cap(tmp_path, test_fmus):
+    # a light mass A (m = 0.02) on the stiff spring: the fixed-point map of the loop value has a gain above 1, so
+    # the iterates grow; the run stops at the first step, at the cap, in one line (it used to go on to NaN)
+    fmus = {m: test_fmus[f"c2:{m}"] for m in ("MassA", "MassB")}
+    ssp = _masses(tmp_path, fmus, 0.01, 1.0, m1=0.02, kc=1000.0)
+    with pytest.raises(master.CosimError) as err:
+        master.run(ssp, output=None, algorithm="iterative", coupling_update="fixed-point", coupling_max_iter=30)
+    msg = str(err.value)
+    assert "\n" not in msg and "did not converge" in msg and "after 30 iterations" in msg and "t=0.01" in msg
+    assert "--coupling-max-iter" in msg and "nan" not in msg.lower()
+    # the same system converges with IQN-ILS (3 sweeps a step)
+    info = master.run(ssp, output=None, algorithm="iterative").metadata["algorithm_info"]
+    assert info["not_converged_steps"] == 0 and info["iterations_max"] <= 4
