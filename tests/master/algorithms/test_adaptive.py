@@ -265,7 +265,8 @@ def test_held_inputs_on_the_stiff_oscillator_take_the_steps_the_tolerance_asks_f
     # 27685 steps down to the 1e-8 minimum over this second, one accepted above the tolerance.
     import importlib.util
     repo = Path(__file__).resolve().parents[3]
-    spec = importlib.util.spec_from_file_location("oscillator_exact_adaptive", repo / "ssp/coupling/oscillator_exact.py")
+    spec = importlib.util.spec_from_file_location("oscillator_exact_adaptive",
+                                                  repo / "ssp" / "coupling" / "oscillator_exact.py")
     ex = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ex)
     stop, rtol = 1.0, 1e-2

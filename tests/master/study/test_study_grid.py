@@ -84,8 +84,8 @@ def test_adaptive_is_swept_over_its_tolerance_without_orders_against_the_step(tm
     assert all(r["observed_order"] == "" for r in rows)
     # the counts come from each run's run.json
     for r in rows:
-        run = next(p for p in (out / "runs").iterdir() if p.is_dir()
-                   and json.loads((p / "run.json").read_text())["algorithm_options"]["step_rtol"] == float(r["step_rtol"]))
+        run = next(p for p in (out / "runs").iterdir() if p.is_dir() and float(r["step_rtol"])
+                   == json.loads((p / "run.json").read_text())["algorithm_options"]["step_rtol"])
         info = json.loads((run / "run.json").read_text())["algorithm_info"]
         assert int(r["steps"]) == info["steps"] and int(r["rejected"]) == info["rejected"]
     assert int(rows[2]["steps"]) > int(rows[0]["steps"])
