@@ -7,7 +7,9 @@
   interpolated over the step (``coupling_interpolation`` 1: the trapezoidal coupled step), at the step H and at
   H / 2 (two runs of the study's campaign). The run at H / 2 is the reference; its error is estimated by
   Richardson's rule from the two, max |y_H - y_{H/2}| / (2^2 - 1) per signal (Hairer, Noersett and Wanner I,
-  sec. II.4). The FMUs' own integration error is part of both runs and not estimated (the coupling benchmarks'
+  sec. II.4); where a run's times fall between the reference's samples the bound of linear interpolation,
+  h^2/8 max |y''| taken as max |second difference| / 6, is added (choose H / 2 dividing the studied steps and there is none). The FMUs'
+  own integration error is part of both runs and not estimated (the coupling benchmarks'
   FMUs integrate exactly for held inputs); a scenario whose FMUs cannot save their state cannot be iterated:
   give a results file or a closed form instead;
 - a results file (``.parquet`` or ``.csv`` with a ``time`` column, e.g. another run's results.parquet): its
@@ -44,6 +46,7 @@ class Reference:
     fine_step: float | None = None
     frame: object = None        # file (and fine, once its run is done): pandas DataFrame with "time"
     errors: dict | None = None  # signal -> the reference's own estimated error (analytic: 0, file: unknown)
+    curvature: dict | None = None   # fine: signal -> max |second difference| of its samples (interpolation bound)
 
     def runs(self) -> list[dict]:
         """The campaign runs a fine reference needs: at H and at H / 2."""
@@ -60,10 +63,23 @@ class Reference:
             return f"{self.text} (closed form)"
         return f"{self.text} (results file, error unknown)"
 
-    def error(self, signal: str) -> float:
+    def error(self, signal: str, t: np.ndarray | None = None) -> float:
+        """The reference's own estimated error of ``signal`` at the times ``t``: for a fine reference its
+        estimate plus, where some of ``t`` fall between its samples, the bound of linear interpolation,
+        h^2/8 max |y''|, as max |second difference| / 6 (a third more: |y''| may peak between samples)."""
         if self.kind == "analytic":
             return 0.0
-        return (self.errors or {}).get(signal, math.nan)
+        e = (self.errors or {}).get(signal, math.nan)
+        if t is not None and self.kind == "fine" and not self.on_grid(t):
+            e += self.curvature.get(signal, math.nan) / 6
+        return e
+
+    def on_grid(self, t: np.ndarray) -> bool:
+        """Whether every time of ``t`` is one of the reference's sample times (within round-off)."""
+        ref_t = self.frame["time"].to_numpy(dtype=float)
+        i = np.clip(np.searchsorted(ref_t, t), 1, len(ref_t) - 1)
+        nearest = np.minimum(np.abs(ref_t[i] - t), np.abs(ref_t[i - 1] - t))
+        return bool(np.all(nearest <= 1e-9 * max(1.0, abs(ref_t[-1]))))
 
     def set_fine(self, coarse, fine) -> None:
         """The fine reference from its runs at H (``coarse``) and H / 2 (``fine``, DataFrames): the values of
@@ -71,6 +87,8 @@ class Reference:
         self.frame = fine
         t = coarse["time"].to_numpy(dtype=float)
         self.errors = {}
+        self.curvature = {s: float(np.max(np.abs(np.diff(fine[s].to_numpy(dtype=float), 2)), initial=0.0))
+                          for s in fine.columns if s != "time"}
         for s in coarse.columns:
             if s == "time" or s not in fine.columns:
                 continue

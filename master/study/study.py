@@ -281,7 +281,9 @@ def _rows(out: Path, params: dict, ref: Reference | None, frames: dict, axes: li
     errors = run_errors(frame, ref, signals)
     if diverged(errors):
         base["outcome"] = "diverged"
-    return [{**base, "signal": sig, "error_max": e_max, "error_rms": e_rms, "reference_error": ref.error(sig),
+    t = frame["time"].to_numpy(dtype=float)
+    t = t[ref.covers(t)]
+    return [{**base, "signal": sig, "error_max": e_max, "error_rms": e_rms, "reference_error": ref.error(sig, t),
              "reference_magnitude": scale} for sig, (e_max, e_rms, scale) in errors.items()]
 
 

@@ -105,3 +105,19 @@ def test_a_failed_reference_run_still_leaves_the_grids_table(tmp_path, test_fmus
         assert r["outcome"] == "completed" and int(r["fmu_calls"]) > 0
         assert r["error_max"] == r["error_rms"] == r["observed_order"] == r["reference_error"] == ""
         assert "cannot save and restore" in r["reference"]
+
+
+def test_a_fine_reference_read_between_its_samples_adds_the_interpolation_bound():
+    # samples of sin(5 t) every 0.01 s read at the midpoints: linear interpolation errs by up to
+    # h^2/8 max |y''| = 25e-4/8 = 3.1e-4 there, which the reference's error must then include and bound (as
+    # max |second difference| / 6: a third more, for |y''| peaking between samples)
+    from master.study.reference import parse_reference
+    ref = parse_reference("fine:0.02")
+    t = np.arange(0.0, 1.0 + 1e-9, 0.01)
+    coarse_t = t[::2]
+    ref.set_fine(pd.DataFrame({"time": coarse_t, "y": np.sin(5 * coarse_t) + 3e-4}),
+                 pd.DataFrame({"time": t, "y": np.sin(5 * t)}))
+    assert ref.error("y") == pytest.approx(1e-4) and ref.error("y", coarse_t) == pytest.approx(1e-4)
+    between = t[:-1] + 0.005
+    interpolation = np.max(np.abs(ref.values(between, ["y"])["y"] - np.sin(5 * between)))
+    assert 0.5 * 25e-4 / 8 < interpolation <= ref.error("y", between) - 1e-4 <= 25e-4 / 6 * 1.01
