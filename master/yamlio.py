@@ -6,6 +6,8 @@ Unlike ``yaml.safe_load``, a mapping holding the same key twice is an error: PyY
 value, so a scenario or campaign file with ``n_uavs`` written twice would run with whichever came last."""
 from __future__ import annotations
 
+import re
+
 import yaml
 from yaml.constructor import ConstructorError
 
@@ -50,6 +52,12 @@ if hasattr(yaml, "CSafeLoader"):
 else:                                     # pragma: no cover - PyYAML built without libyaml
     _LOADER = PySafeLoader
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+
+# YAML 1.1 (PyYAML's rule) reads a float only with a dot, so `step: 5e-05` or `1e3` written by hand became a string
+# and failed as "expected a positive number"; YAML 1.2 and every other reader take them as numbers.
+_EXPONENT_FLOAT = re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$")
+for _loader in {PySafeLoader, _LOADER}:
+    _loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789"))
 
 
 def load(text):

@@ -59,3 +59,14 @@ def test_scenario_file_with_a_duplicate_key(tmp_path):
         load_scenario_yaml(p)
     assert str(e.value) == (f"{p}: line {len(text.splitlines()) + 1}: invalid YAML: duplicate key 'n_uavs' "
                             f"(first at line {first})")
+
+
+@pytest.mark.parametrize("loader", ["fast", "pure"])
+def test_exponent_without_dot_reads_as_a_number(loader):
+    """YAML 1.1 reads `5e-05` as a string (its float rule wants a dot); a step written so by hand must be a number,
+    as YAML 1.2 reads it, while words that only look similar stay strings."""
+    text = "a: 5e-05\nb: 1e3\nc: -2E+4\nd: e5\ne: 1e\nf: 12\ng: '5e-05'\n"
+    data = yamlio.load(text) if loader == "fast" else yaml.load(text, Loader=yamlio.PySafeLoader)
+    assert data == {"a": 5e-05, "b": 1000.0, "c": -20000.0, "d": "e5", "e": "1e", "f": 12, "g": "5e-05"}
+    assert type(data["b"]) is float and type(data["f"]) is int
+    assert yaml.safe_load("a: 5e-05") == {"a": "5e-05"}   # PyYAML's own loader is left as it was
