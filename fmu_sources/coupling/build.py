@@ -6,6 +6,8 @@ C FMUs (linux64 binaries, compiled with gcc; the sources are inside each FMU und
 - MassA, MassB: the test suite's two-mass oscillator halves (tests/fmus_c/MassA.c, MassB.c with the shared
   FMI 2.0 framework and oscillator_math.h, built by tests/fmu_factory.py), both saving their FMU state;
 - Affine: y = a u + b + c sin(w t) (fmu_sources/coupling/c/Affine.c), saving its state.
+- MassAInterp, MassBInterp: the same halves with canInterpolateInputs (fmi2SetRealInputDerivatives, orders 1
+  and 2, integrated exactly), self-contained (fmu_sources/coupling/c/MassInterp.c, one source built twice).
 pythonfmu FMUs PyMassA, PyMassB, PyAffine: the same models in Python (fmu_sources/coupling/Py*.py), with
 FMU state (uavsim/fmi.py's StateMixin, bundled as cosim_fmi.py).
 
@@ -14,6 +16,7 @@ The parameters come from ssp/coupling/oscillator_exact.py, which also holds the 
 from __future__ import annotations
 
 import importlib.util
+import os
 import shutil
 import sys
 import tempfile
@@ -45,6 +48,96 @@ def build_c(dest: Path) -> dict[str, Path]:
         saves_state=True)
     from fmu_sources.reproducible import make_reproducible
     return {m: make_reproducible(ff.build_c_fmu(m, dest), derive_guid=False) for m in ("MassA", "MassB", "Affine")}
+
+
+INTERP_VARIABLES = {   # name, causality, description (value references in this order, as MassInterp.c's enums)
+    "MassAInterp": [("m", "parameter", "mass"), ("k", "parameter", "wall spring stiffness"),
+                    ("x0", "parameter", "initial position"), ("v0", "parameter", "initial velocity"),
+                    ("F", "input", "coupling force acting on the mass"), ("x", "output", "position"),
+                    ("v", "output", "velocity")],
+    "MassBInterp": [("m", "parameter", "mass"), ("k", "parameter", "wall spring stiffness"),
+                    ("kc", "parameter", "coupling spring stiffness"), ("x0", "parameter", "initial position"),
+                    ("v0", "parameter", "initial velocity"), ("x_in", "input", "position of mass 1"),
+                    ("x", "output", "position"), ("v", "output", "velocity"),
+                    ("F", "output", "force of the coupling spring on mass 1: kc (x - x_in)")],
+}
+INTERP_START = {"MassAInterp": [1.0, 1.0, 1.0, 0.0, 0.0], "MassBInterp": [1.0, 1.0, 1.0, 0.0, 0.0, 0.0]}
+
+
+def _interp_model_description(name: str) -> str:
+    from xml.sax.saxutils import quoteattr
+    variables = INTERP_VARIABLES[name]
+    rows = []
+    for vr, (var, causality, description) in enumerate(variables):
+        if causality == "parameter":
+            attrs, real = ' variability="fixed" initial="exact"', f'<Real start="{INTERP_START[name][vr]!r}"/>'
+        elif causality == "input":
+            attrs, real = ' variability="continuous"', f'<Real start="{INTERP_START[name][vr]!r}"/>'
+        else:
+            attrs, real = ' variability="continuous" initial="calculated"', "<Real/>"
+        rows.append(f'    <ScalarVariable name="{var}" valueReference="{vr}" causality="{causality}"{attrs}'
+                    f' description={quoteattr(description)}>\n      {real}\n    </ScalarVariable>')
+    index = {var: k + 1 for k, (var, _, _) in enumerate(variables)}
+    inputs = [var for var, c, _ in variables if c == "input"]
+    outputs = [(var, str(index[inputs[0]]) if var == "F" and name == "MassBInterp" else "")
+               for var, c, _ in variables if c == "output"]
+    unknowns = "\n".join(f'      <Unknown index="{index[v]}" dependencies="{d}"/>' for v, d in outputs)
+    initial = "\n".join(f'      <Unknown index="{index[v]}"/>' for v, _ in outputs)
+    side = "B" if name == "MassBInterp" else "A"
+    return f"""<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{{00000000-0000-0000-0000-00000000000{side}}}" \
+description="Mass{side} of the two-mass oscillator with inputs interpolated within the step \
+(fmi2SetRealInputDerivatives, orders 1 and 2); doStep is exact for a quadratic input." \
+generationTool="cosim-master fmu_sources/coupling/build.py" variableNamingConvention="structured" numberOfEventIndicators="0">
+  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true" \
+canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false" \
+canInterpolateInputs="true" maxOutputDerivativeOrder="0"/>
+  <LogCategories>
+    <Category name="logStatusError"/>
+  </LogCategories>
+  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.01"/>
+  <ModelVariables>
+{chr(10).join(rows)}
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs>
+{unknowns}
+    </Outputs>
+    <InitialUnknowns>
+{initial}
+    </InitialUnknowns>
+  </ModelStructure>
+</fmiModelDescription>
+"""
+
+
+def build_interp(dest: Path) -> dict[str, Path]:
+    """MassAInterp and MassBInterp from c/MassInterp.c (gcc; SIDE_B selects the half)."""
+    import subprocess
+    import fmu_factory as ff
+    from fmu_sources.reproducible import make_reproducible
+    source = HERE / "c" / "MassInterp.c"
+    out = {}
+    for name, side in (("MassAInterp", 0), ("MassBInterp", 1)):
+        with tempfile.TemporaryDirectory(prefix=f"fmu_{name}_") as tmp:
+            root = Path(tmp) / "fmu"
+            (root / "binaries" / "linux64").mkdir(parents=True)
+            (root / "sources").mkdir()
+            cmd = [os.environ.get("CC", "gcc"), "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Werror",
+                   f"-I{ff.fmi_headers_dir()}", f"-DSIDE_B={side}", str(source), "-o",
+                   str(root / "binaries" / "linux64" / f"{name}.so"), "-lm"]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise RuntimeError(f"gcc failed for {name}:\n{proc.stderr}")
+            shutil.copy2(source, root / "sources" / source.name)
+            (root / "modelDescription.xml").write_text(_interp_model_description(name), encoding="utf-8")
+            fmu = dest / f"{name}.fmu"
+            with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
+                for f in sorted(root.rglob("*")):
+                    if f.is_file():
+                        z.write(f, f.relative_to(root).as_posix())
+            out[name] = make_reproducible(fmu, derive_guid=False)
+    return out
 
 
 def build_py(dest: Path) -> dict[str, Path]:
@@ -110,13 +203,20 @@ def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
             sb.add_component(comp, fmus[affine], params=p)
         sb.connect("L1", "y", "L2", "u").connect("L2", "y", "L1", "u")
         written.append(sb.write(out / f"algebraic_loop{suffix}.ssp"))
+    if "MassAInterp" in fmus:
+        # the force-displacement oscillator with the interpolating halves (input derivatives, docs/coupling.md)
+        pa, pb = masses(osc)
+        sb = SspBuilder("oscillator_fd_interp", stop=10.0, step=0.01)
+        sb.add_component("A", fmus["MassAInterp"], params=pa).add_component("B", fmus["MassBInterp"], params=pb)
+        sb.connect("A", "x", "B", "x_in").connect("B", "F", "A", "F")
+        written.append(sb.write(out / "oscillator_fd_interp.ssp"))
     return written
 
 
 def main() -> int:
     dest = OUT / "fmus"
     dest.mkdir(parents=True, exist_ok=True)
-    fmus = {**build_c(dest), **build_py(dest)}
+    fmus = {**build_c(dest), **build_interp(dest), **build_py(dest)}
     for p in fmus.values():
         print(f"built {p}")
     for p in build_ssps(fmus):

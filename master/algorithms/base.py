@@ -21,6 +21,8 @@ class Algorithm:
     honours_interpolation = False   # inputs produced earlier in the same step interpolated (gs_interpolation.py)
     extrapolation_for: dict = {}    # output name -> order, overriding ``extrapolation`` (per_output_orders)
     interpolation = 0               # Gauss-Seidel: samples besides the new one that known inputs are interpolated with
+    honours_input_derivatives = False   # the extrapolation polynomial given as input derivatives (Jacobi)
+    input_derivatives = 0
     honours_threads = False         # the doSteps of a step are independent and may run concurrently (parallel.py)
     threads = 1
     # what an algebraic loop means under this algorithm, completing "initialization iterates it until the values
@@ -45,6 +47,13 @@ class Algorithm:
         if self.interpolation and not self.honours_interpolation:
             raise CosimError(f"applies to gauss-seidel only, not to {self.name}",
                              element="--gs-interpolation")
+        self.input_derivatives = int(getattr(options, "input_derivatives", 0) or 0)
+        if self.input_derivatives:
+            if not self.honours_input_derivatives:
+                raise CosimError(f"applies to jacobi only, not to {self.name}", element="--input-derivatives")
+            if not (self.extrapolation or any(self.extrapolation_for.values())):
+                raise CosimError("needs --extrapolation 1 or 2: the derivatives given are those of the "
+                                 "extrapolation polynomial", element="--input-derivatives")
         self.threads = int(getattr(options, "threads", 1) or 1)
         if self.threads < 1:
             raise CosimError(f"must be at least 1, got {self.threads}", element="--threads")
@@ -66,7 +75,8 @@ class Algorithm:
         if self.feeds_inputs:
             from .extrapolation import InputExtrapolation
             self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation, self.extrapolation_for,
-                                                    keep=self.interpolation)
+                                                    keep=self.interpolation,
+                                                    derivatives_step=h if self.input_derivatives else None)
             self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         if self.threads > 1:
             from .parallel import StepPool

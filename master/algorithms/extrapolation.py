@@ -21,6 +21,14 @@ The step's inputs are then set from the extrapolated values as usual.
 Outputs of components on a step multiple (k > 1) and of components taken out are held, as without
 extrapolation. The first steps use the samples there are (order 0, then 1, ...).
 
+Input derivatives (``--input-derivatives 1``, Jacobi): an FMU that can interpolate its inputs (FMI 2.0
+canInterpolateInputs) is given the extrapolation polynomial itself rather than a constant: the value at the
+step's start (y_n, through which the polynomial passes) and its derivatives there of orders 1..K
+(fmi2SetRealInputDerivatives), so its input follows the polynomial within the step. The input then errs by
+O(h^{K+1}) throughout the step instead of O(h) (a constant misses the slope), the local error is O(h^{K+2}) and
+the global order K + 1: 2 for K = 1 and 3 for K = 2 (docs/coupling.md). Every receiver of such an output must
+be able to interpolate; one that cannot is named in a one-line error before the first step.
+
 Per output (``extrapolation_for``, ``--extrapolate A.x=1``, the SSD connection annotation read by
 ssp/connection_extrapolation.py): the order belongs to the coupled *output*, not to each connection, because the
 value extrapolated is the output's sample history and every connection from it reads the same buffer entry;
@@ -61,6 +69,20 @@ def step_mean_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
     return interval_mean_weights(tuple(-np.arange(samples, dtype=float)), ratio)
 
 
+@lru_cache(maxsize=None)
+def derivative_weights(samples: int, order: int) -> tuple[float, ...]:
+    """Weights w_j of y_{n-j}, j < samples, giving h^order times the order-th derivative at t_n of the
+    polynomial through the samples at t_n - j h (0 beyond the polynomial's degree)."""
+    from numpy.polynomial import polynomial as P
+    nodes = -np.arange(samples, dtype=float)
+    weights = []
+    for j in range(samples):
+        others = np.delete(nodes, j)
+        basis = P.polyfromroots(others) / np.prod(nodes[j] - others)
+        weights.append(float(P.polyval(0.0, P.polyder(basis, order))) if order < samples else 0.0)
+    return tuple(weights)
+
+
 def interval_mean_weights(nodes: tuple, ratio: float) -> tuple[float, ...]:
     """Weights of the samples at ``nodes`` (in steps from t_n) giving the mean over [t_n, t_n + ratio h] of
     the polynomial through them (the Lagrange basis integrated exactly)."""
@@ -79,11 +101,14 @@ class InputExtrapolation:
     """Wraps a compiled fixed-step step: coupled outputs replaced by their extrapolation while the inputs are
     set, consistent samples taken after it."""
 
-    def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0):
+    def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0,
+                 derivatives_step: float | None = None):
         """``per_output``: output name -> its order (the others: ``order``); ``keep``: samples kept at least
-        (Gauss-Seidel interpolation reads some of its own)."""
+        (Gauss-Seidel interpolation reads some of its own); ``derivatives_step``: the master step, when the
+        receivers get the polynomial as value and derivatives (input derivatives) instead of its step mean."""
         self.rt, self.plan, self.order = rt, plan, order
         self.per_output = dict(per_output or {})
+        self.derivatives_step = derivatives_step
         self.refresh_order = gauss_seidel_order(plan, rt.names).order
         self.positions = np.zeros(0, dtype=np.intp)
         self.history: deque = deque(maxlen=max([order, keep - 1, *self.per_output.values()]) + 1)
@@ -93,11 +118,16 @@ class InputExtrapolation:
                 "weights": list(step_mean_weights(self.order + 1))}
         if self.per_output:
             info["per_output"] = dict(sorted(self.per_output.items()))
+        if self.derivatives_step is not None:
+            info["to"] = "the polynomial itself: value and derivatives at the step's start (input derivatives)"
+            info.pop("weights")
         return info
 
     def around(self, step, ratio: float = 1.0):
         """The step with extrapolated inputs (``ratio``: its length in master steps)."""
         self._select()
+        if self.derivatives_step is not None:
+            return self._with_derivatives(step)
         out, pos, history = self.rt.out["Real"], self.positions, self.history
         groups = []         # (indices into pos or None for all of them, weights by number of samples)
         for k, idx in self._order_groups():
@@ -114,6 +144,55 @@ class InputExtrapolation:
             self._refresh(t)
             history.appendleft(out[pos].copy())
         return extrapolated_step
+
+    def _with_derivatives(self, step):
+        """The step with every receiver of an extrapolated output given the polynomial's derivatives at the
+        step's start (its inputs keep y_n, the sample the transfers copy)."""
+        rt, pos, history, h = self.rt, self.positions, self.history, self.derivatives_step
+        out = rt.out["Real"]
+        orders = self._orders()
+        top = int(orders.max()) if len(orders) else 0
+        slot = {int(p): j for j, p in enumerate(pos)}
+        receivers = {}          # component index -> [(input vr, slot in pos, factor)]
+        for ln in self.plan.links:
+            if (ln.src is None or ln.dst.causality != "input" or ln.dst.type != "Real"
+                    or not rt.active[rt.index[ln.dst.component]]):
+                continue
+            j = slot.get(rt.out_pos.get(ln.src.qualified, -1))
+            if j is not None and orders[j] > 0:
+                receivers.setdefault(rt.index[ln.dst.component], []).append((ln.dst.vr, j, ln.factor))
+        feeds = []
+        for i, entries in sorted(receivers.items()):
+            slave = rt.slaves[i]
+            if not slave.can_interpolate_inputs:
+                raise CosimError(f"{rt.names[i]} cannot interpolate inputs (canInterpolateInputs is not true), so "
+                                 "it cannot be given input derivatives", file=self.plan.shown_as,
+                                 element="--input-derivatives")
+            # per order d = 1..K of each input: the input's slot and factor (orders above its own K give 0)
+            rows = [(d, vr, j, factor) for d in range(1, top + 1) for vr, j, factor in entries]
+            put = slave.input_derivatives_setter([vr for _, vr, _, _ in rows], [d for d, *_ in rows])
+            feeds.append((i, put, np.array([j for _, _, j, _ in rows], dtype=np.intp),
+                          np.array([d for d, *_ in rows]), np.array([f for *_, f in rows])))
+        weights = {(m, d): np.array(derivative_weights(m, d)) for m in range(1, top + 2) for d in range(1, top + 1)}
+
+        def derivative_step(n, t):
+            samples = np.array(history)
+            for i, put, js, ds, factors in feeds:
+                values = np.zeros(len(js))
+                for k, (j, d) in enumerate(zip(js, ds)):
+                    m = min(len(samples), int(orders[j]) + 1)
+                    if d < m:
+                        values[k] = weights[(m, int(d))] @ samples[:m, j] / h ** int(d) * factors[k]
+                if (st := put(values)) > WARNING:
+                    raise rt.slaves[i].fail("setting input derivatives", st, t)
+            step(n, t)
+            self._refresh(t)
+            history.appendleft(out[pos].copy())
+        return derivative_step
+
+    def _orders(self) -> np.ndarray:
+        name_at = {p: q for q, p in self.rt.out_pos.items()}
+        return np.array([self.per_output.get(name_at.get(int(p)), self.order) for p in self.positions], dtype=int)
 
     def _order_groups(self) -> list[tuple[int, np.ndarray | None]]:
         """The coupled outputs by order: one group (None: every position) when they share one, as with the
