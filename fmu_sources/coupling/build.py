@@ -37,6 +37,13 @@ def _exact():
     return module
 
 
+def _quarter_car():
+    spec = importlib.util.spec_from_file_location("quarter_car_exact", OUT / "quarter_car_exact.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def build_c(dest: Path) -> dict[str, Path]:
     import fmu_factory as ff
     ff.VARIANT_MODELS["Affine"] = ff.CModel(
@@ -140,6 +147,10 @@ def build_interp(dest: Path) -> dict[str, Path]:
     return out
 
 
+#: the pythonfmu models and the other model files each imports (bundled into its FMU)
+PY_MODELS = {"PyMassA": [], "PyMassB": ["PyMassA"], "PyAffine": ["PyMassA"], "PyWheel": [], "PyChassis": ["PyWheel"]}
+
+
 def build_py(dest: Path) -> dict[str, Path]:
     import fmu_factory as ff
     from pythonfmu.builder import FmuBuilder
@@ -147,12 +158,12 @@ def build_py(dest: Path) -> dict[str, Path]:
     with tempfile.TemporaryDirectory(prefix="coupling_py_") as tmp:
         stage = Path(tmp)
         shutil.copy2(REPO / "fmu_sources" / "uavsim" / "fmi.py", stage / "cosim_fmi.py")
-        for name in ("PyMassA", "PyMassB", "PyAffine"):
+        for name in PY_MODELS:
             shutil.copy2(HERE / f"{name}.py", stage / f"{name}.py")
         sys.path.insert(0, str(stage))
         try:
-            for name in ("PyMassA", "PyMassB", "PyAffine"):
-                extra = [stage / "cosim_fmi.py"] + ([stage / "PyMassA.py"] if name != "PyMassA" else [])
+            for name in PY_MODELS:
+                extra = [stage / "cosim_fmi.py"] + [stage / f"{d}.py" for d in PY_MODELS[name]]
                 built = Path(FmuBuilder.build_FMU(stage / f"{name}.py", dest=stage / "build",
                                                   project_files=extra, canGetAndSetFMUstate=True))
                 out[name] = _with_dependencies(built, HERE / f"{name}.py", dest / f"{name}.fmu", ff)
@@ -203,6 +214,19 @@ def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
             sb.add_component(comp, fmus[affine], params=p)
         sb.connect("L1", "y", "L2", "u").connect("L2", "y", "L1", "u")
         written.append(sb.write(out / f"algebraic_loop{suffix}.ssp"))
+    if "PyChassis" in fmus:
+        # the quarter car (Sadjina et al. 2017) with its power bond: the chassis' force (effort) into the wheel,
+        # the wheel's velocity (flow) into the chassis; linear and progressive damping
+        from master.ssp.power_bonds import power_bonds_annotation
+        qc = _quarter_car()
+        for name, chassis in (("quarter_car_linear", qc.CHASSIS), ("quarter_car_nonlinear", qc.NONLINEAR_CHASSIS)):
+            sb = SspBuilder(name, stop=qc.STOP, step=0.01)
+            sb.add_component("chassis", fmus["PyChassis"], params=chassis)
+            sb.add_component("wheel", fmus["PyWheel"], params=qc.WHEEL)
+            sb.connect("chassis", "F", "wheel", "F").connect("wheel", "v", "chassis", "v_in")
+            sb.annotations.append(power_bonds_annotation(
+                [("suspension", ("chassis", "F", "wheel", "F"), ("wheel", "v", "chassis", "v_in"))]))
+            written.append(sb.write(out / f"{name}.ssp"))
     if "MassAInterp" in fmus:
         # the force-displacement oscillator with the interpolating halves (input derivatives, docs/coupling.md)
         pa, pb = masses(osc)
