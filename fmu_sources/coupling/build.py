@@ -7,7 +7,8 @@ C FMUs (linux64 binaries, compiled with gcc; the sources are inside each FMU und
   FMI 2.0 framework and oscillator_math.h, built by tests/fmu_factory.py), both saving their FMU state;
 - Affine: y = a u + b + c sin(w t) (fmu_sources/coupling/c/Affine.c), saving its state.
 - MassAInterp, MassBInterp: the same halves with canInterpolateInputs (fmi2SetRealInputDerivatives, orders 1
-  and 2, integrated exactly), self-contained (fmu_sources/coupling/c/MassInterp.c, one source built twice).
+  and 2, integrated exactly) and maxOutputDerivativeOrder 1 (fmi2GetRealOutputDerivatives), self-contained
+  (fmu_sources/coupling/c/MassInterp.c, one source built twice).
 pythonfmu FMUs PyMassA, PyMassB, PyAffine: the same models in Python (fmu_sources/coupling/Py*.py), with
 FMU state (uavsim/fmi.py's StateMixin, bundled as cosim_fmi.py).
 
@@ -98,7 +99,7 @@ description="Mass{side} of the two-mass oscillator with inputs interpolated with
 generationTool="cosim-master fmu_sources/coupling/build.py" variableNamingConvention="structured" numberOfEventIndicators="0">
   <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true" \
 canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false" \
-canInterpolateInputs="true" maxOutputDerivativeOrder="0"/>
+canInterpolateInputs="true" maxOutputDerivativeOrder="1"/>
   <LogCategories>
     <Category name="logStatusError"/>
   </LogCategories>

@@ -51,9 +51,10 @@ class Algorithm:
         if self.input_derivatives:
             if not self.honours_input_derivatives:
                 raise CosimError(f"applies to jacobi only, not to {self.name}", element="--input-derivatives")
-            if not (self.extrapolation or any(self.extrapolation_for.values())):
-                raise CosimError("needs --extrapolation 1 or 2: the derivatives given are those of the "
-                                 "extrapolation polynomial", element="--input-derivatives")
+            if self.input_derivatives == 1 and not (self.extrapolation or any(self.extrapolation_for.values())):
+                raise CosimError("1 needs --extrapolation 1 or 2: the derivatives given are those of the "
+                                 "extrapolation polynomial (2 also takes the producers' output derivatives)",
+                                 element="--input-derivatives")
         self.threads = int(getattr(options, "threads", 1) or 1)
         if self.threads < 1:
             raise CosimError(f"must be at least 1, got {self.threads}", element="--threads")
@@ -65,7 +66,8 @@ class Algorithm:
     def feeds_inputs(self) -> bool:
         """Whether the step needs the extrapolation wrapper (never for default runs: they stay the compiled
         step itself, bit for bit)."""
-        return bool(self.extrapolation or any(self.extrapolation_for.values()) or self.interpolation)
+        return bool(self.extrapolation or any(self.extrapolation_for.values()) or self.interpolation
+                    or self.input_derivatives)
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
@@ -76,7 +78,8 @@ class Algorithm:
             from .extrapolation import InputExtrapolation
             self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation, self.extrapolation_for,
                                                     keep=self.interpolation,
-                                                    derivatives_step=h if self.input_derivatives else None)
+                                                    derivatives_step=h if self.input_derivatives else None,
+                                                    slopes=self.input_derivatives == 2)
             self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         if self.threads > 1:
             from .parallel import StepPool

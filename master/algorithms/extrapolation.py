@@ -38,6 +38,7 @@ in gs_interpolation.py; it uses the same history.
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from functools import lru_cache
 
@@ -67,6 +68,18 @@ def step_mean_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
     """Weights w_j of y_{n-j}, j < samples, giving the mean over [t_n, t_n + ratio h] of the polynomial
     through the samples at t_n - j h."""
     return interval_mean_weights(tuple(-np.arange(samples, dtype=float)), ratio)
+
+
+@lru_cache(maxsize=None)
+def hermite_derivative_weights(samples: int, order: int) -> tuple[float, ...]:
+    """Weights of (y_n, ..., y_{n-samples+1}, h y'_n) giving h^order times the order-th derivative at t_n of the
+    polynomial of degree ``samples`` through the samples at t_n - j h with the slope y'_n at t_n."""
+    nodes = -np.arange(samples, dtype=float)
+    rows = [nodes ** k for k in range(samples + 1)]               # p(-j) = sum_k c_k (-j)^k
+    system = np.vstack([np.array(rows).T, np.eye(samples + 1)[1]])  # p'(0) = c_1
+    coefficients = np.linalg.inv(system)                             # data -> c
+    return tuple(float(v) for v in math.factorial(order) * coefficients[order]) if order <= samples else \
+        (0.0,) * (samples + 1)
 
 
 @lru_cache(maxsize=None)
@@ -102,13 +115,14 @@ class InputExtrapolation:
     set, consistent samples taken after it."""
 
     def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0,
-                 derivatives_step: float | None = None):
+                 derivatives_step: float | None = None, slopes: bool = False):
         """``per_output``: output name -> its order (the others: ``order``); ``keep``: samples kept at least
         (Gauss-Seidel interpolation reads some of its own); ``derivatives_step``: the master step, when the
         receivers get the polynomial as value and derivatives (input derivatives) instead of its step mean."""
         self.rt, self.plan, self.order = rt, plan, order
         self.per_output = dict(per_output or {})
         self.derivatives_step = derivatives_step
+        self.slopes = slopes        # the polynomial also matches the producers' output derivatives at t_n
         self.refresh_order = gauss_seidel_order(plan, rt.names).order
         self.positions = np.zeros(0, dtype=np.intp)
         self.history: deque = deque(maxlen=max([order, keep - 1, *self.per_output.values()]) + 1)
@@ -151,7 +165,8 @@ class InputExtrapolation:
         rt, pos, history, h = self.rt, self.positions, self.history, self.derivatives_step
         out = rt.out["Real"]
         orders = self._orders()
-        top = int(orders.max()) if len(orders) else 0
+        degree = orders + (1 if self.slopes else 0)        # of the polynomial each output's receivers get
+        top = int(degree.max()) if len(degree) else 0
         slot = {int(p): j for j, p in enumerate(pos)}
         receivers = {}          # component index -> [(input vr, slot in pos, factor)]
         for ln in self.plan.links:
@@ -159,7 +174,7 @@ class InputExtrapolation:
                     or not rt.active[rt.index[ln.dst.component]]):
                 continue
             j = slot.get(rt.out_pos.get(ln.src.qualified, -1))
-            if j is not None and orders[j] > 0:
+            if j is not None and degree[j] > 0:
                 receivers.setdefault(rt.index[ln.dst.component], []).append((ln.dst.vr, j, ln.factor))
         feeds = []
         for i, entries in sorted(receivers.items()):
@@ -173,7 +188,14 @@ class InputExtrapolation:
             put = slave.input_derivatives_setter([vr for _, vr, _, _ in rows], [d for d, *_ in rows])
             feeds.append((i, put, np.array([j for _, _, j, _ in rows], dtype=np.intp),
                           np.array([d for d, *_ in rows]), np.array([f for *_, f in rows])))
-        weights = {(m, d): np.array(derivative_weights(m, d)) for m in range(1, top + 2) for d in range(1, top + 1)}
+        if self.slopes:
+            weights = {(m, d): np.array(hermite_derivative_weights(m, d)) for m in range(1, top + 1)
+                       for d in range(1, top + 1)}
+            slope, read_slopes = self._slope_reader(feeds)
+            read_slopes(0.0)
+        else:
+            weights = {(m, d): np.array(derivative_weights(m, d)) for m in range(1, top + 2)
+                       for d in range(1, top + 1)}
 
         def derivative_step(n, t):
             samples = np.array(history)
@@ -181,14 +203,58 @@ class InputExtrapolation:
                 values = np.zeros(len(js))
                 for k, (j, d) in enumerate(zip(js, ds)):
                     m = min(len(samples), int(orders[j]) + 1)
-                    if d < m:
+                    if self.slopes:     # m samples and the slope: degree m
+                        if d <= m:
+                            data = np.append(samples[:m, j], h * slope[j])
+                            values[k] = weights[(m, int(d))] @ data / h ** int(d) * factors[k]
+                    elif d < m:
                         values[k] = weights[(m, int(d))] @ samples[:m, j] / h ** int(d) * factors[k]
                 if (st := put(values)) > WARNING:
                     raise rt.slaves[i].fail("setting input derivatives", st, t)
             step(n, t)
             self._refresh(t)
+            if self.slopes:
+                read_slopes(t)
             history.appendleft(out[pos].copy())
         return derivative_step
+
+    def _slope_reader(self, feeds):
+        """(slope, read): the first derivatives of the coupled outputs at the current communication point, read
+        by ``read(t)`` from their producers (fmi2GetRealOutputDerivatives). A producer with a coupled
+        feedthrough output first gets its inputs' slopes (its output's derivative depends on them), in the
+        consistent-sample order, after the producers it reads from."""
+        rt, pos = self.rt, self.positions
+        name_at = {p: q for q, p in rt.out_pos.items()}
+        slope = np.zeros(len(pos))
+        by_producer = {}
+        for j, p in enumerate(pos):
+            by_producer.setdefault(self.owner[int(p)], []).append(j)
+        through = [i for i, _ in self._refreshed]
+        getters = {}
+        for i, js in by_producer.items():
+            slave = rt.slaves[i]
+            if slave.max_output_derivative_order < 1:
+                raise CosimError(f"{rt.names[i]} gives no output derivatives (maxOutputDerivativeOrder is 0), so "
+                                 "its outputs' slopes are unknown", file=self.plan.shown_as,
+                                 element="--input-derivatives 2")
+            vrs = [self.plan.var(name_at[int(pos[j])]).vr for j in js]
+            getters[i] = (slave.output_derivatives_getter(vrs, [1] * len(vrs)), np.array(js, dtype=np.intp))
+        slope_feeds = {i: (put, js, ds, factors) for i, put, js, ds, factors in feeds}
+        order = [i for i in getters if i not in through] + [i for i in through if i in getters or i in slope_feeds]
+
+        def read(t):
+            for i in order:
+                if i in through and i in slope_feeds:       # its inputs' slopes first
+                    put, js, ds, factors = slope_feeds[i]
+                    if (st := put(np.where(ds == 1, slope[js] * factors, 0.0))) > WARNING:
+                        raise rt.slaves[i].fail("setting input derivatives", st, t)
+                if i in getters:
+                    get, js = getters[i]
+                    st, values = get()
+                    if st > WARNING:
+                        raise rt.slaves[i].fail("getting output derivatives", st, t)
+                    slope[js] = values
+        return slope, read
 
     def _orders(self) -> np.ndarray:
         name_at = {p: q for q, p in self.rt.out_pos.items()}

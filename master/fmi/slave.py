@@ -92,6 +92,7 @@ class Slave(abc.ABC):
     kind = "CoSimulation"
     can_save_state = False
     can_interpolate_inputs = False
+    max_output_derivative_order = 0     # ``output_derivatives_getter`` gives derivatives up to this order
     # its bound getters (``bound_get``) may read in initialization mode, where they do what ``get_port`` does (not
     # so for FMI 1.0, whose get_port forgives a refusal before initialization)
     bound_get_in_init = False
@@ -138,6 +139,11 @@ class Slave(abc.ABC):
         """A function ``put(values) -> status`` giving the derivatives of order ``orders[j]`` of the Real inputs
         ``vrs[j]`` for the next step (one call per step; only where ``can_interpolate_inputs``)."""
         raise NotImplementedError(f"{self.name} cannot interpolate inputs")
+
+    def output_derivatives_getter(self, vrs: list[int], orders: list[int]):
+        """A function ``get() -> (status, values)`` reading the derivatives of order ``orders[j]`` of the Real
+        outputs ``vrs[j]`` at the current time (only up to ``max_output_derivative_order``)."""
+        raise NotImplementedError(f"{self.name} gives no output derivatives")
 
     def values_setter(self, typ: str, vrs: list[int]):
         """Optional: a function ``put(values) -> bool`` setting ``vrs`` (start values, parameters) in one call, as

@@ -2,7 +2,8 @@
  * MassAInterp / MassBInterp: the two-mass oscillator's halves (as tests/fmus_c/MassA.c and MassB.c, same
  * variables and value references) with inputs that may change within a step: an FMI 2.0 co-simulation FMU with
  * canInterpolateInputs, whose input over a step is the polynomial u + u1 tau + u2 tau^2 / 2 given by
- * fmi2SetRealInputDerivatives (orders 1 and 2; reset to 0 after every doStep, so a step without them holds u).
+ * fmi2SetRealInputDerivatives (orders 1 and 2; reset to 0 after every doStep, so a step without them holds u),
+ * and first output derivatives (fmi2GetRealOutputDerivatives, maxOutputDerivativeOrder 1).
  *
  *   MassAInterp (built with SIDE_B 0): m x'' = -k x + F(tau)                 input F, outputs x, v
  *   MassBInterp (built with SIDE_B 1): m x'' = -(k + kc) x + kc x_in(tau)     input x_in, outputs x, v and
@@ -42,7 +43,7 @@ typedef struct {
 static void log_error(Instance *inst, const char *msg)
 {
     if (inst->cb && inst->cb->logger)
-        inst->cb->logger(inst->cb->componentEnvironment, inst->name, fmi2Error, "logStatusError", "%s", msg);
+        inst->cb->logger(inst->cb->componentEnvironment, inst->name, fmi2Error, "logStatusError", msg);
 }
 
 static double stiffness(const Instance *in)
@@ -255,7 +256,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     Instance *in = c;
     for (size_t i = 0; i < n; i++) {
         if (vr[i] != VR_u || order[i] < 1 || order[i] > 2) {
-            log_error(in, "fmi2SetRealInputDerivatives: only the input, orders 1 and 2");
+            log_error(in, "fmi2SetRealInputDerivatives: only the input, orders 1 and 2 (the input is at most quadratic)");
             return fmi2Error;
         }
         in->du[order[i]] = value[i];
@@ -263,12 +264,27 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     return fmi2OK;
 }
 
+/* first derivatives of the outputs at the current time: x' = v, v' = (-K x + g u) / m and, for MassB,
+ * F' = kc (v - x_in') with x_in' the input derivative set last (the master sets it before asking) */
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                                         const fmi2Integer order[], fmi2Real value[])
 {
-    (void)vr; (void)n; (void)order; (void)value;
-    log_error(c, "fmi2GetRealOutputDerivatives: maxOutputDerivativeOrder is 0");
-    return fmi2Error;
+    Instance *in = c;
+    for (size_t i = 0; i < n; i++) {
+        if (order[i] != 1 || vr[i] < VR_x || vr[i] >= NVARS) {
+            log_error(in, "fmi2GetRealOutputDerivatives: outputs, order 1 only (maxOutputDerivativeOrder 1)");
+            return fmi2Error;
+        }
+        if (vr[i] == VR_x)
+            value[i] = in->r[VR_v];
+        else if (vr[i] == VR_v)
+            value[i] = (-stiffness(in) * in->r[VR_x] + input_gain(in) * in->r[VR_u]) / in->r[VR_m];
+#if SIDE_B
+        else
+            value[i] = in->r[VR_kc] * (in->r[VR_v] - in->du[1]);
+#endif
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPrior)

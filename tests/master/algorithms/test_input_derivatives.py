@@ -1,7 +1,9 @@
 """Input derivatives (``--input-derivatives 1``): Jacobi hands FMUs that can interpolate inputs the extrapolation
-polynomial as value and derivatives (fmi2SetRealInputDerivatives). Measured against the oscillator's closed form
-(ssp/coupling/oscillator_exact.py): order K + 1, so 3 with K = 2 where the step mean gives 2; the interpolating
-FMU against an ODE solution with a quadratic input; the derivative weights by hand; one-line refusals."""
+polynomial as value and derivatives (fmi2SetRealInputDerivatives); with 2 the polynomial also matches the
+producers' output derivatives (fmi2GetRealOutputDerivatives). Measured against the oscillator's closed form
+(ssp/coupling/oscillator_exact.py): order K + 1 with 1 (3 with K = 2 where the step mean gives 2), K + 2 with 2
+(hold + slope: 2, linear + slope: 3); the interpolating FMU against an ODE solution with a quadratic input; the
+derivative weights by hand; one-line refusals."""
 import importlib.util
 import zipfile
 from pathlib import Path
@@ -10,7 +12,7 @@ import numpy as np
 import pytest
 
 import master
-from master.algorithms.extrapolation import derivative_weights
+from master.algorithms.extrapolation import derivative_weights, hermite_derivative_weights
 from master.cli import main
 
 REPO = Path(__file__).resolve().parents[3]
@@ -36,10 +38,11 @@ def _order(**options) -> float:
     return float(np.polyfit(np.log(STEPS), np.log(errors), 1)[0])
 
 
-@pytest.mark.parametrize("k,derivatives,theory", [(2, 1, 3.0), (1, 1, 2.0), (2, 0, 2.0)])
-def test_observed_order_is_k_plus_one_with_derivatives_and_two_without(k, derivatives, theory):
-    # a constant input misses the signal's slope within the step (local O(h^3), order 2 for any K); the
-    # polynomial itself errs by O(h^{K+1}) over the step: local O(h^{K+2}), global K + 1
+@pytest.mark.parametrize("k,derivatives,theory", [(2, 1, 3.0), (1, 1, 2.0), (2, 0, 2.0), (0, 2, 2.0), (1, 2, 3.0)])
+def test_observed_order_is_the_polynomials_degree_plus_one(k, derivatives, theory):
+    # a constant input misses the signal's slope within the step (local O(h^3), order 2 for any K); a polynomial
+    # of degree p followed within the step errs by O(h^{p+1}): local O(h^{p+2}), global p + 1, with p = K from
+    # K + 1 samples and p = K + 1 when the exact slope at t_n is matched too
     assert _order(extrapolation=k, input_derivatives=derivatives) == pytest.approx(theory, abs=0.15)
 
 
@@ -49,6 +52,11 @@ def test_derivative_weights_by_hand():
     np.testing.assert_allclose(derivative_weights(3, 1), (1.5, -2.0, 0.5), atol=1e-14)
     np.testing.assert_allclose(derivative_weights(3, 2), (1.0, -2.0, 1.0), atol=1e-14)
     assert derivative_weights(2, 2) == (0.0, 0.0)
+    # with the slope h y'_n: the line y_n + h y'_n s; the parabola through y_{n-1} with it: p'' = 2 (y_{n-1} - y_n
+    # + h y'_n) / h^2
+    np.testing.assert_allclose(hermite_derivative_weights(1, 1), (0.0, 1.0), atol=1e-14)
+    np.testing.assert_allclose(hermite_derivative_weights(2, 1), (0.0, 0.0, 1.0), atol=1e-14)
+    np.testing.assert_allclose(hermite_derivative_weights(2, 2), (-2.0, 2.0, 2.0), atol=1e-14)
 
 
 def test_the_interpolating_fmu_follows_a_quadratic_input_exactly():
@@ -102,6 +110,7 @@ def test_the_shipped_interpolating_fmus_carry_the_current_source():
 @pytest.mark.parametrize("scenario,argv,words", [
     ("oscillator_fd.ssp", ["--extrapolation", "2"], ["A cannot interpolate inputs", "--input-derivatives"]),
     ("oscillator_fd_interp.ssp", [], ["needs --extrapolation 1 or 2"]),
+    ("oscillator_fd.ssp", ["--input-derivatives", "2"], ["A cannot interpolate inputs"]),
     ("oscillator_fd_interp.ssp", ["--algorithm", "gauss-seidel", "--extrapolation", "1"], ["jacobi only"]),
 ])
 def test_refusals_are_one_line(tmp_path, capsys, scenario, argv, words):
@@ -110,3 +119,10 @@ def test_refusals_are_one_line(tmp_path, capsys, scenario, argv, words):
     err = capsys.readouterr().err.strip()
     assert code == 1 and err.count("\n") == 0, err
     assert all(w in err for w in words), err
+
+
+def test_an_fmu_refusing_an_order_fails_the_run_naming_it(tmp_path, capsys):
+    # K = 2 with the slope is a cubic; MassBInterp takes inputs up to quadratic and says so
+    code = main(["run", str(INTERP), "--extrapolation", "2", "--input-derivatives", "2", "-o", str(tmp_path / "r")])
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 1 and "component B" in last and "setting input derivatives" in last and "orders 1 and 2" in last
