@@ -5,7 +5,8 @@
 C FMUs (linux64 binaries, compiled with gcc; the sources are inside each FMU under sources/):
 - MassA, MassB: the test suite's two-mass oscillator halves (tests/fmus_c/MassA.c, MassB.c with the shared
   FMI 2.0 framework and oscillator_math.h, built by tests/fmu_factory.py), both saving their FMU state;
-- Affine: y = a u + b + c sin(w t) (fmu_sources/coupling/c/Affine.c), saving its state.
+- Affine: y = a u + b + c sin(w t) (fmu_sources/coupling/c/Affine.c), saving its state;
+- Affine2: y = A u + b + (c sin(w t), 0) with two inputs and outputs (c/Affine2.c), saving its state.
 - MassAInterp, MassBInterp: the same halves with canInterpolateInputs (fmi2SetRealInputDerivatives, orders 1
   and 2, integrated exactly) and maxOutputDerivativeOrder 1 (fmi2GetRealOutputDerivatives), self-contained
   (fmu_sources/coupling/c/MassInterp.c, one source built twice).
@@ -39,7 +40,11 @@ def _exact():
 
 
 def _quarter_car():
-    spec = importlib.util.spec_from_file_location("quarter_car_exact", OUT / "quarter_car_exact.py")
+    return _module("quarter_car_exact")
+
+
+def _module(name: str):
+    spec = importlib.util.spec_from_file_location(name, OUT / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -54,8 +59,19 @@ def build_c(dest: Path) -> dict[str, Path]:
                    ff._input("u", 0.0, "input"), ff._output("y", "a u + b + c sin(w t)")],
         output_deps={"y": ["u"]}, versions_kinds={(2, "cs")}, source=str(HERE / "c" / "Affine.c"),
         saves_state=True)
+    ff.VARIANT_MODELS["Affine2"] = ff.CModel(
+        name="Affine2", description="y = A u + b + (c sin(w t), 0), two inputs and two outputs (direct feedthrough)",
+        variables=[ff._param("a11", 0.5, "A[1,1]"), ff._param("a12", 0.0, "A[1,2]"), ff._param("a21", 0.0, "A[2,1]"),
+                   ff._param("a22", 0.5, "A[2,2]"), ff._param("b1", 0.0, "offset of y1"),
+                   ff._param("b2", 0.0, "offset of y2"), ff._param("c", 0.0, "amplitude of the forcing of y1"),
+                   ff._param("w", 1.0, "angular frequency"), ff._input("u1", 0.0, "first input"),
+                   ff._input("u2", 0.0, "second input"), ff._output("y1", "a11 u1 + a12 u2 + b1 + c sin(w t)"),
+                   ff._output("y2", "a21 u1 + a22 u2 + b2")],
+        output_deps={"y1": ["u1", "u2"], "y2": ["u1", "u2"]}, versions_kinds={(2, "cs")},
+        source=str(HERE / "c" / "Affine2.c"), saves_state=True)
     from fmu_sources.reproducible import make_reproducible
-    return {m: make_reproducible(ff.build_c_fmu(m, dest), derive_guid=False) for m in ("MassA", "MassB", "Affine")}
+    return {m: make_reproducible(ff.build_c_fmu(m, dest), derive_guid=False)
+            for m in ("MassA", "MassB", "Affine", "Affine2")}
 
 
 INTERP_VARIABLES = {   # name, causality, description (value references in this order, as MassInterp.c's enums)
@@ -215,6 +231,15 @@ def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
             sb.add_component(comp, fmus[affine], params=p)
         sb.connect("L1", "y", "L2", "u").connect("L2", "y", "L1", "u")
         written.append(sb.write(out / f"algebraic_loop{suffix}.ssp"))
+    if "Affine2" in fmus:
+        # a loop of two values each way, where the coupling updates differ (loop2_exact.py)
+        loop2 = _module("loop2_exact")
+        sb = SspBuilder("algebraic_loop2", stop=10.0, step=0.1)
+        for comp, p in loop2.LOOP2.items():
+            sb.add_component(comp, fmus["Affine2"], params=p)
+        for k in ("1", "2"):
+            sb.connect("P", "y" + k, "Q", "u" + k).connect("Q", "y" + k, "P", "u" + k)
+        written.append(sb.write(out / "algebraic_loop2.ssp"))
     if "PyChassis" in fmus:
         # the quarter car (Sadjina et al. 2017) with its power bond: the chassis' force (effort) into the wheel,
         # the wheel's velocity (flow) into the chassis; linear and progressive damping
