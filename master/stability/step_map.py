@@ -30,6 +30,11 @@ from ..runtime import SavedPoint
 FIXED_STEP = ("jacobi", "gauss-seidel", "iterative")
 
 
+class IdentificationError(CosimError):
+    """The step map could not be identified at this point (it grows too fast to be seen over enough steps, or
+    the run is too short); bad input raises CosimError as everywhere."""
+
+
 @dataclass
 class StepMap:
     """The identified step map: its realization ``matrix``, ``eigenvalues`` (largest modulus first) and the
@@ -46,6 +51,13 @@ class StepMap:
     @property
     def order(self) -> int:
         return len(self.eigenvalues)
+
+    @property
+    def fit_residual(self) -> float:
+        """How far the realization misses the Markov parameters it was cut from (relative): round-off for a
+        linear system, large where the map changes over the identification's steps (a nonlinear system far from
+        linear there), whose radius then means little."""
+        return float(self.settings.get("fit_residual", float("nan")))
 
 
 def era(markov: list[np.ndarray], blocks: int, rank_tol: float, spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -77,8 +89,8 @@ def best_realization(markov: list[np.ndarray], blocks: int, rank_tol: float, spa
         if best is None or gap > best[0]:
             best = (gap, a, s, q)
     if best is None:
-        raise CosimError("too few steps to identify the step map (a step map growing too fast overflows)",
-                         element="--step")
+        raise IdentificationError("too few steps to identify the step map (a step map growing too fast overflows)",
+                                  element="--step")
     return best[1], best[2], best[3]
 
 
@@ -109,8 +121,8 @@ def _identify(ex, at, blocks, delta, rank_tol, spacings) -> StepMap:
     n0 = int(round((at - start) / h)) if at is not None else max(4, 3 + (history.maxlen if history else 0))
     horizon = 2 * (blocks - 1) * max(spacings) + 2
     if n0 + horizon > st.steps:
-        raise CosimError(f"the identification needs {n0 + horizon} steps of {h:g} s and the run has {st.steps}",
-                         element="--step")
+        raise IdentificationError(f"the identification needs {n0 + horizon} steps of {h:g} s and the run has "
+                                  f"{st.steps}", element="--step")
     out = rt.out["Real"]
     scale = np.zeros(len(out))
     for n in range(n0):
@@ -156,11 +168,35 @@ def _identify(ex, at, blocks, delta, rank_tol, spacings) -> StepMap:
     markov = [np.stack([c[k] for c in columns], axis=1) for k in range(length)]
     finite = next((k for k, y in enumerate(markov) if not np.all(np.isfinite(y))), length)
     a, s, q = best_realization(markov[:finite], blocks, rank_tol, spacings)
+    residual = _fit_residual(markov[:finite], a, blocks, q)
     eig = np.linalg.eigvals(a) if a.size else np.zeros(0, dtype=complex)
     eig = eig[np.argsort(-np.abs(eig), kind="stable")]
     names = {p: q for q, p in rt.out_pos.items()}
     return StepMap(a, eig, s, {"algorithm": alg.name, "step": h, "at": start + n0 * h, "blocks": blocks, "spacing": q,
+                               "fit_residual": residual,
                                "delta": delta, "perturbed": [names.get(int(p), str(p)) for p in positions]})
+
+
+def _fit_residual(markov, a, blocks, spacing) -> float:
+    """max_k |Y_k - C S^k B| / max_k |Y_k| over the Markov parameters the Hankel matrices used, with B and C
+    from the same cut (the first block column of s^1/2 V^T, the first block row of U s^1/2)."""
+    if not a.size:
+        return 0.0
+    p, m = markov[0].shape
+    h0 = np.block([[markov[(i + j) * spacing] for j in range(blocks)] for i in range(blocks)])
+    u, s, vt = np.linalg.svd(h0)
+    r = a.shape[0]
+    root = np.sqrt(s[:r])
+    c = (u[:p, :r] * root[None, :])
+    b = (root[:, None] * vt[:r, :m])
+    last = 2 * (blocks - 1) * spacing + 1
+    scale = max(float(np.max(np.abs(y))) for y in markov[:last + 1]) or 1.0
+    power, worst = np.eye(r), 0.0
+    for k in range(last + 1):
+        if k % spacing == 0 or k % spacing == 1:
+            worst = max(worst, float(np.max(np.abs(markov[k] - c @ power @ b))))
+        power = a @ power
+    return worst / scale
 
 
 def _copy(history):
@@ -173,4 +209,4 @@ def spectral_radius(scenario, *, algorithm: str, step: float, params: dict | Non
     return identify(scenario, algorithm=algorithm, step=step, params=params, **options).spectral_radius
 
 
-__all__ = ["StepMap", "identify", "spectral_radius", "era", "FIXED_STEP"]
+__all__ = ["StepMap", "IdentificationError", "identify", "spectral_radius", "era", "FIXED_STEP"]

@@ -5,7 +5,9 @@ every scheme and step, optionally against one parameter's values, into stability
 A scheme is an algorithm with its settings: Jacobi and Gauss-Seidel with each extrapolation order K, Gauss-Seidel
 also with each interpolation order M, the iterative algorithm alone (its iteration settles the inputs, so K and M
 do not apply to it). Where a point cannot be identified (a step map that overflows before enough steps are seen)
-its row says why and the sweep goes on.
+its row says why and the sweep goes on; bad input (an unknown parameter) stops it with one line. `fit_residual`
+says how well a linear step map explains what was seen: round-off for a linear system, large where a nonlinear
+one changes over the identification's steps.
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CosimError
-from .step_map import FIXED_STEP, identify
+from .step_map import FIXED_STEP, IdentificationError, identify
 
 #: the iterative algorithm's settings for the analysis: its step map is that of the converged step, so the
 #: iteration must converge far below the identification's own accuracy
@@ -26,7 +28,7 @@ STABLE_BELOW = 1.0 + 1e-9        # round-off above 1 is not an unstable scheme
 
 COLUMNS = ["scenario", "scheme", "algorithm", "extrapolation", "gs_interpolation", "step", "parameter", "value",
            "spectral_radius", "growth_per_second", "stable", "dominant_eigenvalue_re", "dominant_eigenvalue_im",
-           "order", "spacing", "error"]
+           "order", "spacing", "fit_residual", "error"]
 
 
 @dataclass(frozen=True)
@@ -97,7 +99,7 @@ def sweep(scenario, scheme_list: list[Scheme], steps, params: dict | None = None
                 try:
                     m = identify(scenario, algorithm=scheme.algorithm, step=float(h), params=run_params or None,
                                  **scheme.options(), **identify_options)
-                except CosimError as exc:
+                except IdentificationError as exc:
                     rows.append({**row, **{k: "" for k in COLUMNS if k not in row}, "error": str(exc)})
                     continue
                 rho = m.spectral_radius
@@ -106,7 +108,7 @@ def sweep(scenario, scheme_list: list[Scheme], steps, params: dict | None = None
                              "growth_per_second": math.log(rho) / h if rho > 0 else -math.inf,
                              "stable": rho <= STABLE_BELOW, "dominant_eigenvalue_re": float(np.real(lead)),
                              "dominant_eigenvalue_im": float(np.imag(lead)), "order": m.order,
-                             "spacing": m.settings["spacing"], "error": ""})
+                             "spacing": m.settings["spacing"], "fit_residual": m.fit_residual, "error": ""})
     return rows
 
 
@@ -154,7 +156,8 @@ def figure(rows: list[dict], path: Path, scenario: str) -> Path:
         ax.set_xscale("log")
         ax.set_xlabel(f"{varied}" if varied else "step h [s]")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=7, ncol=2)
+    if series:
+        axes[0].legend(fontsize=7, ncol=2)
     schemes_shown = ", ".join(dict.fromkeys(r["scheme"] for r in rows))
     fig.suptitle(textwrap.fill(f"{scenario}: spectral radius of the coupled step map, identified from the FMUs "
                                f"(perturbed coupled values, ERA); schemes: {schemes_shown}", 140), fontsize=9)

@@ -131,6 +131,7 @@ def test_the_cli_writes_the_table_and_the_figure(tmp_path, capsys):
 @pytest.mark.parametrize("argv,element", [
     (["--algorithm", "adaptive", "--step", "0.1"], "--algorithm"),
     (["--algorithm", "jacobi", "--step", "0.1", "--vary", "B.kc="], "--vary"),
+    (["--algorithm", "jacobi", "--step", "0.1", "--param", "B.nope=3"], "nope"),
 ])
 def test_bad_arguments_are_one_line(tmp_path, capsys, argv, element):
     assert main(["stability", str(COUPLING / "oscillator_fd.ssp"), *argv, "-o", str(tmp_path / "s")]) == 1
@@ -141,3 +142,12 @@ def test_bad_arguments_are_one_line(tmp_path, capsys, argv, element):
 def test_parse_vary():
     assert parse_vary("B.kc=1,10") == ("B.kc", [1.0, 10.0])
     assert parse_vary(None) is None
+
+
+def test_the_fit_residual_tells_a_linear_map_from_a_nonlinear_one():
+    # the quarter car's linear damper: a linear step map explains the responses to round-off; the progressive
+    # damper's (d2 dv |dv|) linearization changes over the identification's steps, and the residual says so
+    linear = identify(COUPLING / "quarter_car_linear.ssp", algorithm="jacobi", step=0.01, at=1.0)
+    nonlinear = identify(COUPLING / "quarter_car_nonlinear.ssp", algorithm="jacobi", step=0.01, at=1.0)
+    assert linear.fit_residual < 1e-10 and linear.spectral_radius < 1.0
+    assert nonlinear.fit_residual > 1e-3
