@@ -123,6 +123,7 @@ class InputExtrapolation:
         self.per_output = dict(per_output or {})
         self.derivatives_step = derivatives_step
         self.slopes = slopes        # the polynomial also matches the producers' output derivatives at t_n
+        self.resync = lambda: None  # re-reads what the wrapper keeps of the FMUs' state (the slopes)
         self.refresh_order = gauss_seidel_order(plan, rt.names).order
         self.positions = np.zeros(0, dtype=np.intp)
         self.history: deque = deque(maxlen=max([order, keep - 1, *self.per_output.values()]) + 1)
@@ -193,6 +194,7 @@ class InputExtrapolation:
                        for d in range(1, top + 1)}
             slope, read_slopes = self._slope_reader(feeds)
             read_slopes(0.0)
+            self.resync = lambda: read_slopes(0.0)    # after a restored state (a caller that rolls back)
         else:
             weights = {(m, d): np.array(derivative_weights(m, d)) for m in range(1, top + 2)
                        for d in range(1, top + 1)}

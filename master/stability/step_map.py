@@ -142,6 +142,7 @@ def _identify(ex, at, blocks, delta, rank_tol, spacings) -> StepMap:
         if history is not None:
             history.clear()
             history.extend(s.copy() for s in kept)
+            extrapolator.resync()
         if perturbed is not None:
             out[perturbed] += amount
             if perturbed in slot and history:
