@@ -112,7 +112,8 @@ def _interp_model_description(name: str) -> str:
 <fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{{00000000-0000-0000-0000-00000000000{side}}}" \
 description="Mass{side} of the two-mass oscillator with inputs interpolated within the step \
 (fmi2SetRealInputDerivatives, orders 1 and 2); doStep is exact for a quadratic input." \
-generationTool="cosim-master fmu_sources/coupling/build.py" variableNamingConvention="structured" numberOfEventIndicators="0">
+generationTool="cosim-master fmu_sources/coupling/build.py" variableNamingConvention="structured" \
+numberOfEventIndicators="0">
   <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true" \
 canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false" \
 canInterpolateInputs="true" maxOutputDerivativeOrder="1"/>

@@ -95,7 +95,8 @@ def best_realization(markov: list[np.ndarray], blocks: int, rank_tol: float, spa
 
 
 def identify(scenario, *, algorithm: str, step: float, params: dict | None = None, at: float | None = None,
-             blocks: int = 6, delta: float = 1e-2, rank_tol: float = 1e-8, spacings=(1, 2, 4, 8, 16), **options) -> StepMap:
+             blocks: int = 6, delta: float = 1e-2, rank_tol: float = 1e-8, spacings=(1, 2, 4, 8, 16),
+             **options) -> StepMap:
     """The step map of ``scenario`` run with the fixed-step ``algorithm`` at ``step`` (``options``: the
     algorithm's settings as for ``master.run``, e.g. extrapolation=1, gs_interpolation=1, coupling_tol=1e-12),
     around the communication point ``at`` (default: after max(4, 3 + history) steps)."""

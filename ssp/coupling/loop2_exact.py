@@ -4,8 +4,8 @@ parameters here are the ones fmu_sources/coupling/build.py writes into the SSP.
 
 y_P = A_P y_Q + g_P and y_Q = A_Q y_P + g_Q, so y_P = (I - A_P A_Q)^-1 (g_P + A_P g_Q) and y_Q = A_Q y_P + g_Q.
 The loop map that an iteration on Q's outputs repeats is u -> A_Q (A_P u + g_P) + g_Q, with the matrix
-A_Q A_P (or A_P A_Q when Q steps first, the same eigenvalues): here 0.739 and -0.589 (fixed point converges slowly, one relaxation factor cannot
-serve both).
+A_Q A_P (or A_P A_Q when Q steps first, the same eigenvalues): here 0.739 and -0.589 (fixed point converges
+slowly, one relaxation factor cannot serve both).
 """
 import numpy as np
 
