@@ -72,6 +72,12 @@ ALGORITHM_OPTIONS: dict[str, AlgorithmOption] = {o.name: o for o in (
                     "mean over the step of the polynomial through the new value and M earlier samples (0 held as "
                     "computed, 1 linear, 2 quadratic; docs/coupling.md)", choices=(0, 1, 2),
                     applies_to=('gauss-seidel', 'iterative')),
+    AlgorithmOption("input_derivatives", "int", 0, "jacobi: 1 gives FMUs that can interpolate inputs the "
+                    "extrapolation polynomial itself (value and derivatives at the step's start, "
+                    "fmi2SetRealInputDerivatives) instead of its mean: order K + 1 (needs K >= 1); 2 fits the "
+                    "polynomial to the producers' output derivatives too (fmi2GetRealOutputDerivatives): order "
+                    "K + 2 (docs/coupling.md)", choices=(0, 1, 2),
+                    applies_to=('jacobi',)),
     AlgorithmOption("coupling_tol", "float", 1e-10, "iterative: relative tolerance of the coupled values",
                     minimum=0.0, applies_to=('iterative',)),
     AlgorithmOption("coupling_atol", "float", None, "iterative: absolute tolerance of the coupled values "

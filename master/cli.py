@@ -238,6 +238,26 @@ def _parser() -> argparse.ArgumentParser:
                     help="no progress bar (default: one when stderr is a terminal)")
     st.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
+    sb = sub.add_parser("stability", help="the spectral radius of the coupled step map per scheme and step, "
+                                          "identified from the FMUs: stability.csv and stability.png",
+                        description="Identify the coupled step map of every scheme (--algorithm with each "
+                                    "--extrapolation and --gs-interpolation it takes) at every --step from the FMUs "
+                                    "and write its spectral radius into --output (docs/coupling.md).")
+    sb.add_argument("scenario", help="the scenario: an .ssp archive, an unpacked SSP folder or a .ssd file")
+    sb.add_argument("--algorithm", nargs="+", required=True, metavar="A",
+                    help="jacobi, gauss-seidel and/or iterative")
+    sb.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
+                    help="input extrapolation orders (jacobi, gauss-seidel), of 0, 1, 2 (default: 0)")
+    sb.add_argument("--gs-interpolation", nargs="+", type=int, default=[0], metavar="M",
+                    help="gauss-seidel interpolation orders, of 0, 1, 2 (default: 0)")
+    sb.add_argument("--step", nargs="+", type=_number, required=True, metavar="H", help="master step sizes (s)")
+    sb.add_argument("--param", action="append", metavar="COMPONENT.VARIABLE=VALUE", default=[],
+                    help="set a parameter for every point; repeatable")
+    sb.add_argument("--vary", metavar="COMPONENT.VARIABLE=V1,V2,...",
+                    help="sweep one parameter too (the figure then plots against it)")
+    sb.add_argument("--output", "-o", required=True, metavar="DIR", help="folder for stability.csv and .png")
+    sb.add_argument("--debug", action="store_true", help="show Python tracebacks")
+
     b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
     b.add_argument("scenario_yaml", help="the scenario description, e.g. a UAV study YAML "
@@ -423,6 +443,19 @@ def _dispatch(args) -> int:
                             progress=not args.no_progress and _progress(None),
                             settings={k[len("sweep_"):]: v for k, v in vars(args).items() if k.startswith("sweep_")})
         print(summary.describe())
+        return 0
+    if args.command == "stability":
+        from .stability.sweep import run_stability
+        rows, paths = run_stability(args.scenario, algorithms=args.algorithm, extrapolations=args.extrapolation,
+                                    interpolations=args.gs_interpolation, steps=args.step, output=args.output,
+                                    params=_kv(args.param, "--param"), vary=args.vary)
+        for r in rows:
+            print(f"{r['scheme']:<24} h={r['step']:<8g}" + (f" {r['parameter']}={r['value']:<8g}" if r["parameter"]
+                                                            else "")
+                  + (f" spectral radius {r['spectral_radius']:.8f} (growth {r['growth_per_second']:+.3g}/s)"
+                     + ("" if r["stable"] else "  unstable")
+                     if not r["error"] else f" not identified: {r['error']}"))
+        print("wrote " + ", ".join(map(str, paths)))
         return 0
     if args.command == "report":
         from .campaign.report import build_report

@@ -89,6 +89,7 @@ class Options:
     # the algorithms' settings (master.algorithm_options: types, defaults, docs); None: the SSD's, else the default
     extrapolation: int | None = None                  # coupled inputs: 0 held, 1 linear, 2 quadratic (jacobi, g-s)
     gs_interpolation: int | None = None               # gauss-seidel: known inputs interpolated (0 off, 1, 2)
+    input_derivatives: int | None = None              # jacobi: the extrapolation polynomial as input derivatives
     coupling_tol: float | None = None                 # iterative: relative tolerance of the coupled values
     coupling_atol: float | None = None                # iterative: absolute tolerance (default: coupling_tol)
     coupling_max_iter: int | None = None              # iterative: iterations per step at most

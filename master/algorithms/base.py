@@ -21,6 +21,8 @@ class Algorithm:
     honours_interpolation = False   # inputs produced earlier in the same step interpolated (gs_interpolation.py)
     extrapolation_for: dict = {}    # output name -> order, overriding ``extrapolation`` (per_output_orders)
     interpolation = 0               # Gauss-Seidel: samples besides the new one that known inputs are interpolated with
+    honours_input_derivatives = False   # the extrapolation polynomial given as input derivatives (Jacobi)
+    input_derivatives = 0
     honours_threads = False         # the doSteps of a step are independent and may run concurrently (parallel.py)
     threads = 1
     # what an algebraic loop means under this algorithm, completing "initialization iterates it until the values
@@ -45,6 +47,14 @@ class Algorithm:
         if self.interpolation and not self.honours_interpolation:
             raise CosimError(f"applies to gauss-seidel only, not to {self.name}",
                              element="--gs-interpolation")
+        self.input_derivatives = int(getattr(options, "input_derivatives", 0) or 0)
+        if self.input_derivatives:
+            if not self.honours_input_derivatives:
+                raise CosimError(f"applies to jacobi only, not to {self.name}", element="--input-derivatives")
+            if self.input_derivatives == 1 and not (self.extrapolation or any(self.extrapolation_for.values())):
+                raise CosimError("1 needs --extrapolation 1 or 2: the derivatives given are those of the "
+                                 "extrapolation polynomial (2 also takes the producers' output derivatives)",
+                                 element="--input-derivatives")
         self.threads = int(getattr(options, "threads", 1) or 1)
         if self.threads < 1:
             raise CosimError(f"must be at least 1, got {self.threads}", element="--threads")
@@ -56,7 +66,8 @@ class Algorithm:
     def feeds_inputs(self) -> bool:
         """Whether the step needs the extrapolation wrapper (never for default runs: they stay the compiled
         step itself, bit for bit)."""
-        return bool(self.extrapolation or any(self.extrapolation_for.values()) or self.interpolation)
+        return bool(self.extrapolation or any(self.extrapolation_for.values()) or self.interpolation
+                    or self.input_derivatives)
 
     def prepare(self, rt, plan, h: float) -> dict:
         """Called once after initialization; returns facts worth recording in run.json."""
@@ -66,7 +77,9 @@ class Algorithm:
         if self.feeds_inputs:
             from .extrapolation import InputExtrapolation
             self._extrapolator = InputExtrapolation(rt, plan, self.extrapolation, self.extrapolation_for,
-                                                    keep=self.interpolation)
+                                                    keep=self.interpolation,
+                                                    derivatives_step=h if self.input_derivatives else None,
+                                                    slopes=self.input_derivatives == 2)
             self.info = {**self.info, "extrapolation": self._extrapolator.describe()}
         if self.threads > 1:
             from .parallel import StepPool

@@ -21,6 +21,14 @@ The step's inputs are then set from the extrapolated values as usual.
 Outputs of components on a step multiple (k > 1) and of components taken out are held, as without
 extrapolation. The first steps use the samples there are (order 0, then 1, ...).
 
+Input derivatives (``--input-derivatives 1``, Jacobi): an FMU that can interpolate its inputs (FMI 2.0
+canInterpolateInputs) is given the extrapolation polynomial itself rather than a constant: the value at the
+step's start (y_n, through which the polynomial passes) and its derivatives there of orders 1..K
+(fmi2SetRealInputDerivatives), so its input follows the polynomial within the step. The input then errs by
+O(h^{K+1}) throughout the step instead of O(h) (a constant misses the slope), the local error is O(h^{K+2}) and
+the global order K + 1: 2 for K = 1 and 3 for K = 2 (docs/coupling.md). Every receiver of such an output must
+be able to interpolate; one that cannot is named in a one-line error before the first step.
+
 Per output (``extrapolation_for``, ``--extrapolate A.x=1``, the SSD connection annotation read by
 ssp/connection_extrapolation.py): the order belongs to the coupled *output*, not to each connection, because the
 value extrapolated is the output's sample history and every connection from it reads the same buffer entry;
@@ -30,6 +38,7 @@ in gs_interpolation.py; it uses the same history.
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from functools import lru_cache
 
@@ -61,6 +70,32 @@ def step_mean_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]:
     return interval_mean_weights(tuple(-np.arange(samples, dtype=float)), ratio)
 
 
+@lru_cache(maxsize=None)
+def hermite_derivative_weights(samples: int, order: int) -> tuple[float, ...]:
+    """Weights of (y_n, ..., y_{n-samples+1}, h y'_n) giving h^order times the order-th derivative at t_n of the
+    polynomial of degree ``samples`` through the samples at t_n - j h with the slope y'_n at t_n."""
+    nodes = -np.arange(samples, dtype=float)
+    rows = [nodes ** k for k in range(samples + 1)]               # p(-j) = sum_k c_k (-j)^k
+    system = np.vstack([np.array(rows).T, np.eye(samples + 1)[1]])  # p'(0) = c_1
+    coefficients = np.linalg.inv(system)                             # data -> c
+    return tuple(float(v) for v in math.factorial(order) * coefficients[order]) if order <= samples else \
+        (0.0,) * (samples + 1)
+
+
+@lru_cache(maxsize=None)
+def derivative_weights(samples: int, order: int) -> tuple[float, ...]:
+    """Weights w_j of y_{n-j}, j < samples, giving h^order times the order-th derivative at t_n of the
+    polynomial through the samples at t_n - j h (0 beyond the polynomial's degree)."""
+    from numpy.polynomial import polynomial as P
+    nodes = -np.arange(samples, dtype=float)
+    weights = []
+    for j in range(samples):
+        others = np.delete(nodes, j)
+        basis = P.polyfromroots(others) / np.prod(nodes[j] - others)
+        weights.append(float(P.polyval(0.0, P.polyder(basis, order))) if order < samples else 0.0)
+    return tuple(weights)
+
+
 def interval_mean_weights(nodes: tuple, ratio: float) -> tuple[float, ...]:
     """Weights of the samples at ``nodes`` (in steps from t_n) giving the mean over [t_n, t_n + ratio h] of
     the polynomial through them (the Lagrange basis integrated exactly)."""
@@ -79,11 +114,16 @@ class InputExtrapolation:
     """Wraps a compiled fixed-step step: coupled outputs replaced by their extrapolation while the inputs are
     set, consistent samples taken after it."""
 
-    def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0):
+    def __init__(self, rt, plan, order: int, per_output: dict | None = None, keep: int = 0,
+                 derivatives_step: float | None = None, slopes: bool = False):
         """``per_output``: output name -> its order (the others: ``order``); ``keep``: samples kept at least
-        (Gauss-Seidel interpolation reads some of its own)."""
+        (Gauss-Seidel interpolation reads some of its own); ``derivatives_step``: the master step, when the
+        receivers get the polynomial as value and derivatives (input derivatives) instead of its step mean."""
         self.rt, self.plan, self.order = rt, plan, order
         self.per_output = dict(per_output or {})
+        self.derivatives_step = derivatives_step
+        self.slopes = slopes        # the polynomial also matches the producers' output derivatives at t_n
+        self.resync = lambda: None  # re-reads what the wrapper keeps of the FMUs' state (the slopes)
         self.refresh_order = gauss_seidel_order(plan, rt.names).order
         self.positions = np.zeros(0, dtype=np.intp)
         self.history: deque = deque(maxlen=max([order, keep - 1, *self.per_output.values()]) + 1)
@@ -93,11 +133,16 @@ class InputExtrapolation:
                 "weights": list(step_mean_weights(self.order + 1))}
         if self.per_output:
             info["per_output"] = dict(sorted(self.per_output.items()))
+        if self.derivatives_step is not None:
+            info["to"] = "the polynomial itself: value and derivatives at the step's start (input derivatives)"
+            info.pop("weights")
         return info
 
     def around(self, step, ratio: float = 1.0):
         """The step with extrapolated inputs (``ratio``: its length in master steps)."""
         self._select()
+        if self.derivatives_step is not None:
+            return self._with_derivatives(step)
         out, pos, history = self.rt.out["Real"], self.positions, self.history
         groups = []         # (indices into pos or None for all of them, weights by number of samples)
         for k, idx in self._order_groups():
@@ -114,6 +159,108 @@ class InputExtrapolation:
             self._refresh(t)
             history.appendleft(out[pos].copy())
         return extrapolated_step
+
+    def _with_derivatives(self, step):
+        """The step with every receiver of an extrapolated output given the polynomial's derivatives at the
+        step's start (its inputs keep y_n, the sample the transfers copy)."""
+        rt, pos, history, h = self.rt, self.positions, self.history, self.derivatives_step
+        out = rt.out["Real"]
+        orders = self._orders()
+        degree = orders + (1 if self.slopes else 0)        # of the polynomial each output's receivers get
+        top = int(degree.max()) if len(degree) else 0
+        slot = {int(p): j for j, p in enumerate(pos)}
+        receivers = {}          # component index -> [(input vr, slot in pos, factor)]
+        for ln in self.plan.links:
+            if (ln.src is None or ln.dst.causality != "input" or ln.dst.type != "Real"
+                    or not rt.active[rt.index[ln.dst.component]]):
+                continue
+            j = slot.get(rt.out_pos.get(ln.src.qualified, -1))
+            if j is not None and degree[j] > 0:
+                receivers.setdefault(rt.index[ln.dst.component], []).append((ln.dst.vr, j, ln.factor))
+        feeds = []
+        for i, entries in sorted(receivers.items()):
+            slave = rt.slaves[i]
+            if not slave.can_interpolate_inputs:
+                raise CosimError(f"{rt.names[i]} cannot interpolate inputs (canInterpolateInputs is not true), so "
+                                 "it cannot be given input derivatives", file=self.plan.shown_as,
+                                 element="--input-derivatives")
+            # per order d = 1..K of each input: the input's slot and factor (orders above its own K give 0)
+            rows = [(d, vr, j, factor) for d in range(1, top + 1) for vr, j, factor in entries]
+            put = slave.input_derivatives_setter([vr for _, vr, _, _ in rows], [d for d, *_ in rows])
+            feeds.append((i, put, np.array([j for _, _, j, _ in rows], dtype=np.intp),
+                          np.array([d for d, *_ in rows]), np.array([f for *_, f in rows])))
+        if self.slopes:
+            weights = {(m, d): np.array(hermite_derivative_weights(m, d)) for m in range(1, top + 1)
+                       for d in range(1, top + 1)}
+            slope, read_slopes = self._slope_reader(feeds)
+            read_slopes(0.0)
+            self.resync = lambda: read_slopes(0.0)    # after a restored state (a caller that rolls back)
+        else:
+            weights = {(m, d): np.array(derivative_weights(m, d)) for m in range(1, top + 2)
+                       for d in range(1, top + 1)}
+
+        def derivative_step(n, t):
+            samples = np.array(history)
+            for i, put, js, ds, factors in feeds:
+                values = np.zeros(len(js))
+                for k, (j, d) in enumerate(zip(js, ds)):
+                    m = min(len(samples), int(orders[j]) + 1)
+                    if self.slopes:     # m samples and the slope: degree m
+                        if d <= m:
+                            data = np.append(samples[:m, j], h * slope[j])
+                            values[k] = weights[(m, int(d))] @ data / h ** int(d) * factors[k]
+                    elif d < m:
+                        values[k] = weights[(m, int(d))] @ samples[:m, j] / h ** int(d) * factors[k]
+                if (st := put(values)) > WARNING:
+                    raise rt.slaves[i].fail("setting input derivatives", st, t)
+            step(n, t)
+            self._refresh(t)
+            if self.slopes:
+                read_slopes(t)
+            history.appendleft(out[pos].copy())
+        return derivative_step
+
+    def _slope_reader(self, feeds):
+        """(slope, read): the first derivatives of the coupled outputs at the current communication point, read
+        by ``read(t)`` from their producers (fmi2GetRealOutputDerivatives). A producer with a coupled
+        feedthrough output first gets its inputs' slopes (its output's derivative depends on them), in the
+        consistent-sample order, after the producers it reads from."""
+        rt, pos = self.rt, self.positions
+        name_at = {p: q for q, p in rt.out_pos.items()}
+        slope = np.zeros(len(pos))
+        by_producer = {}
+        for j, p in enumerate(pos):
+            by_producer.setdefault(self.owner[int(p)], []).append(j)
+        through = [i for i, _ in self._refreshed]
+        getters = {}
+        for i, js in by_producer.items():
+            slave = rt.slaves[i]
+            if slave.max_output_derivative_order < 1:
+                raise CosimError(f"{rt.names[i]} gives no output derivatives (maxOutputDerivativeOrder is 0), so "
+                                 "its outputs' slopes are unknown", file=self.plan.shown_as,
+                                 element="--input-derivatives 2")
+            vrs = [self.plan.var(name_at[int(pos[j])]).vr for j in js]
+            getters[i] = (slave.output_derivatives_getter(vrs, [1] * len(vrs)), np.array(js, dtype=np.intp))
+        slope_feeds = {i: (put, js, ds, factors) for i, put, js, ds, factors in feeds}
+        order = [i for i in getters if i not in through] + [i for i in through if i in getters or i in slope_feeds]
+
+        def read(t):
+            for i in order:
+                if i in through and i in slope_feeds:       # its inputs' slopes first
+                    put, js, ds, factors = slope_feeds[i]
+                    if (st := put(np.where(ds == 1, slope[js] * factors, 0.0))) > WARNING:
+                        raise rt.slaves[i].fail("setting input derivatives", st, t)
+                if i in getters:
+                    get, js = getters[i]
+                    st, values = get()
+                    if st > WARNING:
+                        raise rt.slaves[i].fail("getting output derivatives", st, t)
+                    slope[js] = values
+        return slope, read
+
+    def _orders(self) -> np.ndarray:
+        name_at = {p: q for q, p in self.rt.out_pos.items()}
+        return np.array([self.per_output.get(name_at.get(int(p)), self.order) for p in self.positions], dtype=int)
 
     def _order_groups(self) -> list[tuple[int, np.ndarray | None]]:
         """The coupled outputs by order: one group (None: every position) when they share one, as with the

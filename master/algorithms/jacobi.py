@@ -10,4 +10,5 @@ class Jacobi(Algorithm):
     name = "jacobi"
     gauss_seidel = False
     honours_threads = True
+    honours_input_derivatives = True
     loop_treatment = "jacobi reads every input from the previous step, so the loop only delays values by a step"

@@ -25,6 +25,8 @@ class Fmi2Slave(NativeSlave):
         self._f = self.lib
         self.c = None
         self.can_save_state = bool(getattr(self._fmi_kind(fmu), "canGetAndSetFMUstate", False))
+        self.can_interpolate_inputs = bool(getattr(self._fmi_kind(fmu), "canInterpolateInputs", False))
+        self.max_output_derivative_order = int(getattr(self._fmi_kind(fmu), "maxOutputDerivativeOrder", 0) or 0)
 
     _library_kind = "fmi2cs"
 
@@ -101,6 +103,25 @@ class Fmi2Slave(NativeSlave):
 
     def do_step(self, t, h) -> int:
         return self._do_step(self.c, t, h, 1)
+
+    def input_derivatives_setter(self, vrs, orders):
+        n = len(vrs)
+        f, c = self._f["fmi2SetRealInputDerivatives"], c_void_p(self.c)
+        vr_arr, order_arr, values = (c_uint * n)(*vrs), (c_int * n)(*orders), (c_double * n)()
+
+        def put(v) -> int:
+            values[:] = [float(x) for x in v]
+            return f(c, vr_arr, n, order_arr, values)
+        return put
+
+    def output_derivatives_getter(self, vrs, orders):
+        n = len(vrs)
+        f, c = self._f["fmi2GetRealOutputDerivatives"], c_void_p(self.c)
+        vr_arr, order_arr, values = (c_uint * n)(*vrs), (c_int * n)(*orders), (c_double * n)()
+
+        def get():
+            return f(c, vr_arr, n, order_arr, values), list(values)
+        return get
 
     def asks_to_terminate(self, status: int) -> bool:
         """After a doStep returned ``status`` above Warning: whether the slave asks to end the simulation

@@ -86,9 +86,13 @@ class Slave(abc.ABC):
 
     Capabilities (class or instance attributes, checked before a run that needs them starts):
     ``can_save_state`` -- ``save_state``/``restore_state``/``release_state`` work (rollback).
+    ``can_interpolate_inputs`` -- ``input_derivatives_setter`` works: the FMU takes time derivatives of its Real
+    inputs for the next step (FMI 2.0 canInterpolateInputs, fmi2SetRealInputDerivatives).
     """
     kind = "CoSimulation"
     can_save_state = False
+    can_interpolate_inputs = False
+    max_output_derivative_order = 0     # ``output_derivatives_getter`` gives derivatives up to this order
     # its bound getters (``bound_get``) may read in initialization mode, where they do what ``get_port`` does (not
     # so for FMI 1.0, whose get_port forgives a refusal before initialization)
     bound_get_in_init = False
@@ -130,6 +134,16 @@ class Slave(abc.ABC):
     @abc.abstractmethod
     def set_value(self, typ: str, vr: int, value) -> int:
         """One value (start values, parameters); returns the FMI status."""
+
+    def input_derivatives_setter(self, vrs: list[int], orders: list[int]):
+        """A function ``put(values) -> status`` giving the derivatives of order ``orders[j]`` of the Real inputs
+        ``vrs[j]`` for the next step (one call per step; only where ``can_interpolate_inputs``)."""
+        raise NotImplementedError(f"{self.name} cannot interpolate inputs")
+
+    def output_derivatives_getter(self, vrs: list[int], orders: list[int]):
+        """A function ``get() -> (status, values)`` reading the derivatives of order ``orders[j]`` of the Real
+        outputs ``vrs[j]`` at the current time (only up to ``max_output_derivative_order``)."""
+        raise NotImplementedError(f"{self.name} gives no output derivatives")
 
     def values_setter(self, typ: str, vrs: list[int]):
         """Optional: a function ``put(values) -> bool`` setting ``vrs`` (start values, parameters) in one call, as

@@ -200,6 +200,7 @@ LAYERS = {
     # L6 running it
     "master.runner": 6, "master.supervise": 6, "master.inspect_scenario": 6,
     "master.step_accelerators": 6,     # the step accelerators' declarations run whole executions
+    "master.stability": 6,             # identifies a step map by running executions
     # L7 many runs
     "master.campaign": 7, "master.study": 7, "master.scenario_kinds": 7,
     # L8 the faces
