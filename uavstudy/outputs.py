@@ -12,6 +12,7 @@
   remaining battery, outcome.  One meaning per column: the total row shares a column with the UAV rows
   only where it means the same for the fleet; its counts, sums and means have their own columns
   (docs/uav_monitor.md lists every column).
+* ``replay.html`` -- the run seen again in a browser, offline (uavstudy.replay).
 * ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
   time marks and direction arrows, collision and landing markers, scale bar, legend; title with
   scenario, strategy, the time the mission ended and the results.
@@ -661,6 +662,26 @@ def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
     return path
 
 
+# ------------------------------------------------------------------------------- replay
+def _component_sources(mon) -> dict:
+    """component -> the FMU it loads, from the run's plan (empty when the monitor ran without one)."""
+    model = getattr(getattr(getattr(mon.ctx, "rt", None), "plan", None), "model", None)
+    comps = getattr(model, "components", None) or {}
+    return {name: getattr(c, "source", None) for name, c in comps.items()}
+
+
+def write_run_replay(out_dir: Path, mon, uavs: list[dict], total: dict, traj) -> Path:
+    """replay.html from what the run has in memory: the same page ``cosim-master replay`` writes from the run
+    folder's files (uavstudy.replay)."""
+    from .replay import REPLAY_FILE, replay_document, scene_from_config, write_replay
+    events = getattr(mon.ctx, "events", None) or []
+    photos = [{"uav": spec.name, "target": p["target"], "time": p["time"], "x": p["x"], "y": p["y"]}
+              for spec, rec in zip(mon.cfg.uavs, mon.records) for p in rec.photos]
+    doc = replay_document(scene_from_config(mon.cfg, _component_sources(mon)), traj, events, photos,
+                          {u["uav"]: u["outcome"] for u in uavs}, _clean(total))
+    return write_replay(out_dir / REPLAY_FILE, doc)
+
+
 # ------------------------------------------------------------------------------- entry point
 def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict:
     """Write the mission outputs into out_dir (None: nothing written) and return the run.json summary.
@@ -699,6 +720,11 @@ def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict
             draw_map(mon, uavs, total, out_dir / "map.png", traj)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"map.png: {type(exc).__name__}: {exc}")
+    try:
+        if full and traj is not None:
+            write_run_replay(out_dir, mon, uavs, total, traj)
+    except Exception as exc:   # noqa: BLE001
+        errors.append(f"replay.html: {type(exc).__name__}: {exc}")
     if errors:
         result["output_errors"] = errors
     try:
