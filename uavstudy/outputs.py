@@ -15,7 +15,8 @@
 * ``replay.html`` -- the run seen again in a browser, offline (uavstudy.replay).
 * ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
   time marks and direction arrows, collision and landing markers, scale bar, legend; title with
-  scenario, strategy, the time the mission ended and the results.
+  scenario, strategy, the time the mission ended and the results.  Beyond ``MAX_UAV_LEGEND`` UAVs it is a
+  fleet's map: tracks and pads coloured by outcome, a legend by outcome with its number of UAVs.
 
 Outcome of a UAV (first that applies):
 
@@ -547,8 +548,49 @@ def _draw_targets(ax, targets, visited: set, handles) -> None:
                           label=f"target not visited ({int((~vis).sum())})"))
 
 
+#: beyond this many UAVs the map is a fleet's: tracks coloured by outcome, a legend by outcome, no per-UAV time
+#: marks (replay.html has every UAV's detail); up to it, a colour and a legend entry per UAV
+MAX_UAV_LEGEND = 10
+#: outcome -> track colour on a fleet's map (an outcome not listed is drawn grey)
+OUTCOME_COLOURS = {"success": "tab:green", "battery_return": "tab:orange", "commanded_return": "tab:purple",
+                   "incomplete": "tab:olive", "low_battery": "gold", "forced_landing": "darkorange",
+                   UAV_COLLISION: "red", ZONE_COLLISION: "darkred", NO_TARGETS: "tab:gray", "timeout": "tab:blue",
+                   "run_error": "black", "run_interrupted": "black"}
+
+
+def _draw_fleet_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
+    """A large fleet: every track thin and coloured by its UAV's outcome, each pad a dot of that colour (the
+    UAVs that never left their pads, e.g. without targets, are a ring of dots, not a blob), one legend entry per
+    outcome with its number of UAVs."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    counts: dict[str, int] = {}
+    lines, colours = [], []
+    for k, (spec, rec, u) in enumerate(zip(mon.cfg.uavs, mon.records, uavs)):
+        outcome = u["outcome"]
+        counts[outcome] = counts.get(outcome, 0) + 1
+        colour = OUTCOME_COLOURS.get(outcome, "tab:gray")
+        track = _track(mon, k, rec, spec.name, traj)
+        if track is not None:
+            xy = track[1]
+            step = max(1, math.ceil(len(xy) / max(50, MAX_TRACK_POINTS // max(1, len(uavs) // 10))))
+            lines.append(xy[::step])
+            colours.append(colour)
+        ax.scatter([spec.home[0]], [spec.home[1]], s=6, marker="o", color=colour, edgecolors="none", zorder=5.5)
+    ax.add_collection(LineCollection(lines, colors=colours, linewidths=0.8, alpha=0.7, zorder=3))
+    for outcome in sorted(counts, key=lambda o: (-counts[o], o)):
+        n = counts[outcome]
+        handles.append(Line2D([], [], color=OUTCOME_COLOURS.get(outcome, "tab:gray"), lw=2, marker="o", ms=4,
+                              label=f"{outcome}: {n} UAV{'s' if n != 1 else ''}"))
+    ax.text(0.0, -0.11, "tracks and pads coloured by their UAV's outcome; every UAV on its own, in time: replay.html",
+            transform=ax.transAxes, ha="left", va="top", fontsize=7, color="dimgray")
+
+
 def _draw_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
     from matplotlib.lines import Line2D
+    if len(uavs) > MAX_UAV_LEGEND:
+        _draw_fleet_tracks(ax, mon, uavs, traj, handles)
+        return
     for k, ((color, dash), spec, rec, u) in enumerate(zip(uav_styles(len(uavs)), mon.cfg.uavs, mon.records, uavs)):
         track = _track(mon, k, rec, spec.name, traj)
         if track is not None:
@@ -584,13 +626,18 @@ def _end_marker(rec, u):
 
 
 def _draw_end_markers(ax, mon, uavs: list[dict], handles) -> None:
+    """Where each mission ended; a fleet's map leaves out the landings at the base (its pads' colour says it)."""
     from matplotlib.lines import Line2D
     kinds = set()
+    fleet = len(uavs) > MAX_UAV_LEGEND
     for rec, u in zip(mon.records, uavs):
         end = _end_marker(rec, u)
         if end is not None:
             kind, x, y = end
-            ax.scatter([x], [y], **END_MARKERS[kind][0])
+            if fleet and kind == "landed":
+                continue
+            style = END_MARKERS[kind][0]
+            ax.scatter([x], [y], **(dict(style, s=style["s"] * 0.45) if fleet else style))
             kinds.add(kind)
     for kind, (style, label) in END_MARKERS.items():
         if kind in kinds:
@@ -628,12 +675,25 @@ def map_title(cfg, total: dict) -> str:
     when = (f"mission ended at t={end:.1f} s (every UAV landed or removed)" if end is not None else
             f"mission unfinished when the run stopped at t={_f(total['end_time']):.1f} s")
     return (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {n} UAV{'s' if n != 1 else ''}, "
-            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} successful, "
-            f"{total['targets_visited']}/{total['targets_total']} targets, {total['uav_collisions']} UAV + "
-            f"{total['zone_collisions']} zone collisions")
+            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} UAVs successful, "
+            f"{total['targets_visited']}/{total['targets_total']} targets photographed\n{_collisions(total)}")
+
+
+def _collisions(total: dict) -> str:
+    """Events and the UAVs they cost, each said as what it counts: a UAV-UAV collision takes out two UAVs."""
+    lost = (total.get("outcomes") or {}).get(UAV_COLLISION, 0)
+    zones = total["zone_collisions"]
+    return (f"{total['uav_collisions']} UAV-UAV collision{'s' if total['uav_collisions'] != 1 else ''} "
+            f"({lost} UAV{'s' if lost != 1 else ''} lost), {zones} zone incursion{'s' if zones != 1 else ''}")
 
 
 def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
+    map_figure(mon, uavs, total, traj).savefig(path)
+    return path
+
+
+def map_figure(mon, uavs: list[dict], total: dict, traj=None):
+    """The figure of map.png."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -652,14 +712,13 @@ def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
     _draw_tracks(ax, mon, uavs, traj, handles)
     _draw_end_markers(ax, mon, uavs, handles)
     _draw_frame(ax, cfg.origin)
-    # the legend names every UAV (no labels on the map, where the pads' ring is too small for them); a long
-    # one is split into columns rather than running off the figure
+    # up to MAX_UAV_LEGEND UAVs the legend names every UAV (no labels on the map, where the pads' ring is too small for
+    # them), beyond it every outcome; a long one is split into columns rather than running off the figure
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
               ncol=math.ceil(len(handles) / 40))
     ax.set_title(map_title(cfg, total), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path)
-    return path
+    return fig
 
 
 # ------------------------------------------------------------------------------- replay
