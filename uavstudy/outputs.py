@@ -458,6 +458,7 @@ def _nice(length: float) -> float:
     return e
 
 
+MAX_TARGET_LABELS = 64      # more targets than a scenario file takes (the strategy FMU's 64) are not numbered
 TIME_MARK_INTERVAL = 60.0   # s between two time marks on a track (an arrow half-way shows the direction)
 MAX_TRACK_POINTS = 6000     # a track drawn with more points is thinned (a long mission of a large fleet)
 
@@ -533,13 +534,15 @@ def _draw_targets(ax, targets, visited: set, handles) -> None:
     if not len(tg):
         return
     vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
+    many = len(tg) > MAX_TARGET_LABELS      # hundreds of targets: smaller, and not numbered (replay.html names them)
+    size = 22 if many else 70
     if vis.any():
-        ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
+        ax.scatter(tg[vis, 0], tg[vis, 1], s=size, c="gold", edgecolors="darkgoldenrod", zorder=4)
     if (~vis).any():
-        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=size, facecolors="none", edgecolors="gray", linewidths=1.5,
                    marker="o", zorder=4)
-        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
-    for k, (x, y) in enumerate(tg):
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=size * 0.43, c="gray", marker="x", zorder=4)
+    for k, (x, y) in enumerate([] if many else tg):
         ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray",
                     zorder=4.5)     # above the zone names' boxes
     handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
