@@ -78,42 +78,26 @@ def _deltas(values: np.ndarray, scale: float) -> list:
     """Integer differences of round(values * scale); a NaN is null and leaves the running value as it was."""
     q = np.round(np.asarray(values, dtype=float) * scale)
     ok = np.isfinite(q)
+    if ok.all():
+        return np.diff(q.astype(np.int64), prepend=0).tolist()
     if not ok.any():
         return []
-    out = []
-    prev = 0
+    out, prev = [], 0
     for v, good in zip(q.tolist(), ok.tolist()):
         if good:
-            iv = int(v)
-            out.append(iv - prev)
-            prev = iv
+            out.append(int(v) - prev)
+            prev = int(v)
         else:
             out.append(None)
     return out
 
 
-def _deltas_fast(values: np.ndarray, scale: float) -> list:
-    q = np.round(np.asarray(values, dtype=float) * scale)
-    if np.isfinite(q).all():
-        iq = q.astype(np.int64)
-        return np.diff(iq, prepend=0).tolist()
-    return _deltas(values, scale)
-
-
-def _changes(names, table: dict) -> list:
-    """[[row, code], ...] at the first row and every row whose name differs from the row before; codes index
-    ``table`` (name -> code, grown as names appear), an empty cell is -1."""
-    out = []
-    prev = object()
-    for i, name in enumerate(names):
-        if name != prev:
-            if name is None or (isinstance(name, float) and name != name) or name == "":
-                code = -1
-            else:
-                code = table.setdefault(str(name), len(table))
-            out.append([i, code])
-            prev = name
-    return out
+def _changes(codes: np.ndarray) -> list:
+    """[[row, code], ...] at the first row and every row whose code differs from the row before (-1: no value)."""
+    if not codes.size:
+        return []
+    starts = np.flatnonzero(np.concatenate(([True], codes[1:] != codes[:-1])))
+    return np.stack([starts, codes[starts]], axis=1).tolist()
 
 
 def _kept_rows(n: int, stride: int, *change_series) -> np.ndarray:
@@ -123,40 +107,52 @@ def _kept_rows(n: int, stride: int, *change_series) -> np.ndarray:
     keep = np.zeros(n, dtype=bool)
     keep[::stride] = True
     keep[-1] = True
-    for s in change_series:
-        a = np.asarray(s, dtype=object)
+    for a in change_series:
+        a = np.asarray(a)
         keep[1:] |= a[1:] != a[:-1]
     return np.flatnonzero(keep)
 
 
+def _codes(traj, column: str) -> tuple[np.ndarray, list]:
+    """The column's names as integer codes (-1: empty) and the names, in the order they first appear."""
+    import pandas as pd
+    if column not in traj:
+        return np.full(len(traj), -1, dtype=np.int64), []
+    codes, names = pd.factorize(traj[column].to_numpy(object), use_na_sentinel=True)
+    return codes.astype(np.int64), [str(v) for v in names]
+
+
 def encode_tracks(traj, names: list[str], budget: int = SAMPLE_BUDGET) -> tuple[list, dict, int]:
-    """The page's tracks from a trajectory table (trajectory.csv's columns), in the order of ``names``; the
-    phase and mission-state name tables; the stride used."""
+    """The page's tracks from a trajectory table (trajectory.csv's columns and row order), in the order of
+    ``names``; the phase and mission-state names the tracks' codes index; the stride used."""
+    import pandas as pd
     stride = max(1, math.ceil(len(traj) / budget)) if budget else 1
-    phases: dict = {}
-    states: dict = {}
+    phase, phases = _codes(traj, "phase")
+    state, states = _codes(traj, "mission_state")
+    uav_code, uavs = pd.factorize(traj["uav"].to_numpy(object)) if len(traj) else (np.zeros(0, np.int64), [])
+    order = np.argsort(uav_code, kind="stable")           # each UAV's rows together, in the table's order
+    bounds = np.searchsorted(uav_code[order], np.arange(len(uavs) + 1))
+    where = {str(u): order[bounds[k]:bounds[k + 1]] for k, u in enumerate(uavs)}
+    columns = {col: (traj["time" if col == "t" else col].to_numpy(float)
+                     if ("time" if col == "t" else col) in traj else np.full(len(traj), np.nan))
+               for col in ("t", "x", "y", "z", "speed", "soc")}
+    status = traj["status"].to_numpy(object) if "status" in traj else None
     tracks = []
-    groups = {n: g for n, g in traj.groupby("uav", sort=False)} if len(traj) else {}
     for name in names:
-        g = groups.get(name)
-        if g is None or not len(g):
+        idx = where.get(name)
+        if idx is None or not idx.size:
             tracks.append(None)
             continue
-        ph = g["phase"].to_numpy(object) if "phase" in g else np.full(len(g), None, dtype=object)
-        ms = g["mission_state"].to_numpy(object) if "mission_state" in g else np.full(len(g), None, dtype=object)
-        rows = _kept_rows(len(g), stride, ph, ms)
-        tr = {"n": int(rows.size)}
-        for col in ("t", "x", "y", "z", "speed", "soc"):
-            src = "time" if col == "t" else col
-            vals = g[src].to_numpy(float)[rows] if src in g else np.full(rows.size, np.nan)
-            tr[col] = _deltas_fast(vals, SCALES[col])
-        tr["phase"] = _changes(ph[rows].tolist(), phases)
-        tr["state"] = _changes(ms[rows].tolist(), states)
-        if "status" in g:
-            status = g["status"].to_numpy(object)
-            tr["removed"] = bool(status[-1] == "removed")
+        idx = idx[_kept_rows(idx.size, stride, phase[idx], state[idx])]
+        tr = {"n": int(idx.size)}
+        for col, values in columns.items():
+            tr[col] = _deltas(values[idx], SCALES[col])
+        tr["phase"] = _changes(phase[idx])
+        tr["state"] = _changes(state[idx])
+        if status is not None:
+            tr["removed"] = bool(status[idx[-1]] == "removed")
         tracks.append(tr)
-    return tracks, {"phases": list(phases), "states": list(states)}, stride
+    return tracks, {"phases": phases, "states": states}, stride
 
 
 def _num(v):
@@ -220,7 +216,10 @@ def replay_document(scene: Scene, traj, events: list[dict], photos: list[dict], 
 
 
 def _json(doc: dict) -> str:
-    text = json.dumps(_finite(doc), separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    # the tracks are integers and None only (encode_tracks): a walk over their million items would cost more than
+    # the rest of the page
+    clean = {k: (v if k == "tracks" else _finite(v)) for k, v in doc.items()}
+    text = json.dumps(clean, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
     # inside <script>: "</" would end the element, and U+2028/9 are line ends to older parsers
     return text.replace("</", "<\\/").replace("\u2028", "\\u2028").replace("\u2029", "\\u2029")
 
