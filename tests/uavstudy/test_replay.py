@@ -123,3 +123,33 @@ def test_large_runs_keep_every_kth_row_and_every_change():
         assert [(i, tables["phases"][c]) for i, c in tr["phase"]] == \
             [(0, "fly"), (expect.index(333), "land"), (expect.index(343), "landed")]
     assert encode_tracks(traj, ["a", "b"], budget=2 * n)[2] == 1      # within the budget: every row
+
+
+def test_campaign_runs_keep_their_replay_and_the_report_links_it(tmp_path):
+    from master.campaign.report import build_report
+    from master.campaign.runner import run_campaign
+    camp = tmp_path / "c.yaml"
+    camp.write_text(f"""\
+name: replay-tiny
+seed: 4
+scenario: {ROOT / 'ssp' / 'scenarios' / 'paper_area.yaml'}
+grid:
+  strategy: [A, B]
+  n_uavs: 2
+run:
+  step: 0.5
+  stop_time: 30
+  record_interval: 5
+  csv: false
+keep: all
+""")
+    out = tmp_path / "out"
+    assert run_campaign(camp, output=out, workers=1, progress=False).completed == 2
+    runs = sorted(p for p in (out / "runs").iterdir() if p.is_dir())
+    assert all((r / REPLAY_FILE).is_file() for r in runs)
+    report = build_report(out).read_text()
+    links = re.findall(r"\[replay\.html\]\((\.\./runs/[0-9a-f]+/replay\.html)\)", report)
+    assert sorted((out / "report" / link).resolve() for link in links) == [r / REPLAY_FILE for r in runs]
+    # the replay command finds a campaign run's own scenario.ssp
+    page = (runs[0] / REPLAY_FILE).read_bytes()
+    assert main(["replay", str(runs[0])]) == 0 and (runs[0] / REPLAY_FILE).read_bytes() == page
