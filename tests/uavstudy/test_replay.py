@@ -153,3 +153,19 @@ keep: all
     # the replay command finds a campaign run's own scenario.ssp
     page = (runs[0] / REPLAY_FILE).read_bytes()
     assert main(["replay", str(runs[0])]) == 0 and (runs[0] / REPLAY_FILE).read_bytes() == page
+
+
+def test_sitl_and_point_mass_vehicles_are_told_apart(tmp_path):
+    """The vehicle of each UAV comes from the FMU its dynamics component loads (UavSitl.fmu: SITL)."""
+    import yaml
+
+    from uavstudy.build import build_scenario
+    from uavstudy.replay import scene_from_ssp
+    data = yaml.safe_load((ROOT / "ssp" / "scenarios" / "paper_area_zones.yaml").read_text())
+    data["vehicle"] = ["sitl", "point_mass", "sitl", "point_mass"]
+    (tmp_path / "mixed.yaml").write_text(yaml.safe_dump(data))
+    ssp = build_scenario(tmp_path / "mixed.yaml", tmp_path / "mixed.ssp")
+    scene = scene_from_ssp(ssp)
+    assert [(u["name"], u["vehicle"]) for u in scene.uavs] == \
+        [("uav1", "sitl"), ("uav2", "point-mass"), ("uav3", "sitl"), ("uav4", "point-mass")]
+    assert len(scene.targets) == 24 and [z["name"] for z in scene.zones][:1] == ["zone_southeast"]

@@ -108,3 +108,27 @@ def test_clicking_a_uav_on_the_map_shows_its_state(page, mission):
     info = page.locator("#uavinfo").inner_text()
     assert "uav2" in info and f"{r.speed:.2f} m/s" in info and f"{100 * r.soc:.1f} %" in info
     assert r.mission_state in info and "point-mass" in info
+
+
+def test_sitl_vehicles_are_marked(browser, mission, tmp_path):
+    """The same run's page with uav2 said to be a SITL vehicle (as a run with ``vehicle: [point_mass, sitl, ...]``
+    writes it): its label, its entry in the UAV list and its panel say so; the others stay point-mass."""
+    import json
+    import re
+
+    from uavstudy.replay import write_replay
+    text = (mission / REPLAY_FILE).read_text(encoding="utf-8")
+    doc = json.loads(re.search(r'id="replay-data" type="application/json">(.*?)</script>', text, re.S).group(1)
+                     .replace("<\\/", "</"))
+    doc["uavs"][1]["vehicle"] = "sitl"
+    page_path = write_replay(tmp_path / REPLAY_FILE, doc)
+    pg = browser.new_context(offline=True).new_page()
+    pg.goto(page_path.as_uri())
+    options = pg.locator("#uavsel option").all_inner_texts()
+    assert [o.split(" ")[0:2] for o in options[1:3]] == [["uav1", "\u2013"], ["uav2", "(SITL)"]]
+    pg.evaluate("replay.select(1)")
+    assert "ArduCopter SITL" in pg.locator("#uavinfo").inner_text()
+    pg.evaluate("replay.select(0)")
+    assert "point-mass model" in pg.locator("#uavinfo").inner_text()
+    assert "1 SITL vehicle" in pg.locator("#subtitle").inner_text()
+    pg.context.close()
