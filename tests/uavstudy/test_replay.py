@@ -99,6 +99,13 @@ def test_replay_command_errors_are_one_line(tmp_path, capsys):
     assert main(["replay", str(tmp_path / "ssp_run")]) == 1
     err = capsys.readouterr().err.strip()
     assert "no scenario kind claims this run" in err and "\n" not in err
+    # a UAV run that kept its summary only (a campaign's keep: summary)
+    (tmp_path / "summary_only").mkdir()
+    (tmp_path / "summary_only" / "run.json").write_text(json.dumps(
+        {"scenario": "a.ssp", "monitors": {"org.cosim-master.uav-monitor": {}}}))
+    assert main(["replay", str(tmp_path / "summary_only")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "has no trajectory.csv" in err and "\n" not in err
 
 
 def test_large_runs_keep_every_kth_row_and_every_change():

@@ -132,3 +132,14 @@ def test_sitl_vehicles_are_marked(browser, mission, tmp_path):
     assert "point-mass model" in pg.locator("#uavinfo").inner_text()
     assert "1 SITL vehicle" in pg.locator("#subtitle").inner_text()
     pg.context.close()
+
+
+def test_play_runs_time_forward_and_pause_stops_it(page):
+    page.locator("#speed").select_option("100")
+    page.locator("#play").click()
+    page.wait_for_function("replay.time() > 20")          # 100x: a fraction of a second
+    page.locator("#play").click()
+    stopped = page.evaluate("replay.time()")
+    assert page.locator("#play").inner_text() == "play"
+    page.wait_for_timeout(300)
+    assert page.evaluate("replay.time()") == stopped
