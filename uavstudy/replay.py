@@ -296,8 +296,9 @@ def scene_from_ssp(scenario: Path) -> Scene:
 
 
 def _scenario_of(run_dir: Path, meta: dict, given: Path | None) -> Path:
-    """The SSP a run flew: the one given, else the one run.json names (as written, or beside the run folder),
-    else the run folder's own scenario.ssp (a campaign run that kept it)."""
+    """The SSP a run flew: the one given, else the one run.json names (as written: relative to where the run was
+    started, so also tried from the run folder and each folder above it), else the run folder's own scenario.ssp
+    (a campaign run that kept it)."""
     if given is not None:
         if not given.exists():
             raise ScenarioError("scenario not found", file=str(given), element="--scenario")
@@ -306,7 +307,8 @@ def _scenario_of(run_dir: Path, meta: dict, given: Path | None) -> Path:
     tried = []
     if named:
         p = Path(named)
-        tried = [p] if p.is_absolute() else [p, run_dir / p, run_dir.parent / p]
+        here = run_dir.resolve()
+        tried = [p] if p.is_absolute() else [p, *(folder / p for folder in (here, *here.parents))]
     tried.append(run_dir / "scenario.ssp")
     for p in tried:
         if p.exists():

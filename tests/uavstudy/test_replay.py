@@ -87,6 +87,12 @@ def test_replay_command_finds_the_scenario_run_json_names(collision_run, tmp_pat
     assert main(["replay", str(copy)]) == 0
     monkeypatch.chdir(tmp_path)                          # elsewhere: not found, and said so in one line
     assert main(["replay", str(copy)]) == 1
+    # a run folder inside the folder the run was started from (results/x of a checkout), named from elsewhere
+    checkout = tmp_path / "checkout"
+    (checkout / "ssp").mkdir(parents=True)
+    shutil.copy(SSP, checkout / meta["scenario"])
+    shutil.copytree(copy, checkout / "results" / "x")
+    assert main(["replay", str(checkout / "results" / "x")]) == 0
 
 
 def test_replay_command_errors_are_one_line(tmp_path, capsys):
