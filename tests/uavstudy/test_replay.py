@@ -182,3 +182,10 @@ def test_sitl_and_point_mass_vehicles_are_told_apart(tmp_path):
     assert [(u["name"], u["vehicle"]) for u in scene.uavs] == \
         [("uav1", "sitl"), ("uav2", "point-mass"), ("uav3", "sitl"), ("uav4", "point-mass")]
     assert len(scene.targets) == 24 and [z["name"] for z in scene.zones][:1] == ["zone_southeast"]
+
+
+def test_a_missing_value_is_null_and_the_series_goes_on_from_the_last_one():
+    from uavstudy.replay import _deltas
+    assert _deltas(np.array([1.0, np.nan, 1.5, 1.25]), 100.0) == [100, None, 50, -25]
+    assert _deltas(np.array([np.nan, np.nan]), 100.0) == []          # no value at all: no series
+    assert _deltas(np.array([0.123456, -0.004]), 100.0) == [12, -12]
