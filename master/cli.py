@@ -265,6 +265,13 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", required=True, metavar="FILE.ssp",
                    help="the SSP to write: an .ssp archive, or a folder for an unpacked SSP")
     b.add_argument("--debug", action="store_true", help="show Python tracebacks")
+
+    rv = sub.add_parser("replay", help="write replay.html, the run seen again in a browser, into a finished run's "
+                                       "folder (as the scenario kind that claims the run writes it, e.g. a UAV run)")
+    rv.add_argument("run_dir", help="the folder of a finished run (holding its run.json), e.g. results/paper_zones_4uav_B")
+    rv.add_argument("--scenario", default=None, metavar="FILE.ssp",
+                    help="the scenario the run flew, when the path in run.json no longer finds it")
+    rv.add_argument("--debug", action="store_true", help="show Python tracebacks")
     return p
 
 
@@ -460,6 +467,14 @@ def _dispatch(args) -> int:
     if args.command == "report":
         from .campaign.report import build_report
         path = build_report(args.campaign_dir)       # the kind recorded in campaign.json writes it
+        print(f"wrote {path}")
+        return 0
+    if args.command == "replay":
+        from pathlib import Path
+
+        from .scenario_kinds import kind_for_run
+        run_dir = Path(args.run_dir)
+        path = kind_for_run(run_dir).write_replay(run_dir, Path(args.scenario) if args.scenario else None)
         print(f"wrote {path}")
         return 0
     if args.command == "build-scenario":

@@ -106,6 +106,16 @@ class ScenarioKind:
         """The markdown of the campaign report (figures written into ``out``), or None for the generic one."""
         return None
 
+    # -- a finished run's folder --------------------------------------------------------------------------
+    def claims_run(self, meta: dict) -> bool:
+        """Did a run of this kind fill the run folder whose run.json holds ``meta`` (``cosim-master replay``)?"""
+        return False
+
+    def write_replay(self, run_dir: Path, scenario: Path | None = None) -> Path:
+        """Write the replay page of the finished run in ``run_dir`` from its files (``scenario``: the one the run
+        flew, when run.json's path no longer finds it); returns the page's path."""
+        raise CosimError(f"{self.label} runs have no replay page", file=str(run_dir))
+
 
 SCENARIO_KINDS: Registry[ScenarioKind] = Registry("scenario kind", "cosim_master.scenario_kinds")
 
@@ -125,3 +135,18 @@ def kind_for_file(path: Path, element: str | None = None) -> ScenarioKind:
         raise CosimError(f"no scenario kind claims this file (kinds: {', '.join(SCENARIO_KINDS.names())})",
                          file=str(path), element=element)
     return kind
+
+
+def kind_for_run(run_dir: Path) -> ScenarioKind:
+    """The scenario kind that claims the finished run in ``run_dir`` (by its run.json), or a one-line error."""
+    import json
+    try:
+        meta = json.loads((Path(run_dir) / "run.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise CosimError(f"not a run folder: cannot read its run.json ({type(exc).__name__})",
+                         file=str(run_dir)) from None
+    for kind in SCENARIO_KINDS.load_all().values():
+        if isinstance(meta, dict) and kind.claims_run(meta):
+            return kind
+    raise CosimError(f"no scenario kind claims this run (kinds: {', '.join(SCENARIO_KINDS.names())}); a replay "
+                     "page is written for the runs of a study that has one, e.g. UAV runs", file=str(run_dir))

@@ -306,5 +306,14 @@ class UavKind(ScenarioKind):
         from .report import uav_report
         return uav_report(manifest, df, out)
 
+    def claims_run(self, meta: dict) -> bool:
+        """A run the UAV monitor observed (any SSP with its annotation: shipped, built or a campaign's)."""
+        from .names import MONITOR_TYPE
+        return MONITOR_TYPE in (meta.get("monitors") or {})
+
+    def write_replay(self, run_dir: Path, scenario: Path | None = None) -> Path:
+        from .replay import replay_run_folder
+        return replay_run_folder(run_dir, scenario)
+
 
 UAV_KIND = UavKind()

@@ -12,9 +12,11 @@
   remaining battery, outcome.  One meaning per column: the total row shares a column with the UAV rows
   only where it means the same for the fleet; its counts, sums and means have their own columns
   (docs/uav_monitor.md lists every column).
+* ``replay.html`` -- the run seen again in a browser, offline (uavstudy.replay).
 * ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
   time marks and direction arrows, collision and landing markers, scale bar, legend; title with
-  scenario, strategy, the time the mission ended and the results.
+  scenario, strategy, the time the mission ended and the results.  Beyond ``MAX_UAV_LEGEND`` UAVs it is a
+  fleet's map: tracks and pads coloured by outcome, a legend by outcome with its number of UAVs.
 
 Outcome of a UAV (first that applies):
 
@@ -456,6 +458,7 @@ def _nice(length: float) -> float:
     return e
 
 
+MAX_TARGET_LABELS = 64      # more targets than a scenario file takes (the strategy FMU's 64) are not numbered
 TIME_MARK_INTERVAL = 60.0   # s between two time marks on a track (an arrow half-way shows the direction)
 MAX_TRACK_POINTS = 6000     # a track drawn with more points is thinned (a long mission of a large fleet)
 
@@ -531,13 +534,15 @@ def _draw_targets(ax, targets, visited: set, handles) -> None:
     if not len(tg):
         return
     vis = np.array([k in visited for k in range(len(tg))], dtype=bool)
+    many = len(tg) > MAX_TARGET_LABELS      # hundreds of targets: smaller, and not numbered (replay.html names them)
+    size = 22 if many else 70
     if vis.any():
-        ax.scatter(tg[vis, 0], tg[vis, 1], s=70, c="gold", edgecolors="darkgoldenrod", zorder=4)
+        ax.scatter(tg[vis, 0], tg[vis, 1], s=size, c="gold", edgecolors="darkgoldenrod", zorder=4)
     if (~vis).any():
-        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=70, facecolors="none", edgecolors="gray", linewidths=1.5,
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=size, facecolors="none", edgecolors="gray", linewidths=1.5,
                    marker="o", zorder=4)
-        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=30, c="gray", marker="x", zorder=4)
-    for k, (x, y) in enumerate(tg):
+        ax.scatter(tg[~vis, 0], tg[~vis, 1], s=size * 0.43, c="gray", marker="x", zorder=4)
+    for k, (x, y) in enumerate([] if many else tg):
         ax.annotate(str(k), (x, y), xytext=(4, 4), textcoords="offset points", fontsize=6, color="dimgray",
                     zorder=4.5)     # above the zone names' boxes
     handles.append(Line2D([], [], ls="", marker="o", ms=8, mfc="gold", mec="darkgoldenrod",
@@ -546,8 +551,49 @@ def _draw_targets(ax, targets, visited: set, handles) -> None:
                           label=f"target not visited ({int((~vis).sum())})"))
 
 
+#: beyond this many UAVs the map is a fleet's: tracks coloured by outcome, a legend by outcome, no per-UAV time
+#: marks (replay.html has every UAV's detail); up to it, a colour and a legend entry per UAV
+MAX_UAV_LEGEND = 10
+#: outcome -> track colour on a fleet's map (an outcome not listed is drawn grey)
+OUTCOME_COLOURS = {"success": "tab:green", "battery_return": "tab:orange", "commanded_return": "tab:purple",
+                   "incomplete": "tab:olive", "low_battery": "gold", "forced_landing": "darkorange",
+                   UAV_COLLISION: "red", ZONE_COLLISION: "darkred", NO_TARGETS: "tab:gray", "timeout": "tab:blue",
+                   "run_error": "black", "run_interrupted": "black"}
+
+
+def _draw_fleet_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
+    """A large fleet: every track thin and coloured by its UAV's outcome, each pad a dot of that colour (the
+    UAVs that never left their pads, e.g. without targets, are a ring of dots, not a blob), one legend entry per
+    outcome with its number of UAVs."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    counts: dict[str, int] = {}
+    lines, colours = [], []
+    for k, (spec, rec, u) in enumerate(zip(mon.cfg.uavs, mon.records, uavs)):
+        outcome = u["outcome"]
+        counts[outcome] = counts.get(outcome, 0) + 1
+        colour = OUTCOME_COLOURS.get(outcome, "tab:gray")
+        track = _track(mon, k, rec, spec.name, traj)
+        if track is not None:
+            xy = track[1]
+            step = max(1, math.ceil(len(xy) / max(50, MAX_TRACK_POINTS // max(1, len(uavs) // 10))))
+            lines.append(xy[::step])
+            colours.append(colour)
+        ax.scatter([spec.home[0]], [spec.home[1]], s=6, marker="o", color=colour, edgecolors="none", zorder=5.5)
+    ax.add_collection(LineCollection(lines, colors=colours, linewidths=0.8, alpha=0.7, zorder=3))
+    for outcome in sorted(counts, key=lambda o: (-counts[o], o)):
+        n = counts[outcome]
+        handles.append(Line2D([], [], color=OUTCOME_COLOURS.get(outcome, "tab:gray"), lw=2, marker="o", ms=4,
+                              label=f"{outcome}: {n} UAV{'s' if n != 1 else ''}"))
+    ax.text(0.0, -0.11, "tracks and pads coloured by their UAV's outcome; every UAV on its own, in time: replay.html",
+            transform=ax.transAxes, ha="left", va="top", fontsize=7, color="dimgray")
+
+
 def _draw_tracks(ax, mon, uavs: list[dict], traj, handles) -> None:
     from matplotlib.lines import Line2D
+    if len(uavs) > MAX_UAV_LEGEND:
+        _draw_fleet_tracks(ax, mon, uavs, traj, handles)
+        return
     for k, ((color, dash), spec, rec, u) in enumerate(zip(uav_styles(len(uavs)), mon.cfg.uavs, mon.records, uavs)):
         track = _track(mon, k, rec, spec.name, traj)
         if track is not None:
@@ -583,13 +629,18 @@ def _end_marker(rec, u):
 
 
 def _draw_end_markers(ax, mon, uavs: list[dict], handles) -> None:
+    """Where each mission ended; a fleet's map leaves out the landings at the base (its pads' colour says it)."""
     from matplotlib.lines import Line2D
     kinds = set()
+    fleet = len(uavs) > MAX_UAV_LEGEND
     for rec, u in zip(mon.records, uavs):
         end = _end_marker(rec, u)
         if end is not None:
             kind, x, y = end
-            ax.scatter([x], [y], **END_MARKERS[kind][0])
+            if fleet and kind == "landed":
+                continue
+            style = END_MARKERS[kind][0]
+            ax.scatter([x], [y], **(dict(style, s=style["s"] * 0.45) if fleet else style))
             kinds.add(kind)
     for kind, (style, label) in END_MARKERS.items():
         if kind in kinds:
@@ -627,12 +678,25 @@ def map_title(cfg, total: dict) -> str:
     when = (f"mission ended at t={end:.1f} s (every UAV landed or removed)" if end is not None else
             f"mission unfinished when the run stopped at t={_f(total['end_time']):.1f} s")
     return (f"{cfg.scenario or 'UAV mission'} - strategy {cfg.strategy or '?'}, {n} UAV{'s' if n != 1 else ''}, "
-            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} successful, "
-            f"{total['targets_visited']}/{total['targets_total']} targets, {total['uav_collisions']} UAV + "
-            f"{total['zone_collisions']} zone collisions")
+            f"run {total['run_outcome']}\n{when}\n{total['uavs_successful']}/{n} UAVs successful, "
+            f"{total['targets_visited']}/{total['targets_total']} targets photographed\n{_collisions(total)}")
+
+
+def _collisions(total: dict) -> str:
+    """Events and the UAVs they cost, each said as what it counts: a UAV-UAV collision takes out two UAVs."""
+    lost = (total.get("outcomes") or {}).get(UAV_COLLISION, 0)
+    zones = total["zone_collisions"]
+    return (f"{total['uav_collisions']} UAV-UAV collision{'s' if total['uav_collisions'] != 1 else ''} "
+            f"({lost} UAV{'s' if lost != 1 else ''} lost), {zones} zone incursion{'s' if zones != 1 else ''}")
 
 
 def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
+    map_figure(mon, uavs, total, traj).savefig(path)
+    return path
+
+
+def map_figure(mon, uavs: list[dict], total: dict, traj=None):
+    """The figure of map.png."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -651,14 +715,33 @@ def draw_map(mon, uavs: list[dict], total: dict, path: Path, traj=None) -> Path:
     _draw_tracks(ax, mon, uavs, traj, handles)
     _draw_end_markers(ax, mon, uavs, handles)
     _draw_frame(ax, cfg.origin)
-    # the legend names every UAV (no labels on the map, where the pads' ring is too small for them); a long
-    # one is split into columns rather than running off the figure
+    # up to MAX_UAV_LEGEND UAVs the legend names every UAV (no labels on the map, where the pads' ring is too small for
+    # them), beyond it every outcome; a long one is split into columns rather than running off the figure
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
               ncol=math.ceil(len(handles) / 40))
     ax.set_title(map_title(cfg, total), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path)
-    return path
+    return fig
+
+
+# ------------------------------------------------------------------------------- replay
+def _component_sources(mon) -> dict:
+    """component -> the FMU it loads, from the run's plan (empty when the monitor ran without one)."""
+    model = getattr(getattr(getattr(mon.ctx, "rt", None), "plan", None), "model", None)
+    comps = getattr(model, "components", None) or {}
+    return {name: getattr(c, "source", None) for name, c in comps.items()}
+
+
+def write_run_replay(out_dir: Path, mon, uavs: list[dict], total: dict, traj) -> Path:
+    """replay.html from what the run has in memory: the same page ``cosim-master replay`` writes from the run
+    folder's files (uavstudy.replay)."""
+    from .replay import REPLAY_FILE, replay_document, scene_from_config, write_replay
+    events = getattr(mon.ctx, "events", None) or []
+    photos = [{"uav": spec.name, "target": p["target"], "time": p["time"], "x": p["x"], "y": p["y"]}
+              for spec, rec in zip(mon.cfg.uavs, mon.records) for p in rec.photos]
+    doc = replay_document(scene_from_config(mon.cfg, _component_sources(mon)), traj, events, photos,
+                          {u["uav"]: u["outcome"] for u in uavs}, _clean(total))
+    return write_replay(out_dir / REPLAY_FILE, doc)
 
 
 # ------------------------------------------------------------------------------- entry point
@@ -699,6 +782,11 @@ def write_outputs(out_dir, mon, run_outcome: str, products: str = "all") -> dict
             draw_map(mon, uavs, total, out_dir / "map.png", traj)
     except Exception as exc:   # noqa: BLE001
         errors.append(f"map.png: {type(exc).__name__}: {exc}")
+    try:
+        if full and traj is not None:
+            write_run_replay(out_dir, mon, uavs, total, traj)
+    except Exception as exc:   # noqa: BLE001
+        errors.append(f"replay.html: {type(exc).__name__}: {exc}")
     if errors:
         result["output_errors"] = errors
     try:

@@ -59,8 +59,18 @@ def uav_report(manifest, df, out: Path) -> str | None:
     lines += _figures_md(fd, files)
     lines += _figure_tables_md(fd, r)
     lines += _table2_md(fd, t2, r)
+    lines += _replays_md(Path(out), r)
     lines += ["## Failed runs", "", failures_md(df)]
     return "\n".join(lines)
+
+
+def _replays_md(out: Path, r) -> list[str]:
+    """A link to each run's replay.html where its folder keeps one (``keep: all``; uavstudy.replay)."""
+    kept = [row for row in r.itertuples() if (out.parent / "runs" / row.run_id / "replay.html").is_file()]
+    rows = [[row.run_id, row.strategy, row.n_uavs, row.area, f"{row.wind:g}", row.rep,
+             f"[replay.html](../runs/{row.run_id}/replay.html)"] for row in kept]
+    return ["## Replays", "", md_table(["run", "strategy", "UAVs", "area", "wind", "rep", "replay"], rows), ""] \
+        if rows else []
 
 
 def _header_md(manifest, df, u, r, settings: dict) -> list[str]:
