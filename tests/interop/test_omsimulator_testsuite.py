@@ -152,3 +152,25 @@ def test_embrace_parameter_set_with_values_the_mapping_does_not_cover(tmp_path, 
     worst = (np.abs(u - o) / np.maximum(span, 1e-12)).max(axis=0)
     for q, bound in EMBRACE_SPREAD.items():
         assert np.quantile(worst, q) <= bound, (q, np.quantile(worst, q))
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "master.cli", "run", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_the_command_line_runs_them(tmp_path):
+    res = _cli(str(SUITE / "import_export_parameters1.ssp"), "-o", str(tmp_path / "iep"), "--record", "*",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    df = pd.read_csv(tmp_path / "iep" / "results.csv")
+    assert df["time"].iloc[-1] == 4.0 and np.all(df["addP.y"] == -600.0)
+    # embrace needs --lenient (ECS_SW's modelDescription does not conform): without it, one line, no traceback
+    res = _cli(str(SUITE / "embrace.ssp"), "-o", str(tmp_path / "e"), "--stop-time", "0.002", cwd=tmp_path)
+    assert res.returncode == 1 and "Traceback" not in res.stderr
+    assert res.stderr.strip().splitlines()[-1].startswith("cosim-master: error: ") and "0002_ECS_SW.fmu" in res.stderr
+    res = _cli(str(SUITE / "embrace.ssp"), "-o", str(tmp_path / "e"), "--stop-time", "0.002", "--lenient",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    warned = [ln for ln in res.stderr.splitlines() if "ignoring" in ln]
+    assert len(warned) == 1 and "RAPID_Systems_2021-03-29_Test_1.ssv: ignoring 164 parameter values" in warned[0]
