@@ -13,10 +13,15 @@ compared.  Agreement, measured (2026-11-28, OMSimulator 2940ef11):
   After the first step the trajectories part and do NOT agree yet: over the first 0.05 s half of the 1162
   signals are identical, 75 % within 0.23 % of their range, but 10 % differ by more than 14 % (at 1 s: median
   0, 99th percentile 0.2 %, worst 1.7 %: the transient settles). OMSimulator's rows show inputs equal to their
-  sources' outputs at the same time (``ECS_SW.Input.TLiquid`` = ``ECS_HW.LHexTout``) where a Jacobi step
-  shows the previous output, and the models' 9e9-per-second derivatives amplify any difference in what an
-  FMU sees during its step; --algorithm gauss-seidel does not agree either. Not yet explained: the test
-  checks t = 0 exactly and holds the measured spread (so that a change either way is seen).
+  sources' outputs at the same time (``ECS_SW.Input.TLiquid`` = ``ECS_HW.LHexTout``: it records after setting
+  the next step's inputs) where our row shows the input the step used, and the models' 9e9-per-second
+  derivatives amplify any difference in what an FMU sees during its step. The likely cause, not verified:
+  four of the five FMUs declare canInterpolateInputs="true" and maxOutputDerivativeOrder="1", and
+  OMSimulator's library has the calls to pass output derivatives on as input derivatives
+  (fmi2SetRealInputDerivatives), which cosim-master never does (its inputs are held over a step;
+  ``--extrapolation 1`` and ``--algorithm gauss-seidel`` agree less, not more; ``iterative`` cannot run:
+  ECS_SW cannot save its state). The test checks t = 0 exactly and holds the measured spread (so that a
+  change either way is seen).
 """
 from __future__ import annotations
 
