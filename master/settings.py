@@ -68,12 +68,23 @@ def count_steps(start: float, stop: float, h: float, allow_partial: bool) -> tup
                          f"take (at most {MAX_STEPS:.0e})", element="settings")
     n = int(round(exact))
     if n >= 1 and abs(n - exact) <= 1e-9 * max(1.0, exact):
-        return n, None
+        return n, _exact_last_step(start, stop, h, n)
     whole = int(math.floor(exact))
     if not allow_partial:
         raise CosimError(f"the interval {start:g}..{stop:g} is not a whole number of master steps of {h:g} "
                          f"({exact:.6g}), which components with a step multiple need", element="settings")
     return whole + 1, stop - (start + whole * h)
+
+
+def _exact_last_step(start: float, stop: float, h: float, n: int) -> float | None:
+    """None when the n-th step of a whole interval ends exactly at ``stop``: both as the master counts it
+    (start + n h) and as an FMU adds its doStep's arguments (start + (n - 1) h, plus h); else the length that
+    makes it end there. With n h rounding past the stop time (0.1 * 500 = 50.00000000000001), an FMU would be
+    asked to step past the stop time given to it at setup, which FMI 1.0 FMUs refuse (Ecos's dp_ship)."""
+    last = start + (n - 1) * h
+    if start + n * h == stop and last + h == stop:
+        return None
+    return stop - last
 
 
 def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=None, algorithm=None,

@@ -44,7 +44,7 @@ def build_plan(model: SystemModel, shown_as: str, params: dict[str, object] | No
     else:
         fmus, variables, feed, units, links = known.for_run(model, loaded)
     plan = Plan(model, shown_as, fmus, links, [], feed, variables)
-    add_parameters(plan, model, units, allow_nonfinite)
+    add_parameters(plan, model, units, allow_nonfinite, lenient)
     add_overrides(plan, params, allow_nonfinite)
     return plan
 

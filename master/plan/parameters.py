@@ -2,6 +2,8 @@
 types and converted to their units) and then the command line's or the API's, which win."""
 from __future__ import annotations
 
+import logging
+
 from ..errors import ScenarioError
 from ..ssp.model import SystemModel
 from ..units import conversion
@@ -10,13 +12,21 @@ from .variable_values import parse_value, value_error
 from .variables import structural_sizes
 
 
-def add_parameters(plan: Plan, model: SystemModel, units: dict, allow_nonfinite: bool) -> None:
-    """The SSD's parameter values, checked against their variables (and converted to their units)."""
+def add_parameters(plan: Plan, model: SystemModel, units: dict, allow_nonfinite: bool, lenient: bool = False) -> None:
+    """The SSD's parameter values, checked against their variables (and converted to their units). ``lenient``
+    (``run --lenient``): a value in a unit defined nowhere is taken as given in its variable's unit, with a
+    warning (OMSimulator's test suite writes ``[m]`` for m), instead of refused."""
     variables = plan.variables
+    ignored: dict[str, list[str]] = {}
+    for shown, name in getattr(model, "ignored_parameters", ()):
+        ignored.setdefault(shown, []).append(name)
     for pv in model.parameters:
         v = variables.get(pv.component, {}).get(pv.variable)
         where = f"Parameter {pv.component}.{pv.variable}"
         if v is None:
+            if pv.component in variables:       # a component's name, a name its FMU does not have: SSP ignores it
+                ignored.setdefault(pv.origin.rsplit(":", 1)[0], []).append(f"{pv.component}.{pv.variable}")
+                continue
             raise ScenarioError(f"no variable {pv.variable!r} in component {pv.component!r}",
                                 file=pv.origin.rsplit(":", 1)[0], element=where, line=origin_line(pv.origin))
         if v.is_array:
@@ -29,17 +39,43 @@ def add_parameters(plan: Plan, model: SystemModel, units: dict, allow_nonfinite:
             raise ScenarioError(why, file=pv.origin.rsplit(":", 1)[0], element=where, line=origin_line(pv.origin))
         src_unit = getattr(pv, "unit", None)
         if v.type == "Real" and src_unit and v.unit and src_unit != v.unit:
-            for u in (src_unit, v.unit):
-                if units.get(u) is None:
-                    raise ScenarioError(f"unit {u} has no definition in the SSD or the FMU, so {src_unit} cannot "
-                                        f"be converted to {v.unit}", file=pv.origin.rsplit(":", 1)[0], element=where,
-                                        line=origin_line(pv.origin))
-            conv = conversion(units.get(src_unit), units.get(v.unit))
-            if conv is None:
-                raise ScenarioError(f"unit {src_unit} cannot be converted to {v.unit}",
-                                    file=pv.origin.rsplit(":", 1)[0], element=where, line=origin_line(pv.origin))
-            value = conv[0] * value + conv[1]
+            value = _converted(value, src_unit, v.unit, units, lenient, pv.origin, where)
         plan.params.append((v, value, pv.origin))
+    for shown, names in ignored.items():
+        _warn_ignored(shown, names)
+
+
+def _converted(value: float, src_unit: str, unit: str, units: dict, lenient: bool, origin: str, where: str) -> float:
+    """``value`` given in ``src_unit``, in ``unit``."""
+    for u in (src_unit, unit):
+        if units.get(u) is None:
+            if lenient:
+                logging.getLogger("cosim_master").warning(
+                    "%s: %s: unit %s has no definition in the SSD or the FMU; the value is taken as given in %s "
+                    "(lenient)", origin, where, u, unit)
+                return value
+            raise ScenarioError(f"unit {u} has no definition in the SSD or the FMU, so {src_unit} cannot "
+                                f"be converted to {unit}", file=origin.rsplit(":", 1)[0], element=where,
+                                line=origin_line(origin))
+    conv = conversion(units.get(src_unit), units.get(unit))
+    if conv is None:
+        raise ScenarioError(f"unit {src_unit} cannot be converted to {unit}",
+                            file=origin.rsplit(":", 1)[0], element=where, line=origin_line(origin))
+    return conv[0] * value + conv[1]
+
+
+#: names shown in the one warning per parameter file (a file of another tool may name hundreds of its own)
+SHOWN_IGNORED = 5
+
+
+def _warn_ignored(shown: str, names: list[str]) -> None:
+    """One line per parameter file: its values that name no connector or variable of the system, which the
+    standard says are ignored (SSP 1.0 5.3.3: "... or are ignored if no matching variable is found")."""
+    more = f" and {len(names) - SHOWN_IGNORED} more" if len(names) > SHOWN_IGNORED else ""
+    logging.getLogger("cosim_master").warning(
+        "%s: ignoring %d parameter value%s that name%s no connector or variable of the system (SSP: ignored): %s%s",
+        shown, len(names), "s" if len(names) > 1 else "", "" if len(names) > 1 else "s",
+        ", ".join(names[:SHOWN_IGNORED]), more)
 
 
 def add_overrides(plan: Plan, params: dict[str, object] | None, allow_nonfinite: bool = False) -> None:

@@ -67,6 +67,8 @@ class ParameterValue:
     type: str
     value: object
     origin: str               # file (and element) the value came from, for messages and inspect
+    unit: str | None = None   # the unit the value is given in (ssv), None: the variable's own
+    via: tuple | None = None  # while the SSD is read: the (system, connector) it was given to (parser.connector_values)
 
 
 @dataclass
@@ -97,3 +99,6 @@ class SystemModel:
     settings: MasterSettings = field(default_factory=MasterSettings)
     annotations: dict[str, object] = field(default_factory=dict)  # type -> lxml element, for plugins
     structure: str | None = None     # the structure key when read to be reused (parser.read_ssd), else None
+    #: (parameter file, name) of the values that name no connector or variable: SSP ignores them (SSP 1.0 5.3.3);
+    #: the plan says so in one warning per file
+    ignored_parameters: list[tuple[str, str]] = field(default_factory=list)

@@ -87,8 +87,10 @@ class _Reader:
         self.units: dict[str, Unit] = {}
         self.components: dict[str, Component] = {}
         self.edges: list[tuple] = []          # (src node, dst node, Connection template)
+        self.outgoing: dict[tuple, list] = {}  # node -> [(next node, Connection template)] (flatten_connections)
         self.system_connectors: set = set()   # nodes that are connectors of (sub)systems
         self.parameters: list[ParameterValue] = []
+        self.ignored: list[tuple[str, str]] = []    # (parameter file, name): values that name nothing (SSP: ignored)
         self.annotations: dict[str, object] = {}
         self.reuse_values = False             # parameter sets read before are not parsed again (_PARAMETER_SETS)
 
@@ -138,6 +140,10 @@ class _Reader:
         if known is None:
             for name in self.read_connectors(sys_el, shown_as):
                 self.system_connectors.add((prefix.rstrip("."), name))
+        ann = _child(sys_el, "Annotations")     # before the subsystems': an enclosing system's annotation wins
+        if ann is not None:
+            for a in _children(ann, "Annotation"):
+                self.annotations.setdefault(a.get("type"), a)
         elements = _child(sys_el, "Elements")
         names = set()
         if elements is not None:
@@ -152,8 +158,7 @@ class _Reader:
                 names.add(name)
                 path = f"{prefix}{name}"
                 if kind == "System":
-                    self.read_system(el, path + ".", shown_as, ssd_dir, known)
-                    self.read_bindings(el, path + ".", shown_as, ssd_dir, is_component=False)
+                    self.read_system(el, path + ".", shown_as, ssd_dir, known)    # with its own bindings
                 elif known is not None:
                     self.place_component(el, known[path], shown_as, ssd_dir)
                 else:
@@ -163,10 +168,6 @@ class _Reader:
         if conns is not None and known is None:
             for c in _children(conns, "Connection"):
                 self.read_connection(c, prefix, names, shown_as)
-        ann = _child(sys_el, "Annotations")
-        if ann is not None:
-            for a in _children(ann, "Annotation"):
-                self.annotations.setdefault(a.get("type"), a)
 
     def read_component(self, el, path, shown_as, ssd_dir):
         ctype = el.get("type", "application/x-fmu-sharedlibrary")
@@ -234,7 +235,9 @@ class _Reader:
         return os.path.normpath(rel.as_posix())
 
     def read_connection(self, c, prefix, names, shown_as):
-        start_el, end_el = c.get("startElement"), c.get("endElement")
+        # SSP 1.0 5.3.5 / 2.0 5.3.6: without startElement (endElement) the connector is one of this system; some
+        # tools (OMSimulator) write the attribute empty for that
+        start_el, end_el = c.get("startElement") or None, c.get("endElement") or None
         for e in (start_el, end_el):
             if e is not None and e not in names:
                 raise ScenarioError(f"connection refers to unknown element {e!r}", file=shown_as,
@@ -263,6 +266,7 @@ class _Reader:
         pbs = _child(el, "ParameterBindings")
         if pbs is None:
             return
+        to_connectors: list[ParameterValue] = []
         for pb in _children(pbs, "ParameterBinding"):
             ptype = pb.get("type", "application/x-ssp-parameter-set")
             if ptype != "application/x-ssp-parameter-set":
@@ -297,9 +301,20 @@ class _Reader:
             else:
                 read = self.read_parameters(pset, path, prefix, mapping, is_component, pset_shown)
             for comp, var, typ, value, line, unit in read:
+                if comp is None:                         # names nothing: ignored (warned about by the plan)
+                    self.ignored.append((pset_shown, var))
+                    continue
                 pv = ParameterValue(comp, var, typ, value, f"{pset_shown}:{line}")
                 pv.unit = unit
-                self.parameters.append(pv)
+                if isinstance(comp, tuple):             # a connector of a (sub)system: see connector_values
+                    pv.component, pv.via = comp[0], comp
+                    to_connectors.append(pv)
+                else:
+                    self.parameters.append(pv)
+        # a system connector's value reaches the component connectors it is connected to after the direct values
+        # of the same system (so `k_cref` -> `addP.k1` wins over `addP.k1` in one set, as in OMSimulator), and
+        # before those of enclosing systems, which take precedence (SSP 1.0 5.3.3)
+        self.parameters.extend(to_connectors)
 
     def read_parameters(self, pset, path, prefix, mapping, is_component, pset_shown):
         """(component, variable, type, value, source line, unit) of each parameter of the set."""
@@ -313,17 +328,17 @@ class _Reader:
             raw = value_el.get("value")
             if typ == "Enumeration":
                 raw = value_el.get("value")
-            value = self.convert_value(typ, raw, pset_shown, p)
+            given = self.convert_value(typ, raw, pset_shown, p)
             unit = value_el.get("unit")
-            target, trans = name, None
-            if mapping is not None and name in mapping:
-                target, trans = mapping[name]
+            # a mapped name goes to each target the mapping gives it (one source may feed several parameters)
+            for target, trans in (mapping.get(name) if mapping is not None else None) or ((name, None),):
+                value = given
                 if trans is not None and trans.kind == "linear" and typ == "Real":
                     value = trans.factor * value + trans.offset
                 elif trans is not None and trans.kind == "map":
                     value = self.convert_value(typ, trans.mapping.get(raw, raw), pset_shown, p)
-            comp, var = self.resolve_parameter_target(path, target, is_component, pset_shown, p)
-            yield comp, var, typ, value, p.sourceline, unit
+                comp, var = self.resolve_parameter_target(path, target, is_component, pset_shown, p)
+                yield comp, var, typ, value, p.sourceline, unit
 
     def read_mapping(self, pb, shown_as, ssd_dir):
         pm = _child(pb, "ParameterMapping")
@@ -352,7 +367,7 @@ class _Reader:
                 elif _local(t).endswith("MappingTransformation"):
                     trans = Transformation("map", mapping={m.get("source"): m.get("target")
                                                            for m in _children(t, "MapEntry")})
-            out[entry.get("source")] = (entry.get("target"), trans)
+            out.setdefault(entry.get("source"), []).append((entry.get("target"), trans))
         return out
 
     @staticmethod
@@ -364,19 +379,46 @@ class _Reader:
                                 element=f"Parameter {el.get('name')}", line=el.sourceline) from None
 
     def resolve_parameter_target(self, path, name, is_component, shown_as, el):
-        """Map a parameter name to (component, variable): bare names at a component, dotted paths at a system."""
+        """Map a parameter name to (component, variable): bare names at a component, hierarchical names at a
+        system (SSP 1.0 5.3.3): a connector of the system or of a subsystem, ``((system, connector), name)``,
+        or a component's variable by the longest component path that prefixes the name; ``(None, name)`` when
+        it names neither (the standard ignores such values)."""
         if is_component:
             return path, name
-        # system-level binding: longest component path that prefixes the name
         full = f"{path}{name}"
+        owner, _, connector = full.rpartition(".")
+        if (owner, connector) in self.system_connectors:
+            return (owner, connector), connector
         best = None
         for comp in self.components:
             if full.startswith(comp + ".") and (best is None or len(comp) > len(best)):
                 best = comp
         if best is None:
-            raise ScenarioError(f"parameter {name!r} does not name a component's connector", file=shown_as,
-                                element=f"Parameter {el.get('name')}", line=el.sourceline)
+            return None, full
         return best, full[len(best) + 1:]
+
+    def connector_values(self, reach: dict) -> list[ParameterValue]:
+        """The parameters with each value given to a system connector replaced by the values it gives the
+        component connectors it is connected to (``reach``: system connector -> (component, connector,
+        transformation) at the ends of the connections from it, through further system connectors); a system
+        connector connected to no component keeps its value to itself (it reaches no FMU)."""
+        out = []
+        for pv in self.parameters:
+            via = getattr(pv, "via", None)
+            if via is None:
+                out.append(pv)
+                continue
+            for comp, connector, trans in reach.get(via, ()):
+                value = pv.value
+                if trans is not None and trans.kind == "linear" and pv.type == "Real":
+                    value = trans.factor * value + trans.offset
+                elif trans is not None and trans.kind == "map":
+                    value = parse_text(pv.type if pv.type != "Enumeration" else "String",
+                                       trans.mapping.get(str(value), str(value)))
+                given = ParameterValue(comp, connector, pv.type, value, pv.origin)
+                given.unit = getattr(pv, "unit", None)
+                out.append(given)
+        return out
 
     # -- flattening ----------------------------------------------------------------------
     def flatten_connections(self) -> list[Connection]:
@@ -395,6 +437,7 @@ class _Reader:
                     raise ScenarioError(f"connector {name!r} of {owner or 'the top system'} is not declared",
                                         file=shown_as, element=f"Connection {conn.src} -> {conn.dst}", line=conn.line)
             outgoing.setdefault(self._key(src), []).append((self._key(dst), conn))
+        self.outgoing = outgoing
         flat, found, walked = [], set(), set()
         for src, dst, conn, _ in self.edges:
             skey = self._key(src)
@@ -403,6 +446,17 @@ class _Reader:
             walked.add(skey)
             self._walk(skey, skey, None, False, outgoing, flat, found, set(), None)
         return flat
+
+    def connector_reach(self) -> dict:
+        """System connector -> ((component, connector, transformation), ...) it drives through connections
+        (after ``flatten_connections``), for the values given to system connectors."""
+        reach = {}
+        for node in sorted(self.system_connectors):
+            flat: list[Connection] = []
+            self._walk(node, node, None, False, self.outgoing, flat, set(), set(), None)
+            if flat:
+                reach[node] = tuple((c.dst_component, c.dst_connector, c.transformation) for c in flat)
+        return reach
 
     @staticmethod
     def _key(node):
@@ -445,6 +499,8 @@ class _Structure:
     components: dict            # name -> Component, fmu_path as the first run found it
     connections: tuple
     size: int                   # connectors and connections: what bounds the cache
+    system_connectors: frozenset = None      # (system, connector) of every (sub)system
+    reach: MappingProxyType = None    # Reader.connector_reach, read-only
 
 
 # structure key -> _Structure: a campaign worker reads the same system with other parameter values run after run
@@ -573,6 +629,7 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     known = _STRUCTURES.get(key) if key is not None else None
     if known is not None:
         reader.units = {name: copy.copy(u) for name, u in known.units.items()}
+        reader.system_connectors = set(known.system_connectors)
     else:
         reader.read_units(_child(top, "Units"), shown_as)
     top_units = {name: copy.copy(u) for name, u in reader.units.items()}    # the cache's own
@@ -588,16 +645,20 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
                         top.get("version", "1.0"))
     if known is None:
         connections = reader.flatten_connections()
+        reach = reader.connector_reach()
         if key is not None and reader.components:
             known = _keep_structure(key, _Structure(top_units, _frozen(reader.components), tuple(connections),
-                                                    _size(reader.components, connections)))
+                                                    _size(reader.components, connections),
+                                                    frozenset(reader.system_connectors), MappingProxyType(reach)))
             reader.components = {name: copy.copy(c) for name, c in known.components.items()}
     if known is not None:
         connections = [_clone(c) for c in known.connections]
+        reach = known.reach
     model.structure = key
     model.components = reader.components
     model.connections = connections
-    model.parameters = reader.parameters
+    model.parameters = reader.connector_values(reach)
+    model.ignored_parameters = reader.ignored
     model.units = reader.units
     model.annotations = reader.annotations
     exp = _child(top, "DefaultExperiment")

@@ -47,7 +47,8 @@ def _chain(tmp_path, test_fmus, n=4, step=0.1, stop=3.0, factor=None, offset=Non
 def test_chain_with_transforms_and_record_interval(tmp_path, test_fmus, algorithm):
     ssp = _chain(tmp_path, test_fmus, factor=1.5, offset=-0.25)
     on, off = _both(ssp, algorithm=algorithm, record_interval=0.3)
-    assert on.metadata["native_loop"]["used"] and on.metadata["native_loop"]["steps"] == 30
+    # 29: the last step (2.9000000000000004 + 0.1 would end past the stop time 3.0) is stop - t, in Python
+    assert on.metadata["native_loop"]["used"] and on.metadata["native_loop"]["steps"] == 29
     _same(on, off)
     assert len(on.frame) == 11          # t = 0, 0.3, ..., 3.0
 
@@ -60,10 +61,12 @@ def test_chain_matches_euler_recurrence(tmp_path, test_fmus):
     assert on.metadata["native_loop"]["used"]
     x = 1.0 + np.arange(n)
     rows = [x.copy()]
-    for _ in range(steps):
+    stop = steps * h
+    for s in range(steps):          # the last step ends at the stop time exactly: stop - t, not h
         u = np.roll(x, 1) * 1.5
         u = u + -0.25
-        x = x + h * (-0.5 * x + u)
+        hs = h if s < steps - 1 or (s * h + h == stop) else stop - s * h
+        x = x + hs * (-0.5 * x + u)
         rows.append(x.copy())
     got = on.frame[[f"I{i}.y" for i in range(n)]].to_numpy()
     np.testing.assert_array_equal(got, np.array(rows))

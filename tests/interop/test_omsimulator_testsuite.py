@@ -1,0 +1,181 @@
+"""Four SSPs of OMSimulator's own test suite (../shared/omsimulator/testsuite/) run in cosim-master and agree
+with OMSimulator run on the same file, and with values worked out by hand from the files.
+
+OMSimulator runs in a subprocess through its Python API (its library must not share the test process), with
+every signal added to its results (it records no parameters); its result columns are ``<system>.<component>.<variable>``.  It records a
+time twice where inputs change after a step (before and after the new inputs); the last row of each time is
+compared.  Agreement, measured (2026-11-28, OMSimulator 2940ef11):
+
+- LinearTransformation3, toplevelparameter1, import_export_parameters1: bit-identical at every point.
+- embrace (5 FMUs, stiff thermal-fluid models, --lenient: ECS_SW's modelDescription declares a continuous
+  Enumeration, and its .ssv writes units as ``[m]``, defined nowhere): bit-identical at t = 0 (all 1162
+  common variables: every parameter the mapping gives, one source to two targets, lands as in OMSimulator).
+  After the first step the trajectories part and do NOT agree yet: over the first 0.05 s half of the 1162
+  signals are identical, 75 % within 0.23 % of their range, but 10 % differ by more than 14 % (at 1 s: median
+  0, 99th percentile 0.2 %, worst 1.7 %: the transient settles). OMSimulator's rows show inputs equal to their
+  sources' outputs at the same time (``ECS_SW.Input.TLiquid`` = ``ECS_HW.LHexTout``: it records after setting
+  the next step's inputs) where our row shows the input the step used, and the models' 9e9-per-second
+  derivatives amplify any difference in what an FMU sees during its step. The likely cause, not verified:
+  four of the five FMUs declare canInterpolateInputs="true" and maxOutputDerivativeOrder="1", and
+  OMSimulator's library has the calls to pass output derivatives on as input derivatives
+  (fmi2SetRealInputDerivatives), which cosim-master never does (its inputs are held over a step;
+  ``--extrapolation 1`` and ``--algorithm gauss-seidel`` agree less, not more; ``iterative`` cannot run:
+  ECS_SW cannot save its state). The test checks t = 0 exactly and holds the measured spread (so that a
+  change either way is seen).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import master
+
+REPO = Path(__file__).resolve().parents[2]
+OMS = Path(os.environ.get("COSIM_OMSIMULATOR", REPO.parent / "shared" / "omsimulator"))
+SUITE = OMS / "testsuite"
+
+pytestmark = pytest.mark.skipif(not (OMS / "lib" / "OMSimulator").is_dir() or not SUITE.is_dir(),
+                                reason=f"OMSimulator or its test suite not found at {OMS} (COSIM_OMSIMULATOR)")
+
+_RUN_OMS = textwrap.dedent("""
+    import sys
+    from OMSimulator import SSP
+    ssp, out, stop = sys.argv[1], sys.argv[2], sys.argv[3]
+    m = SSP(ssp).instantiate()
+    if stop != "-":
+        m.setStopTime(float(stop))
+    m.setResultFile(out)
+    m.addSignalsToResults(".*")
+    m.initialize(); m.simulate(); m.terminate(); m.delete()
+""")
+
+
+def _oms(name: str, tmp_path: Path, stop: float | None = None) -> pd.DataFrame:
+    """OMSimulator's results of the test-suite SSP ``name``: one row per time (the last), columns without the
+    system's name."""
+    out = tmp_path / f"{name}_oms.csv"
+    env = {**os.environ, "PYTHONPATH": str(OMS / "lib")}
+    res = subprocess.run([sys.executable, "-c", _RUN_OMS, str(SUITE / f"{name}.ssp"), str(out),
+                          "-" if stop is None else repr(stop)], env=env, cwd=tmp_path, capture_output=True,
+                         text=True, timeout=600)
+    assert res.returncode == 0 and out.is_file(), res.stdout[-2000:] + res.stderr[-2000:]
+    df = pd.read_csv(out)
+    df.columns = [c.strip().strip('"') for c in df.columns]
+    system = df.columns[1].split(".")[0]
+    df.columns = ["time"] + [c[len(system) + 1:] for c in df.columns[1:]]
+    return df.drop_duplicates("time", keep="last").reset_index(drop=True)
+
+
+def _ours(name: str, **kw) -> pd.DataFrame:
+    return master.run(SUITE / f"{name}.ssp", output=None, record=["*"], **kw).frame
+
+
+def _start_values(name: str, names: list[str], **kw) -> dict:
+    """What the run gives ``names`` (parameters are not recorded) before it starts."""
+    ex = master.Execution(SUITE / f"{name}.ssp", output=None, **kw)
+    try:
+        return dict(zip(names, ex.get(names)))
+    finally:
+        ex.close()
+
+
+def _common(oms: pd.DataFrame, ours: pd.DataFrame):
+    """The two results at their common times (to 1e-9 s), on their common columns."""
+    cols = [c for c in oms.columns[1:] if c in ours.columns]
+    to = np.round(oms["time"].to_numpy(), 9)
+    tu = np.round(ours["time"].to_numpy(), 9)
+    o = oms[np.isin(to, tu)].reset_index(drop=True)
+    u = ours[np.isin(tu, to)].reset_index(drop=True)
+    assert len(o) == len(u) and len(o) > 0 and cols
+    return o[cols].to_numpy(float), u[cols].to_numpy(float), cols
+
+
+def test_linear_transformation3_ssm_and_ssv(tmp_path):
+    # the .ssv gives mapped_Gain_u = mapped_Gain_k = 2, the .ssm maps them with LinearTransformations to
+    # Gain1.u = 2 * 2 + 10 = 14 and Gain1.k = 4 * 2 + 5 = 13: y = k u = 182, which Add1 passes on (u2 = 0)
+    ours = _ours("LinearTransformation3")
+    assert np.all(ours["Gain1.u"] == 14.0) and np.all(ours["Gain1.y"] == 182.0) and np.all(ours["Add1.y"] == 182.0)
+    o, u, cols = _common(_oms("LinearTransformation3", tmp_path), ours)
+    assert len(cols) == 5
+    np.testing.assert_array_equal(o, u)
+
+
+def test_toplevelparameter1_system_binding_over_component_binding(tmp_path):
+    # addp.ssv (at the component) gives k1 = 10, k2 = 20; root.ssv (at the system) addP.k1 = -200, addP.k2 = -300
+    # and the system's own input connector Input_cref = -20 (connected to nothing). SSP 1.0 5.3.3: "bindings at
+    # a system level take precedence over bindings at a sub-system or component level"
+    ours = _ours("toplevelparameter1")
+    assert _start_values("toplevelparameter1", ["addP.k1", "addP.k2"]) == {"addP.k1": -200.0, "addP.k2": -300.0}
+    assert np.all(ours["addP.y"] == 0.0)          # y = k1 u1 + k2 u2 with both inputs 0
+    o, u, cols = _common(_oms("toplevelparameter1", tmp_path), ours)     # (it records no parameters)
+    assert {"addP.u1", "addP.y"} <= set(cols)
+    np.testing.assert_array_equal(o, u)
+
+
+def test_import_export_parameters1_values_through_system_connectors(tmp_path):
+    # the system co_sim binds k_cref = 30, T_cref = 20, Input_cref = -20 (its own connectors, connected with an
+    # empty startElement to addP.k1, addI.k2, addP.u1), foo.F_cref = 40 (a connector of an empty subsystem)
+    # and addP.k1 = 10, addP.k2 = -1, addI.k2 = 2 directly: a connected system connector's value wins over
+    # a direct value of the same binding (OMSimulator's reading), so k1 = 30, addI.k2 = 20;
+    # y = k1 u1 + k2 u2 = 30 * -20 + -1 * 0 = -600
+    ours = _ours("import_export_parameters1")
+    assert _start_values("import_export_parameters1", ["addP.k1", "addP.k2", "addI.k2"]) == {
+        "addP.k1": 30.0, "addP.k2": -1.0, "addI.k2": 20.0}
+    assert np.all(ours["addP.u1"] == -20.0) and np.all(ours["addP.y"] == -600.0)
+    assert ours["time"].iloc[-1] == 4.0 and len(ours) == 4001       # oms annotation: 0.001 s steps
+    o, u, cols = _common(_oms("import_export_parameters1", tmp_path), ours)   # its y = -600 too: k1 = 30
+    assert {"addP.u1", "addP.y", "P.y"} <= set(cols)
+    np.testing.assert_array_equal(o, u)
+
+
+#: embrace over 0.05 s, per signal the worst difference over the run relative to the signal's range:
+#: measured quantiles 50 % -> 0, 75 % -> 2.3e-3 (a quarter of the signals differ more: not agreement yet)
+EMBRACE_SPREAD = {0.5: 1e-9, 0.75: 5e-3}
+
+def test_embrace_parameter_set_with_values_the_mapping_does_not_cover(tmp_path, caplog):
+    with caplog.at_level(logging.WARNING, logger="cosim_master"):
+        ours = _ours("embrace", lenient=True, stop_time=0.05)
+    ignored = [r.getMessage() for r in caplog.records if "ignoring" in r.getMessage()]
+    assert len(ignored) == 1 and "RAPID_Systems_2021-03-29_Test_1.ssv: ignoring 164 parameter values" in ignored[0]
+    # one source, parameter_pipeLength = 0.976535328081166 "[m]", mapped to both pipeA.L and pipeB.L
+    length = _start_values("embrace", ["ECS_HW.pipeA.L", "ECS_HW.pipeB.L", "ECS_HW.pipeC.L"], lenient=True)
+    assert length == {"ECS_HW.pipeA.L": 0.976535328081166, "ECS_HW.pipeB.L": 0.976535328081166,
+                      "ECS_HW.pipeC.L": 1.0}      # pipeC.L: its mapping entry has no source (its own start value)
+    oms = _oms("embrace", tmp_path, stop=0.05)
+    o, u, cols = _common(oms, ours)
+    assert len(cols) > 1000 and len(o) == 51
+    np.testing.assert_allclose(u[0], o[0], rtol=1e-9, atol=1e-12)
+    span = np.maximum(np.abs(o).max(axis=0), o.max(axis=0) - o.min(axis=0))
+    worst = (np.abs(u - o) / np.maximum(span, 1e-12)).max(axis=0)
+    for q, bound in EMBRACE_SPREAD.items():
+        assert np.quantile(worst, q) <= bound, (q, np.quantile(worst, q))
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "master.cli", "run", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_the_command_line_runs_them(tmp_path):
+    res = _cli(str(SUITE / "import_export_parameters1.ssp"), "-o", str(tmp_path / "iep"), "--record", "*",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    df = pd.read_csv(tmp_path / "iep" / "results.csv")
+    assert df["time"].iloc[-1] == 4.0 and np.all(df["addP.y"] == -600.0)
+    # embrace needs --lenient (ECS_SW's modelDescription does not conform): without it, one line, no traceback
+    res = _cli(str(SUITE / "embrace.ssp"), "-o", str(tmp_path / "e"), "--stop-time", "0.002", cwd=tmp_path)
+    assert res.returncode == 1 and "Traceback" not in res.stderr
+    assert res.stderr.strip().splitlines()[-1].startswith("cosim-master: error: ") and "0002_ECS_SW.fmu" in res.stderr
+    res = _cli(str(SUITE / "embrace.ssp"), "-o", str(tmp_path / "e"), "--stop-time", "0.002", "--lenient",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    warned = [ln for ln in res.stderr.splitlines() if "ignoring" in ln]
+    assert len(warned) == 1 and "RAPID_Systems_2021-03-29_Test_1.ssv: ignoring 164 parameter values" in warned[0]

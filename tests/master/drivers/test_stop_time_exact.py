@@ -1,0 +1,95 @@
+"""No communication point passes the stop time, and the last one is the stop time exactly, whatever computes the
+steps: the reference loop, the native step driver, Gauss-Seidel, iterative and adaptive steps.
+
+The FMU that sees it is tests/fmu_factory.py's Faulty (mode 0: never fails): its output y is its own time after
+each doStep, currentCommunicationPoint + communicationStepSize as the FMU adds them.  With steps of 0.1 s to
+50 s, n h is exact at n = 500 (0.1 * 500 == 50.0) but the last step starts at 499 * 0.1 = 49.900000000000006, so
+a step of h ends at 50.00000000000001: past the stop time given in fmi2SetupExperiment, where "if the environment
+tries to compute past stopTime the FMU has to return fmi2Error" (FMI 2.0.x, 2.1.6; Ecos's dp_ship FMI 1.0 FMU
+does). The last step is now stop - t_499 = 0.09999999999999432 long and ends at 50.0.
+"""
+import numpy as np
+import pytest
+
+import master
+from master.runtime import Runtime
+from master.settings import count_steps
+from master.ssp.writer import SspBuilder
+
+
+def _clock_ssp(tmp_path, test_fmus, stop, step):
+    b = SspBuilder("clock", stop=stop, step=step)
+    b.add_component("clock", test_fmus["c2:Faulty"], params={"mode": 0, "fail_time": 1e9})
+    b.add_component("g", test_fmus["c2:Gain"], params={"k": 2.0})
+    b.connect("clock", "y", "g", "u")
+    return b.write(tmp_path / "clock.ssp")
+
+
+@pytest.mark.parametrize("stop,step", [(50.0, 0.1), (0.3, 0.1), (1.0, 0.3), (10.0, 0.5)])
+def test_the_last_step_ends_at_the_stop_time_as_the_fmu_adds_it(stop, step):
+    n, last = count_steps(0.0, stop, step, allow_partial=True)
+    t = (n - 1) * step
+    assert t + (last if last is not None else step) == stop
+    if last is None:                  # nothing to correct: bit-identical to before
+        assert n * step == stop and (n - 1) * step + step == stop
+    else:
+        assert last <= step * (1 + 1e-9)
+
+
+RUNS = [("jacobi", {}), ("jacobi", {"native_loop": False}), ("gauss-seidel", {})]
+
+
+@pytest.mark.parametrize("algorithm,options", RUNS, ids=[f"{a}{'-python' if o else ''}" for a, o in RUNS])
+def test_no_communication_point_past_the_stop_time(tmp_path, test_fmus, algorithm, options):
+    r = master.run(_clock_ssp(tmp_path, test_fmus, 50.0, 0.1), output=None, record=["*"], algorithm=algorithm,
+                   **options)
+    df = r.frame
+    time, fmu_time = df["time"].to_numpy(), df["clock.y"].to_numpy()
+    assert time[-1] == 50.0 and time.max() == 50.0 and len(df) == 501
+    assert fmu_time[-1] == 50.0 and fmu_time.max() == 50.0         # the FMU's own t + h, not the master's n h
+    assert np.all(np.diff(fmu_time) > 0)
+    assert r.metadata["last_time"] == 50.0
+    if algorithm == "jacobi" and not options and "native_loop" in r.metadata:
+        # the driver runs the full steps, the reference loop the corrected last one
+        assert not r.metadata["native_loop"].get("used") or r.metadata["native_loop"]["steps"] == 499
+
+
+def test_a_stop_time_that_is_no_multiple_ends_with_the_remainder(tmp_path, test_fmus):
+    # 1.0 s in steps of 0.3: 0.3, 0.6, 0.9 (as 3 * 0.3 = 0.8999999999999999), then the rest, 0.1
+    df = master.run(_clock_ssp(tmp_path, test_fmus, 1.0, 0.3), output=None, record=["*"]).frame
+    assert df["time"].tolist() == [0.0, 0.3, 0.6, 0.8999999999999999, 1.0]
+    assert df["clock.y"].iloc[-1] == 1.0 and df["clock.y"].max() == 1.0
+
+
+def _masses_ssp(tmp_path, test_fmus):
+    """Two coupled masses (tests/fmu_factory.py: MassA, MassB), which save and restore their state: what the
+    iterative and adaptive algorithms roll back."""
+    b = SspBuilder("masses", stop=50.0, step=0.1)
+    b.add_component("A", test_fmus["c2:MassA"])
+    b.add_component("B", test_fmus["c2:MassB"])
+    b.connect("A", "x", "B", "x_in")
+    b.connect("B", "F", "A", "F")
+    return b.write(tmp_path / "masses.ssp")
+
+
+def test_adaptive_steps_end_at_the_stop_time(tmp_path, test_fmus, monkeypatch):
+    # the adaptive algorithm takes its doSteps through Runtime.fast_ops: each (t, h) it passes is recorded
+    calls = []
+    fast_ops = Runtime.fast_ops
+
+    def recording(self, i, setters=True):
+        ops = list(fast_ops(self, i, setters))
+        step = ops[2]
+        ops[2] = lambda t, h: calls.append(t + h) or step(t, h)
+        return tuple(ops)
+
+    monkeypatch.setattr(Runtime, "fast_ops", recording)
+    r = master.run(_masses_ssp(tmp_path, test_fmus), output=None, algorithm="adaptive", step_rtol=1e-2)
+    assert len(calls) > 1000 and max(calls) == 50.0 and calls[-1] == 50.0
+    assert r.frame["time"].iloc[-1] == 50.0 and r.frame["time"].max() == 50.0 and r.metadata["last_time"] == 50.0
+
+
+def test_iterative_ends_at_the_stop_time(tmp_path, test_fmus):
+    # its steps are the compiled step of jacobi and gauss-seidel (checked on the FMU's clock above), iterated
+    r = master.run(_masses_ssp(tmp_path, test_fmus), output=None, algorithm="iterative")
+    assert r.frame["time"].iloc[-1] == 50.0 and r.frame["time"].max() == 50.0 and len(r.frame) == 501
