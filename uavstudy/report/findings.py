@@ -204,8 +204,8 @@ def too_small(r) -> str | None:
     """Why these runs cannot be scored against the paper (None when they can)."""
     n = n_layouts(r)
     if n < MIN_LAYOUTS:
-        return (f"{n} independent layout{'s' if n != 1 else ''} (repetitions): at least {MIN_LAYOUTS} are needed "
-                f"for an interval over layouts, and the paper campaign uses 24 (docs/paper_reproduction.md, \"How "
+        return (f"{n} independent replicate{'s' if n != 1 else ''} (random layouts, or repetitions of a fixed "
+                f"area): at least {MIN_LAYOUTS} are needed for an interval over them, and the paper campaign uses 24 (docs/paper_reproduction.md, \"How "
                 f"many layouts\"). This campaign is too small to be scored against the paper; its numbers are "
                 f"shown without intervals.")
     if set(r["strategy"]) < {"A", "B"}:
