@@ -375,26 +375,25 @@ def layout_t(per_layout, null: float | None = 0.0, level: float = 0.95, scale: f
     multiplies estimate and interval (e.g. a per-layout total expressed per three layouts, the paper's
     repetitions); ``floor``/``ceiling`` cut the interval to what the quantity can take (after scaling)."""
     items = dict(per_layout.items()) if hasattr(per_layout, "items") else dict(enumerate(per_layout))
-    vals = {k: float(v) for k, v in items.items() if v is not None and math.isfinite(float(v))}
+    # per_layout keeps each layout's value in the statistic's own units (scaled), so that two statistics can
+    # be compared layout by layout
+    vals = {k: float(v) * scale for k, v in items.items() if v is not None and math.isfinite(float(v))}
     a = np.array(list(vals.values()), dtype=float)
     n = a.size
     if n == 0:
         return LayoutCI(math.nan, math.nan, math.nan, math.nan, 0, vals, null, level)
     m = float(a.mean())
     if n == 1:
-        return LayoutCI(m * scale, math.nan, math.nan, math.nan, 1, vals, null, level)
+        return LayoutCI(m, math.nan, math.nan, math.nan, 1, vals, null, level)
     se = float(a.std(ddof=1)) / math.sqrt(n)
     h = t_ppf(0.5 + level / 2.0, n - 1) * se
-    low, high = (m - h) * scale, (m + h) * scale
     if null is None:
         p = math.nan
     elif se == 0.0:
-        p = 1.0 if m == null / scale else 0.0
+        p = 1.0 if m == null else 0.0
     else:
-        p = t_sf2((m - null / scale) / se, n - 1)
-    if scale < 0:
-        low, high = high, low
-    return LayoutCI(m * scale, *_clip(low, high, floor, ceiling), p, n, vals, null, level)
+        p = t_sf2((m - null) / se, n - 1)
+    return LayoutCI(m, *_clip(m - h, m + h, floor, ceiling), p, n, vals, null, level)
 
 
 def layout_difference(a: LayoutCI, b: LayoutCI, null: float = 0.0, level: float = 0.95) -> LayoutCI:
