@@ -205,9 +205,9 @@ def too_small(r) -> str | None:
     n = n_layouts(r)
     if n < MIN_LAYOUTS:
         return (f"{n} independent replicate{'s' if n != 1 else ''} (random layouts, or repetitions of a fixed "
-                f"area): at least {MIN_LAYOUTS} are needed for an interval over them, and the paper campaign uses 24 (docs/paper_reproduction.md, \"How "
-                f"many layouts\"). This campaign is too small to be scored against the paper; its numbers are "
-                f"shown without intervals.")
+                f"area): at least {MIN_LAYOUTS} are needed for an interval over them, and the paper campaign uses "
+                f"24 (docs/paper_reproduction.md, \"How many layouts\"). This campaign is too small to be scored "
+                f"against the paper; its numbers are shown without intervals.")
     if set(r["strategy"]) < {"A", "B"}:
         return "the campaign does not fly both strategies A and B: it cannot be scored against the paper."
     return None
@@ -325,8 +325,9 @@ def finding_rows(u, r) -> list[Finding]:
         for n1, n2 in zip(fleets, fleets[1:]):
             sign = -1 if (s == "A" and n1 == 1) else +1
             steps.append(Part(f"{s} {n1}->{n2} UAVs", fleet_step(sub, "battery", n1, n2), sign, 1, " %-pt"))
-    means = "; ".join(f"{s}: " + ", ".join(f"{n}: {level_ci(r[(r['strategy'] == s) & (r['n_uavs'] == n)], 'battery', True, 0.0, 100.0).fmt(1)}"
-                                          for n in fleets) for s in ("A", "B"))
+    def fleet_mean(s, n):
+        return level_ci(r[(r["strategy"] == s) & (r["n_uavs"] == n)], "battery", True, 0.0, 100.0).fmt(1)
+    means = "; ".join(f"{s}: " + ", ".join(f"{n}: {fleet_mean(s, n)}" for n in fleets) for s in ("A", "B"))
     out.append(Finding("battery_fleet", means + "; slopes per UAV: "
                        + ", ".join(f"{s} {ci_text(fleet_slope(r[r['strategy'] == s], 'battery'), 1)}"
                                    for s in ("A", "B")),
