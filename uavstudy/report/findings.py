@@ -34,7 +34,7 @@ from .tables import area_label, is_zone
 from .text import ci_text, num
 
 __all__ = ["TABLE2", "table2", "paper_comparison", "verdict_text", "sensitivity_findings", "Part", "Magnitude",
-           "direction_verdict", "combine", "COLLISION_RULE", "MIN_LAYOUTS", "too_small", "finding_rows",
+           "direction_verdict", "combine", "COLLISION_RULE", "MIN_LAYOUTS", "too_small", "finding_rows", "explanations",
            "YES", "REVERSED", "NOT_SHOWN"]
 
 YES, REVERSED, NOT_SHOWN = "yes", "reversed", "not shown"
@@ -433,6 +433,32 @@ def _statements(findings: list[Finding]) -> dict:
     return out
 
 
+def _towards_paper(stmt, delta: st.LayoutCI) -> bool:
+    """Does a significant change move the statement towards the paper (its sign for a direction, its number for
+    a magnitude)?"""
+    if not delta.significant:
+        return False
+    if isinstance(stmt, Part):
+        return delta.estimate * stmt.sign > 0
+    return delta.estimate * (stmt.paper - stmt.stat.estimate) > 0
+
+
+def explanations(sf: dict) -> dict:
+    """For each statement not reproduced at the baseline (direction not yes, magnitude not within): the
+    configurations that reproduce it (verdict yes / within there), else those that move it significantly towards
+    the paper; an empty list means that no tested factor explains it."""
+    out = {}
+    for key, stmt in sf["statements"][sf["baseline"]].items():
+        goal = YES if key[2] == "direction" else WITHIN
+        if stmt.verdict == goal:
+            continue
+        moved = sf["moves"][key]
+        reproduce = [m for m in moved if m["verdict"] == goal]
+        out[key] = ("reproduced by", reproduce) if reproduce else \
+            ("moved towards the paper by", [m for m in moved if m["towards_paper"]])
+    return out
+
+
 def sensitivity_findings(u, r, design: dict) -> dict:
     """For a campaign with a design: the findings in every configuration (baseline, each one-at-a-time value,
     each factorial point) on the same layouts, and per statement (a finding's part or magnitude) the
@@ -455,7 +481,8 @@ def sensitivity_findings(u, r, design: dict) -> dict:
             flipped = other.verdict != stmt.verdict
             if delta.significant or flipped:
                 rows.append({"config": c, "delta": delta, "verdict": other.verdict, "stat": other.stat,
-                             "flipped": flipped, "moved": delta.significant})
+                             "flipped": flipped, "moved": delta.significant,
+                             "towards_paper": _towards_paper(stmt, delta)})
         moves[key] = rows
     return {"configs": configs, "baseline": baseline_config, "findings": per_config, "statements": statements,
             "moves": moves, "labels": {c: _config_label(c, base) for c in configs},

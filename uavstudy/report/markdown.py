@@ -14,8 +14,8 @@ from master.campaign.report import campaign_facts, failures_md, md_table
 from master.campaign.spec import design_roles
 
 from .figures import draw_figures
-from .findings import (COLLISION_RULE, NOT_SHOWN, REVERSED, YES, paper_comparison, sensitivity_findings, table2,
-                       too_small, verdict_text)
+from .findings import (COLLISION_RULE, NOT_SHOWN, REVERSED, YES, explanations, paper_comparison,
+                       sensitivity_findings, table2, too_small, verdict_text)
 from .paper_values import paper_consistency
 from .settings import causes, run_settings, settings_summary
 from .statistics import ab_effect, figure_data
@@ -237,7 +237,23 @@ def sensitivity_md(u, r, design: dict) -> list[str]:
                                   for k in keys]])
     lines += ["Direction verdict of each finding per configuration (· = not shown):", "",
               md_table(["configuration", *keys], rows), ""]
-    lines += ["### Per statement: the baseline, and what moves or flips it", ""]
+    lines += ["### What explains each statement not reproduced at the baseline", "",
+              "A statement is reproduced when its direction is *yes* (magnitude: *within*). Listed: the "
+              "configurations in which it is reproduced, else those that move it significantly towards the paper "
+              "(change to the baseline on the same layouts, 95 % interval), else that no tested factor explains "
+              "it.", ""]
+    for (fkey, label, kind), (how, items) in explanations(sf).items():
+        stmt = sf["statements"][sf["baseline"]][(fkey, label, kind)]
+        unit, digits = getattr(stmt, "unit", ""), stmt.digits
+        head = f"- **{fkey} — {label}** ({kind}; baseline {stmt.verdict or 'n/a'}): "
+        if items:
+            head += how + " " + "; ".join(f"*{labels[m['config']]}* ({m['verdict'] or 'n/a'}: "
+                                          f"{ci_text(m['stat'], digits, unit, show_n=False)}; change "
+                                          f"{ci_text(m['delta'], digits, unit, show_n=False)})" for m in items) + "."
+        else:
+            head += "no tested factor explains it."
+        lines += [head]
+    lines += ["", "### Per statement: the baseline, and what moves or flips it", ""]
     for (fkey, label, kind), stmt in sf["statements"][sf["baseline"]].items():
         unit, digits = getattr(stmt, "unit", ""), stmt.digits
         head = (f"- **{fkey} — {label}** ({kind}): baseline {ci_text(stmt.stat, digits, unit)}"
