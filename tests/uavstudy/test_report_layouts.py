@@ -80,7 +80,7 @@ def campaign(tmp_path_factory):
     write_table(folder)
     u, r = uav_frames(build_table(folder))
     text = build_report(folder).read_text(encoding="utf-8")
-    return folder, u, r, text
+    return folder, u, r, text, {f.key: f for f in finding_rows(u, r)}
 
 
 def _t_interval(values):
@@ -101,12 +101,8 @@ def _totals(folder):
     return tot.reset_index()
 
 
-def _finding(r, u, key):
-    return next(f for f in finding_rows(u, r) if f.key == key)
-
-
 def test_three_intervals_recomputed_at_the_layout_level_from_the_parquet_table(campaign):
-    folder, u, r, text = campaign
+    folder, u, r, text, found = campaign
     runs = _totals(folder)
     assert runs["layout"].nunique() == LAYOUTS
     # 1. B - A successes per run: in each layout the mean over its 8 cells of B - A, then t over 6 layouts
@@ -114,7 +110,7 @@ def test_three_intervals_recomputed_at_the_layout_level_from_the_parquet_table(c
                             values="successes")
     per_layout = (wide["B"] - wide["A"]).groupby(level="layout").mean()
     m, lo, hi, p = _t_interval(per_layout.to_numpy())
-    got = _finding(r, u, "success_dir").parts[0].stat
+    got = found["success_dir"].parts[0].stat
     assert got.n == LAYOUTS
     assert (got.estimate, got.low, got.high, got.p) == (pytest.approx(m), pytest.approx(lo), pytest.approx(hi),
                                                         pytest.approx(p, rel=1e-6))
@@ -122,7 +118,7 @@ def test_three_intervals_recomputed_at_the_layout_level_from_the_parquet_table(c
     wide = runs.pivot_table(index=["layout", "strategy", "n_uavs", "wind.probability"], columns="variant",
                             values="battery")
     m, lo, hi, p = _t_interval((wide["zones"] - wide["free"]).groupby(level="layout").mean().to_numpy())
-    got = _finding(r, u, "battery_zones").parts[0].stat
+    got = found["battery_zones"].parts[0].stat
     assert (got.estimate, got.low, got.high, got.p) == (pytest.approx(m), pytest.approx(lo), pytest.approx(hi),
                                                         pytest.approx(p, rel=1e-6))
     # 3. strategy A's total distance per the paper's 420 missions: per layout km / missions, x 420
@@ -131,10 +127,10 @@ def test_three_intervals_recomputed_at_the_layout_level_from_the_parquet_table(c
                                            include_groups=False) * 420
     v = per_layout.to_numpy()
     lo, hi = scipy_stats.t.interval(0.95, v.size - 1, loc=v.mean(), scale=scipy_stats.sem(v))
-    got = _finding(r, u, "distance_total").magnitudes[0].stat
+    got = found["distance_total"].magnitudes[0].stat
     assert (got.estimate, got.low, got.high) == (pytest.approx(v.mean()), pytest.approx(lo), pytest.approx(hi))
     # and the report prints those numbers
-    s = _finding(r, u, "success_dir").parts[0].stat
+    s = found["success_dir"].parts[0].stat
     assert f"[{s.low:.2f}, {s.high:.2f}]" in text
 
 
@@ -147,7 +143,7 @@ def _layout_stats(comparison, t2):
 
 
 def test_no_verdict_says_yes_beside_an_interval_that_includes_the_null(campaign):
-    folder, u, r, text = campaign
+    folder, u, r, text, _ = campaign
     seen = set()
     for key, label, s, verdict in _layout_stats(paper_comparison(u, r), table2(u, r)):
         includes_null = not (s.low <= (s.null or 0.0) <= s.high) is False if math.isfinite(s.low) else True
