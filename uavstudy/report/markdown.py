@@ -135,9 +135,14 @@ def _differences_md(comparison: list[dict], why_text: dict) -> list[str]:
     differing = [c for c in comparison if not c["finding"].reproduced]
     if not differing:
         lines += ["Every published finding is reproduced.", ""]
+    first_said: dict = {}          # a fact shared by several findings is written once
     for c in differing:
-        f = c["finding"]
-        lines += [f"- **{c['key']}** ({verdict_text(c)}) — paper: {c['paper']}; ours: {c['ours']}. {c['fact']}"]
+        fact = c["fact"]
+        if fact in first_said:
+            fact = f"(Facts: as under {first_said[fact]}.)"
+        elif fact:
+            first_said[fact] = c["key"]
+        lines += [f"- **{c['key']}** ({verdict_text(c)}) — paper: {c['paper']}; ours: {c['ours']}. {fact}"]
     lines += ["", "What explains each of them is measured by the sensitivity campaign "
                   "(`ssp/campaigns/sensitivity.yaml`: which factor moves or flips each statement, with its interval) "
                   "and summarised in docs/paper_reproduction.md. The settings these runs flew with, from which the "
