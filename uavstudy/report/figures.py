@@ -69,6 +69,11 @@ def _headroom_legend(ax, n: int, top: float | None = None) -> None:
               bbox_to_anchor=(0.5, 1.0), columnspacing=0.8, handlelength=1.2, frameon=False)
 
 
+def _strategy_legend(ax, n: int) -> None:
+    """The strategies' legend in one row between the title and an axis that ends at 100 %, never over a bar."""
+    ax.legend(ncol=n, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False, fontsize=8)
+
+
 def _pairs_note(effects: dict) -> str:
     """The n of a panel of paired differences: the layouts behind each point."""
     n = sorted({e.n for e in effects.values()})
@@ -152,8 +157,8 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
     ax.set_xlabel("area")
     ax.set_ylabel("mean remaining battery per UAV [%]")
     ax.set_ylim(0.0, 100.0)
-    ax.set_title("Fig. 6 - remaining battery per area (95 % interval over layouts)")
-    ax.legend()
+    ax.set_title("Fig. 6 - remaining battery per area (95 % interval over layouts)", pad=22)
+    _strategy_legend(ax, len(strategies))
     _note(ax, n_all)
     files["fig6"] = _save(fig, out / "fig6_battery_per_area.png")
     # -- Fig. 7: levels, and the within-configuration differences to 0 % wind
@@ -238,8 +243,8 @@ def draw_figures(fd: dict, out: Path, r=None) -> dict:
     ax.set_xlabel("UAVs in the fleet")
     ax.set_ylabel("mean remaining battery per UAV [%]")
     ax.set_ylim(0.0, 100.0)
-    ax.set_title("Fig. 10 - remaining battery per fleet size (95 % interval over layouts)")
-    ax.legend()
+    ax.set_title("Fig. 10 - remaining battery per fleet size (95 % interval over layouts)", pad=22)
+    _strategy_legend(ax, len(strategies))
     _note(ax, n_all)
     files["fig10"] = _save(fig, out / "fig10_battery_per_fleet_size.png")
     return files
