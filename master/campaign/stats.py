@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["t_ppf", "t_cdf", "norm_ppf", "mean_ci", "total_ci", "wilson_ci", "fisher_exact", "mann_whitney_u",
+           "LayoutCI", "layout_t", "layout_difference", "layout_ratio", "t_power", "layouts_for_power", "fmt_number",
            "wilcoxon_signed_rank", "mcnemar_exact", "ols_slope", "CI"]
 
 Z975 = 1.959963984540054
@@ -316,3 +317,153 @@ def ols_slope(x, y, level: float = 0.95) -> CI:
     se = math.sqrt(float((resid ** 2).sum()) / (n - 2) / sxx)
     h = t_ppf(0.5 + level / 2.0, n - 2) * se
     return CI(b, b - h, b + h, n)
+
+
+# ----------------------------------------------------------------------------------- the layout as the unit
+@dataclass
+class LayoutCI:
+    """A statistic over independent replicates (the layouts of a campaign): the mean of one value per layout
+    with its two-sided t interval (df = layouts - 1) and, when ``null`` is given, the matching two-sided
+    one-sample t-test of mean = null.  Interval and p-value come from the same t distribution, so p < 1 - level
+    exactly when the interval excludes the null: they cannot disagree.  ``per_layout``: layout -> value (what
+    the interval rests on; matched by layout to compare two statistics, :func:`layout_difference`)."""
+    estimate: float
+    low: float
+    high: float
+    p: float
+    n: int
+    per_layout: dict
+    null: float | None = 0.0
+    level: float = 0.95
+
+    @property
+    def significant(self) -> bool:
+        """The interval excludes the null (the same as p < 1 - level)."""
+        return (self.null is not None and math.isfinite(self.low)
+                and not (self.low <= self.null <= self.high))
+
+    def fmt(self, digits: int = 2, unit: str = "", signed: bool = False) -> str:
+        if self.n == 0 or not math.isfinite(self.estimate):
+            return "n/a"
+        s = fmt_number(self.estimate, digits, signed) + unit
+        if math.isfinite(self.low):
+            s += f" [{fmt_number(self.low, digits)}, {fmt_number(self.high, digits)}]"
+        return s
+
+
+def fmt_number(x: float, digits: int = 2, signed: bool = False) -> str:
+    """``x`` with ``digits`` decimals, without floating-point noise: a value that rounds to zero is written 0
+    (never -0.00 or -5.68e-14)."""
+    if not math.isfinite(x):
+        return "n/a"
+    if round(x, digits) == 0:
+        x = 0.0
+    return f"{x:+.{digits}f}" if signed and x != 0 else f"{x:.{digits}f}"
+
+
+def t_sf2(t: float, df: float) -> float:
+    """Two-sided tail probability P(|T| >= |t|) of Student's t."""
+    if not math.isfinite(t):
+        return 0.0 if math.isinf(t) else math.nan
+    return min(1.0, 2.0 * t_cdf(-abs(t), df))
+
+
+def layout_t(per_layout, null: float | None = 0.0, level: float = 0.95, scale: float = 1.0,
+             floor: float | None = None, ceiling: float | None = None) -> LayoutCI:
+    """One value per layout (mapping layout -> value, or a pandas Series indexed by layout) -> their mean with
+    the t interval over layouts and the t-test against ``null`` (None: a level, no test).  ``scale``
+    multiplies estimate and interval (e.g. a per-layout total expressed per three layouts, the paper's
+    repetitions); ``floor``/``ceiling`` cut the interval to what the quantity can take (after scaling)."""
+    items = dict(per_layout.items()) if hasattr(per_layout, "items") else dict(enumerate(per_layout))
+    # per_layout keeps each layout's value in the statistic's own units (scaled), so that two statistics can
+    # be compared layout by layout
+    vals = {k: float(v) * scale for k, v in items.items() if v is not None and math.isfinite(float(v))}
+    a = np.array(list(vals.values()), dtype=float)
+    n = a.size
+    if n == 0:
+        return LayoutCI(math.nan, math.nan, math.nan, math.nan, 0, vals, null, level)
+    m = float(a.mean())
+    if n == 1:
+        return LayoutCI(m, math.nan, math.nan, math.nan, 1, vals, null, level)
+    se = float(a.std(ddof=1)) / math.sqrt(n)
+    h = t_ppf(0.5 + level / 2.0, n - 1) * se
+    if null is None:
+        p = math.nan
+    elif se == 0.0:
+        p = 1.0 if m == null else 0.0
+    else:
+        p = t_sf2((m - null) / se, n - 1)
+    return LayoutCI(m, *_clip(m - h, m + h, floor, ceiling), p, n, vals, null, level)
+
+
+def layout_difference(a: LayoutCI, b: LayoutCI, null: float = 0.0, level: float = 0.95) -> LayoutCI:
+    """``b - a`` layout by layout (the layouts both have) with its t interval and t-test: how much a change
+    (another configuration on the same layouts) moves a statistic."""
+    keys = [k for k in b.per_layout if k in a.per_layout]
+    return layout_t({k: b.per_layout[k] - a.per_layout[k] for k in keys}, null, level)
+
+
+def layout_ratio(num, den, null: float | None = 1.0, level: float = 0.95) -> LayoutCI:
+    """Ratio of two totals over layouts, sum(num) / sum(den), with Fieller's interval: the values R0 that the
+    t-test of mean(num - R0 den) = 0 over layouts does not reject, so the interval and the p-value of the test
+    against ``null`` (that same t-test at R0 = null) cannot disagree.  The interval is unbounded (nan) when
+    the denominator's own mean is not significantly above zero.  ``per_layout`` holds each layout's ratio
+    (nan where its denominator is 0), for reading only."""
+    keys = [k for k in num if k in den and math.isfinite(float(num[k])) and math.isfinite(float(den[k]))]
+    x = np.array([float(num[k]) for k in keys])
+    y = np.array([float(den[k]) for k in keys])
+    per = {k: (xi / yi if yi else math.nan) for k, xi, yi in zip(keys, x, y)}
+    n = x.size
+    if n == 0 or y.sum() == 0:
+        return LayoutCI(math.nan, math.nan, math.nan, math.nan, n, per, null, level)
+    r = float(x.sum() / y.sum())
+    if n == 1:
+        return LayoutCI(r, math.nan, math.nan, math.nan, 1, per, null, level)
+    t2 = t_ppf(0.5 + level / 2.0, n - 1) ** 2
+    xm, ym = x.mean(), y.mean()
+    sxx, syy = x.var(ddof=1) / n, y.var(ddof=1) / n
+    sxy = float(np.cov(x, y, ddof=1)[0, 1]) / n
+    # (xm - R ym)^2 <= t^2 (sxx - 2 R sxy + R^2 syy): a R^2 + b R + c <= 0
+    qa, qb, qc = ym * ym - t2 * syy, -2.0 * (xm * ym - t2 * sxy), xm * xm - t2 * sxx
+    disc = qb * qb - 4 * qa * qc
+    if qa <= 0 or disc < 0:
+        low = high = math.nan
+    else:
+        root = math.sqrt(disc)
+        low, high = (-qb - root) / (2 * qa), (-qb + root) / (2 * qa)
+    p = math.nan
+    if null is not None:
+        d = x - null * y
+        sd = float(d.std(ddof=1))
+        p = (1.0 if d.mean() == 0 else 0.0) if sd == 0 else t_sf2(float(d.mean()) / (sd / math.sqrt(n)), n - 1)
+    return LayoutCI(r, low, high, p, n, per, null, level)
+
+
+_erfc = np.vectorize(math.erfc, otypes=[float])
+
+
+def t_power(d_z: float, n: int, alpha: float = 0.05) -> float:
+    """Power of the two-sided one-sample t-test over ``n`` replicates for a standardised effect ``d_z``
+    (mean / sd of the per-layout values): P(|T'| > t_crit) with T' non-central t (df n - 1, non-centrality
+    d_z sqrt(n)), integrated over the chi-square distribution of the variance estimate."""
+    if n < 2:
+        return math.nan
+    df = n - 1
+    c = t_ppf(1.0 - alpha / 2.0, df)
+    delta = abs(d_z) * math.sqrt(n)
+    # S = sqrt(V), V ~ chi2(df) (the chi density has no singularity at 0, even for df = 1):
+    # T' = (Z + delta) / (S / sqrt(df)); power = E_S[P(|Z + delta| > c S / sqrt(df))]
+    s = np.linspace(0.0, math.sqrt(df) + 12.0, 4001)
+    w = np.exp((df - 1.0) * np.log(np.maximum(s, 1e-300)) - s * s / 2.0) if df > 1 else np.exp(-s * s / 2.0)
+    k = c * s / math.sqrt(df)
+    inner = 0.5 * (_erfc((k - delta) / math.sqrt(2.0)) + _erfc((k + delta) / math.sqrt(2.0)))
+    return float(np.trapezoid(w * inner, s) / np.trapezoid(w, s))
+
+
+def layouts_for_power(d_z: float, power: float = 0.8, alpha: float = 0.05, most: int = 200) -> int | None:
+    """The fewest layouts with which the two-sided t-test over layouts detects a standardised effect ``d_z``
+    with the given power (None beyond ``most``)."""
+    for n in range(2, most + 1):
+        if t_power(d_z, n, alpha) >= power:
+            return n
+    return None

@@ -80,37 +80,50 @@ def test_agreement_is_by_value_with_a_stated_tolerance():
     assert bl.agrees_by_value(1.0, st.CI(math.nan, math.nan, math.nan, 0), 1.0).agrees is None
 
 
-def _runs(config_value, single_uav_successes):
-    """Runs of one configuration (factor f): A/B x 1-2 UAVs x wind 0/0.15 x 2 repetitions; B flies 0.5 km less
-    than A in every block, a single UAV of strategy B succeeds ``single_uav_successes`` times per run."""
+def _runs(config_value, single_uav_successes, b_minus_a_km):
+    """Runs of one configuration (factor f): A/B x 1-2 UAVs x wind 0/0.15 x 4 layouts; B flies ``b_minus_a_km``
+    km more than A in every pair (plus a layout-dependent wobble that B and A share), a single UAV of strategy B
+    succeeds ``single_uav_successes`` times per run."""
     from master.campaign.identity import canonical_json
     rows = []
     for s in ("A", "B"):
         for n in (1, 2):
             for w in (0.0, 0.15):
-                for rep in (0, 1):
+                for rep in range(4):
                     cfg = canonical_json({"f": config_value})
                     cell = f"{cfg}|{n}|free|{w:g}"
                     rows.append({"run_id": f"{config_value}{s}{n}{w}{rep}", "strategy": s, "n_uavs": n,
-                                 "area": "free", "wind": w, "rep": rep, "config": cfg, "cell": cell,
-                                 "block": f"{cell}|{rep}",
+                                 "area": "free", "wind": w, "rep": rep, "layout": f"random-{rep}", "config": cfg,
+                                 "cell": cell, "block": f"{cell}|{rep}",
                                  "successes": single_uav_successes if (n == 1 and s == "B") else (1 if s == "B" else 0),
-                                 "battery": 40.0 - 10 * w - rep, "distance_km": 5.0 + rep - (0.5 if s == "B" else 0),
-                                 "photos": 10, "collisions": 0, "uav_collided": 0, "zone_collided": 0, "uav_events": 0})
+                                 "battery": 40.0 - 10 * w - rep,
+                                 "distance_km": 5.0 + rep + (b_minus_a_km + 0.1 * rep if s == "B" else 0),
+                                 "photos": 10, "collisions": 0, "collision_events": 0, "uav_collided": 0,
+                                 "zone_collided": 0, "uav_events": 0})
     return rows
 
 
-def test_sensitivity_names_the_configuration_that_flips_a_finding():
-    from uavstudy.report import sensitivity_findings
-    r = pd.DataFrame(_runs(1, 0) + _runs(2, 1))
+def test_sensitivity_names_the_configuration_that_moves_or_flips_a_finding():
+    from uavstudy.report import REVERSED, YES, sensitivity_findings
+    r = pd.DataFrame(_runs(1, 0, -0.5) + _runs(2, 1, +0.5))
+    u = r[["run_id"]]
     design = {"baseline": {"f": 1}, "one_at_a_time": {"f": [2]}, "factorial": {}}
-    sf = sensitivity_findings(r, design)
+    sf = sensitivity_findings(u, r, design)
     base, other = '{"f":1}', '{"f":2}'
     assert sf["baseline"] == base and sf["labels"][other] == "f = 2"
     assert sf["roles"][other] == ["one_at_a_time:f"]
-    # no single UAV succeeds at f = 1 (the finding holds); at f = 2 each of the 4 single-UAV B runs succeeds
-    assert sf["table"][base]["success_1"][0] is True and sf["table"][other]["success_1"][0] is False
-    assert "4/8 single-UAV missions succeed" in sf["table"][other]["success_1"][1]
-    assert sf["flips"]["success_1"] == [other]
-    # B flies 0.5 km less in all 8 blocks of each configuration: sign-flip p = 2/256, holds in both, flips nowhere
-    assert sf["table"][base]["distance_total"][0] is True and sf["flips"]["distance_total"] == []
+    # B - A distance per layout: -0.5 + 0.1 rep at the baseline (-0.5, -0.4, -0.3, -0.2: B shorter, yes) and
+    # +0.5 + 0.1 rep at f = 2 (reversed); the change is +1.0 in every layout: an interval [1, 1] excluding 0
+    key = ("distance_total", "B - A per run", "direction")
+    assert sf["statements"][base][key].verdict == YES
+    (move,) = sf["moves"][key]
+    assert move["config"] == other and move["verdict"] == REVERSED and move["flipped"] and move["moved"]
+    assert move["delta"].estimate == pytest.approx(1.0) and move["delta"].n == 4
+    # no single UAV succeeds at f = 1 (0 per three layouts: within the paper's 0); at f = 2 each single-UAV B
+    # run succeeds in every layout: 2 runs per layout x 3 = 6 per three layouts, outside
+    key = ("success_1", "B per 3 layouts", "magnitude")
+    assert sf["statements"][base][key].verdict == "within"
+    (move,) = sf["moves"][key]
+    assert move["verdict"] == "outside" and move["stat"].estimate == pytest.approx(6.0)
+    # the battery is the same in both configurations: nothing moves B - A battery
+    assert sf["moves"][("battery_total", "B - A (mission means)", "direction")] == []

@@ -8,27 +8,32 @@ for a campaign whose table has per-UAV rows.  The parts, in the order the data f
   around them, and which of them cannot all hold together;
 * :mod:`.tables` -- the results table shaped for the analysis: missions and runs, configuration, cell, block;
 * :mod:`.settings` -- what the runs flew with, and the causes of a difference stated from it;
-* :mod:`.statistics` -- every interval, paired difference and slope (the run is the unit, blocks are paired,
-  intervals stratified by configuration);
-* :mod:`.findings` -- the verdicts: Table II's "better", each published claim reproduced or not, the findings
-  a design's configurations flip;
+* :mod:`.statistics` -- every interval, paired difference, slope and ratio, with the layout as the unit (one
+  value per layout, then a t interval and t-test over layouts; reusable for other strategies' campaigns);
+* :mod:`.findings` -- the verdicts by one rule fixed before the data (yes / reversed / not shown; magnitude
+  within / outside), the declared collision count, Table II's "better", the statements a design's
+  configurations move or flip;
 * :mod:`.figures` -- the figures; :mod:`.text` -- how numbers are written; :mod:`.markdown` -- report.md.
 """
 from __future__ import annotations
 
 from .figures import COLORS, draw_figures
-from .findings import TABLE2, flip_kind, paper_comparison, sensitivity_findings, table2, verdict_text
+from .findings import (COLLISION_RULE, MIN_LAYOUTS, NOT_SHOWN, REVERSED, TABLE2, YES, Magnitude, Part, combine,
+                       direction_verdict, finding_rows, paper_comparison, sensitivity_findings, table2, too_small,
+                       verdict_text)
 from .markdown import sensitivity_md, uav_report
-from .paper_values import PAPER, PAPER_MISSIONS, PAPER_VALUES, paper_consistency
+from .paper_values import PAPER, PAPER_MISSIONS, PAPER_REPETITIONS, PAPER_VALUES, paper_consistency
 from .settings import causes, run_settings, settings_summary
-from .statistics import (NO_CI, ab_effect, area_effect, battery_ci, figure_data, fleet_slope, level_ci, per_layout,
-                         total_ci, wind_effect, wind_slope)
+from .statistics import (NO_CI, ab_effect, area_effect, by_layout, figure_data, fleet_slope, fleet_step, level_ci,
+                         n_layouts, paper_grid_total, per_mission_total, ratio_ci, wind_effect, wind_slope)
 from .tables import STUDY_AXES, area_label, pair_keys, param_columns, uav_frames
-from .text import effect_text, n_text, p_text, ratio_text
+from .text import ci_text, n_text, num, p_text, ratio_text
 
 __all__ = ["uav_report", "uav_frames", "figure_data", "table2", "paper_comparison", "pair_keys", "PAPER",
-           "paper_consistency", "sensitivity_findings", "run_settings",
-           "PAPER_VALUES", "PAPER_MISSIONS", "STUDY_AXES", "TABLE2", "COLORS", "NO_CI", "param_columns",
-           "area_label", "settings_summary", "causes", "battery_ci", "level_ci", "total_ci", "per_layout",
-           "ab_effect", "wind_effect", "wind_slope", "area_effect", "fleet_slope", "flip_kind", "verdict_text",
-           "sensitivity_md", "draw_figures", "effect_text", "n_text", "p_text", "ratio_text"]
+           "paper_consistency", "sensitivity_findings", "run_settings", "finding_rows", "too_small",
+           "PAPER_VALUES", "PAPER_MISSIONS", "PAPER_REPETITIONS", "STUDY_AXES", "TABLE2", "COLORS", "NO_CI",
+           "param_columns", "area_label", "settings_summary", "causes", "level_ci", "paper_grid_total",
+           "per_mission_total", "ab_effect", "wind_effect", "wind_slope", "area_effect", "fleet_step", "fleet_slope",
+           "ratio_ci", "by_layout", "n_layouts", "verdict_text", "Part", "Magnitude", "direction_verdict", "combine",
+           "COLLISION_RULE", "MIN_LAYOUTS", "YES", "REVERSED", "NOT_SHOWN", "sensitivity_md", "draw_figures",
+           "ci_text", "n_text", "num", "p_text", "ratio_text"]

@@ -1,26 +1,158 @@
-"""The verdicts: which strategy is better on each metric of Table II, whether each of the paper's claims holds
-in our runs (by value where the paper gives a number, by direction otherwise), and, for a campaign with a
-``design:``, which configurations flip which finding.
+"""The verdicts: whether each of the paper's findings holds in our runs, which strategy is better on each row of
+Table II, and, for a campaign with a ``design:``, which configurations move or flip each finding.
 
-The numbers come from :mod:`.statistics`; the rules that turn them into a verdict (the sign that counts as
-"better", significance at alpha = 0.05, the tolerances of :mod:`.paper_values`) are here.
+**The verdict rule** (fixed before the data; docs/paper_reproduction.md states the same rule):
+
+* *direction*: each tested statistic has the sign the paper claims.  Its 95 % interval over layouts and the
+  matching t-test (:mod:`.statistics`) decide: significant (the interval excludes the null, p < 0.05) with the
+  paper's sign = **yes**; significant with the opposite sign = **reversed**; otherwise **not shown** (we can
+  neither confirm nor reject it).  A finding made of several statements (both areas, both strategies, every
+  fleet step, the 8 rows of Table II) is *yes* when every part is yes, *reversed* when every part is reversed,
+  *mixed* when some parts are yes and some reversed, *partly* when some are yes and none reversed, *partly
+  reversed* when some are reversed and none yes, else *not shown*.
+* *magnitude*, separately, where the paper gives a number: **within** when the paper's number lies in our 95 %
+  interval widened by the tolerance of :data:`.paper_values.PAPER_VALUES` on both sides, else **outside**.
+
+**The collision count** is declared from the paper's text, not from which reading fits (see
+:data:`COLLISION_RULE`): a collision is a UAV's collision, so a UAV-UAV collision counts twice (both UAVs are
+removed).  The other reading (once per UAV-UAV collision) is shown beside it and never used in a verdict.
 """
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 
-from master.campaign import blocked as bl
+from master.campaign import stats as st
 from master.campaign.spec import canonical_json, design_roles
 
 from ..names import UAV_COLLISION, ZONE_COLLISION
-from .paper_values import PAPER, PAPER_VALUES
-from .statistics import (NO_CI, ab_effect, area_effect, fleet_slope, level_ci, per_layout, total_ci, wind_effect,
-                         wind_slope)
+from .paper_values import PAPER, PAPER_MISSIONS, PAPER_REPETITIONS, PAPER_VALUES
+from .statistics import (ab_effect, area_effect, fleet_step, fleet_slope, level_ci, n_layouts, per_mission_total,
+                         ratio_ci, wind_effect, wind_slope)
 from .tables import area_label, is_zone
-from .text import effect_text, ratio_text
+from .text import ci_text, num
 
-__all__ = ["TABLE2", "table2", "paper_comparison", "verdict_text", "flip_kind", "sensitivity_findings"]
+__all__ = ["TABLE2", "table2", "paper_comparison", "verdict_text", "sensitivity_findings", "Part", "Magnitude",
+           "direction_verdict", "combine", "COLLISION_RULE", "MIN_LAYOUTS", "too_small", "finding_rows", "explanations",
+           "YES", "REVERSED", "NOT_SHOWN"]
+
+YES, REVERSED, NOT_SHOWN = "yes", "reversed", "not shown"
+WITHIN, OUTSIDE = "within", "outside"
+#: fewer independent layouts than this and a campaign is too small to be scored against the paper (a t interval
+#: over 2 layouts has df = 1: t(0.975, 1) = 12.7)
+MIN_LAYOUTS = 3
+
+#: the collision-counting rule, declared from the paper's text (section III-A and V) before looking at the data
+COLLISION_RULE = (
+    "We count **one collision per UAV removed** (a UAV-UAV collision counts twice). The paper defines the "
+    "collision from each UAV's side: \"each UAV calculates its distance to all others present in the simulation "
+    "and checks for the intersection of areas\", \"If a collision is detected, the colliding UAV is removed from "
+    "the simulation\", and for the count \"it was defined that a collision occurs regardless of the type of "
+    "impact point, a UAV, or a restricted area\": the impact point is what a UAV hit, so each of the two UAVs of a "
+    "UAV-UAV collision has a collision whose impact point is a UAV. The paper's other counts are per UAV mission "
+    "too (\"42, 84, 126, 168\" successes). The other reading, one per UAV-UAV collision, is shown beside it for "
+    "information; no verdict uses it.")
+
+
+@dataclass
+class Part:
+    """One tested statement of a finding: a statistic over layouts and the sign the paper claims for it
+    (relative to the statistic's null: 0 for a difference or slope, 1 for a ratio)."""
+    label: str
+    stat: st.LayoutCI
+    sign: int
+    digits: int = 2
+    unit: str = ""
+
+    @property
+    def verdict(self) -> str:
+        return direction_verdict(self.stat, self.sign)
+
+    def text(self) -> str:
+        return f"{self.label} {ci_text(self.stat, self.digits, self.unit)} ({self.verdict})"
+
+
+@dataclass
+class Magnitude:
+    """The paper's number against our interval widened by the tolerance."""
+    label: str
+    paper: float
+    tolerance: float
+    stat: st.LayoutCI
+    digits: int = 1
+    unit: str = ""
+
+    @property
+    def verdict(self) -> str | None:
+        s = self.stat
+        if s.n < 2 or not math.isfinite(s.low):
+            return None
+        return WITHIN if s.low - self.tolerance <= self.paper <= s.high + self.tolerance else OUTSIDE
+
+    def text(self) -> str:
+        v = self.verdict
+        return (f"{self.label} {self.stat.fmt(self.digits, self.unit)} vs paper {num(self.paper, self.digits)}"
+                f"{self.unit} ± {num(self.tolerance, self.digits)} ({v or 'n/a'})")
+
+
+def direction_verdict(stat: st.LayoutCI, sign: int) -> str:
+    """yes / reversed / not shown, from the interval (and its t-test) alone."""
+    null = stat.null or 0.0
+    if not stat.significant or not math.isfinite(stat.estimate) or stat.estimate == null:
+        return NOT_SHOWN
+    return YES if (stat.estimate - null) * sign > 0 else REVERSED
+
+
+def combine(verdicts: list[str]) -> str:
+    """The verdict of a finding made of several parts (module docstring)."""
+    if not verdicts:
+        return NOT_SHOWN
+    yes, rev = verdicts.count(YES), verdicts.count(REVERSED)
+    if yes == len(verdicts):
+        return YES
+    if rev == len(verdicts):
+        return REVERSED
+    if yes and rev:
+        return "mixed"
+    if yes:
+        return "partly"
+    if rev:
+        return "partly reversed"
+    return NOT_SHOWN
+
+
+@dataclass
+class Finding:
+    key: str
+    ours: str
+    parts: list = field(default_factory=list)         # Part: the direction statements
+    magnitudes: list = field(default_factory=list)    # Magnitude: the paper's numbers
+    design: bool | None = None                        # runs / max_success: our grid is the paper's
+    other_reading: str = ""                           # shown, never used in the verdict
+    note: str = ""
+
+    @property
+    def direction(self) -> str | None:
+        return combine([p.verdict for p in self.parts]) if self.parts else None
+
+    @property
+    def magnitude(self) -> str | None:
+        vs = [m.verdict for m in self.magnitudes]
+        if not vs:
+            return None
+        if OUTSIDE in vs:
+            return OUTSIDE
+        return WITHIN if all(v == WITHIN for v in vs) else "n/a"
+
+    @property
+    def reproduced(self) -> bool:
+        """Reproduced: every tested direction yes and every magnitude within (a design row: its grid)."""
+        if self.design is not None:
+            return self.design
+        return (self.direction in (None, YES) and self.magnitude in (None, WITHIN)
+                and (self.direction is not None or self.magnitude is not None))
+
 
 #: the rows of Table II: key, label, per-run column, which direction is better, with-wind runs only, and the
 #: aggregate shown (count of successes | sum over runs | mean over missions)
@@ -36,329 +168,253 @@ TABLE2 = [
 ]
 
 
-def table2(u, r, alpha: float = 0.05, pairs: dict | None = None) -> list[dict]:
-    """Table II: for each metric the totals (or mission means) of A and B and the blocked comparison B - A per
-    run (``ab_effect``), which decides "better".  ``pairs`` is accepted for the caller's information only:
-    the blocks are the same whether or not the campaign shares seeds (it then says whether the twins met the
-    same wind)."""
+def table2(u, r) -> list[dict]:
+    """Table II: for each metric A's and B's level (per three layouts, or the mean over missions) and B - A per
+    run over layouts, which decides "better" by the verdict rule."""
     rows = []
     for key, label, col, better, wind_only, shown in TABLE2:
         data = r[r["wind"] > 0] if wind_only else r
         a, b = data[data["strategy"] == "A"], data[data["strategy"] == "B"]
         row = {"key": key, "metric": label, "n_A": len(a), "n_B": len(b)}
-        if shown == "count":
-            ka, kb = int(a[col].sum()), int(b[col].sum())
-            row.update(A=f"{ka}/{int(a['n_uavs'].sum())}", B=f"{kb}/{int(b['n_uavs'].sum())}")
-        elif shown == "mean":
+        by_missions = shown == "mean"
+        if by_missions:
             row.update(A=level_ci(a, col, True).fmt(2, " %"), B=level_ci(b, col, True).fmt(2, " %"))
         else:
             unit = " km" if col == "distance_km" else ""
-            row.update(A=f"{a[col].sum():.6g}{unit}", B=f"{b[col].sum():.6g}{unit}")
-        e = ab_effect(data, col)
-        row.update(effect=e, p=e.p, n_blocks=e.n_blocks, per_layout=per_layout(data, col))
-        if not math.isfinite(e.estimate) or e.estimate == 0:
-            lead = "tie"
-        else:
-            lead = "B" if (e.estimate > 0) == (better == "higher") else "A"
-        row["lead"] = lead
-        row["better"] = lead if (lead != "tie" and e.significant) else "none"
+            row.update(A=per_mission_total(a, col, _missions(a)).fmt(1, unit),
+                       B=per_mission_total(b, col, _missions(b)).fmt(1, unit))
+        e = ab_effect(data, col, by_missions)
+        sign = 1 if better == "higher" else -1
+        part = Part(label, e, sign, 3)
+        row.update(effect=e, part=part, p=e.p, n_layouts=e.n,
+                   b_ahead=sum(1 for v in e.per_layout.values() if v * sign > 0))
+        row["better"] = {YES: "B", REVERSED: "A"}.get(part.verdict, "not shown")
         row["sense"] = better
         rows.append(row)
     return rows
 
 
-def _facts(u, r, fd) -> dict:
+def _missions(r) -> int:
+    """UAV missions of these runs per three layouts (the paper's grid size for this subset)."""
+    n = n_layouts(r)
+    return int(round(r["n_uavs"].sum() * PAPER_REPETITIONS / n)) if n else 0
+
+
+def too_small(r) -> str | None:
+    """Why these runs cannot be scored against the paper (None when they can)."""
+    n = n_layouts(r)
+    if n < MIN_LAYOUTS:
+        return (f"{n} independent replicate{'s' if n != 1 else ''} (random layouts, or repetitions of a fixed "
+                f"area): at least {MIN_LAYOUTS} are needed for an interval over them, and the paper campaign uses "
+                f"24 (docs/paper_reproduction.md, \"How many layouts\"). This campaign is too small to be scored "
+                f"against the paper; its numbers are shown without intervals.")
+    if set(r["strategy"]) < {"A", "B"}:
+        return "the campaign does not fly both strategies A and B: it cannot be scored against the paper."
+    return None
+
+
+def finding_rows(u, r) -> list[Finding]:
+    """The paper's 16 findings measured on the runs ``r`` (and their missions ``u``): one Finding each, with
+    the statistics its verdict rests on.  Works on any subset with both strategies (a configuration of a
+    sensitivity campaign: fleet sizes or wind levels it lacks leave those parts out)."""
+    out: list[Finding] = []
+    ra, rb = r[r["strategy"] == "A"], r[r["strategy"] == "B"]
+    fleets = sorted(set(int(x) for x in r["n_uavs"]))
+    winds = sorted(set(float(x) for x in r["wind"]))
+    areas = sorted(set(r["area"]), key=lambda a: (is_zone(a), a))
+    zones = [a for a in areas if is_zone(a)]
+    n_lay = n_layouts(r)
+    per_layout_runs = len(r) / n_lay if n_lay else 0
+    # -- the grid
+    out.append(Finding("runs", f"{len(r)} runs = {n_lay} layouts x {num(per_layout_runs, 0)} runs; per 3 layouts "
+                               f"{num(per_layout_runs * PAPER_REPETITIONS, 0)}",
+                       design=per_layout_runs * PAPER_REPETITIONS == 336))
+    maxes = ", ".join(str(_missions(ra[ra["n_uavs"] == n])) for n in fleets)
+    out.append(Finding("max_success", f"{maxes} per 3 layouts", design=maxes == "42, 84, 126, 168"))
+
+    def successes(sub, n):
+        s = sub[sub["n_uavs"] == n]
+        return s, int(s["successes"].sum()), int(s["n_uavs"].sum())
+    # -- Fig. 5
+    if 1 in fleets:
+        (sa, ka, ma), (sb, kb, mb) = successes(ra, 1), successes(rb, 1)
+        out.append(Finding("success_1", f"{ka}/{ma} (A), {kb}/{mb} (B) over {n_lay} layouts",
+                           magnitudes=[Magnitude("A per 3 layouts", 0.0, 0.0, per_mission_total(sa, "successes",
+                                                                                                _missions(sa))),
+                                       Magnitude("B per 3 layouts", 0.0, 0.0, per_mission_total(sb, "successes",
+                                                                                                _missions(sb)))]))
+    if 2 in fleets:
+        (sa, ka, ma), (sb, kb, mb) = successes(ra, 2), successes(rb, 2)
+        out.append(Finding("success_2", f"{ka}/{ma} (A), {kb}/{mb} (B) over {n_lay} layouts",
+                           parts=[Part("B - A successes per 2-UAV run", ab_effect(r[r["n_uavs"] == 2], "successes"),
+                                       +1)],
+                           magnitudes=[Magnitude("A per 3 layouts", 0.0, 0.0,
+                                                 per_mission_total(sa, "successes", _missions(sa)))]))
+    k_a, k_b = int(ra["successes"].sum()), int(rb["successes"].sum())
+    out.append(Finding("success_dir", f"{k_a}/{int(ra['n_uavs'].sum())} (A) vs {k_b}/{int(rb['n_uavs'].sum())} (B); "
+                                      f"B - A per run {ci_text(ab_effect(r, 'successes'))}",
+                       parts=[Part("B - A successes per run", ab_effect(r, "successes"), +1)]))
+    # -- battery (Figs. 6, 7, 10)
+    lev_a, lev_b = level_ci(ra, "battery", True, 0.0, 100.0), level_ci(rb, "battery", True, 0.0, 100.0)
+    out.append(Finding("battery_total", f"{lev_a.fmt(1, ' %')} (A), {lev_b.fmt(1, ' %')} (B); B - A "
+                                        f"{ci_text(ab_effect(r, 'battery', True), 1, ' %-pt')}",
+                       parts=[Part("B - A (mission means)", ab_effect(r, "battery", True), +1, 1, " %-pt")],
+                       magnitudes=[Magnitude("A", *PAPER_VALUES["battery_A"][:2], lev_a, 1, " %"),
+                                   Magnitude("B", *PAPER_VALUES["battery_B"][:2], lev_b, 1, " %")],
+                       note="mean over UAV missions"))
+    out.append(Finding("battery_area", "; ".join(
+        f"{area_label(a)}: A {level_ci(ra[ra['area'] == a], 'battery', True, 0.0, 100.0).fmt(1)} vs B "
+        f"{level_ci(rb[rb['area'] == a], 'battery', True, 0.0, 100.0).fmt(1)}" for a in areas),
+        parts=[Part(f"{area_label(a)}: B - A", ab_effect(r[r["area"] == a], "battery", True), -1, 1, " %-pt")
+               for a in areas]))
+    if len(winds) > 1:
+        top = max(winds)
+        out.append(Finding("battery_wind", "within-configuration slope per %-pt of wind probability "
+                                           f"{ci_text(wind_slope(r, 'battery'), 3, ' %-pt')}; "
+                                           f"{num(top * 100, 1)} % vs 0 %: "
+                                           f"{ci_text(wind_effect(r, 'battery', top), 2, ' %-pt')}",
+                           parts=[Part("slope per %-pt of wind probability", wind_slope(r, "battery"), -1, 3,
+                                       " %-pt")]))
+    if zones and len(areas) > 1:
+        out.append(Finding("battery_zones", "restricted - free per run "
+                           + ci_text(area_effect(r, "battery", zones), 1, " %-pt"),
+                           parts=[Part("restricted - free", area_effect(r, "battery", zones), +1, 1, " %-pt")]))
+    # -- distance (Fig. 8)
+    km_a, km_b = (per_mission_total(ra, "distance_km"), per_mission_total(rb, "distance_km"))
+    out.append(Finding("distance_total", f"{km_a.fmt(0, ' km')} (A), {km_b.fmt(0, ' km')} (B) per 420 missions "
+                                         f"(ours / paper: A {_ratio(km_a, 270.0)}, B {_ratio(km_b, 240.0)})",
+                       parts=[Part("B - A per run", ab_effect(r, "distance_km"), -1, 3, " km")],
+                       magnitudes=[Magnitude("A", *PAPER_VALUES["distance_A"][:2], km_a, 0, " km"),
+                                   Magnitude("B", *PAPER_VALUES["distance_B"][:2], km_b, 0, " km")],
+                       note="sum over every UAV mission, per the paper's 420 missions per strategy"))
+    if zones and len(areas) > 1:
+        out.append(Finding("distance_zones", "restricted - free per run "
+                           + ci_text(area_effect(r, "distance_km", zones), 3, " km"),
+                           parts=[Part("restricted - free", area_effect(r, "distance_km", zones), -1, 3, " km")]))
+    if len(winds) > 1:
+        out.append(Finding("distance_wind", "within-configuration slope per %-pt of wind probability "
+                           + ci_text(wind_slope(r, "distance_km"), 4, " km"),
+                           parts=[Part("slope per %-pt of wind probability", wind_slope(r, "distance_km"), +1, 4,
+                                       " km")]))
+    # -- collisions (Fig. 9), counted by COLLISION_RULE
+    col_a, col_b = per_mission_total(ra, "collisions"), per_mission_total(rb, "collisions")
+    ev_a, ev_b = per_mission_total(ra, "collision_events"), per_mission_total(rb, "collision_events")
+    out.append(Finding("collisions", f"UAVs removed per 420 missions: {col_a.fmt(0)} (A), {col_b.fmt(0)} (B); "
+                                     f"B - A per run {ci_text(ab_effect(r, 'collisions'))}",
+                       parts=[Part("B - A UAVs removed per run", ab_effect(r, "collisions"), -1)],
+                       magnitudes=[Magnitude("A", *PAPER_VALUES["collisions_A"][:2], col_a, 0),
+                                   Magnitude("B", *PAPER_VALUES["collisions_B"][:2], col_b, 0)],
+                       other_reading=f"counting a UAV-UAV collision once (not used): {ev_a.fmt(0)} (A), "
+                                     f"{ev_b.fmt(0)} (B)"))
+    ratio, tol = PAPER_VALUES["wall_ratio"][:2]
+    rat = {s: ratio_ci(sub, "zone_collided", "uav_collided") for s, sub in (("A", ra), ("B", rb))}
+    once = {s: ratio_ci(sub, "zone_collided", "uav_events") for s, sub in (("A", ra), ("B", rb))}
+    parts = [Part(f"{s}: wall / UAV-UAV", rat[s], +1) for s in ("A", "B")]
+    if len(winds) > 1:
+        parts.append(Part("wind raises wall collisions: slope per %-pt", wind_slope(r, "zone_collided"), +1, 4))
+    out.append(Finding("wall_ratio", "; ".join(
+        f"{s}: {int(sub['zone_collided'].sum())} wall vs {int(sub['uav_collided'].sum())} UAV-UAV (UAVs removed), "
+        f"{rat[s].fmt(2, '×')}" for s, sub in (("A", ra), ("B", rb))), parts=parts,
+        magnitudes=[Magnitude(f"{s}: ratio", ratio, tol, rat[s], 2, "×") for s in ("A", "B")],
+        other_reading="counting a UAV-UAV collision once (not used): " + ", ".join(
+            f"{s} {once[s].fmt(2, '×')}" for s in ("A", "B"))))
+    # -- Fig. 10: every step up in fleet size raises the battery, except A's 1 -> 2 (the paper's exception)
+    steps = []
+    for s in ("A", "B"):
+        sub = r[r["strategy"] == s]
+        for n1, n2 in zip(fleets, fleets[1:]):
+            sign = -1 if (s == "A" and n1 == 1) else +1
+            steps.append(Part(f"{s} {n1}->{n2} UAVs", fleet_step(sub, "battery", n1, n2), sign, 1, " %-pt"))
+    def fleet_mean(s, n):
+        return level_ci(r[(r["strategy"] == s) & (r["n_uavs"] == n)], "battery", True, 0.0, 100.0).fmt(1)
+    means = "; ".join(f"{s}: " + ", ".join(f"{n}: {fleet_mean(s, n)}" for n in fleets) for s in ("A", "B"))
+    out.append(Finding("battery_fleet", means + "; slopes per UAV: "
+                       + ", ".join(f"{s} {ci_text(fleet_slope(r[r['strategy'] == s], 'battery'), 1)}"
+                                   for s in ("A", "B")),
+                       parts=steps,
+                       note="tested: each step to the next fleet size, expected up except A's 1 -> 2 UAVs (down: "
+                            "the paper's exception); the slopes are shown, not tested"))
+    t2 = table2(u, r)
+    out.append(Finding("table2", f"B better on {sum(x['better'] == 'B' for x in t2)}, A on "
+                                 f"{sum(x['better'] == 'A' for x in t2)}, not shown on "
+                                 f"{sum(x['better'] == 'not shown' for x in t2)} of {len(t2)}",
+                       parts=[x["part"] for x in t2]))
+    return out
+
+
+def _ratio(ci: st.LayoutCI, paper: float) -> str:
+    return f"{ci.estimate / paper:.1f}×" if math.isfinite(ci.estimate) else "n/a"
+
+
+def paper_comparison(u, r) -> list[dict]:
+    """One row per published claim: the paper's value and quote, ours, the Finding (parts, magnitudes,
+    verdicts) and the facts that explain it."""
+    facts = _facts(u, r)
+    rows = []
+    for f in finding_rows(u, r):
+        paper, quote = PAPER[f.key]
+        rows.append({"key": f.key, "paper": paper, "quote": quote, "ours": f.ours, "finding": f,
+                     "fact": facts.get(f.key, "")})
+    return rows
+
+
+def verdict_text(c: dict) -> str:
+    """The verdict cell of a comparison row."""
+    f: Finding = c["finding"]
+    if f.design is not None:
+        return "same grid" if f.design else "**other grid**"
+    out = []
+    if f.direction is not None:
+        out.append(f"direction: {f.direction if f.direction == YES else '**' + f.direction + '**'}")
+    if f.magnitude is not None:
+        out.append(f"magnitude: {f.magnitude if f.magnitude == WITHIN else '**' + f.magnitude + '**'}")
+    return "; ".join(out) or "n/a"
+
+
+def _facts(u, r) -> dict:
     """Data-driven sentences that explain a comparison, keyed by claim."""
+    import pandas as pd
     f: dict = {}
-    removed = u["outcome"].isin([UAV_COLLISION, ZONE_COLLISION])
-    if len(u):
-        kept = u[~removed]["remaining_battery_pct"]
-        removal_times = u[removed]["removed_time"].astype(float)
-        battery_at_removal = u[removed]["remaining_battery_pct"].astype(float)
-        f["battery_total"] = (f"{removed.mean() * 100:.0f} % of our UAV missions end in a collision (median at "
-                              f"t = {removal_times.median():.0f} s, {battery_at_removal.mean():.1f} % battery left "
-                              f"on average); over the other "
-                              f"missions the mean remaining battery is {kept.mean():.1f} %."
-                              if removed.any() and len(kept) else "")
-        f["battery_area"] = f["battery_total"]
-        f["battery_zones"] = f["battery_total"]
-    if len(u) and "distance_m" in u.columns:
-        parts = []
+    if not len(u):
+        return f
+    t = pd.to_numeric(u["removed_time"], errors="coerce") if "removed_time" in u.columns else None
+    parts = []
+    for s in sorted(set(u["strategy"])):
+        sub = u[u["strategy"] == s]
+        bits = []
+        for kind, label in ((UAV_COLLISION, "UAV-UAV"), (ZONE_COLLISION, "wall")):
+            k = sub[sub["outcome"] == kind]
+            if len(k):
+                tk = t[k.index] if t is not None else None
+                bits.append(f"{len(k)} by {label} collisions (median t = {num(tk.median(), 0)} s, "
+                            f"{num(k['remaining_battery_pct'].mean(), 1)} % battery left)")
+        kept = sub[~sub["outcome"].isin([UAV_COLLISION, ZONE_COLLISION])]
+        bits.append(f"{len(kept)} not removed ({num(kept['remaining_battery_pct'].mean(), 1)} % left)")
+        parts.append(f"{s}: " + ", ".join(bits))
+    f["battery_total"] = "UAV missions removed: " + "; ".join(parts) + "."
+    f["battery_area"] = f["battery_zones"] = f["battery_fleet"] = f["battery_total"]
+    f["collisions"] = f["wall_ratio"] = f["battery_total"]
+    if "distance_m" in u.columns:
+        bits = []
         for s in sorted(set(u["strategy"])):
             sub = u[u["strategy"] == s]
             rm = sub["outcome"].isin([UAV_COLLISION, ZONE_COLLISION])
-            d = sub[~rm]["distance_m"].astype(float)
-            parts.append(f"{s}: {rm.mean() * 100:.0f} % of missions removed by a collision, the others flew "
-                         f"{d.mean() / 1000:.2f} km on average")
-        f["distance_total"] = "Per UAV mission: " + "; ".join(parts) + "."
-        f["distance_wind"] = f.get("distance_wind", "")
+            bits.append(f"{s}: {num(rm.mean() * 100, 0)} % of missions removed by a collision, the others flew "
+                        f"{num(sub[~rm]['distance_m'].astype(float).mean() / 1000, 2)} km on average")
+        f["distance_total"] = "Per UAV mission: " + "; ".join(bits) + "."
     one = u[(u["n_uavs"] == 1) & (u["outcome"] == "success")]
     if len(one):
-        cells = one.groupby(["strategy", "area"]).size()
-        f["success_1"] = (f"A single UAV can fly our whole 24-target tour: {len(one)} single-UAV missions succeeded "
-                          f"with {one['remaining_battery_pct'].mean():.1f} % battery left on average "
-                          f"({', '.join(f'{k[0]}/{k[1]}: {v}' for k, v in cells.items())}).")
+        f["success_1"] = (f"{len(one)} single-UAV missions succeeded with "
+                          f"{num(one['remaining_battery_pct'].mean(), 1)} % battery left on average.")
     two = u[u["n_uavs"] == 2]
     if len(two):
         oc = two.groupby("strategy")["outcome"].value_counts().unstack(fill_value=0)
         f["success_2"] = "Outcomes with 2 UAVs: " + "; ".join(
             f"{s}: " + ", ".join(f"{k} {int(v)}" for k, v in oc.loc[s].items() if v) for s in oc.index) + "."
-    for s in ("A", "B"):
-        sub = u[(u["strategy"] == s) & (u["outcome"] == UAV_COLLISION)]
-        if len(sub):
-            t = sub["removed_time"].astype(float)
-            f.setdefault("wall_ratio", "")
-            f["wall_ratio"] += (f"Strategy {s}: {len(sub)} UAVs removed by UAV-UAV collisions, median at "
-                                f"t = {t.median():.0f} s, in fleets of "
-                                f"{', '.join(str(n) for n in sorted(set(sub['n_uavs'])))} UAVs. ")
-    f["collisions"] = f.get("wall_ratio", "")
-    cells = r.groupby(["strategy", "n_uavs", "area"])["distance_m"].nunique()
-    many = r.groupby(["strategy", "n_uavs", "area"]).size()
-    idem = int(((cells == 1) & (many > 1)).sum())
-    if idem and len(set(r["wind"])) > 1:
-        f["battery_wind"] = (f"In {idem} of {len(cells)} (strategy, fleet, area) cells every run flew exactly the "
-                             "same distance whatever its wind probability and seed: the wind did not reach the UAVs. "
-                             "Check that the macro step is shorter than the wind decision interval: UavWind ramps "
-                             "each wind episode up from 0 at its start, and with a step equal to the interval every "
-                             "communication point falls on an episode start.")
-        f["distance_wind"] = f["battery_wind"]
     return f
 
 
-def paper_comparison(u, r, fd: dict, t2: list[dict], why_keys: dict | None = None) -> list[dict]:
-    """One row per published claim: the paper's value, ours, ``value`` (agreement by value where the paper
-    gives a number, with its tolerance), ``agree`` (the value agreement where there is one, else the
-    direction), ``sig`` (our blocked test or within-configuration slope is significant), the likely causes
-    and facts."""
-    rows = []
-    facts = _facts(u, r, fd)
-
-    def add(key, ours, agree, why=(), note="", sig=None, value=None):
-        paper, quote = PAPER[key]
-        if value is not None and value.agrees is not None:
-            agree = value.agrees
-        agree = None if agree is None else bool(agree)
-        sig = None if sig is None else bool(sig)
-        rows.append({"key": key, "paper": paper, "quote": quote, "ours": ours, "agree": agree, "sig": sig,
-                     "value": value, "why": list(why), "note": note, "fact": facts.get(key, "")})
-
-    def both(v1, v2):
-        """Agreement of two values (A and B): both must agree."""
-        if v1.agrees is None or v2.agrees is None:
-            return bl.Agreement(None, "")
-        return bl.Agreement(v1.agrees and v2.agrees, f"A: {v1.text}; B: {v2.text}")
-
-    n_runs = r["run_id"].nunique()
-    add("runs", f"{n_runs} completed runs", None, () if n_runs == 336 else ("campaign",),
-        value=bl.agrees_by_value(336.0, float(n_runs), 0.0))
-    successes = fd["fig5"]
-    fleets = fd["fleets"]
-    maxes = ", ".join(str(successes.get(("A", n), (0, 0))[1]) for n in fleets)
-    add("max_success", maxes, None, () if maxes == "42, 84, 126, 168" else ("campaign",),
-        value=bl.Agreement(maxes == "42, 84, 126, 168", "the UAV missions per fleet size of the grid"))
-
-    def successes_of(s, n):
-        return successes.get((s, n), (0, 0, NO_CI))
-    if 1 in fleets:
-        (ka, ma, ca), (kb, mb, cb) = successes_of("A", 1), successes_of("B", 1)
-        v = both(bl.agrees_by_value(0.0, ca, 0.0), bl.agrees_by_value(0.0, cb, 0.0))
-        add("success_1", f"{ka}/{ma} (A), {kb}/{mb} (B)", None, ("speed", "geometry", "energy", "success_def"),
-            value=v)
-    if 2 in fleets:
-        (ka, ma, ca), (kb, mb, _) = successes_of("A", 2), successes_of("B", 2)
-        v = bl.agrees_by_value(0.0, ca, 0.0)
-        add("success_2", f"{ka}/{ma} (A), {kb}/{mb} (B)", kb > 0 and ka == 0,
-            ("speed", "geometry", "energy", "success_def"),
-            value=bl.Agreement(v.agrees and kb > 0, v.text) if v.agrees is not None else None)
-    success_row = next(x for x in t2 if x["key"] == "success")
-    add("success_dir",
-        f"{success_row['A']} (A) vs {success_row['B']} (B); B - A per run {effect_text(success_row['effect'])}",
-        None if success_row["lead"] == "tie" else success_row["lead"] == "B",
-        ("geometry", "collisions_model", "speed"), sig=success_row["effect"].significant)
-    battery_means = {s: level_ci(r[r["strategy"] == s], "battery", True, 0.0, 100.0) for s in ("A", "B")}
-    energy_row = next(x for x in t2 if x["key"] == "energy")
-    v = both(bl.agrees_by_value(PAPER_VALUES["battery_A"][0], battery_means["A"], PAPER_VALUES["battery_A"][1]),
-             bl.agrees_by_value(PAPER_VALUES["battery_B"][0], battery_means["B"], PAPER_VALUES["battery_B"][1]))
-    add("battery_total", f"{battery_means['A'].fmt(2, ' %')} (A), {battery_means['B'].fmt(2, ' %')} (B); "
-                         f"B - A {effect_text(energy_row['effect'])}",
-        battery_means["B"].estimate > battery_means["A"].estimate,
-        ("energy", "speed", "geometry", "collisions_model"),
-        "mean over UAV missions; tolerance ±2 points around our interval", sig=energy_row["effect"].significant,
-        value=v)
-    parts, agree, sig = [], True, True
-    for a in fd["areas"]:
-        e = ab_effect(r[r["area"] == a], "battery")
-        parts.append(f"{area_label(a)}: A {fd['fig6'].get(('A', a), NO_CI).fmt(1)} vs B "
-                     f"{fd['fig6'].get(('B', a), NO_CI).fmt(1)}; "
-                     f"B - A {effect_text(e, 1)}")
-        agree &= e.estimate < 0
-        sig &= e.significant
-    add("battery_area", "; ".join(parts), agree, ("collisions_model", "geometry", "energy"), sig=sig)
-    slope = wind_slope(r, "battery")
-    top = max(fd["winds"])
-    e_top = wind_effect(r, "battery", top) if top > 0 else None
-    add("battery_wind", "within-configuration slope (%-points per %-point of wind probability) "
-                        f"{effect_text(slope, 3)}"
-                        + (f"; {top * 100:g} % vs 0 %: {effect_text(e_top, 2)}" if e_top else ""),
-        None if not math.isfinite(slope.estimate) else slope.estimate < 0, ("wind",),
-        "direction only (the paper gives no value)", sig=slope.significant)
-    zones = [a for a in fd["areas"] if is_zone(a)]
-    free = [a for a in fd["areas"] if not is_zone(a)]
-    if zones and free:
-        e = area_effect(r, "battery", zones)
-        add("battery_zones", f"restricted - free per run {effect_text(e, 1)}", e.estimate > 0,
-            ("collisions_model", "geometry"), "same configuration and repetition in both areas", sig=e.significant)
-    distance_row = next(x for x in t2 if x["key"] == "distance")
-    km_a, km_b = r[r["strategy"] == "A"]["distance_km"].sum(), r[r["strategy"] == "B"]["distance_km"].sum()
-    km_ci_a = total_ci(r[r["strategy"] == "A"], "distance_km")
-    km_ci_b = total_ci(r[r["strategy"] == "B"], "distance_km")
-    v = both(bl.agrees_by_value(PAPER_VALUES["distance_A"][0], km_ci_a, PAPER_VALUES["distance_A"][1]),
-             bl.agrees_by_value(PAPER_VALUES["distance_B"][0], km_ci_b, PAPER_VALUES["distance_B"][1]))
-    add("distance_total", f"{km_a:.1f} km (A), {km_b:.1f} km (B); "
-                          f"B - A per run {effect_text(distance_row['effect'], 3, ' km')}",
-        km_b < km_a, ("speed", "geometry", "collisions_model"), "sum over every UAV of every run; tolerance ±10 %",
-        sig=distance_row["effect"].significant, value=v)
-    if zones and free:
-        e = area_effect(r, "distance_km", zones)
-        add("distance_zones", f"restricted - free per run {effect_text(e, 3, ' km')}", e.estimate < 0,
-            ("collisions_model", "geometry"), sig=e.significant)
-    slope = wind_slope(r, "distance_km")
-    add("distance_wind", "within-configuration slope (km per run per %-point of wind probability) "
-                         f"{effect_text(slope, 4)}",
-        None if not math.isfinite(slope.estimate) else slope.estimate > 0, ("wind",),
-        "direction only", sig=slope.significant)
-    collisions_row = next(x for x in t2 if x["key"] == "collisions")
-
-    def counts(col):
-        runs_a, runs_b = r[r["strategy"] == "A"], r[r["strategy"] == "B"]
-        v = both(bl.agrees_by_value(PAPER_VALUES["collisions_A"][0], total_ci(runs_a, col),
-                                    PAPER_VALUES["collisions_A"][1]),
-                 bl.agrees_by_value(PAPER_VALUES["collisions_B"][0], total_ci(runs_b, col),
-                                    PAPER_VALUES["collisions_B"][1]))
-        return int(runs_a[col].sum()), int(runs_b[col].sum()), v
-    removed_a, removed_b, v_uav = counts("collisions")
-    events_a, events_b, v_events = counts("collision_events")
-    v = v_events if v_events.agrees else v_uav
-    add("collisions", f"{removed_a} (A), {removed_b} (B) UAVs removed; counting a UAV-UAV collision once: "
-                      f"{events_a} (A), {events_b} (B); "
-                      f"B - A UAVs removed per run {effect_text(collisions_row['effect'])}", removed_a > removed_b,
-        ("collisions_model", "collisions_count", "geometry"),
-        f"tolerance ±10 %; UAVs removed {'agree' if v_uav.agrees else 'do not agree'}, collisions counted once per "
-        f"event {'agree' if v_events.agrees else 'do not agree'}", sig=collisions_row["effect"].significant,
-        value=bl.Agreement(v.agrees, f"UAVs removed: {v_uav.text}; events: {v_events.text}"))
-    parts, agree_uav, agree_events = [], True, True
-    ratio, ratio_tolerance = PAPER_VALUES["wall_ratio"][:2]
-    for s in ("A", "B"):
-        sub = r[r["strategy"] == s]
-        uavs_removed, zone_removed = int(sub["uav_collided"].sum()), int(sub["zone_collided"].sum())
-        uav_events = int(sub["uav_events"].sum())
-        parts.append(f"{s}: {zone_removed} zone vs {uavs_removed} UAVs removed by each other "
-                     f"({ratio_text(zone_removed, uavs_removed)}), vs {uav_events} UAV-UAV "
-                     f"collisions ({ratio_text(zone_removed, uav_events)})")
-        agree_uav &= uavs_removed > 0 and abs(zone_removed / uavs_removed - ratio) <= ratio_tolerance
-        agree_events &= uav_events > 0 and abs(zone_removed / uav_events - ratio) <= ratio_tolerance
-    add("wall_ratio", "; ".join(parts), None, ("collisions_model", "geometry", "collisions_count", "wind"),
-        value=bl.Agreement(agree_uav or agree_events,
-                           "ratio within 3 ± 1 in both strategies: counting removed UAVs "
-                           f"{'yes' if agree_uav else 'no'}, counting collisions {'yes' if agree_events else 'no'}"))
-    parts, agree, sig = [], True, True
-    for s in ("A", "B"):
-        e = fleet_slope(r[r["strategy"] == s], "battery")
-        means = ", ".join(f"{n}: {fd['fig10'][(s, n)].estimate:.1f}" for n in fd["fleets"] if (s, n) in fd["fig10"])
-        parts.append(f"{s}: within-configuration slope (%-points per UAV) {effect_text(e, 2)} (means {means})")
-        agree = agree and math.isfinite(e.estimate) and e.estimate > 0
-        sig = sig and e.significant
-    add("battery_fleet", "; ".join(parts), agree, ("speed", "energy", "geometry", "collisions_model"), sig=sig)
-    b_better = sum(1 for x in t2 if x["better"] == "B")
-    a_better = sum(1 for x in t2 if x["better"] == "A")
-    b_ahead = sum(1 for x in t2 if x["lead"] == "B")
-    add("table2", f"B significantly better on {b_better}, A on {a_better}, no significant difference on "
-                  f"{len(t2) - b_better - a_better} (B ahead, significant or not, on {b_ahead} of {len(t2)})",
-        b_better == len(t2),
-        ("geometry", "collisions_model", "speed"))
-    return rows
-
-
-def verdict_text(c: dict) -> str:
-    """The "agrees" cell of a comparison row: yes / **no**, by value or by direction, and whether our test is
-    significant."""
-    if c["agree"] is None:
-        return "n/a"
-    text = "yes" if c["agree"] else "**no**"
-    text += " (value)" if c.get("value") is not None and c["value"].agrees is not None else " (direction)"
-    if c["sig"] is False:
-        text += ", not significant"
-    return text
-
-
-def _finding_tests():
-    """The paper's findings a sensitivity campaign checks per configuration: key -> (label, test on the runs of
-    one configuration returning (holds: bool | None, evidence text, the statistic's estimate or None))."""
-    def success_1(r):
-        s = r[r["n_uavs"] == 1]
-        if s.empty:
-            return None, "no 1-UAV runs", None
-        k = int(s["successes"].sum())
-        return k == 0, f"{k}/{int(s['n_uavs'].sum())} single-UAV missions succeed", None
-
-    def success_2(r):
-        s = r[r["n_uavs"] == 2]
-        if s.empty:
-            return None, "no 2-UAV runs", None
-        ka, kb = int(s[s["strategy"] == "A"]["successes"].sum()), int(s[s["strategy"] == "B"]["successes"].sum())
-        return ka == 0 and kb > 0, f"2 UAVs: A {ka}, B {kb} successes", None
-
-    def b_more(r):
-        e = ab_effect(r, "successes")
-        return _holds(e, +1), f"B - A successes per run {effect_text(e)}", e.estimate
-
-    def wind_battery(r):
-        e = wind_slope(r, "battery")
-        return _holds(e, -1), f"slope {effect_text(e, 3)} %/%-pt", e.estimate
-
-    def wind_distance(r):
-        e = wind_slope(r, "distance_km")
-        return _holds(e, +1), f"slope {effect_text(e, 4)} km/%-pt", e.estimate
-
-    def b_shorter(r):
-        e = ab_effect(r, "distance_km")
-        return _holds(e, -1), f"B - A km per run {effect_text(e, 3)}", e.estimate
-
-    def wall_ratio(r):
-        uav_events, zone_removed = int(r["uav_events"].sum()), int(r["zone_collided"].sum())
-        return ((uav_events > 0 and 2.0 <= zone_removed / uav_events <= 4.0),
-                f"zone {zone_removed} vs UAV-UAV {uav_events} ({ratio_text(zone_removed, uav_events)})", None)
-
-    def b_fewer_collisions(r):
-        e = ab_effect(r, "collisions")
-        return _holds(e, -1), f"B - A collisions per run {effect_text(e)}", e.estimate
-
-    return {"success_1": ("1 UAV never succeeds", success_1),
-            "success_2": ("2 UAVs: only B succeeds", success_2),
-            "success_dir": ("B more successes than A", b_more),
-            "battery_wind": ("wind lowers the remaining battery", wind_battery),
-            "distance_wind": ("wind lengthens the distance", wind_distance),
-            "distance_total": ("B flies less than A", b_shorter),
-            "collisions": ("B has fewer collisions than A", b_fewer_collisions),
-            "wall_ratio": ("zone collisions ≈ 3 × UAV-UAV collisions (counted once)", wall_ratio)}
-
-
-def _holds(e: bl.Effect, sign: int):
-    """The paper's direction (sign) and significant (blocked sign-flip test)."""
-    return (e.estimate * sign > 0 and e.significant) if math.isfinite(e.estimate) else None
-
-
-def flip_kind(base: tuple, other: tuple) -> str:
-    """How a configuration changes a finding: the statistic changes sign ("reversed"), or keeps the baseline's
-    sign but loses (or gains) significance ("weakened" / "strengthened"); counts simply "changed"."""
-    b, o = base[2], other[2]
-    if b is None or o is None or not (math.isfinite(b) and math.isfinite(o)):
-        return "changed"
-    if (b > 0) != (o > 0):
-        return "reversed"
-    return "strengthened" if other[0] else "weakened"
-
-
+# ----------------------------------------------------------------------------------- sensitivity
 def _config_label(config: str, baseline: dict) -> str:
     """A configuration named by what differs from the baseline ("lookahead = 10, wind_effect = drag")."""
     values = json.loads(config)
@@ -366,23 +422,68 @@ def _config_label(config: str, baseline: dict) -> str:
     return "baseline" if not diff else ", ".join(f"{k} = {v}" for k, v in diff.items())
 
 
-def sensitivity_findings(r, design: dict) -> dict:
-    """For a campaign with a design: per configuration (baseline, each one-at-a-time value, each factorial
-    point), whether each of the paper's findings holds in it, with its evidence, and per finding the
-    configurations that flip it relative to the baseline."""
-    tests = _finding_tests()
+def _statements(findings: list[Finding]) -> dict:
+    """(finding key, part label, kind) -> Part or Magnitude, over the findings of one configuration."""
+    out = {}
+    for f in findings:
+        for p in f.parts:
+            out[(f.key, p.label, "direction")] = p
+        for m in f.magnitudes:
+            out[(f.key, m.label, "magnitude")] = m
+    return out
+
+
+def _towards_paper(stmt, delta: st.LayoutCI) -> bool:
+    """Does a significant change move the statement towards the paper (its sign for a direction, its number for
+    a magnitude)?"""
+    if not delta.significant:
+        return False
+    if isinstance(stmt, Part):
+        return delta.estimate * stmt.sign > 0
+    return delta.estimate * (stmt.paper - stmt.stat.estimate) > 0
+
+
+def explanations(sf: dict) -> dict:
+    """For each statement not reproduced at the baseline (direction not yes, magnitude not within): the
+    configurations that reproduce it (verdict yes / within there), else those that move it significantly towards
+    the paper; an empty list means that no tested factor explains it."""
+    out = {}
+    for key, stmt in sf["statements"][sf["baseline"]].items():
+        goal = YES if key[2] == "direction" else WITHIN
+        if stmt.verdict == goal:
+            continue
+        moved = sf["moves"][key]
+        reproduce = [m for m in moved if m["verdict"] == goal]
+        out[key] = ("reproduced by", reproduce) if reproduce else \
+            ("moved towards the paper by", [m for m in moved if m["towards_paper"]])
+    return out
+
+
+def sensitivity_findings(u, r, design: dict) -> dict:
+    """For a campaign with a design: the findings in every configuration (baseline, each one-at-a-time value,
+    each factorial point) on the same layouts, and per statement (a finding's part or magnitude) the
+    configurations that move it -- the per-layout difference to the baseline (same layouts) has an interval
+    excluding 0 -- or flip its verdict."""
     base = design["baseline"]
     configs = list(dict.fromkeys(r["config"]))
-    table = {}
-    for c in configs:
-        sub = r[r["config"] == c]
-        table[c] = {k: fn(sub) for k, (_, fn) in tests.items()}
-    baseline_config = next((c for c in configs if "baseline" in design_roles(json.loads(c), design)), None)
-    flips = {}
-    for k in tests:
-        holds_at_baseline = table[baseline_config][k][0] if baseline_config else None
-        flips[k] = [c for c in configs if c != baseline_config and table[c][k][0] is not None
-                    and holds_at_baseline is not None and table[c][k][0] != holds_at_baseline]
-    return {"tests": {k: label for k, (label, _) in tests.items()}, "table": table, "baseline": baseline_config,
-            "flips": flips, "labels": {c: _config_label(c, base) for c in configs},
+    per_config = {c: finding_rows(u[u["run_id"].isin(set(r[r["config"] == c]["run_id"]))], r[r["config"] == c])
+                  for c in configs}
+    baseline_config = next((c for c in configs if "baseline" in design_roles(json.loads(c), design)), configs[0])
+    statements = {c: _statements(fs) for c, fs in per_config.items()}
+    moves: dict = {}
+    for key, stmt in statements[baseline_config].items():
+        rows = []
+        for c in configs:
+            if c == baseline_config or key not in statements[c]:
+                continue
+            other = statements[c][key]
+            delta = st.layout_difference(stmt.stat, other.stat)
+            flipped = other.verdict != stmt.verdict
+            if delta.significant or flipped:
+                rows.append({"config": c, "delta": delta, "verdict": other.verdict, "stat": other.stat,
+                             "flipped": flipped, "moved": delta.significant,
+                             "towards_paper": _towards_paper(stmt, delta)})
+        moves[key] = rows
+    return {"configs": configs, "baseline": baseline_config, "findings": per_config, "statements": statements,
+            "moves": moves, "labels": {c: _config_label(c, base) for c in configs},
             "roles": {c: design_roles(json.loads(c), design) for c in configs}}

@@ -63,6 +63,9 @@ def uav_frames(df):
         runs[k] = totals[k].to_numpy()
     if "settings.layout_id" in totals.columns:          # the layout each run flew (summary.json settings)
         runs["layout_id"] = totals["settings.layout_id"].astype(str).to_numpy()
+    # the unit of replication: the layout (with layout: random), else the repetition of the one fixed area
+    random_layouts = "layout_id" in runs.columns and runs["layout_id"].astype(str).str.startswith("random").all()
+    runs["layout"] = runs["layout_id"] if random_layouts else "rep " + runs["rep"].astype(str)
     runs["config"] = [canonical_json({k: plain(v) for k, v in zip(config_keys, row)})
                       for row in totals[config_keys].itertuples(index=False)] if config_keys else "{}"
     runs["cell"] = [f"{c}|{n}|{a}|{w:g}" for c, n, a, w in zip(runs["config"], runs["n_uavs"], runs["area"],

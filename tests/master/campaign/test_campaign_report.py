@@ -89,53 +89,48 @@ def test_table_has_a_row_per_uav_and_a_total_per_run(hand):
     assert len(u) == 24 and len(r) == 16                  # the failed run is not analysed
 
 
-def test_success_counts_and_stratified_intervals_by_hand(hand):
-    """One run per configuration here: every stratum has one value, so the t interval uses the pooled
-    within-stratum variance of none -> no interval; the counts are plain sums."""
+def test_success_counts_and_layout_level_statistics_by_hand(hand):
+    """One repetition of a fixed area: one replicate, so every statistic has its estimate and no interval (a
+    t interval needs two layouts), and no verdict can be "yes"; totals are shown per three layouts (the
+    paper's grid)."""
     _, _, _, u, r = hand
     fd = figure_data(u, r)
     k, m, ci = fd["fig5"][("A", 1)]
-    assert (k, m) == (1, 4) and ci.estimate == 1.0
+    assert (k, m) == (1, 4) and ci.estimate == 3.0 and ci.n == 1 and math.isnan(ci.low)
     assert fd["fig5"][("B", 1)][:2] == (3, 4)
     t2 = {x["key"]: x for x in table2(u, r)}
-    ka, kb = int(u[u.strategy == "A"]["success"].sum()), int(u[u.strategy == "B"]["success"].sum())
-    assert t2["success"]["A"] == f"{ka}/12" and t2["success"]["B"] == f"{kb}/12"
-    # blocks: the 8 (n, area, wind) configurations; B - A successes per run, by hand from _mission
+    # B - A successes per run, mean over the 8 (n, area, wind) cells of the one layout, by hand from _mission
     diffs = [sum(_mission("B", n, a, w, k)["success"] - _mission("A", n, a, w, k)["success"] for k in range(n))
              for n in FLEETS for a in AREAS for w in WINDS]
     e = t2["success"]["effect"]
-    assert e.n_blocks == 8 and e.estimate == pytest.approx(np.mean(diffs))
-    assert e.p == pytest.approx(bl.sign_flip_p(diffs))
+    assert e.n == 1 and e.estimate == pytest.approx(np.mean(diffs)) and math.isnan(e.p)
+    assert t2["success"]["better"] == "not shown"
 
 
-def test_means_totals_and_blocked_tests_against_hand_computation(hand):
+def test_means_totals_and_paired_differences_against_hand_computation(hand):
     _, _, _, u, r = hand
     fd = figure_data(u, r)
     # mean over UAV missions of strategy A in the free area (weights: UAVs per run)
     vals = np.array([_mission("A", n, "free", w, k)["remaining_battery_pct"]
                      for n in FLEETS for w in WINDS for k in range(n)])
     ci = fd["fig6"][("A", "free")]
-    assert ci.n == 4 and ci.estimate == pytest.approx(vals.mean())
+    assert ci.n == 1 and ci.estimate == pytest.approx(vals.mean())
     d = np.array([sum(_mission("B", n, a, 0.1, k)["distance_m"] for k in range(n)) / 1000
                   for n in FLEETS for a in AREAS])
-    assert fd["fig8"][("B", 0.1)].estimate == pytest.approx(d.sum())
-    # collisions per impact point and area: removed UAVs
-    assert fd["fig9"][("A", "free", "uav")].estimate == 2 and fd["fig9"][("B", "free", "uav")].estimate == 0
-    assert fd["fig9"][("A", "zones", "zone")].estimate == 2 and fd["fig9"][("B", "zones", "zone")].estimate == 2
+    assert fd["fig8"][("B", 0.1)].estimate == pytest.approx(3 * d.sum())        # per three layouts
+    # collisions per impact point and area: removed UAVs, per three layouts
+    assert fd["fig9"][("A", "free", "uav")].estimate == 6 and fd["fig9"][("B", "free", "uav")].estimate == 0
+    assert fd["fig9"][("A", "zones", "zone")].estimate == 6 and fd["fig9"][("B", "zones", "zone")].estimate == 6
     t2 = {x["key"]: x for x in table2(u, r)}
     dist = [sum(_mission("B", n, a, w, k)["distance_m"] - _mission("A", n, a, w, k)["distance_m"]
                 for k in range(n)) / 1000 for n in FLEETS for a in AREAS for w in WINDS]
     assert t2["distance"]["effect"].estimate == pytest.approx(np.mean(dist))
-    assert t2["distance"]["lead"] == ("A" if np.mean(dist) > 0 else "B")      # lower distance is better
-    # B keeps 7 points more battery in every UAV of every block: mean difference 7, sd 0 -> interval [7, 7],
-    # and all 8 differences positive: sign-flip p = 2 / 2^8
+    # B keeps 7 points more battery in every UAV of every cell: 7, but one layout shows nothing
     e = t2["energy"]["effect"]
-    assert e.estimate == pytest.approx(7.0) and e.p == pytest.approx(2 / 256)
-    assert t2["energy"]["better"] == "B"
-    assert t2["energy_wind"]["n_blocks"] == 4
+    assert e.estimate == pytest.approx(7.0) and t2["energy"]["better"] == "not shown"
 
 
-def test_build_report_writes_figures_and_markdown(hand):
+def test_build_report_of_a_one_layout_campaign_says_it_is_too_small(hand):
     folder, *_ = hand
     path = build_report(folder)
     assert path == folder / "report" / "report.md"
@@ -144,22 +139,14 @@ def test_build_report_writes_figures_and_markdown(hand):
               "fig8_distance_per_wind", "fig9_collisions_per_impact", "fig10_battery_per_fleet_size"):
         assert (folder / "report" / f"{k}.png").stat().st_size > 5000
         assert f"({k}.png)" in text
-    assert "41.83%" in text and "215 total collisions" in text           # the paper's numbers, quoted
-    assert "| success_1 | 0 (A), 0 (B) | 1/4 (A), 3/4 (B) | **no** (value) |" in text
-    assert "sign-flip p" in text and "n = 16 runs, 24 UAV missions, 8 configurations" in text
-    assert "wind probability 10 %" in text and "restricted" in text
-    assert "cannot all hold together" in text and "0.571 km per mission" in text
-    # n under every figure (its caption) and above the comparison table and Table II
+    # scored against nothing: a too-small campaign says so instead of a column of "no"
+    assert "## Too small to score against the paper" in text and "1 independent replicate (" in text
+    assert "## Our numbers next to the paper's" not in text and "Table II" not in text
+    assert "n = 16 runs, 24 UAV missions, 8 configurations" in text
     captions = [line for line in text.splitlines() if line.startswith("*Fig. ")]
     assert len(captions) == 6 and all("n = 16 runs, 24 UAV missions" in c for c in captions)
-    assert text.count("n = 16 runs, 24 UAV missions, 8 configurations") >= 6 + 3
     assert "worker process died with signal 11 (SIGSEGV)" in text
-    assert "## Where and why we differ" in text
-    # B has 2 zone collisions and no UAV-UAV collision: no ratio, and no "∞"
-    assert "B: 2 zone vs 0 UAVs removed by each other (n/a: none in the denominator)" in text and "∞" not in text
-    # both readings of the paper's collision count: A's one UAV-UAV collision removed two UAVs
-    assert "A: 2 zone vs 2 UAVs removed by each other (1.00×), vs 1 UAV-UAV collisions (2.00×)" in text
-    assert "4 (A), 2 (B) UAVs removed; counting a UAV-UAV collision once: 3 (A), 2 (B)" in text
+    assert "wind probability 10.0 %" in text and "restricted" in text
     # 16 runs of 1.0 s and the failed one of 0.5 s: 16.5 s, not "0.3 min"
     assert "sum 16.5 s." in text
 
@@ -167,8 +154,7 @@ def test_build_report_writes_figures_and_markdown(hand):
 def test_intervals_stop_where_the_quantity_does():
     """Hand-computed: [10, 90] has mean 50, s = 56.569, t(0.975, 1) = 12.706, half-width 508.2: the battery
     interval [-458.2, 558.2] is cut to [0, 100]."""
-    from uavstudy.report import battery_ci
-    ci = battery_ci([10.0, 90.0])
+    ci = st.mean_ci([10.0, 90.0], floor=0.0, ceiling=100.0)
     assert (ci.estimate, ci.low, ci.high) == (50.0, 0.0, 100.0)
     plain = st.mean_ci([10.0, 90.0])
     assert plain.low == pytest.approx(50 - 12.706205 * 56.568542 / math.sqrt(2), abs=1e-4)

@@ -105,14 +105,16 @@ def test_missing_scenario(tmp_path):
 
 def test_shipped_paper_campaign_is_the_papers_grid():
     c = load_campaign(ROOT / "ssp" / "campaigns" / "paper.yaml")
-    assert c.kind == "uav" and len(c.runs) == 336 and c.repetitions == 3
+    # the paper's 112-run grid per repetition; 24 repetitions = 24 independent layouts (docs/paper_reproduction.md,
+    # "How many layouts"), i.e. the paper's 336 runs eight times over
+    assert c.kind == "uav" and c.repetitions == 24 and len(c.runs) == 112 * 24
     assert sorted({r.params["strategy"] for r in c.runs}) == ["A", "B"]
     assert sorted({r.params["n_uavs"] for r in c.runs}) == [1, 2, 3, 4]
     assert sorted({r.params["variant"] for r in c.runs}) == ["free", "zones"]
     assert sorted({r.params["wind.probability"] for r in c.runs}) == [0, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15]
     # paired on the strategy: A and B of the same grid point and repetition fly the same wind
     assert c.paired == ["strategy"]
-    assert len({r.run_id for r in c.runs}) == 336 and len({r.seed for r in c.runs}) == 168
+    assert len({r.run_id for r in c.runs}) == 112 * 24 and len({r.seed for r in c.runs}) == 56 * 24
     seeds = {(r.params["strategy"], r.params["n_uavs"], r.params["variant"], r.params["wind.probability"], r.rep):
              r.seed for r in c.runs}
     assert all(seeds[("A", *k[1:])] == seeds[("B", *k[1:])] for k in seeds)
