@@ -16,6 +16,7 @@ import numpy as np
 from .errors import CosimError
 from .fmi.logsink import LogSink
 from .fmi.factory import make_slave
+from .fmi.locale_guard import keep_character_type
 from .fmi.slave import BASE_TYPES, ERROR, FATAL, WARNING, new_buffer
 from .plan import Link, Plan, Var, shown_source
 
@@ -216,6 +217,12 @@ class Runtime:
     # -- life cycle -----------------------------------------------------------------------
     def instantiate(self, start: float, stop: float | None, tolerance: float | None = None):
         """``tolerance``: for every FMU; None gives each FMU its own default experiment tolerance."""
+        with keep_character_type():
+            self._instantiate(start, stop, tolerance)
+        self._bind_ports()
+        self.bind_samples()
+
+    def _instantiate(self, start: float, stop: float | None, tolerance: float | None):
         for i, name in enumerate(self.names):
             self._at(PHASE_INSTANTIATE, i)
             fmu = self.plan.fmus[name]
@@ -228,8 +235,6 @@ class Runtime:
             if tol is None and fmu.md.defaultExperiment is not None and fmu.md.defaultExperiment.tolerance:
                 tol = float(fmu.md.defaultExperiment.tolerance)
             slave.setup(start, stop, tol)
-        self._bind_ports()
-        self.bind_samples()
 
     def _bind_ports(self):
         n = len(self.names)
@@ -423,6 +428,10 @@ class Runtime:
     def initialize(self, start: float, order: list[int], has_algebraic_loop: bool, loop_desc: str,
                    tolerance: float = 1e-12, max_iterations: int = 100):
         """Enter initialization mode and propagate outputs to inputs until the connected values settle."""
+        with keep_character_type():
+            self._initialize(start, order, has_algebraic_loop, loop_desc, tolerance, max_iterations)
+
+    def _initialize(self, start, order, has_algebraic_loop, loop_desc, tolerance, max_iterations):
         for i, slave in enumerate(self.slaves):
             self._at(PHASE_INITIALIZE, i)
             slave.enter_init(start)
