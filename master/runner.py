@@ -55,6 +55,10 @@ def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(),
             ex.close("interrupted", error)
     finally:
         ex.close()       # any other exception: the run's files are still closed and run.json written
+    if error is None and ex.metadata.get("outcome") == "error":
+        # the simulation ended but closing it failed (its last rows did not fit on the disk): a failed run, as
+        # run.json says, not a completed one
+        error = CosimError(ex.metadata.get("error") or "the run's results could not be written")
     result = Result(ex.out_dir, ex.metadata, ex.events, ex.memory_table() if ex.out_dir is None else None)
     if error is not None:
         error.result = result

@@ -45,7 +45,7 @@ from .results import claim_output_folder, release_output_folder, settle_output_f
 from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import SINKS
 from .sinks.base import Sink
-from .sinks.group import SinkGroup
+from .sinks.group import SinkGroup, write_failure
 
 HEADER = 8
 H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
@@ -267,7 +267,7 @@ def _orphan_rows(out_dir: Path, rec, notes: list) -> int | None:
         rows = _cut_to_whole_lines(csv_path)
         if rec is not None and rows == rec.rows_written and getattr(rec, "fill", 0) and rec.block is not None:
             csv = CsvSink()
-            csv.path, csv._fh = csv_path, open(csv_path, "a", encoding="utf-8", newline="")
+            csv.path, csv._fh = csv_path, open(csv_path, "ab", buffering=0)
             try:
                 csv.write(block_table(rec.schema, rec.block[:rec.fill], rec.str_rows))
                 rows += rec.fill
@@ -431,6 +431,11 @@ class _Supervisor:
             try:
                 os.ftruncate(fd, (HEADER + rows * cols) * 8)
                 self.mm = mmap.mmap(fd, 0)
+            except OSError as exc:      # no room for the block (a full /dev/shm, a file size limit): the child,
+                os.unlink(path)         # waiting for the block's name, is stopped; it never records a row
+                self.write_error = CosimError(write_failure(exc, path), element="results")
+                self.stop("results could not be written", kill=True)
+                return
             finally:
                 os.close(fd)
             self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self.mm)

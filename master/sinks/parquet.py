@@ -56,7 +56,11 @@ class ParquetSink(Sink):
                                  quoted_strings_can_be_null=False)
         table = _hex_decoded(pc.read_csv(str(csv.path), convert_options=opts), schema)
         tmp = self.path.with_name(f".{self.path.name}.tmp")
-        pq.write_table(table, str(tmp))
+        try:
+            pq.write_table(table, str(tmp))
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
         os.replace(tmp, self.path)
         self.broken = False
         return f"{self.path.name} rebuilt from {csv.path.name} after a failed write ({table.num_rows} rows)"
