@@ -7,6 +7,7 @@ was in place before, so the interrupt still takes effect, just after the files a
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -29,6 +30,34 @@ def deferred():
             signal.signal(s, handler)
         for s in dict.fromkeys(pending):
             signal.raise_signal(s)
+
+
+# -- while the program starts ----------------------------------------------------------------------------------
+# The command imports NumPy, pyarrow and the engine before it does anything. A KeyboardInterrupt raised inside
+# an import gave a traceback, and inside NumPy's C extension NumPy's "your installation is broken" wall of text.
+# Nothing has been written yet, so the program simply ends, with one line and the status of an interrupt.
+
+def _exit_now(signum, frame):
+    os.write(2, b"cosim-master: " + (b"interrupted\n" if signum == signal.SIGINT else b"stopped by SIGTERM\n"))
+    os._exit(130 if signum == signal.SIGINT else 143)
+
+
+def quiet_until_started() -> None:
+    """Ctrl-C and SIGTERM end the program at once, quietly, until ``started()`` (main thread only)."""
+    if threading.current_thread() is threading.main_thread():
+        for s in HELD:
+            signal.signal(s, _exit_now)
+
+
+def started() -> None:
+    """The command's modules are imported: Ctrl-C raises KeyboardInterrupt and SIGTERM has its default action
+    again (the command installs its own handlers where it writes)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if signal.getsignal(signal.SIGINT) is _exit_now:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGTERM) is _exit_now:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 # -- interrupts raised inside ctypes callbacks ----------------------------------------------------------------
