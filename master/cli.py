@@ -449,6 +449,9 @@ def _dispatch(args) -> int:
                             workers=args.workers, scheduler=args.scheduler, stop_time=args.stop_time,
                             progress=not args.no_progress and _progress(None))
         print(summary.describe())
+        stopped = getattr(getattr(summary, "campaign", None), "interrupted", False)
+        if stopped:                     # its campaign was interrupted: as campaign and run
+            return 143 if stopped == "SIGTERM" else 130
         return 0
     if args.command == "report":
         from .campaign.report import build_report
