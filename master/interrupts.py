@@ -7,6 +7,7 @@ was in place before, so the interrupt still takes effect, just after the files a
 """
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import sys
@@ -71,6 +72,7 @@ def started() -> None:
 # callback: once the C code has returned into the master.
 
 _hook_installed = False
+_NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 _callback_codes: set = set()        # code objects the interrupt must not be raised in: callbacks, this hook
 
 
@@ -97,6 +99,9 @@ def _raise_outside_callbacks(exc_type) -> None:
 def _unraisable(previous):
     def hook(unraisable):
         exc_type = unraisable.exc_type
+        if exc_type is not None and issubclass(exc_type, OSError) and \
+                getattr(unraisable.exc_value, "errno", None) in _NO_ROOM:
+            return      # a line of fmu.log that did not fit on a full disk: the results' write says so, once
         if (exc_type is None or not issubclass(exc_type, KeyboardInterrupt)
                 or threading.current_thread() is not threading.main_thread()):
             previous(unraisable)

@@ -442,7 +442,13 @@ class _Supervisor:
             self.header[:] = 0.0
             self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
-            self.group.open(self.schema)
+            try:
+                self.group.open(self.schema)
+            except CosimError as exc:       # a disk full before the first row: the child is stopped
+                os.unlink(path)             # (the child, which unlinks it once mapped, never gets its name)
+                self.write_error = exc
+                self.stop("results could not be written", kill=True)
+                return
             conn.send(("shm", path))
         elif kind == "close":
             self.finishing_started()
@@ -651,7 +657,7 @@ class _Supervisor:
         meta.setdefault("wall_time_s", None)
         (self.out_dir / CRASH_FILE).unlink(missing_ok=True)
         if self.out_dir.is_dir():
-            write_run_files(self.out_dir, meta, self.events)
+            _write_run_files(self.out_dir, meta, self.events)
         return meta
 
     @property
@@ -659,6 +665,15 @@ class _Supervisor:
         if self.header is None:
             return None
         return self.header[H_TIME] if self.header[H_TIME] else self.header[H_LAST_ROW]
+
+
+def _write_run_files(out_dir: Path, meta: dict, events: list) -> None:
+    """run.json and events.csv; on a full disk the run is failed with one line saying so, not a traceback."""
+    try:
+        write_run_files(out_dir, meta, events)
+    except OSError as exc:
+        meta["outcome"] = "error"
+        meta.setdefault("error", write_failure(exc, exc.filename or str(out_dir / "run.json")))
 
 
 def run_supervised(scenario, *, timeout: float | None = None, **options):
@@ -677,7 +692,7 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
         meta = sup.run()
         if meta.get("wall_time_s") is None:
             meta["wall_time_s"] = time.perf_counter() - t0
-            write_run_files(out_dir, meta, sup.events)
+            _write_run_files(out_dir, meta, sup.events)
         # the earlier run in the folder goes now that this one has rows, or comes back if it has none
         settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
     finally:

@@ -33,6 +33,7 @@ def _format(typ):
 @SINKS.register("csv")
 class CsvSink(Sink):
     file_name = "results.csv"
+    _fh = None
 
     def open(self, out_dir, schema):
         super().open(out_dir, schema)

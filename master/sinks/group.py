@@ -75,9 +75,22 @@ class SinkGroup:
                     fh.truncate(RESERVE_BYTES)
                     os.posix_fallocate(fh.fileno(), 0, RESERVE_BYTES)
             except (OSError, AttributeError):
-                pass        # no room even for the reserve: the first block will tell
-        for s in self.open_sinks:
-            s.open(self.out_dir, schema)
+                self._release_reserve()     # no room even for the reserve: the first block will tell
+        for k, s in enumerate(self.open_sinks):
+            try:
+                s.open(self.out_dir, schema)
+            except OSError as exc:      # a disk full before the first row: no result file, one line
+                tried, self.open_sinks = self.open_sinks[:k + 1], []
+                for t in tried:
+                    with contextlib.suppress(Exception):
+                        t.close()
+                    for f in t.files():
+                        with contextlib.suppress(OSError):
+                            f.unlink()
+                self._release_reserve()
+                where = exc.filename or ", ".join(str(f) for f in s.files()) or str(self.out_dir)
+                self.failure = write_failure(exc, where)
+                raise CosimError(self.failure, element="results") from None
 
     @property
     def defers(self) -> bool:

@@ -10,6 +10,7 @@ from .base import Sink
 @SINKS.register("parquet")
 class ParquetSink(Sink):
     file_name = "results.parquet"
+    _writer = None
 
     def open(self, out_dir, schema):
         # imported here, not with the module: the registry imports every sink module, and pyarrow.parquet (with

@@ -186,6 +186,28 @@ def test_a_full_disk_keeps_readable_and_equal_results(tmp_path, test_fmus, small
     assert any("rebuilt" in n for n in meta.get("results_notes", [])) or len(df) > 0
 
 
+@pytest.mark.parametrize("supervised", [True, False])
+def test_a_disk_full_from_the_start_is_one_line(tmp_path, test_fmus, small_disk, supervised):
+    """issue 25: with no room at all, the supervised run hung (its child waiting for a block that the parent
+    could not open) and the unsupervised one ended in a cascade of tracebacks (results, fmu.log, run.json)."""
+    with open(small_disk / "filler", "wb") as fh:        # every block of the disk taken
+        try:
+            while True:
+                fh.write(b"\0" * 65536)
+                fh.flush()
+        except OSError:
+            pass
+    out = small_disk / "out"
+    args = CLI + ["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(out)] + ([] if supervised else
+                                                                                   ["--no-supervise"])
+    r = subprocess.run(args, capture_output=True, text=True, env=_env(), timeout=120)
+    assert r.returncode == 1
+    line = _one_line(r.stderr)
+    assert "results: disk full while writing" in line and "component" not in line, line
+    assert not (out / "results.parquet").exists() and not (out / "results.csv").exists()
+    assert not (out / ".cosim-master.reserve").exists()
+
+
 # A file size limit (RLIMIT_FSIZE, `ulimit -f`) is a full disk for each file, with no root needed: the write that
 # passes it fails with EFBIG (the program ignores SIGXFSZ, which would kill it). The rows that fit are then known
 # exactly: the whole lines of the unlimited run's CSV within the limit (the CSV is the larger file).
