@@ -7,9 +7,7 @@ import math
 import sys
 
 from ._version import __version__
-from .algorithms import ALGORITHMS
 from .errors import CosimError
-from .fmi.ode_solvers import SOLVERS
 
 
 def _kv(items, what):
@@ -90,6 +88,9 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
+    # imported here, not with the module: they import NumPy, and entry() must be able to take a Ctrl-C first
+    from .algorithms import ALGORITHMS
+    from .fmi.ode_solvers import SOLVERS
     p = _OneLineParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -178,7 +179,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="show the settings and loop treatment of this algorithm (default: the scenario's)")
     i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)")
+    c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)",
+                       description="Run the campaign's missing runs into its folder and rebuild its table. Exit "
+                                   "status: 0 when every run has a record and none failed, 1 otherwise, 130 after "
+                                   "Ctrl-C and 143 after SIGTERM (complete records kept; the same command "
+                                   "resumes).")
     c.add_argument("campaign_yaml", help="the campaign file: its scenarios, grid or list of runs, run settings and "
                                          "repetitions (docs/campaigns.md)")
     c.add_argument("--output", "-o", default=None, metavar="DIR",
@@ -199,6 +204,9 @@ def _parser() -> argparse.ArgumentParser:
                                        "(as the scenario kind recorded in its campaign.json writes it)")
     rp.add_argument("campaign_dir", help="the folder of a campaign run by `cosim-master campaign` (holding its "
                                          "campaign.json); report.md and the figures are written into it")
+    rp.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                    help="show a progress bar on stderr (default: when stderr is a terminal, so that nothing floods "
+                         "a log)")
     rp.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
@@ -289,6 +297,13 @@ def _show_warnings() -> None:
 
 def entry() -> int:
     """The program (console script, ``python -m master.cli``): ``main``, then late interrupts ignored."""
+    import signal
+
+    from .interrupts import quiet_until_started
+    quiet_until_started()       # a Ctrl-C while the modules are imported: one line, exit 130
+    if hasattr(signal, "SIGXFSZ"):
+        # a file size limit (ulimit -f) is a write that fails, as a full disk is, not a death that loses the run
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         return main()
     finally:
@@ -301,6 +316,7 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     _show_warnings()
     try:
+        _import_command(args.command)
         return _dispatch(args)
     except CosimError as exc:
         if getattr(args, "debug", False):
@@ -312,9 +328,23 @@ def main(argv=None) -> int:
         term = isinstance(exc, Terminated)
         print(f"cosim-master: {'stopped by SIGTERM' if term else 'interrupted'}"
               + ("; the same command resumes the campaign" if args.command == "campaign" else ""), file=sys.stderr)
-        if args.command == "campaign":
-            return 1         # docs/campaigns.md: not every run has a record
         return 143 if term else 130
+
+
+#: the modules a command imports before it starts work: a Ctrl-C while they load exits at once (entry())
+COMMAND_MODULES = {"run": ("master.runner", "master.supervise"), "inspect": ("master.inspect_scenario",),
+                   "campaign": ("master.campaign.runner",), "study": ("master.study",),
+                   "report": ("master.campaign.report",), "build-scenario": ("master.scenario_kinds",)}
+
+
+def _import_command(command: str) -> None:
+    """Imports the command's modules, then lets a Ctrl-C raise KeyboardInterrupt, which the command handles."""
+    import importlib
+
+    from .interrupts import started
+    for name in COMMAND_MODULES.get(command, ()):
+        importlib.import_module(name)
+    started()
 
 
 def _refuse_other_kinds(scenario) -> None:
@@ -441,6 +471,8 @@ def _dispatch(args) -> int:
                                scheduler=args.scheduler, progress=not args.no_progress and _progress(None),
                                retry_failed=args.retry_failed, max_runs=args.max_runs)
         print(summary.describe())
+        if summary.interrupted:          # as run: 130 after Ctrl-C, 143 after SIGTERM (README, docs/campaigns.md)
+            return 143 if summary.interrupted == "SIGTERM" else 130
         return 0 if summary.ok else 1
     if args.command == "study":
         from .study import run_study
@@ -450,6 +482,9 @@ def _dispatch(args) -> int:
                             progress=not args.no_progress and _progress(None),
                             settings={k[len("sweep_"):]: v for k, v in vars(args).items() if k.startswith("sweep_")})
         print(summary.describe())
+        stopped = getattr(getattr(summary, "campaign", None), "interrupted", False)
+        if stopped:                     # its campaign was interrupted: as campaign and run
+            return 143 if stopped == "SIGTERM" else 130
         return 0
     if args.command == "stability":
         from .stability.sweep import run_stability
@@ -466,7 +501,7 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "report":
         from .campaign.report import build_report
-        path = build_report(args.campaign_dir)       # the kind recorded in campaign.json writes it
+        path = build_report(args.campaign_dir, progress=_progress(args.progress))  # as campaign.json's kind writes it
         print(f"wrote {path}")
         return 0
     if args.command == "replay":

@@ -7,6 +7,8 @@ was in place before, so the interrupt still takes effect, just after the files a
 """
 from __future__ import annotations
 
+import errno
+import os
 import signal
 import sys
 import threading
@@ -31,6 +33,34 @@ def deferred():
             signal.raise_signal(s)
 
 
+# -- while the program starts ----------------------------------------------------------------------------------
+# The command imports NumPy, pyarrow and the engine before it does anything. A KeyboardInterrupt raised inside
+# an import gave a traceback, and inside NumPy's C extension NumPy's "your installation is broken" wall of text.
+# Nothing has been written yet, so the program simply ends, with one line and the status of an interrupt.
+
+def _exit_now(signum, frame):
+    os.write(2, b"cosim-master: " + (b"interrupted\n" if signum == signal.SIGINT else b"stopped by SIGTERM\n"))
+    os._exit(130 if signum == signal.SIGINT else 143)
+
+
+def quiet_until_started() -> None:
+    """Ctrl-C and SIGTERM end the program at once, quietly, until ``started()`` (main thread only)."""
+    if threading.current_thread() is threading.main_thread():
+        for s in HELD:
+            signal.signal(s, _exit_now)
+
+
+def started() -> None:
+    """The command's modules are imported: Ctrl-C raises KeyboardInterrupt and SIGTERM has its default action
+    again (the command installs its own handlers where it writes)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if signal.getsignal(signal.SIGINT) is _exit_now:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGTERM) is _exit_now:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 # -- interrupts raised inside ctypes callbacks ----------------------------------------------------------------
 # A native FMU calls the master's logger from inside doStep. A signal that arrived while the FMU ran (a Ctrl-C
 # during a long doStep) has its Python handler run by the first bytecode after it: the logger callback. The
@@ -42,6 +72,7 @@ def deferred():
 # callback: once the C code has returned into the master.
 
 _hook_installed = False
+_NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 _callback_codes: set = set()        # code objects the interrupt must not be raised in: callbacks, this hook
 
 
@@ -68,6 +99,9 @@ def _raise_outside_callbacks(exc_type) -> None:
 def _unraisable(previous):
     def hook(unraisable):
         exc_type = unraisable.exc_type
+        if exc_type is not None and issubclass(exc_type, OSError) and \
+                getattr(unraisable.exc_value, "errno", None) in _NO_ROOM:
+            return      # a line of fmu.log that did not fit on a full disk: the results' write says so, once
         if (exc_type is None or not issubclass(exc_type, KeyboardInterrupt)
                 or threading.current_thread() is not threading.main_thread()):
             previous(unraisable)

@@ -40,21 +40,32 @@ def run(scenario, *, raise_on_error: bool = True, observers=(), manipulators=(),
     ex = Execution(scenario, observers=observers, manipulators=manipulators, **options)
     error: CosimError | None = None
     try:
-        ex.initialize()
-        ex.simulate_until()
-        ex.close("completed")
-    except CosimError as exc:
-        error = exc
-        ex.close("error", exc)
-    except KeyboardInterrupt as exc:
-        # one that came while the completed run was written was held until its files were whole: nothing was
-        # cut, so the run is what its run.json says, completed (the exit status and message agree with it)
-        if not (ex.closed and ex.metadata.get("outcome") == "completed"):
-            why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
-            error = CosimError(why, time=ex.metadata.get("last_time"))
-            ex.close("interrupted", error)
-    finally:
-        ex.close()       # any other exception: the run's files are still closed and run.json written
+        try:
+            ex.initialize()
+            ex.simulate_until()
+            ex.close("completed")
+        except CosimError as exc:
+            error = exc
+            ex.close("error", exc)
+        except KeyboardInterrupt as exc:
+            # one that came while the completed run was written was held until its files were whole: nothing was
+            # cut, so the run is what its run.json says, completed (the exit status and message agree with it)
+            if not (ex.closed and ex.metadata.get("outcome") == "completed"):
+                why = "stopped by SIGTERM" if isinstance(exc, Terminated) else "interrupted by the user"
+                error = CosimError(why, time=ex.metadata.get("last_time"))
+                ex.close("interrupted", error)
+        finally:
+            ex.close()       # any other exception: the run's files are still closed and run.json written
+    except OSError as exc:
+        # the run's own files (fmu.log, run.json) could not be written either: a full disk is one line too
+        from .sinks.group import write_failure
+        ex.metadata["outcome"] = "error"
+        if error is None:
+            error = CosimError(write_failure(exc, exc.filename or str(ex.out_dir)), element="results")
+    if error is None and ex.metadata.get("outcome") == "error":
+        # the simulation ended but closing it failed (its last rows did not fit on the disk): a failed run, as
+        # run.json says, not a completed one
+        error = CosimError(ex.metadata.get("error") or "the run's results could not be written")
     result = Result(ex.out_dir, ex.metadata, ex.events, ex.memory_table() if ex.out_dir is None else None)
     if error is not None:
         error.result = result

@@ -45,7 +45,7 @@ from .results import claim_output_folder, release_output_folder, settle_output_f
 from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import SINKS
 from .sinks.base import Sink
-from .sinks.group import SinkGroup
+from .sinks.group import SinkGroup, write_failure
 
 HEADER = 8
 H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
@@ -267,7 +267,7 @@ def _orphan_rows(out_dir: Path, rec, notes: list) -> int | None:
         rows = _cut_to_whole_lines(csv_path)
         if rec is not None and rows == rec.rows_written and getattr(rec, "fill", 0) and rec.block is not None:
             csv = CsvSink()
-            csv.path, csv._fh = csv_path, open(csv_path, "a", encoding="utf-8", newline="")
+            csv.path, csv._fh = csv_path, open(csv_path, "ab", buffering=0)
             try:
                 csv.write(block_table(rec.schema, rec.block[:rec.fill], rec.str_rows))
                 rows += rec.fill
@@ -431,13 +431,24 @@ class _Supervisor:
             try:
                 os.ftruncate(fd, (HEADER + rows * cols) * 8)
                 self.mm = mmap.mmap(fd, 0)
+            except OSError as exc:      # no room for the block (a full /dev/shm, a file size limit): the child,
+                os.unlink(path)         # waiting for the block's name, is stopped; it never records a row
+                self.write_error = CosimError(write_failure(exc, path), element="results")
+                self.stop("results could not be written", kill=True)
+                return
             finally:
                 os.close(fd)
             self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self.mm)
             self.header[:] = 0.0
             self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
-            self.group.open(self.schema)
+            try:
+                self.group.open(self.schema)
+            except CosimError as exc:       # a disk full before the first row: the child is stopped
+                os.unlink(path)             # (the child, which unlinks it once mapped, never gets its name)
+                self.write_error = exc
+                self.stop("results could not be written", kill=True)
+                return
             conn.send(("shm", path))
         elif kind == "close":
             self.finishing_started()
@@ -646,7 +657,7 @@ class _Supervisor:
         meta.setdefault("wall_time_s", None)
         (self.out_dir / CRASH_FILE).unlink(missing_ok=True)
         if self.out_dir.is_dir():
-            write_run_files(self.out_dir, meta, self.events)
+            _write_run_files(self.out_dir, meta, self.events)
         return meta
 
     @property
@@ -654,6 +665,15 @@ class _Supervisor:
         if self.header is None:
             return None
         return self.header[H_TIME] if self.header[H_TIME] else self.header[H_LAST_ROW]
+
+
+def _write_run_files(out_dir: Path, meta: dict, events: list) -> None:
+    """run.json and events.csv; on a full disk the run is failed with one line saying so, not a traceback."""
+    try:
+        write_run_files(out_dir, meta, events)
+    except OSError as exc:
+        meta["outcome"] = "error"
+        meta.setdefault("error", write_failure(exc, exc.filename or str(out_dir / "run.json")))
 
 
 def run_supervised(scenario, *, timeout: float | None = None, **options):
@@ -672,7 +692,7 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
         meta = sup.run()
         if meta.get("wall_time_s") is None:
             meta["wall_time_s"] = time.perf_counter() - t0
-            write_run_files(out_dir, meta, sup.events)
+            _write_run_files(out_dir, meta, sup.events)
         # the earlier run in the folder goes now that this one has rows, or comes back if it has none
         settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
     finally:

@@ -37,7 +37,9 @@ def canonical(v: Any) -> Any:
         return int(v)
     if isinstance(v, float):
         if not math.isfinite(v):
-            raise ValueError(f"non-finite number {v!r}")
+            # YAML reads a number beyond a double's range (1.0e+400) as infinity: say so, the file shows no inf
+            raise ValueError(f"non-finite number {v!r} (.inf, .nan, or a number beyond a 64-bit float's range "
+                             "of ±1.8e308)")
         return int(v) if v.is_integer() and abs(v) < 2 ** 53 else float(v)
     if isinstance(v, (list, tuple)):
         return [canonical(x) for x in v]

@@ -79,8 +79,9 @@ def _generic_report(manifest, df) -> str:
 
 
 
-def build_report(campaign_dir) -> Path:
-    """Write ``<dir>/report/report.md`` (and the figures next to it) from the campaign's records."""
+def build_report(campaign_dir, progress: bool = False) -> Path:
+    """Write ``<dir>/report/report.md`` (and the figures next to it) from the campaign's records; ``progress``:
+    a bar on stderr naming the step under way (reading the records, the kind's figures and tables, writing)."""
     campaign_dir = Path(campaign_dir)
     if not (campaign_dir / "campaign.json").is_file():
         from ..errors import CosimError
@@ -88,14 +89,60 @@ def build_report(campaign_dir) -> Path:
                          file=str(campaign_dir))
     manifest = load_manifest(campaign_dir)
     kind = SCENARIO_KINDS.get(manifest["kind"], element=str(campaign_dir / "campaign.json"))
-    df = build_table(campaign_dir)
-    out = campaign_dir / "report"
-    out.mkdir(exist_ok=True)
-    text = kind.report(manifest, df, out) if len(df) else None
-    if text is None:
-        text = _generic_report(manifest, df)
-    path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text(text + "\n", encoding="utf-8")
-    tmp.replace(path)
+    with _Steps(progress, manifest["name"]) as steps:
+        steps.next(f"reading {len(manifest['runs'])} records")
+        df = build_table(campaign_dir)
+        out = campaign_dir / "report"
+        out.mkdir(exist_ok=True)
+        steps.next("figures and tables")
+        text = kind.report(manifest, df, out) if len(df) else None
+        if text is None:
+            text = _generic_report(manifest, df)
+        steps.next("writing report.md")
+        path = out / "report.md"
+        tmp = out / ".report.md.tmp"
+        tmp.write_text(text + "\n", encoding="utf-8")
+        tmp.replace(path)
+        steps.next("done")
     return path
+
+
+class _Steps:
+    """A bar of the report's steps whose elapsed time keeps moving while a long step (the figures) runs: the
+    kind's report gives no finer measure of progress."""
+    N = 3
+
+    def __init__(self, enabled: bool, name: str):
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+            self.bar = tqdm(total=self.N, desc=f"report {name}", unit="step", dynamic_ncols=True,
+                            bar_format="{desc}: {n_fmt}/{total_fmt} steps |{bar}| {elapsed} {postfix}")
+        self.started = 0
+
+    def next(self, what: str) -> None:
+        if self.bar is None:
+            return
+        if self.started:
+            self.bar.update(1)
+        self.started += 1
+        self.bar.set_postfix_str(what)
+
+    def __enter__(self):
+        if self.bar is not None:
+            import threading
+            self._stop = threading.Event()
+
+            def tick():
+                while not self._stop.wait(0.5):
+                    self.bar.refresh()
+            self._ticker = threading.Thread(target=tick, name="cosim-report-progress", daemon=True)
+            self._ticker.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self._stop.set()
+            self._ticker.join()
+            self.bar.close()
+        return False

@@ -48,7 +48,7 @@ class CampaignSummary:
     unreadable: int = 0
     foreign_records: int = 0
     changed_during_run: int = 0
-    interrupted: bool = False
+    interrupted: str | bool = False     # "SIGINT" (Ctrl-C) or "SIGTERM" when one stopped it
     wall_time_s: float = 0.0
     run_time_s: float = 0.0
     workers: int = 0
@@ -297,6 +297,7 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
     camp = load_campaign(path)
     out = Path(output) if output is not None else Path("results") / camp.name
     out = out.resolve()
+    _refuse_another_campaign(out, camp.name)
     try:
         (out / "runs").mkdir(parents=True, exist_ok=True)
         with open(out / ".lock", "a+"):     # a read-only existing folder: said here, in one line
@@ -362,8 +363,8 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
                         pool.run(tasks, on_result, wait=False)     # they exit while the table is written
                     finally:
                         s.worker_restarts = pool.crashes
-        except KeyboardInterrupt:
-            s.interrupted = True
+        except KeyboardInterrupt as exc:
+            s.interrupted = _by(exc)
         finally:
             if bar is not None:
                 bar.close()
@@ -378,10 +379,32 @@ def _run_campaign(path, output, workers, scheduler, progress, max_runs, retry_fa
         s.failures = [(r.run_id, r.params, rec.get("error")) for r, rec in done2 if rec.get("outcome") == "failed"]
         try:
             s.table = write_table(out, manifest, table_records(done2))
-        except KeyboardInterrupt:
-            s.interrupted = True
+        except KeyboardInterrupt as exc:
+            s.interrupted = _by(exc)
         _cleanup_orphans(out, camp)
     return s
+
+
+def _refuse_another_campaign(out: Path, name: str) -> None:
+    """A folder holding another campaign (by name) is refused before anything is written there: its
+    campaign.yaml, table and report were silently replaced by the new campaign's. The same campaign, edited or
+    not, resumes (its changed runs are stale and run again)."""
+    manifest = out / "campaign.json"
+    if not manifest.is_file():
+        return
+    try:
+        held = json.loads(manifest.read_text(encoding="utf-8")).get("name")
+    except (OSError, ValueError, AttributeError):
+        held = None
+    if held != name:
+        what = f"the campaign {held!r}" if isinstance(held, str) else "an unreadable campaign.json"
+        raise CosimError(f"the folder holds {what}, not {name!r}: give another -o DIR (or remove the folder to "
+                         "start anew)", file=str(out), element="--output")
+
+
+def _by(exc: KeyboardInterrupt) -> str:
+    from ..errors import Terminated
+    return "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
 
 
 def _import_table_modules_meanwhile():

@@ -238,6 +238,11 @@ def _read_run_options(err, data: dict) -> dict:
     for k in options:
         if k not in RUN_OPTIONS:
             err(f"run.{k}", f"unknown run option (expected one of {', '.join(RUN_OPTIONS)})")
+    for k, v in options.items():        # a value that is no number: said per option, not a traceback
+        try:
+            canonical(v)
+        except ValueError as exc:
+            err(f"run.{k}", str(exc))
     options = canonical(options)
     check_options(err, "run", options)
     return options

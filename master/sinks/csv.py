@@ -33,12 +33,20 @@ def _format(typ):
 @SINKS.register("csv")
 class CsvSink(Sink):
     file_name = "results.csv"
+    _fh = None
 
     def open(self, out_dir, schema):
         super().open(out_dir, schema)
         self.path = out_dir / self.file_name
-        self._fh = open(self.path, "w", encoding="utf-8", newline="")
-        self._fh.write(",".join(csv_quote(c) for c in schema.names) + "\n")
+        # unbuffered: a write that fails (a full disk) leaves nothing pending in a buffer, so the file can be cut
+        # back to its last whole line (``rollback``) and every line before it is on disk
+        self._fh = open(self.path, "wb", buffering=0)
+        self._put(",".join(csv_quote(c) for c in schema.names) + "\n")
+
+    def _put(self, text: str) -> None:
+        data = memoryview(text.encode("utf-8"))
+        while data:                 # a raw write may take part of the bytes (the last room on a disk)
+            data = data[self._fh.write(data):]
 
     def write(self, block):
         formats = [(_format(col.type), col.to_numpy(zero_copy_only=False)) for col in block.columns]
@@ -47,16 +55,14 @@ class CsvSink(Sink):
         step = max(1, CSV_CELLS // max(1, len(formats)))
         for start in range(0, block.num_rows, step):
             cols = [fmt(vals[start:start + step]) for fmt, vals in formats]
-            self._fh.write("".join(",".join(r) + "\n" for r in zip(*cols)))
-        self._fh.flush()
+            self._put("".join(",".join(r) + "\n" for r in zip(*cols)))
 
     def mark(self):
         return self._fh.tell()
 
     def rollback(self, mark):
-        self._fh.seek(mark)
         self._fh.truncate(mark)
-        self._fh.flush()
+        self._fh.seek(mark)
 
     def close(self):
         if self._fh is not None:

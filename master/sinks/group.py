@@ -2,12 +2,15 @@
 middle of a write, and a failing write (a full disk) ends the run with the outputs still readable and equal.
 
 How: SIGINT is deferred while a block is written (delivered right after); before each block every sink marks
-where it stands, and when one fails the others roll back to their mark (CSV truncates), the space reserved at
-the start is given back, and a Parquet file that could not be completed is rebuilt from the CSV at close.
+where it stands, and when one fails the others roll back to their mark (CSV truncates). The sinks that can take
+rows still (the CSV) are then given the block's rows again in ever smaller slices until one more row does not
+fit, so that every row that fitted is kept, not only the blocks before; the space reserved at the start is given
+back, and a Parquet file that could not be completed is rebuilt from the CSV at close.
 """
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import signal
 import threading
@@ -17,6 +20,15 @@ from ..errors import CosimError
 
 RESERVE_NAME = ".cosim-master.reserve"
 RESERVE_BYTES = 4 << 20     # room for truncation, a Parquet footer, run.json and events.csv on a full disk
+
+#: what a failed write means for the person who reads the message: the disk, not a component or the master
+NO_ROOM = {errno.ENOSPC: "disk full", errno.EFBIG: "file size limit reached", errno.EDQUOT: "disk quota exceeded"}
+
+
+def write_failure(exc: OSError, where: str) -> str:
+    """One line for a write into ``where`` that failed."""
+    why = NO_ROOM.get(exc.errno)
+    return f"{why} while writing {where}" if why else f"cannot write {where}: {exc.strerror or exc}"
 
 
 @contextlib.contextmanager
@@ -63,9 +75,22 @@ class SinkGroup:
                     fh.truncate(RESERVE_BYTES)
                     os.posix_fallocate(fh.fileno(), 0, RESERVE_BYTES)
             except (OSError, AttributeError):
-                pass        # no room even for the reserve: the first block will tell
-        for s in self.open_sinks:
-            s.open(self.out_dir, schema)
+                self._release_reserve()     # no room even for the reserve: the first block will tell
+        for k, s in enumerate(self.open_sinks):
+            try:
+                s.open(self.out_dir, schema)
+            except OSError as exc:      # a disk full before the first row: no result file, one line
+                tried, self.open_sinks = self.open_sinks[:k + 1], []
+                for t in tried:
+                    with contextlib.suppress(Exception):
+                        t.close()
+                    for f in t.files():
+                        with contextlib.suppress(OSError):
+                            f.unlink()
+                self._release_reserve()
+                where = exc.filename or ", ".join(str(f) for f in s.files()) or str(self.out_dir)
+                self.failure = write_failure(exc, where)
+                raise CosimError(self.failure, element="results") from None
 
     @property
     def defers(self) -> bool:
@@ -82,13 +107,38 @@ class SinkGroup:
                 try:
                     s.write(table)
                 except OSError as exc:
-                    self._release_reserve()
                     for other, m in zip(self.open_sinks, marks):
                         other.rollback(m)
+                    # the reserve is still held: the rows kept here leave room for closing the files
+                    self.rows += self._rows_that_fit(table)
+                    self._release_reserve()
                     where = ", ".join(str(p) for p in s.files()) or type(s).__name__
-                    self.failure = f"cannot write {where}: {exc.strerror or exc}"
+                    self.failure = write_failure(exc, where)
                     raise CosimError(self.failure, element="results") from None
             self.rows += table.num_rows
+
+    def _rows_that_fit(self, table) -> int:
+        """Writes the longest first part of ``table`` that the sinks still able to take rows accept (every one
+        the same rows); returns its rows. Halving the slice after each failure finds it in a few writes."""
+        live = [s for s in self.open_sinks if not s.broken]
+        if not any(s.needs_folder for s in live):       # no file left to hold the rows
+            return 0
+        kept, size = 0, table.num_rows
+        while size >= 1 and kept < table.num_rows:
+            part = table.slice(kept, size)
+            marks = [s.mark() for s in live]
+            try:
+                for s in live:
+                    s.write(part)
+            except OSError:
+                for s, m in zip(live, marks):
+                    s.rollback(m)
+                if any(s.broken for s in live):         # one that cannot undo: stop at the rows before
+                    break
+                size //= 2
+                continue
+            kept += part.num_rows
+        return kept
 
     def close(self) -> None:
         if getattr(self, "_closed", False):
@@ -104,7 +154,12 @@ class SinkGroup:
                     self.notes.append(f"closing {', '.join(str(p) for p in s.files())}: {exc.strerror or exc}")
             for s in self.open_sinks:
                 if getattr(s, "broken", False):
-                    self.notes.append(s.repair(self.open_sinks, self.schema, self.rows))
+                    try:
+                        self.notes.append(s.repair(self.open_sinks, self.schema, self.rows))
+                    except OSError as exc:
+                        where = ", ".join(str(p) for p in s.files())
+                        self.notes.append(f"{write_failure(exc, where)}: not rebuilt, the rows are in the other "
+                                          "result files")
             self._release_reserve()
 
     def files(self) -> list[Path]:

@@ -10,6 +10,7 @@ from .base import Sink
 @SINKS.register("parquet")
 class ParquetSink(Sink):
     file_name = "results.parquet"
+    _writer = None
 
     def open(self, out_dir, schema):
         # imported here, not with the module: the registry imports every sink module, and pyarrow.parquet (with
@@ -56,7 +57,11 @@ class ParquetSink(Sink):
                                  quoted_strings_can_be_null=False)
         table = _hex_decoded(pc.read_csv(str(csv.path), convert_options=opts), schema)
         tmp = self.path.with_name(f".{self.path.name}.tmp")
-        pq.write_table(table, str(tmp))
+        try:
+            pq.write_table(table, str(tmp))
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
         os.replace(tmp, self.path)
         self.broken = False
         return f"{self.path.name} rebuilt from {csv.path.name} after a failed write ({table.num_rows} rows)"

@@ -77,3 +77,71 @@ def test_other_exceptions_in_callbacks_still_go_to_the_previous_hook(monkeypatch
     _qsort_calling(compare)
     assert seen and set(seen) == {ValueError}
     assert sys.unraisablehook.previous.__name__ == "<lambda>"
+
+
+# -- while the program starts ---------------------------------------------------------------------------------
+def _handles(pid: int, sig: int) -> bool:
+    """The process has a handler of its own for ``sig`` (/proc/PID/status SigCgt)."""
+    try:
+        for line in open(f"/proc/{pid}/status"):
+            if line.startswith("SigCgt:"):
+                return bool(int(line.split()[1], 16) >> (sig - 1) & 1)
+    except OSError:
+        pass
+    return False
+
+
+def _shell_signals():
+    """The child as a shell starts it: SIGINT and SIGTERM neither ignored nor blocked, whatever a test runner's
+    worker inherited."""
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+
+def test_the_command_module_imports_no_numpy():
+    """entry() takes Ctrl-C before NumPy loads only if importing master.cli does not load it first."""
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", "import sys, master.cli; print(sorted(m for m in ('numpy', 'pyarrow', "
+                        "'pandas') if m in sys.modules))"], capture_output=True, text=True, timeout=60)
+    assert r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="needs /proc to see the handlers")
+@pytest.mark.parametrize("sig,code,said", [(signal.SIGINT, 130, "interrupted"),
+                                           (signal.SIGTERM, 143, "stopped by SIGTERM")])
+def test_an_interrupt_while_the_program_starts_is_one_line(tmp_path, test_fmus, sig, code, said):
+    """issue 25: Ctrl-C in the first seconds of `run` (its imports) gave a traceback, once NumPy's "bad install"
+    wall of text; SIGTERM killed it without a word. Sent to the process group (as a terminal's Ctrl-C) at points
+    from the moment entry() has its start-up handler (the process catches SIGTERM) into the run itself: every
+    one ends with one line and the interrupt's exit status. The delays are where, not a timing assertion."""
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    import master
+    from master.ssp.writer import SspBuilder
+    b = SspBuilder("long", stop=40.0, step=1e-4)
+    b.add_component("I1", test_fmus["c2:Integrator"], params={"a": 0.0, "x0": 1.0})
+    b.add_component("I2", test_fmus["c2:Integrator"], params={"a": -0.01, "x0": 0.0})
+    b.connect("I1", "y", "I2", "u")
+    b.connect("I2", "y", "I1", "u")
+    ssp = b.write(tmp_path / "long.ssp")
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
+    outcomes = []
+    for k, delay in enumerate((0.0, 0.01, 0.03, 0.06, 0.1, 0.2, 0.4, 0.8)):
+        p = subprocess.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(tmp_path / f"o{k}"),
+                              "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True, preexec_fn=_shell_signals)
+        deadline = time.monotonic() + 60
+        while not _handles(p.pid, signal.SIGTERM) and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.001)
+        time.sleep(delay)
+        os.killpg(p.pid, sig)
+        _, err = p.communicate(timeout=120)
+        outcomes.append((delay, p.returncode, err))
+        assert p.returncode == code, outcomes[-1]
+        assert err.startswith("cosim-master: ") and said in err and "Traceback" not in err, outcomes[-1]
+        assert "\n" not in err.strip(), outcomes[-1]

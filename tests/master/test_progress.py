@@ -83,3 +83,30 @@ def test_campaign_and_study_decide_alike(monkeypatch):
     assert _progress(None) is False and _progress(True) is True
     monkeypatch.setattr(sys, "stderr", Terminal())
     assert _progress(None) is True and _progress(False) is False
+
+
+@pytest.fixture
+def campaign_dir(tmp_path, test_fmus):
+    """A finished campaign of two runs (an SSP of one integrator) to report on."""
+    from master.campaign.runner import run_campaign
+    from master.ssp.writer import SspBuilder
+    b = SspBuilder("one", stop=1.0, step=0.1)
+    b.add_component("I", test_fmus["c2:Integrator"], params={"a": -1.0, "x0": 1.0})
+    b.write(tmp_path / "one.ssp")
+    (tmp_path / "c.yaml").write_text("name: c\nscenario: one.ssp\ngrid:\n  param:I.x0: [1.0, 2.0]\n")
+    assert run_campaign(tmp_path / "c.yaml", output=tmp_path / "c", workers=1, progress=False).ok
+    return tmp_path / "c"
+
+
+def test_report_shows_a_bar_on_a_terminal_only(tmp_path, campaign_dir):
+    """issue 25: `report` was silent for ~24 s on the paper campaign; a bar of its steps now, none in a pipe."""
+    code, err = _run(["report", campaign_dir], tmp_path, stderr_tty=True)
+    assert code == 0, err
+    assert "report c: 3/3 steps" in err and "writing report.md" in err, err
+    code, err = _run(["report", campaign_dir], tmp_path, stderr_tty=False)
+    assert code == 0 and err == "", err
+    code, err = _run(["report", campaign_dir, "--progress"], tmp_path, stderr_tty=False)
+    assert code == 0 and "3/3 steps" in err, err
+    code, err = _run(["report", campaign_dir, "--no-progress"], tmp_path, stderr_tty=True)
+    assert code == 0 and "steps" not in err, err
+    assert (campaign_dir / "report" / "report.md").read_text().startswith("# Campaign report: c")

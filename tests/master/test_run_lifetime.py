@@ -315,6 +315,8 @@ def test_sigterm_stops_a_campaign_with_its_summary(tmp_path, to):
     stdout, err = p.communicate()
     if p.returncode == 0:
         pytest.skip("the campaign finished before the signal came")
-    assert p.returncode == 1 and "Traceback" not in err, (p.returncode, stdout, err)
-    assert "Interrupted" in stdout, stdout
+    assert p.returncode == 143 and "Traceback" not in err, (p.returncode, stdout, err)
+    # the summary when the runs had begun; before them (still planning) the one line of an interrupted command
+    assert "Interrupted" in stdout or err.strip() == ("cosim-master: stopped by SIGTERM; the same command resumes "
+                                                      "the campaign"), (stdout, err)
     _wait_for(lambda: not any(_stat(c) for c in below), "the workers end")

@@ -164,7 +164,7 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     seen, waited = len(list((out / "runs").glob("*.json"))), time.monotonic() - t0
     p.send_signal(signal.SIGINT)
     stdout, stderr = p.communicate(timeout=60)
-    assert p.returncode == 1, (f"SIGINT sent after {waited:.2f} s with {seen} records; "
+    assert p.returncode == 130, (f"SIGINT sent after {waited:.2f} s with {seen} records; "
                                f"{len(list((out / 'runs').glob('*.json')))} at the end; this process: {mine} "
                                f"{signal.getsignal(signal.SIGINT)!r}; {stdout!r} {stderr!r}")
     assert "Interrupted" in stdout
@@ -179,6 +179,54 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     ref = tmp_path / "ref"
     run_campaign(camp, output=ref, workers=2, progress=False)
     same_tables(table(out), table(ref))
+
+
+@pytest.mark.parametrize("sig,code,said", [(signal.SIGINT, 130, "Interrupted"), (signal.SIGTERM, 143, "Interrupted")])
+def test_a_signal_to_the_process_group_exits_as_run_does(tmp_path, chain_fmus, sig, code, said):
+    """issue 25: the docs said 1 and Ctrl-C gave 130; now campaign and run agree (README: Ctrl-C exit 130, SIGTERM
+    143) and `campaign --help` says so. The signal goes to the whole group, as a terminal's Ctrl-C or `kill --
+    -PGID` send it, once a record exists."""
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    camp = write_campaign(tmp_path, SLOW)
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
+                          "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_sigint)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list((out / "runs").glob("*.json")) and p.poll() is None:
+        time.sleep(0.02)
+    os.killpg(p.pid, sig)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == code, (stdout, stderr)
+    assert said in stdout and "Traceback" not in stderr
+    records = list((out / "runs").glob("*.json"))
+    assert 1 <= len(records) < 12 and len(table(out)) == len(records)
+    from master.cli import _parser
+    help_text = " ".join(_parser()._subparsers._group_actions[0].choices["campaign"].format_help().split())
+    assert "130 after Ctrl-C and 143 after SIGTERM" in help_text
+
+
+def test_another_campaign_is_not_written_into_a_campaign_folder(tmp_path, chain_fmus):
+    """issue 25: a different campaign written into an existing campaign folder silently replaced its
+    campaign.yaml, table and report; the same campaign still resumes there."""
+    write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
+    first = write_campaign(tmp_path, SLOW.replace("[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "[1, 2]")
+                           .replace("step: 0.0001", "step: 0.1"))
+    out = tmp_path / "out"
+    assert run_campaign(first, output=out, workers=1, progress=False).ok
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    other = tmp_path / "other.yaml"
+    other.write_text(first.read_text().replace("name: slow", "name: another"))
+    from master.cli import main
+    r = subprocess.run([sys.executable, "-m", "master.cli", "campaign", str(other), "-o", str(out), "--no-progress"],
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and r.stderr.strip() == (
+        f"cosim-master: error: {out}: --output: the folder holds the campaign 'slow', not 'another': give another "
+        "-o DIR (or remove the folder to start anew)"), r.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before     # left untouched
+    s = run_campaign(first, output=out, workers=1, progress=False)          # the same one resumes
+    assert s.ok and s.skipped == 2 and s.ran_now == 0
+    assert main(["campaign", str(other), "-o", str(tmp_path / "elsewhere"), "--no-progress", "--workers", "1"]) == 0
 
 
 def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch):

@@ -1,5 +1,5 @@
 """SIGTERM to ``cosim-master campaign`` (as ``timeout``, systemd or ``kill`` send it) stops it as Ctrl-C does: the
-complete records kept, a last line saying what happened, exit 1 (docs/campaigns.md). It used to die with no
+complete records kept, a last line saying what happened, exit 143 as run (docs/campaigns.md). It used to die with no
 message."""
 import json
 import os
@@ -28,7 +28,7 @@ def test_sigterm_keeps_only_complete_records_and_says_so(tmp_path, chain_fmus):
         time.sleep(0.05)
     p.send_signal(signal.SIGTERM)
     stdout, stderr = p.communicate(timeout=120)
-    assert p.returncode == 1, (stdout, stderr)
+    assert p.returncode == 143, (stdout, stderr)
     assert "Interrupted" in stdout or "stopped by SIGTERM" in stderr, (stdout, stderr)
     records = list((out / "runs").glob("*.json"))
     assert 2 <= len(records) < 12
