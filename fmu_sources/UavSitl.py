@@ -85,6 +85,8 @@ def _parse_params(text: str) -> dict:
 class UavSitl(UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "UAV dynamics flown by ArduPilot SITL (ArduCopter) over MAVLink, lock-stepped or paced"
+    # no direct feedthrough: the outputs are the vehicle's state, read back in exitInitializationMode and doStep
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
