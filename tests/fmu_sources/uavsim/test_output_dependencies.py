@@ -13,7 +13,10 @@ refused every UAV SSP ("[getReal] Unknown signal").
 """
 from __future__ import annotations
 
+import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -116,68 +119,80 @@ def test_shipped_fmus_declare_dependencies_for_every_output(name):
         assert declared >= outputs, f"{name} {section}: no dependencies on {sorted(outputs - declared)}"
 
 
-@pytest.mark.parametrize("name", list(SCENES))
-def test_declared_dependencies_are_the_models(name, tmp_path):
-    params, held, steps = SCENES[name]
-    p = _Probe(FMUS / f"{name}.fmu", tmp_path)
+def probe(fmu: str, tmp: str, params: dict, held: dict, steps: int, run: bool = True) -> dict:
+    """What changed with which input (Initialization Mode, then after ``steps`` steps with ``held``), what the model
+    description declares, and whether stepping moved an output."""
+    p = _Probe(Path(fmu), Path(tmp))
     s = p.slave
     s.instantiate()
+    report = {}
     try:
         s.setupExperiment(startTime=0.0)
         for k, v in params.items():
             p.set(k, v)
         s.enterInitializationMode()
-        _observed_within_declared(p.feedthrough(), _declared(p.md, "InitialUnknowns"))
-        s.exitInitializationMode()
-        for k, v in held.items():
-            p.set(k, v)
-        t = 0.0
-        start = p.outputs_now()
-        for n in range(steps):
-            s.doStep(currentCommunicationPoint=t, communicationStepSize=STEP)
-            t = (n + 1) * STEP
-        # the scene is live: stepping moved some output (else no input could have shown through)
-        assert p.outputs_now() != start
-        _observed_within_declared(p.feedthrough(), _declared(p.md, "Outputs"))
-        s.terminate()
+        report["init"] = (p.feedthrough(), _declared(p.md, "InitialUnknowns"))
+        if run:
+            s.exitInitializationMode()
+            for k, v in held.items():
+                p.set(k, v)
+            start = p.outputs_now()
+            for n in range(steps):
+                s.doStep(currentCommunicationPoint=n * STEP, communicationStepSize=STEP)
+            report["live"] = p.outputs_now() != start
+            report["run"] = (p.feedthrough(), _declared(p.md, "Outputs"))
+            s.terminate()
     finally:
         s.freeInstance()
         shutil.rmtree(p.dir, ignore_errors=True)
+    return {k: [{o: sorted(i) for o, i in d.items()} for d in v] if isinstance(v, tuple) else v
+            for k, v in report.items()}
+
+
+_CHILD = r"""
+import importlib.util, json, sys
+spec = importlib.util.spec_from_file_location("probe_module", sys.argv[1])
+module = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(module)
+print(json.dumps(module.probe(*json.loads(sys.argv[2]))))
+"""
+
+
+def _probe_in_child(*args) -> dict:
+    """``probe`` in a child process: a pythonfmu FMU run here would put its resources (a copy of uavsim, deleted
+    afterwards) first on sys.path and into sys.modules, where later tests in this process would find it."""
+    proc = subprocess.run([sys.executable, "-c", _CHILD, __file__, json.dumps([str(a) if isinstance(a, Path) else a
+                                                                              for a in args])],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    report = json.loads(proc.stdout.strip().splitlines()[-1])
+    return {k: [{o: set(i) for o, i in d.items()} for d in v] if isinstance(v, list) else v for k, v in report.items()}
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_declared_dependencies_are_the_models(name, tmp_path):
+    params, held, steps = SCENES[name]
+    report = _probe_in_child(FMUS / f"{name}.fmu", tmp_path, params, held, steps)
+    _observed_within_declared(*report["init"])
+    # the scene is live: stepping moved some output (else no input could have shown through)
+    assert report["live"]
+    _observed_within_declared(*report["run"])
 
 
 def test_sitl_fmu_has_no_feedthrough_in_initialization_mode(tmp_path):
     """UavSitl starts ArduPilot only in exitInitializationMode; before that its declaration is checked the
     same way (the run-time outputs are the vehicle's telemetry, read back in doStep)."""
-    p = _Probe(FMUS / "UavSitl.fmu", tmp_path)
-    p.slave.instantiate()
-    try:
-        p.slave.setupExperiment(startTime=0.0)
-        p.slave.enterInitializationMode()
-        _observed_within_declared(p.feedthrough(), _declared(p.md, "InitialUnknowns"))
-    finally:
-        p.slave.freeInstance()
-        shutil.rmtree(p.dir, ignore_errors=True)
+    report = _probe_in_child(FMUS / "UavSitl.fmu", tmp_path, {}, {}, 0, False)
+    _observed_within_declared(*report["init"])
 
 
 def test_the_probe_sees_feedthrough_where_there_is_some(tmp_path):
     """PyMassB's coupling force F = kc (x - x_in) is direct feedthrough from x_in: the probe finds exactly
     that, so an undeclared one in the UAV FMUs would not go unseen."""
-    fmu = REPO / "ssp" / "coupling" / "fmus" / "PyMassB.fmu"
-    p = _Probe(fmu, tmp_path)
-    s = p.slave
-    s.instantiate()
-    try:
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        s.exitInitializationMode()
-        s.doStep(currentCommunicationPoint=0.0, communicationStepSize=STEP)
-        observed = p.feedthrough()
-        assert observed == {"x": set(), "v": set(), "F": {"x_in"}}
-        assert _declared(p.md, "Outputs") == observed
-        s.terminate()
-    finally:
-        s.freeInstance()
-        shutil.rmtree(p.dir, ignore_errors=True)
+    report = _probe_in_child(REPO / "ssp" / "coupling" / "fmus" / "PyMassB.fmu", tmp_path, {}, {}, 1)
+    observed, declared = report["run"]
+    assert observed == {"x": set(), "v": set(), "F": {"x_in"}}
+    assert declared == observed
 
 
 def test_a_declaration_naming_no_output_or_no_input_stops_the_build():
