@@ -1,7 +1,7 @@
 """Run an SSP with OMSimulator (its Python API) as an independent peer master.
 
 ``run_omsimulator(ssp_path, step, n_steps, variables)`` instantiates the SSP with ``OMSimulator.SSP``, sets the
-fixed step, initialises, calls ``doStep`` ``n_steps`` times and returns a ``pandas.DataFrame`` with the columns
+fixed step, initialises, steps ``n_steps`` times and returns a ``pandas.DataFrame`` with the columns
 ``time`` (OMSimulator's clock) and ``"<component>.<variable>"`` after initialisation and after every step.
 
 OMSimulator is not installed from a registry (its package downloads binaries at build time); a build is kept in
@@ -106,7 +106,9 @@ def run_omsimulator(ssp_path, step: float, n_steps: int, variables: Sequence[tup
     model.initialize()
     sample()
     for _ in range(int(n_steps)):
-        model.doStep()
+        # stepUntil, not doStep: it first transfers the outputs to the inputs, which the initialisation did before
+        # exitInitializationMode only; half a step ahead is one step of its summed clock, whatever its rounding
+        model.stepUntil(model.getTime() + 0.5 * float(step))
         sample()
     model.terminate()
     model.delete()
