@@ -61,7 +61,8 @@ def peer_runs(request, tmp_path_factory):
     jobs = []
     for name in SSPS:
         step, n, variables = _setup(name)
-        jobs.append(Job(str(REPO / "ssp" / "coupling" / f"{name}.ssp"), step, n, [[c, v, "Real"] for c, v in variables]))
+        ssp = REPO / "ssp" / "coupling" / f"{name}.ssp"
+        jobs.append(Job(str(ssp), step, n, [[c, v, "Real"] for c, v in variables]))
     return peer, dict(zip(SSPS, run_jobs(peer, jobs, tmp_path_factory.mktemp(peer))))
 
 
