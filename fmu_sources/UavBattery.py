@@ -40,6 +40,8 @@ _BATT = [  # BatteryParams fields
 class UavBattery(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "3S LiPo battery with Zeng et al. (2019) rotary-wing propulsion power"
+    # no direct feedthrough: the outputs are published from the state in exitInitializationMode and doStep
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

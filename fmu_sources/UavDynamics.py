@@ -68,6 +68,9 @@ _OUT_REAL = [
 class UavDynamics(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Quadcopter (3DR Iris+ class) point-mass dynamics with ArduPilot-like position control"
+    # no direct feedthrough: the outputs are published from the state in exitInitializationMode and doStep
+    # (lat, lon, alt computed from x, y, z)
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

@@ -6,6 +6,7 @@ sitlsim/vehicle.py, the couplings and process management docs/sitl.md.  SITL is 
 ``workdir`` or else ``$COSIM_MASTER_OUTPUT/sitl/<instance name>`` (the run's output folder, set by cosim-master).
 """
 import os
+import re
 import sys
 import tempfile
 
@@ -66,6 +67,9 @@ _OUT_INT = [("phase", "0 preflight, 1 takeoff, 2 fly, 3 land, 4 landed"),
             ("armed", "1 while the motors are armed"), ("ekf_ok", "1 while the EKF reports a usable position"),
             ("sitl_instance", "the SITL instance N flown (ports 5760+10N, 9002+10N); -1 before the start")]
 
+#: an instance name that is a folder name as it stands
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
 
 def _parse_params(text: str) -> dict:
     out = {}
@@ -85,6 +89,8 @@ def _parse_params(text: str) -> dict:
 class UavSitl(UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "UAV dynamics flown by ArduPilot SITL (ArduCopter) over MAVLink, lock-stepped or paced"
+    # no direct feedthrough: the outputs are the vehicle's state, read back in exitInitializationMode and doStep
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -121,7 +127,15 @@ class UavSitl(UnitsMixin, Fmi2Slave):
         if self.workdir:
             return self.workdir
         base = os.environ.get("COSIM_MASTER_OUTPUT") or tempfile.mkdtemp(prefix="cosim-sitl-")
-        return os.path.join(base, "sitl", self.instance_name)
+        name = self.instance_name
+        if _PLAIN_NAME.fullmatch(name):
+            return os.path.join(base, "sitl", name)
+        # an instance name is any string (Ecos 0.7.2 passes the path of the unpacked FMU): a folder
+        # of its own, named after it
+        folder = os.path.join(base, "sitl")
+        os.makedirs(folder, exist_ok=True)
+        stem = re.sub(r"[^A-Za-z0-9_.-]", "_", os.path.basename(name.rstrip("/\\"))) or "instance"
+        return tempfile.mkdtemp(prefix=stem + "-", dir=folder)
 
     def _fail(self, exc, when: str):
         """Stop SITL, then raise the one-line reason (the master adds the component and the time)."""

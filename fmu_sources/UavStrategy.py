@@ -60,6 +60,8 @@ _INDEXED_NAMES = tuple(_INDEXED_DEFAULTS)
 class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Surveillance mission logic of one UAV (paper's Strategy A / B)"
+    # no direct feedthrough: the commands and counters are decided in doStep, from the inputs at its start
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

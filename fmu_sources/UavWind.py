@@ -39,6 +39,8 @@ _PARAMS = [  # name, unit, default, description
 class UavWind(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Paper's stochastic east-to-west wind with optional Dryden turbulence and 1-cosine gusts"
+    # no inputs: the wind is a function of time alone
+    output_dependencies: dict = {}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

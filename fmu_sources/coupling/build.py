@@ -206,6 +206,9 @@ def _with_dependencies(built: Path, source: Path, fmu: Path, ff) -> Path:
 
 def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
     from master.ssp.writer import SspBuilder
+    # every component's parameter set has the name the UAV SSPs use: Ecos applies the sets of one name per
+    # init (init(parameter_set="scenario")), and with one set name per component it applied only one component's
+    from uavstudy.build import PARAMETER_SET
     ex = _exact()
     osc, stiff = ex.OSCILLATOR, ex.STIFF
 
@@ -217,17 +220,17 @@ def build_ssps(fmus: dict[str, Path], out: Path = OUT) -> list[Path]:
     for suffix, a, b, affine in (("", "MassA", "MassB", "Affine"), ("_py", "PyMassA", "PyMassB", "PyAffine")):
         for name, p in (("oscillator_fd", osc), ("oscillator_stiff", stiff)):
             pa, pb = masses(p)
-            sb = SspBuilder(name + suffix, stop=10.0, step=0.01)
+            sb = SspBuilder(name + suffix, stop=10.0, step=0.01, parameter_set=PARAMETER_SET)
             sb.add_component("A", fmus[a], params=pa).add_component("B", fmus[b], params=pb)
             sb.connect("A", "x", "B", "x_in").connect("B", "F", "A", "F")
             written.append(sb.write(out / f"{name}{suffix}.ssp"))
         # displacement-displacement: each side holds the coupling spring and reads the other's position
         pa, pb = masses(osc)
-        sb = SspBuilder("oscillator_dd" + suffix, stop=10.0, step=0.01)
+        sb = SspBuilder("oscillator_dd" + suffix, stop=10.0, step=0.01, parameter_set=PARAMETER_SET)
         sb.add_component("A", fmus[b], params={**pa, "kc": osc["kc"]}).add_component("B", fmus[b], params=pb)
         sb.connect("A", "x", "B", "x_in").connect("B", "x", "A", "x_in")
         written.append(sb.write(out / f"oscillator_dd{suffix}.ssp"))
-        sb = SspBuilder("algebraic_loop" + suffix, stop=10.0, step=0.1)
+        sb = SspBuilder("algebraic_loop" + suffix, stop=10.0, step=0.1, parameter_set=PARAMETER_SET)
         for comp, p in ex.LOOP.items():
             sb.add_component(comp, fmus[affine], params=p)
         sb.connect("L1", "y", "L2", "u").connect("L2", "y", "L1", "u")

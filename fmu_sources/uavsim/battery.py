@@ -225,7 +225,8 @@ class Battery:
         h0 = self.params.substep
         n = max(1, int(round(dt / h0)))
         if abs(n * h0 - dt) > 1e-9 * max(1.0, dt):
-            n = int(math.ceil(dt / h0 - 1e-9))
+            # at least one: a step far shorter than h0 (OMSimulator's last, up to the stop time) is one sub-step
+            n = max(1, int(math.ceil(dt / h0 - 1e-9)))
         return n, dt / n
 
     def step_reference(self, dt: float, airspeed: float, vz: float, phase: int) -> None:

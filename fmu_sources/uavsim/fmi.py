@@ -220,7 +220,14 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
     variables are registered) and read/write the attributes directly.  Same results and the same
     errors: an unknown reference or one of another type falls back to pythonfmu's method, which
     raises its TypeError.
+
+    ``output_dependencies`` (a shell's class attribute) declares its direct feedthrough: output name -> the
+    inputs it depends on within a step; an output not named depends on none.  pythonfmu writes no
+    ``dependencies``, which FMI 2.0 reads as "depends on every input": masters that order or solve by them
+    (OMSimulator) then see algebraic loops that are not there.  None (the default) writes nothing.
     """
+
+    output_dependencies: dict | None = None
 
     def _vr_tables(self):
         table = _table_of(self)
@@ -487,6 +494,8 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
             init = SubElement(structure, "InitialUnknowns")
             for u in outputs:
                 SubElement(init, "Unknown", index=u.get("index"))
+        if outputs is not None and self.output_dependencies is not None:
+            _declare_dependencies(root, self.output_dependencies, type(self).__name__)
         used = sorted({v.unit for v in self.vars.values() if isinstance(v, UnitReal) and v.unit})
         if used:
             ud = Element("UnitDefinitions")
@@ -499,6 +508,27 @@ class UnitsMixin(_PythonfmuMethods, metaclass=_SharedVariables):
             idx = list(root).index(root.find("CoSimulation")) + 1
             root.insert(idx, ud)
         return root
+
+
+def _declare_dependencies(root: Element, feedthrough: dict, model: str) -> None:
+    """``dependencies`` on every output Unknown (Outputs and InitialUnknowns): the indices of the inputs in
+    ``feedthrough[name]``, empty for an output not named there.  The shells publish their outputs only in
+    exitInitializationMode and doStep, so in Initialization Mode too an output changes with no input."""
+    variables = root.find("ModelVariables").findall("ScalarVariable")
+    index = {v.get("name"): i + 1 for i, v in enumerate(variables)}
+    causality = {v.get("name"): v.get("causality") for v in variables}
+    for name, inputs in feedthrough.items():
+        if causality.get(name) != "output":
+            raise ValueError(f"{model}.output_dependencies: {name!r} is no output")
+        for u in inputs:
+            if causality.get(u) != "input":
+                raise ValueError(f"{model}.output_dependencies[{name!r}]: {u!r} is no input")
+    names = {i: n for n, i in index.items()}
+    structure = root.find("ModelStructure")
+    for section in ("Outputs", "InitialUnknowns"):
+        for unknown in structure.find(section):
+            deps = feedthrough.get(names[int(unknown.get("index"))], ())
+            unknown.set("dependencies", " ".join(str(i) for i in sorted(index[u] for u in deps)))
 
 
 #: slave attributes that are no state: pythonfmu's variable table and log queue, the accessor caches (closures

@@ -1,0 +1,94 @@
+"""OMSimulator and the shipped UAV missions: what made them fail or differ there, each measured.
+
+1. It refused every UAV SSP ("[getReal] Unknown signal model.root.uav1_dyn.phase"): the FMUs declared no output
+   dependencies, so its initialisation graph (built from InitialUnknowns) had an algebraic loop through the
+   Integer ``phase``.  They declare them now (tests/fmu_sources/uavsim/test_output_dependencies.py).
+2. A run to the stop time ended in an abort: its clock is a sum, so 100 steps of 0.1 s end at 9.99999999999998
+   and it steps once more by 1.95e-14 s; the dynamics split that into 0 sub-steps (ZeroDivisionError, which
+   pythonfmu logs with a null category, and OMSimulator's logger aborts on it).  Now one sub-step
+   (tests/fmu_sources/uavsim/test_short_last_step.py); ``test_simulate_to_the_stop_time`` runs its own
+   ``simulate`` to 10 s.
+3. The missions differed (uav1's x by 160 % from t = 16 s): OMSimulator 2940ef11 drops the String parameters of
+   an SSD (``test_it_drops_string_parameters``), so strategy "B" flew as the FMU's default "A".  With the Strings
+   set through its API after instantiation the whole 825 s mission of paper_free_1uav_B is ours to rounding
+   (measured 2026-11-28: 2.7e-10 m in x, 3.1e-10 m in y, 4.5e-12 m in z, 1.1e-13 in soc; integers identical),
+   the rounding of its summed clock and of the step it passes, (t + h) - t.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib, run_jobs
+
+import master
+
+pytestmark = pytest.mark.skipif(absent("omsimulator") is not None, reason=str(absent("omsimulator")))
+SSP = SSP_DIR / "paper_free_1uav_B.ssp"
+
+_CHILD = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[2])
+from OMSimulator import SSP, Capi
+model = SSP(sys.argv[3]).instantiate()
+model.setResultFile("")
+out = {"strategy": Capi.getString("model.root.uav1_strat.strategy")[0],
+       "assignment": Capi.getString("model.root.uav1_strat.assignment")[0],
+       "n_targets": Capi.getInteger("model.root.uav1_strat.n_targets")[0]}
+if sys.argv[4] == "simulate":
+    model.setFixedStepSize(0.1); model.setStopTime(10.0)
+    model.initialize(); model.simulate()
+    out["time"] = model.getTime(); out["z"] = Capi.getReal("model.root.uav1_dyn.z")[0]
+    model.terminate()
+model.delete()
+print(json.dumps(out))
+"""
+
+
+def _child(what, tmp_path):
+    proc = subprocess.run([sys.executable, "-c", _CHILD, str(TESTS), str(oms_lib()), str(SSP), what],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                          env={**os.environ, "TMPDIR": str(tmp_path)})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_it_drops_string_parameters(tmp_path):
+    """The SSD gives strategy "B" (and assignment "equal", the default) as Strings, n_targets 24 as an Integer:
+    after instantiation OMSimulator's FMU has the Integer and the FMU's default strategy "A"."""
+    got = _child("values", tmp_path)
+    assert got == {"strategy": "A", "assignment": "equal", "n_targets": 24}
+
+
+def test_simulate_to_the_stop_time(tmp_path):
+    got = _child("simulate", tmp_path)
+    assert got["time"] == 10.0
+    ours = master.run(SSP, output=None, stop_time=10.0, record=["uav1_dyn.z"]).frame
+    assert got["z"] == pytest.approx(float(ours["uav1_dyn.z"].iloc[-1]), abs=1e-9)     # climbing since 5 s
+    assert got["z"] > 1.0
+
+
+def test_the_whole_mission_with_its_strings_set(tmp_path, record_property):
+    variables = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dyn", "z", "Real"],
+                 ["uav1_bat", "soc", "Real"], ["uav1_strat", "photo_count", "Integer"],
+                 ["uav1_strat", "last_photo_target", "Integer"], ["uav1_strat", "mission_state", "Integer"]]
+    ours = master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
+                      record=[f"{c}.{v}" for c, v, _ in variables]).frame
+    n = len(ours) - 1                                   # our run ends when the UAV has landed (825.1 s)
+    theirs, = run_jobs("omsimulator", [Job(str(SSP), 0.1, n, variables, set_strings=True)], tmp_path)
+    assert len(theirs) == len(ours)
+    np.testing.assert_allclose(theirs["time"], ours["time"], rtol=0, atol=1e-9)
+    diff = {}
+    for c, v, t in variables:
+        key = f"{c}.{v}"
+        if t == "Integer":
+            assert np.array_equal(ours[key].to_numpy(), theirs[key].to_numpy().astype(int)), key
+        else:
+            diff[key] = float(np.max(np.abs(ours[key].to_numpy() - theirs[key].to_numpy())))
+    record_property("max_abs_diff", json.dumps(diff))
+    assert theirs["uav1_strat.photo_count"].iloc[-1] == 24 and theirs["uav1_strat.mission_state"].iloc[-1] == 7
+    assert max(diff.values()) < 1e-8, diff
