@@ -1,0 +1,253 @@
+"""UAV-to-UAV broadcast radio: who hears whose message, when (the plain logic of the UavChannel FMU).
+
+The paper's future work: "a communication channel between the UAVs, so that they can exchange messages between
+them at certain distances, informing their future positions and points of visitation".  One channel serves the
+whole fleet (as one network simulator would): every UAV broadcasts one message per ``period`` -- the message
+number n is sent at n * period, its content sampled at the start of the step holding that instant -- and every
+other UAV receives it
+
+* if the two are within ``range`` m of each other (3-D distance at the sending instant),
+* and, with ``line_of_sight``, if the straight line between them crosses no restricted zone (a zone is treated as
+  a wall of unlimited height: a conservative choice for buildings or terrain),
+* unless it is lost: an independent draw per (sender, receiver, message number) with probability ``loss``,
+* ``latency`` s after it was sent, in the step whose interval [t, t + h) holds the arrival instant,
+* among at most ``k`` messages arriving in that step, the nearest senders first (ties: the lower sender index);
+  the others are dropped (counted as ``overflow``), so that a receiver's inputs stay k fixed-size slots whatever
+  the fleet size.
+
+Modes: ``radio`` (the above), ``perfect`` (unlimited range, no loss, no latency, no blocking; period and k as
+given) and ``none`` (nothing is sent: the baseline of a silent channel).
+
+A UAV transmits only while its strategy runs: its ``clock`` (the strategy's time) must have advanced since the
+channel last looked, so a UAV removed from the simulation after a collision falls silent, as a destroyed radio.
+
+The loss draws come from a counter-based generator: the uniform number of (seed, sender, receiver, message
+number) is a pure function of those four integers (SplitMix64's finaliser applied to their combination), so a
+run does not depend on the order in which pairs are evaluated, on how many pairs were in range, nor on the fleet
+around a pair: the same seed gives the same losses, bit for bit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .zones_planning import ZoneMap, as_zones
+
+#: the fields of one message, as the FMU's Real and Integer variables carry them (``wx``/``wy``: the waypoint the
+#: sender flies to next; ``claims*``/``visited*``: bit masks of target indices, 32 per word; ``state``: its
+#: mission state; ``target``: its current target, -1 none)
+MESSAGE_REAL = ("x", "y", "z", "vx", "vy", "wx", "wy", "sent_time")
+MESSAGE_INT = ("sender", "state", "target", "claims0", "claims1", "visited0", "visited1")
+#: what a UAV hands to the channel each step (the broadcast's content, its own position included, and its clock)
+BROADCAST_REAL = ("x", "y", "z", "vx", "vy", "wx", "wy", "clock")
+BROADCAST_INT = ("state", "target", "claims0", "claims1", "visited0", "visited1")
+MASK_WORDS = 2
+#: the channel FMU's fixed capacity: fleet size and message slots per receiver (its ports are declared for these)
+MAX_FLEET = 64
+MAX_K = 8
+MODES = ("none", "perfect", "radio")
+#: the counters the FMU publishes for the fleet (totals) and per UAV (sent by it, received, lost on the way to it)
+FLEET_COUNTERS = ("sent", "received", "lost", "out_of_range", "blocked", "overflow", "near_misses")
+UAV_COUNTERS = ("sent", "received", "lost")
+EMPTY = -1          # ``sender`` of an empty slot
+
+_MASK64 = (1 << 64) - 1
+_GOLDEN = 0x9E3779B97F4A7C15
+
+
+def _splitmix_finalize(z):
+    """SplitMix64's output function (Steele, Lea, Flood 2014) on uint64 numpy arrays or Python ints."""
+    if isinstance(z, int):
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK64
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK64
+        return z ^ (z >> 31)
+    with np.errstate(over="ignore"):
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return z ^ (z >> np.uint64(31))
+
+
+def uniform(seed: int, sender, receiver, number: int):
+    """The loss draw of message ``number`` from ``sender`` to ``receiver``: a uniform number in [0, 1), a pure
+    function of the four integers (``sender``/``receiver`` may be integer arrays)."""
+    key = _splitmix_finalize((int(seed) * _GOLDEN + 0x632BE59BD9B4E019) & _MASK64)
+    key = _splitmix_finalize((key ^ (int(number) * _GOLDEN)) & _MASK64)
+    s = np.asarray(sender, dtype=np.uint64)
+    r = np.asarray(receiver, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        z = _splitmix_finalize(np.uint64(key) ^ (s * np.uint64(_GOLDEN)))
+        z = _splitmix_finalize(z ^ (r * np.uint64(0xD1B54A32D192ED03)) + np.uint64(_GOLDEN))
+    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+
+
+def encode_mask(indices) -> tuple[int, ...]:
+    """Target indices (0..63) as MASK_WORDS signed 32-bit words (FMI Integer), bit k % 32 of word k // 32."""
+    words = [0] * MASK_WORDS
+    for k in indices:
+        k = int(k)
+        if not 0 <= k < 32 * MASK_WORDS:
+            raise ValueError(f"target index {k} outside 0..{32 * MASK_WORDS - 1}")
+        words[k >> 5] |= 1 << (k & 31)
+    return tuple(w - (1 << 32) if w >= 1 << 31 else w for w in words)
+
+
+def decode_mask(*words) -> set[int]:
+    """The target indices of MASK_WORDS words (as encode_mask writes them)."""
+    out = set()
+    for i, w in enumerate(words):
+        w = int(w) & 0xFFFFFFFF
+        while w:
+            low = w & -w
+            out.add(32 * i + low.bit_length() - 1)
+            w ^= low
+    return out
+
+
+@dataclass
+class ChannelParams:
+    mode: str = "radio"
+    range: float = 300.0            # m
+    period: float = 1.0             # s between a UAV's broadcasts
+    latency: float = 0.0            # s from sending to receiving
+    loss: float = 0.0               # probability that a message in range is lost on the way to one receiver
+    k: int = 4                      # messages a receiver takes per step, nearest senders first
+    seed: int = 0
+    line_of_sight: bool = False     # restricted zones block the line of sight
+    zones: list = field(default_factory=list)   # polygons [(x, y), ...] (or the String form)
+    n_uavs: int = 1
+    near_miss: float = 10.0         # m, 3-D distance counted as a near miss (once per encounter of a pair)
+
+    def check(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if not 1 <= int(self.n_uavs) <= MAX_FLEET:
+            raise ValueError(f"n_uavs {self.n_uavs} outside 1..{MAX_FLEET} (the channel FMU's capacity)")
+        if not 1 <= int(self.k) <= MAX_K:
+            raise ValueError(f"k {self.k} outside 1..{MAX_K}")
+        if not self.period > 0:
+            raise ValueError(f"period must be > 0, got {self.period}")
+        if not 0.0 <= self.loss <= 1.0:
+            raise ValueError(f"loss must be in [0, 1], got {self.loss}")
+        if not self.latency >= 0.0 or not self.range >= 0.0:
+            raise ValueError("latency and range must be >= 0")
+
+
+class Channel:
+    """The fleet's radio.  :meth:`step` takes the UAVs' broadcasts at t and returns, per receiver, the messages
+    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals."""
+
+    #: time tolerance: instants within this of a step boundary belong to the step that starts there
+    EPS = 1e-9
+
+    def __init__(self, params: ChannelParams):
+        params.check()
+        self.p = params
+        self.n = int(params.n_uavs)
+        self.k = int(params.k)
+        perfect = params.mode == "perfect"
+        self.range = math.inf if perfect else float(params.range)
+        self.latency = 0.0 if perfect else float(params.latency)
+        self.loss = 0.0 if perfect else float(params.loss)
+        self.zones = ZoneMap(as_zones(params.zones)) if params.line_of_sight and not perfect else None
+        if self.zones is not None and not self.zones:
+            self.zones = None
+        self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
+        self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
+        self._clock = [None] * self.n
+        self._in_flight: list[tuple[float, int, int, tuple]] = []   # (arrival, receiver, sender, message)
+        self._close = np.zeros((self.n, self.n), dtype=bool)          # pairs within the near-miss distance
+
+    def _alive(self, broadcasts) -> list[bool]:
+        alive = []
+        for i, b in enumerate(broadcasts):
+            clock = b["clock"]
+            alive.append(self._clock[i] is None or clock != self._clock[i])
+            self._clock[i] = clock
+        return alive
+
+    def _count_near_misses(self, pos: np.ndarray, alive) -> None:
+        d = np.sqrt(((pos[:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))
+        a = np.asarray(alive)
+        close = (d <= self.p.near_miss) & a[:, None] & a[None, :]
+        np.fill_diagonal(close, False)
+        self.counters["near_misses"] += int(np.triu(close & ~self._close, 1).sum())
+        self._close = close
+
+    def step(self, t: float, h: float, broadcasts: list[dict]) -> list[list[tuple]]:
+        """``broadcasts[i]``: UAV i's BROADCAST_REAL and BROADCAST_INT values by name, sampled at t.  Returns per
+        receiver the messages (MESSAGE_REAL + MESSAGE_INT values, a tuple) arriving in [t, t + h)."""
+        n = self.n
+        alive = self._alive(broadcasts)
+        pos = np.array([[b["x"], b["y"], b["z"]] for b in broadcasts], dtype=float)
+        self._count_near_misses(pos, alive)
+        if self.p.mode != "none":
+            self._send(t, h, broadcasts, alive, pos)
+        return self._deliver(t, h, alive, pos)
+
+    def _send(self, t, h, broadcasts, alive, pos) -> None:
+        period = float(self.p.period)
+        number = math.ceil((t - self.EPS) / period)
+        while number * period < t + h - self.EPS:
+            sent_at = number * period
+            self._send_one(number, sent_at, broadcasts, alive, pos)
+            number += 1
+
+    def _send_one(self, number, sent_at, broadcasts, alive, pos) -> None:
+        n = self.n
+        senders = [i for i in range(n) if alive[i]]
+        for i in senders:
+            self.counters["sent"] += 1
+            self.uav_counters["sent"][i] += 1
+        if not senders:
+            return
+        s = np.array(senders)
+        d = np.sqrt(((pos[s][:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))       # senders x receivers
+        receivers = np.arange(n)
+        pair = (s[:, None] != receivers[None, :]) & np.asarray(alive)[None, :]
+        in_range = pair & (d <= self.range)
+        self.counters["out_of_range"] += int((pair & ~in_range).sum())
+        draws = uniform(self.p.seed, s[:, None], receivers[None, :], number) if self.loss > 0.0 else None
+        for a, i in enumerate(senders):
+            b = broadcasts[i]
+            message = (float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]),
+                       float(b["wx"]), float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]),
+                       int(b["claims0"]), int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+            for j in np.flatnonzero(in_range[a]):
+                j = int(j)
+                if self.zones is not None and self.zones.blocked(pos[i, :2], pos[j, :2]) >= 0:
+                    self.counters["blocked"] += 1
+                    continue
+                if draws is not None and draws[a, j] < self.loss:
+                    self.counters["lost"] += 1
+                    self.uav_counters["lost"][j] += 1
+                    continue
+                self._in_flight.append((sent_at + self.latency, j, i, message))
+
+    def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
+        end = t + h - self.EPS
+        arriving: dict[int, list] = {}
+        keep = []
+        for item in self._in_flight:
+            if item[0] < end:
+                arriving.setdefault(item[1], []).append(item)
+            else:
+                keep.append(item)
+        self._in_flight = keep
+        out: list[list[tuple]] = [[] for _ in range(self.n)]
+        for j, items in arriving.items():
+            if not alive[j]:
+                continue
+            rx, ry, rz = pos[j]
+
+            def nearest(item, rx=rx, ry=ry, rz=rz):
+                m = item[3]
+                return (math.sqrt((m[0] - rx) ** 2 + (m[1] - ry) ** 2 + (m[2] - rz) ** 2), item[2], item[0])
+            items.sort(key=nearest)
+            taken = items[:self.k]
+            self.counters["overflow"] += len(items) - len(taken)
+            self.counters["received"] += len(taken)
+            self.uav_counters["received"][j] += len(taken)
+            out[j] = [item[3] for item in taken]
+        return out
