@@ -1,0 +1,248 @@
+"""Strategy C: Strategy B plus what a UAV hears from the others over the channel (uavsim/channel.py).
+
+Everything B does stays as it is (uavsim/strategy.py: the nearest remaining target first, the battery rules, the
+paths around the zones); C adds two things, each driven only by received messages, so that a UAV that hears
+nothing flies exactly as B (a silent channel degrades C to B, bit for bit):
+
+**Target allocation: a consensus auction on claims with implicit distance bids** (after CBBA, Choi, Brunet and How
+2009, reduced to what fits a bounded message).  The initial split is B's partition.  Every message carries the
+sender's claims (its remaining targets, a bit mask), the targets it knows visited (its own and what it heard:
+gossip that relays the news beyond one hop), its mission state, position and velocity.  A bid for target k is the
+horizontal distance from a UAV's position to k (ties: the lower UAV index): every receiver can compute every
+neighbour's bid from its broadcast position, so the message need not carry one number per target.  On hearing:
+
+1. a target known visited leaves the remaining list;
+2. a target claimed by an active neighbour with a better bid leaves it (the CBBA "outbid" rule);
+3. targets become orphans when their claimant went home or landed early (its state is no longer PREFLIGHT,
+   TAKEOFF, TRANSIT or RETURN_DONE, e.g. RETURN_LOW) or was lost (not heard for ``lost_timeout`` while active).
+   Each orphan not claimed by an active neighbour nor known visited is auctioned locally: the UAV takes it when
+   its own bid is the best among itself and the active neighbours that can fly it (TRANSIT, RETURN_DONE).  A UAV
+   that had finished (RETURN_DONE) turns back to TRANSIT for it.
+
+With a perfect channel every UAV computes the same winner; with loss or latency two may take the same orphan, and
+rule 2 resolves it when they hear each other (or rule 1 when one has photographed it).  Why not the full CBBA
+bundle with a bid per target: it needs the winning-bid list of every target in every message (64 Reals per
+message here), and the paper's mission is a partition with few reassignments (after a loss), where the distance
+bids everybody can compute give the same outcome.
+
+**Collision mitigation: a right-of-way rule with altitude layers.**  On every message a UAV predicts, from the
+sender's broadcast position (extrapolated over the message's age) and velocity, the horizontal closest point of
+approach within ``horizon`` s; both velocities are the intent (towards the broadcast waypoint at cruise speed)
+while a UAV is slower than half its cruise speed, so that UAVs just leaving the take-off ring, still at rest,
+see where the others are going.  A predicted miss distance below ``separation`` is a conflict.  Of the pair, the
+UAV with the higher index gives way: it climbs to the layer above the highest layer of those it gives way to
+(``layer_step`` m per layer above the cruise altitude) and holds its horizontal position while it is less than
+``vertical_clearance`` above such a UAV; the other keeps flying.  With no conflict left it descends back to the
+cruise altitude.  Why this and not ORCA (van den Berg et al. 2011): ORCA's reciprocity assumes both UAVs see each
+other at the same time with the same data, which a lossy, late channel does not give (one UAV acting on the half
+of the avoidance it assumes the other takes is worse than nothing); a right-of-way rule needs only the give-way
+UAV to hear the other, which also holds when the channel is one-sided.  The altitude change suits the UAVs' ring
+of pads at the base, where the paths out cross within seconds of take-off and no horizontal manoeuvre has room.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import channel as CH
+from .strategy import (LAND_BASE, LAND_CMD, LAND_NOW, PREFLIGHT, RETURN_CMD, RETURN_DONE, RETURN_LOW, TAKEOFF,
+                       TRANSIT, Strategy, StrategyParams)
+
+#: states in which a UAV still owns its claims
+ACTIVE = (PREFLIGHT, TAKEOFF, TRANSIT, RETURN_DONE)
+#: states in which a UAV may take over targets
+BIDDERS = (TRANSIT, RETURN_DONE)
+#: states of a UAV in the air (a collision partner)
+AIRBORNE = (TAKEOFF, TRANSIT, RETURN_DONE, RETURN_LOW, LAND_BASE, LAND_NOW, RETURN_CMD, LAND_CMD)
+MAX_LAYERS = 4
+_FIELDS = CH.MESSAGE_REAL + CH.MESSAGE_INT
+
+
+@dataclass
+class CoopParams:
+    separation: float = 6.0           # m, predicted horizontal miss distance below which two UAVs conflict
+    horizon: float = 10.0             # s, how far ahead conflicts are predicted
+    layer_step: float = 5.0           # m between altitude layers
+    vertical_clearance: float = 4.0   # m a give-way UAV must be above the other before it moves on
+    lost_timeout: float = 5.0         # s without a message after which an active UAV counts as lost
+    cruise_speed: float = 10.0        # m/s, the intent speed towards a broadcast waypoint
+
+
+class Neighbour:
+    """What a UAV knows of another: its last message and when it arrived."""
+    __slots__ = ("index", "x", "y", "z", "vx", "vy", "wx", "wy", "sent_time", "heard", "state", "target",
+                 "claims", "visited")
+
+    def __init__(self, message: tuple, heard: float):
+        self.update(message, heard)
+
+    def update(self, message: tuple, heard: float) -> None:
+        (self.x, self.y, self.z, self.vx, self.vy, self.wx, self.wy, self.sent_time, self.index, self.state,
+         self.target, c0, c1, v0, v1) = message
+        self.claims = CH.decode_mask(c0, c1)
+        self.visited = CH.decode_mask(v0, v1)
+        self.heard = heard
+
+
+class CoopState:
+    """What C keeps beside B's MissionState: the neighbour table, the news, the avoidance and its counts."""
+    __slots__ = ("neighbours", "known_visited", "layer", "holding", "conflicts", "takeovers", "drops",
+                 "give_ways", "next_expiry")
+
+    def __init__(self):
+        self.neighbours: dict[int, Neighbour] = {}
+        self.known_visited: set[int] = set()
+        self.layer = 0                       # altitude layer flown (0: cruise)
+        self.holding = False
+        self.conflicts: list[tuple[int, int, float]] = []   # (neighbour, its layer, its altitude) given way to
+        self.takeovers = 0
+        self.drops = 0
+        self.give_ways = 0
+        self.next_expiry = math.inf          # when the next active neighbour counts as lost
+
+
+def _bid(x, y, target) -> float:
+    return math.hypot(target[0] - x, target[1] - y)
+
+
+class CooperativeStrategy(Strategy):
+    """Strategy B (its parent's step, unchanged) plus :meth:`hear`, the allocation and the avoidance."""
+
+    def __init__(self, params: StrategyParams | None = None, coop: CoopParams | None = None):
+        super().__init__(params)
+        self.c = coop or CoopParams()
+        self.coop = CoopState()
+
+    # ------------------------------------------------------------------ what the UAV broadcasts
+    def broadcast(self) -> tuple:
+        """The message content of this UAV besides position and velocity: state, current target, claims (two
+        words) and visited (two words, its own and those it heard of)."""
+        m = self.mission
+        return (int(m.state), int(m.current_target), *CH.encode_mask(m.remaining),
+                *CH.encode_mask(self.coop.known_visited.union(m.visited)))
+
+    def quiet(self, t: float) -> bool:
+        """Nothing of C's can act in a step at t without a message: no avoidance under way, no neighbour due to be
+        declared lost (then B's step, or its compiled twin, is C's whole step)."""
+        c = self.coop
+        return c.layer == 0 and not c.holding and t < c.next_expiry
+
+    # ------------------------------------------------------------------ the step
+    def step(self, t, x, y, z, vx, vy, phase, consumed, command=None, messages=()):
+        c = self.coop
+        heard = bool(messages)
+        for message in messages:
+            self.hear(t, message)
+        if heard or t >= c.next_expiry:
+            self._allocate(t, x, y)
+        super().step(t, x, y, z, vx, vy, phase, consumed, command)
+        if heard:
+            self._assess(t, x, y, z, vx, vy)
+        if c.layer or c.holding or c.conflicts:
+            self._avoid(x, y, z)
+
+    def hear(self, t: float, message: tuple) -> None:
+        c = self.coop
+        j = int(message[_FIELDS.index("sender")])
+        nb = c.neighbours.get(j)
+        if nb is None:
+            c.neighbours[j] = Neighbour(message, t)
+        elif message[_FIELDS.index("sent_time")] >= nb.sent_time:
+            nb.update(message, t)
+        nb = c.neighbours[j]
+        c.known_visited |= nb.visited
+
+    # ------------------------------------------------------------------ allocation
+    def _lost(self, nb: Neighbour, t: float) -> bool:
+        return nb.state in ACTIVE and t - nb.heard >= self.c.lost_timeout
+
+    def _allocate(self, t, x, y) -> None:
+        c, m = self.coop, self.mission
+        timeout = self.c.lost_timeout
+        expiries = [nb.heard + timeout for nb in c.neighbours.values() if nb.state in ACTIVE and
+                    nb.heard + timeout > t]
+        c.next_expiry = min(expiries) if expiries else math.inf
+        if m.state not in BIDDERS:
+            return
+        me = int(self.p.uav_index)
+        active = [nb for nb in c.neighbours.values() if nb.state in ACTIVE and not self._lost(nb, t)]
+        gone = [nb for nb in c.neighbours.values() if nb.state not in ACTIVE or self._lost(nb, t)]
+        targets = self.targets
+        keep = []
+        for k in m.remaining:
+            if k in c.known_visited:
+                continue                                    # rule 1: photographed by another
+            mine = (_bid(x, y, targets[k]), me)
+            if any(k in nb.claims and (_bid(nb.x, nb.y, targets[k]), nb.index) < mine for nb in active):
+                c.drops += 1                                # rule 2: outbid
+                continue
+            keep.append(k)
+        taken = set(keep)
+        if gone:
+            claimed = set().union(*(nb.claims for nb in active)) if active else set()
+            orphans = set().union(*(nb.claims for nb in gone)) - c.known_visited - claimed - taken - set(m.visited)
+            bidders = [nb for nb in active if nb.state in BIDDERS]
+            for k in sorted(k for k in orphans if 0 <= k < len(targets)):
+                mine = (_bid(x, y, targets[k]), me)
+                if all(mine < (_bid(nb.x, nb.y, targets[k]), nb.index) for nb in bidders):
+                    keep.append(k)                          # rule 3: the best bid for an orphan
+                    c.takeovers += 1
+        if keep == m.remaining:
+            return
+        m.remaining = keep
+        if m.current_target >= 0 and m.current_target not in keep:
+            m.current_target = -1                           # B's step starts the next leg
+        if m.state == RETURN_DONE and keep:
+            m.state, m.current_target = TRANSIT, -1
+
+    # ------------------------------------------------------------------ collision mitigation
+    def _intent(self, x, y, vx, vy, wx, wy):
+        """The velocity a UAV is predicted to fly: its own when it moves at half its cruise speed or more, else
+        towards its waypoint at cruise speed (still at rest after take-off, it is about to leave)."""
+        speed = self.c.cruise_speed
+        if math.hypot(vx, vy) >= 0.5 * speed:
+            return vx, vy
+        dx, dy = wx - x, wy - y
+        d = math.hypot(dx, dy)
+        if d <= self.p.arrival_radius:
+            return vx, vy
+        return speed * dx / d, speed * dy / d
+
+    def _layer_of(self, z: float) -> int:
+        return max(0, min(MAX_LAYERS, round((z - self.p.cruise_altitude) / self.c.layer_step)))
+
+    def _assess(self, t, x, y, z, vx, vy) -> None:
+        """The conflicts with the neighbours heard, from their last messages: those this UAV gives way to."""
+        c, m = self.coop, self.mission
+        me = int(self.p.uav_index)
+        conflicts = []
+        if m.cmd == 2:
+            sx, sy = m.sp[0], m.sp[1]
+            ux, uy = self._intent(x, y, vx, vy, sx, sy)
+            for nb in c.neighbours.values():
+                if nb.index > me or nb.state not in AIRBORNE or t - nb.heard > self.c.lost_timeout:
+                    continue                            # only the lower indices have the right of way
+                age = t - nb.sent_time
+                px, py = nb.x + nb.vx * age, nb.y + nb.vy * age
+                nvx, nvy = self._intent(px, py, nb.vx, nb.vy, nb.wx, nb.wy)
+                rx, ry, wx, wy = px - x, py - y, nvx - ux, nvy - uy
+                w2 = wx * wx + wy * wy
+                tc = 0.0 if w2 < 1e-12 else min(max(-(rx * wx + ry * wy) / w2, 0.0), self.c.horizon)
+                if math.hypot(rx + wx * tc, ry + wy * tc) < self.c.separation:
+                    conflicts.append((nb.index, self._layer_of(nb.z), nb.z))
+        if conflicts and not c.conflicts:
+            c.give_ways += 1
+        c.conflicts = conflicts
+
+    def _avoid(self, x, y, z) -> None:
+        c, m = self.coop, self.mission
+        if m.cmd != 2:                                  # taking off or landing: the vehicle's own vertical leg
+            c.layer, c.holding, c.conflicts = 0, False, []
+            return
+        if c.conflicts:
+            c.layer = min(MAX_LAYERS, 1 + max(layer for _, layer, _ in c.conflicts))
+            c.holding = any(z - nz < self.c.vertical_clearance for _, _, nz in c.conflicts)
+        else:
+            c.layer, c.holding = 0, False
+        sx, sy = (float(x), float(y)) if c.holding else (m.sp[0], m.sp[1])
+        m.sp = (sx, sy, float(self.p.cruise_altitude) + c.layer * self.c.layer_step)
