@@ -14,7 +14,10 @@ neighbour's bid from its broadcast position, so the message need not carry one n
 1. a target known visited leaves the remaining list;
 2. a target claimed by an active neighbour with a better bid leaves it (the CBBA "outbid" rule);
 3. targets become orphans when their claimant went home or landed early (its state is no longer PREFLIGHT,
-   TAKEOFF, TRANSIT or RETURN_DONE, e.g. RETURN_LOW) or was lost (not heard for ``lost_timeout`` while active).
+   TAKEOFF, TRANSIT or RETURN_DONE, e.g. RETURN_LOW) or was lost: not heard for ``lost_timeout`` while active
+   although it should be audible (judged once per silence: its last position carried on along its velocity for
+   ``lost_timeout`` lies within 0.8 ``comm_range``, and in sight with ``comm_los``); a UAV silent because it
+   flew out of range or behind a zone keeps its targets until it is heard again.
    Each orphan not claimed by an active neighbour nor known visited is auctioned locally: the UAV takes it when
    its own bid is the best among itself and the active neighbours that can fly it (TRANSIT, RETURN_DONE).  A UAV
    that had finished (RETURN_DONE) turns back to TRANSIT for it.
@@ -66,12 +69,14 @@ class CoopParams:
     vertical_clearance: float = 4.0   # m a give-way UAV must be above the other before it moves on
     lost_timeout: float = 5.0         # s without a message after which an active UAV counts as lost
     cruise_speed: float = 10.0        # m/s, the intent speed towards a broadcast waypoint
+    comm_range: float = 1e9           # m, the radio's range: silence from farther away is no sign of a loss
+    comm_los: bool = False            # the zones block the radio: silence from behind a zone is no sign either
 
 
 class Neighbour:
     """What a UAV knows of another: its last message and when it arrived."""
     __slots__ = ("index", "x", "y", "z", "vx", "vy", "wx", "wy", "sent_time", "heard", "state", "target",
-                 "claims", "visited")
+                 "claims", "visited", "lost")
 
     def __init__(self, message: tuple, heard: float):
         self.update(message, heard)
@@ -82,6 +87,7 @@ class Neighbour:
         self.claims = CH.decode_mask(c0, c1)
         self.visited = CH.decode_mask(v0, v1)
         self.heard = heard
+        self.lost = None            # undecided; True / False once its silence was judged
 
 
 class CoopState:
@@ -153,20 +159,29 @@ class CooperativeStrategy(Strategy):
         c.known_visited |= nb.visited
 
     # ------------------------------------------------------------------ allocation
-    def _lost(self, nb: Neighbour, t: float) -> bool:
-        return nb.state in ACTIVE and t - nb.heard >= self.c.lost_timeout
+    def _lost(self, nb: Neighbour, t: float, x: float, y: float) -> bool:
+        """Silent for lost_timeout while active and where it should be heard (module docstring, rule 3)."""
+        if nb.state not in ACTIVE or t - nb.heard < self.c.lost_timeout:
+            return False
+        if nb.lost is None:
+            dt = self.c.lost_timeout
+            px, py = nb.x + nb.vx * dt, nb.y + nb.vy * dt
+            nb.lost = math.hypot(px - x, py - y) < 0.8 * self.c.comm_range and not (
+                self.c.comm_los and self.zones and self.zones.blocked((x, y), (px, py)) >= 0)
+        return nb.lost
 
     def _allocate(self, t, x, y) -> None:
         c, m = self.coop, self.mission
         timeout = self.c.lost_timeout
-        expiries = [nb.heard + timeout for nb in c.neighbours.values() if nb.state in ACTIVE and
-                    nb.heard + timeout > t]
+        expiries = [nb.heard + timeout for nb in c.neighbours.values()
+                    if nb.state in ACTIVE and nb.heard + timeout > t]
         c.next_expiry = min(expiries) if expiries else math.inf
         if m.state not in BIDDERS:
             return
         me = int(self.p.uav_index)
-        active = [nb for nb in c.neighbours.values() if nb.state in ACTIVE and not self._lost(nb, t)]
-        gone = [nb for nb in c.neighbours.values() if nb.state not in ACTIVE or self._lost(nb, t)]
+        lost = {nb.index for nb in c.neighbours.values() if self._lost(nb, t, x, y)}
+        active = [nb for nb in c.neighbours.values() if nb.state in ACTIVE and nb.index not in lost]
+        gone = [nb for nb in c.neighbours.values() if nb.state not in ACTIVE or nb.index in lost]
         targets = self.targets
         keep = []
         for k in m.remaining:

@@ -20,6 +20,7 @@ PARAMS = [  # name, unit, description (defaults: CoopParams)
     ("vertical_clearance", "m", "strategy C: height a give-way UAV gains over the other before it moves on"),
     ("lost_timeout", "s", "strategy C: silence after which an active UAV counts as lost"),
     ("cruise_speed", "m/s", "strategy C: speed assumed towards a broadcast waypoint"),
+    ("comm_range", "m", "strategy C: the radio's range (silence from farther away is no sign of a loss)"),
 ]
 _DEFAULTS = CoopParams()
 SLOT_FIELDS = CH.MESSAGE_REAL + CH.MESSAGE_INT
@@ -46,6 +47,8 @@ def register(shell) -> None:
             else:
                 setattr(shell, name, CH.EMPTY if field == "sender" else 0)
                 shell.in_int(name, f"received message: {field}" + (" (-1: empty slot)" if field == "sender" else ""))
+    shell.comm_los = False
+    shell.par_bool("comm_los", "strategy C: the zones block the radio (silence from behind a zone is no sign of loss)")
     shell.clock = 0.0
     shell.out_real("clock", "s", "time the strategy has reached (the channel hears a UAV while it advances)")
     for name in BROADCAST_OUTPUTS:
@@ -58,7 +61,8 @@ def register(shell) -> None:
 
 def make(shell, params):
     """The strategy a shell steps: Strategy C's (params.strategy 'C') with its parameters from the shell."""
-    return CooperativeStrategy(params, CoopParams(**{n: float(getattr(shell, n)) for n, *_ in PARAMS}))
+    return CooperativeStrategy(params, CoopParams(**{n: float(getattr(shell, n)) for n, *_ in PARAMS},
+                                                  comm_los=bool(shell.comm_los)))
 
 
 def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> None:

@@ -5,7 +5,7 @@ import dataclasses
 
 import pytest
 from uavsim import channel as CH
-from uavsim.cooperative import CooperativeStrategy
+from uavsim.cooperative import CooperativeStrategy, CoopParams
 from uavsim.fleet_sim import simulate_fleet
 from uavsim.strategy import LANDED_BASE, RETURN_DONE, RETURN_LOW, TRANSIT, StrategyParams
 
@@ -44,7 +44,9 @@ TAKEOVER_HOMES = [(4.0, 0.0), (-4.0, 0.0)]
 
 
 def _takeover(channel):
-    return simulate_fleet(_params("C", TAKEOVER_TARGETS, TAKEOVER_HOMES), channel, remove={1: 25.0}, t_end=900.0)
+    coop = CoopParams(comm_range=channel.range if channel is not None and channel.mode == "radio" else 1e9)
+    return simulate_fleet(_params("C", TAKEOVER_TARGETS, TAKEOVER_HOMES), channel, coop, remove={1: 25.0},
+                          t_end=900.0)
 
 
 def test_a_lost_uavs_targets_are_taken_over_when_the_channel_told():
@@ -58,7 +60,9 @@ def test_a_lost_uavs_targets_are_taken_over_when_the_channel_told():
 
 def test_no_takeover_without_the_news():
     for channel in (None, CH.ChannelParams(mode="none", n_uavs=2),
-                    CH.ChannelParams(loss=1.0, n_uavs=2)):          # every message lost: never heard
+                    CH.ChannelParams(loss=1.0, n_uavs=2),           # every message lost: never heard
+                    # heard on the ground, then silent because it flew out of range (removed out of range too)
+                    CH.ChannelParams(range=50.0, n_uavs=2)):
         res = _takeover(channel)
         s0 = res.strategies[0]
         assert sorted(s0.visited) == [0, 1], channel
