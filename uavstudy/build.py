@@ -375,6 +375,8 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
     if scn.strategy == "C":
         _add_channel(b, scn, fmus[CHANNEL], uavs, zones_s)
+        from .comm_monitor import comm_annotation       # what the channel carried, into run.json
+        b.annotations.append(comm_annotation(CHANNEL, {u["name"]: u[STRATEGY] for u in uavs}))
     _check_partition(scn, uavs, len(targets_r))
     _check_idle_uavs(scn, uavs, len(targets_r))
     _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])
