@@ -401,7 +401,7 @@ def _add_channel(b: SspBuilder, scn: UavScenario, fmu: Path, uavs: list[dict], z
         "mode": c.mode, "range": float(c.range), "period": float(c.period), "latency": float(c.latency),
         "loss": float(c.loss), "k": int(c.k), "seed": int(scn.seed), "line_of_sight": bool(c.los), "zones": zones,
         "n_uavs": int(scn.n_uavs), "near_miss": float(c.near_miss)})
-    from_strategy = {"wx": "sp_x", "wy": "sp_y", "state": "mission_state", "target": "current_target"}
+    from_strategy = {"wx": "intent_x", "wy": "intent_y", "state": "mission_state", "target": "current_target"}
     for u in uavs:
         port = f"uav{u['index'] + 1}"
         for v in BROADCAST_REAL + BROADCAST_INT:

@@ -35,8 +35,12 @@ while a UAV is slower than half its cruise speed, so that UAVs just leaving the 
 see where the others are going.  A predicted miss distance below ``separation`` is a conflict.  Of the pair, the
 UAV with the higher index gives way: it climbs to the layer above the highest layer of those it gives way to
 (``layer_step`` m per layer above the cruise altitude) and holds its horizontal position while it is less than
-``vertical_clearance`` above such a UAV; the other keeps flying.  With no conflict left it descends back to the
-cruise altitude.  Why this and not ORCA (van den Berg et al. 2011): ORCA's reciprocity assumes both UAVs see each
+``vertical_clearance`` above such a UAV; the other keeps flying unless the closest approach is ``imminent`` s
+away or less and the give-way UAV is not yet clear above it: then it waits too (at the ring of pads both are at
+rest, 8 m apart, when their first legs start).  With no conflict left a UAV descends back to the cruise altitude.
+Before its first leg a UAV broadcasts as its waypoint the target it will start with (B's choice from where it
+stands), so the paths out are known before anyone moves; conflicts are assessed on every message and when the
+first leg starts.  Why this and not ORCA (van den Berg et al. 2011): ORCA's reciprocity assumes both UAVs see each
 other at the same time with the same data, which a lossy, late channel does not give (one UAV acting on the half
 of the avoidance it assumes the other takes is worse than nothing); a right-of-way rule needs only the give-way
 UAV to hear the other, which also holds when the channel is one-sided.  The altitude change suits the UAVs' ring
@@ -48,6 +52,7 @@ import math
 from dataclasses import dataclass
 
 from . import channel as CH
+from .assignment import next_target
 from .strategy import (LAND_BASE, LAND_CMD, LAND_NOW, PREFLIGHT, RETURN_CMD, RETURN_DONE, RETURN_LOW, TAKEOFF,
                        TRANSIT, Strategy, StrategyParams)
 
@@ -68,6 +73,7 @@ class CoopParams:
     layer_step: float = 5.0           # m between altitude layers
     vertical_clearance: float = 4.0   # m a give-way UAV must be above the other before it moves on
     lost_timeout: float = 5.0         # s without a message after which an active UAV counts as lost
+    imminent: float = 3.0             # s: a right-of-way UAV waits for a give-way UAV this close to clear
     cruise_speed: float = 10.0        # m/s, the intent speed towards a broadcast waypoint
     comm_range: float = 1e9           # m, the radio's range: silence from farther away is no sign of a loss
     comm_los: bool = False            # the zones block the radio: silence from behind a zone is no sign either
@@ -92,7 +98,7 @@ class Neighbour:
 
 class CoopState:
     """What C keeps beside B's MissionState: the neighbour table, the news, the avoidance and its counts."""
-    __slots__ = ("neighbours", "known_visited", "layer", "holding", "conflicts", "takeovers", "drops",
+    __slots__ = ("neighbours", "known_visited", "layer", "holding", "conflicts", "imminent", "takeovers", "drops",
                  "give_ways", "next_expiry")
 
     def __init__(self):
@@ -101,6 +107,7 @@ class CoopState:
         self.layer = 0                       # altitude layer flown (0: cruise)
         self.holding = False
         self.conflicts: list[tuple[int, int, float]] = []   # (neighbour, its layer, its altitude) given way to
+        self.imminent: list[tuple[int, int, float]] = []    # higher indices about to pass: wait for them
         self.takeovers = 0
         self.drops = 0
         self.give_ways = 0
@@ -135,16 +142,17 @@ class CooperativeStrategy(Strategy):
 
     # ------------------------------------------------------------------ the step
     def step(self, t, x, y, z, vx, vy, phase, consumed, command=None, messages=()):
-        c = self.coop
+        c, m = self.coop, self.mission
         heard = bool(messages)
         for message in messages:
             self.hear(t, message)
         if heard or t >= c.next_expiry:
             self._allocate(t, x, y)
+        was_flying = m.cmd == 2
         super().step(t, x, y, z, vx, vy, phase, consumed, command)
-        if heard:
+        if c.neighbours and (heard or (m.cmd == 2 and not was_flying)):   # news, or the first leg starts
             self._assess(t, x, y, z, vx, vy)
-        if c.layer or c.holding or c.conflicts:
+        if c.layer or c.holding or c.conflicts or c.imminent:
             self._avoid(x, y, z)
 
     def hear(self, t: float, message: tuple) -> None:
@@ -227,37 +235,55 @@ class CooperativeStrategy(Strategy):
         return max(0, min(MAX_LAYERS, round((z - self.p.cruise_altitude) / self.c.layer_step)))
 
     def _assess(self, t, x, y, z, vx, vy) -> None:
-        """The conflicts with the neighbours heard, from their last messages: those this UAV gives way to."""
+        """The conflicts with the neighbours heard, from their last messages: those with a lower index this UAV
+        gives way to (``conflicts``), and those with a higher index that are imminent (``imminent``: closest
+        approach within ``imminent`` s), for which it waits until the other has climbed clear."""
         c, m = self.coop, self.mission
         me = int(self.p.uav_index)
-        conflicts = []
+        conflicts, imminent = [], []
         if m.cmd == 2:
             sx, sy = m.sp[0], m.sp[1]
             ux, uy = self._intent(x, y, vx, vy, sx, sy)
             for nb in c.neighbours.values():
-                if nb.index > me or nb.state not in AIRBORNE or t - nb.heard > self.c.lost_timeout:
-                    continue                            # only the lower indices have the right of way
+                if nb.state not in AIRBORNE or t - nb.heard > self.c.lost_timeout:
+                    continue
                 age = t - nb.sent_time
                 px, py = nb.x + nb.vx * age, nb.y + nb.vy * age
                 nvx, nvy = self._intent(px, py, nb.vx, nb.vy, nb.wx, nb.wy)
                 rx, ry, wx, wy = px - x, py - y, nvx - ux, nvy - uy
                 w2 = wx * wx + wy * wy
                 tc = 0.0 if w2 < 1e-12 else min(max(-(rx * wx + ry * wy) / w2, 0.0), self.c.horizon)
-                if math.hypot(rx + wx * tc, ry + wy * tc) < self.c.separation:
+                if math.hypot(rx + wx * tc, ry + wy * tc) >= self.c.separation:
+                    continue
+                if nb.index < me:                       # the lower index has the right of way
                     conflicts.append((nb.index, self._layer_of(nb.z), nb.z))
+                elif tc <= self.c.imminent:
+                    imminent.append((nb.index, self._layer_of(nb.z), nb.z))
         if conflicts and not c.conflicts:
             c.give_ways += 1
-        c.conflicts = conflicts
+        c.conflicts, c.imminent = conflicts, imminent
 
     def _avoid(self, x, y, z) -> None:
         c, m = self.coop, self.mission
         if m.cmd != 2:                                  # taking off or landing: the vehicle's own vertical leg
-            c.layer, c.holding, c.conflicts = 0, False, []
+            c.layer, c.holding, c.conflicts, c.imminent = 0, False, [], []
             return
+        clear = self.c.vertical_clearance
         if c.conflicts:
             c.layer = min(MAX_LAYERS, 1 + max(layer for _, layer, _ in c.conflicts))
-            c.holding = any(z - nz < self.c.vertical_clearance for _, _, nz in c.conflicts)
         else:
-            c.layer, c.holding = 0, False
+            c.layer = 0
+        c.holding = any(z - nz < clear for _, _, nz in c.conflicts) or \
+            any(abs(nz - z) < clear for _, _, nz in c.imminent)
         sx, sy = (float(x), float(y)) if c.holding else (m.sp[0], m.sp[1])
         m.sp = (sx, sy, float(self.p.cruise_altitude) + c.layer * self.c.layer_step)
+
+    def intent(self, x: float, y: float) -> tuple[float, float]:
+        """Where this UAV is about to fly, for its broadcast: its setpoint once flying a leg, before that (on the
+        ground, taking off) the target it will start with, so that the ring of pads knows the paths out before
+        they cross."""
+        m = self.mission
+        if m.state in (PREFLIGHT, TAKEOFF):
+            k = next_target(self.kind, m.remaining, self.targets, x, y)
+            return self.targets[k] if k >= 0 else self.home
+        return m.sp[0], m.sp[1]

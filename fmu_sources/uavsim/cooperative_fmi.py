@@ -6,7 +6,8 @@ Every UavStrategy instance has them (one modelDescription for A, B and C; unconn
 * inputs ``m{s}_<field>``, s = 1..MAX_K: the message slots the channel fills (uavsim/channel.py, ``MESSAGE_*``;
   ``m{s}_sender`` -1: empty), the messages that arrived in the channel's last step;
 * outputs for the channel (``clock``, the time the strategy has reached: a UAV whose strategy stopped falls
-  silent; ``claims*``/``visited*``, bit masks of target indices) and counts of what C did.
+  silent; ``intent_x/y``, where it is about to fly; ``claims*``/``visited*``, bit masks of target indices) and
+  counts of what C did.
 """
 from __future__ import annotations
 
@@ -50,6 +51,9 @@ def register(shell) -> None:
     shell.comm_los = False
     shell.par_bool("comm_los", "strategy C: the zones block the radio (silence from behind a zone is no sign of loss)")
     shell.clock = 0.0
+    for name, desc in (("intent_x", "east"), ("intent_y", "north")):
+        setattr(shell, name, 0.0)
+        shell.out_real(name, "m", f"broadcast: {desc} of the waypoint flown to (before the first leg: its target)")
     shell.out_real("clock", "s", "time the strategy has reached (the channel hears a UAV while it advances)")
     for name in BROADCAST_OUTPUTS:
         setattr(shell, name, 0)
@@ -76,6 +80,7 @@ def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> No
                    messages=messages)
         shell._publish()
     d["clock"] = t + h
+    d["intent_x"], d["intent_y"] = model.intent(d["x"], d["y"])
     d["claims0"], d["claims1"], d["visited0"], d["visited1"] = model.broadcast()[2:]
     c = model.coop
     d["takeovers"], d["drops"], d["give_ways"] = c.takeovers, c.drops, c.give_ways

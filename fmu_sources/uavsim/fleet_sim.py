@@ -63,7 +63,8 @@ def simulate_fleet(params: list[StrategyParams], channel: CH.ChannelParams | Non
                 (x, y, z), (vx, vy, _), _, _ = outs[k]
                 state, target, c0, c1, v0, v1 = s.broadcast() if isinstance(s, CooperativeStrategy) else \
                     (s.state, s.current_target, 0, 0, 0, 0)
-                broadcasts.append({"x": x, "y": y, "z": z, "vx": vx, "vy": vy, "wx": s.sp[0], "wy": s.sp[1],
+                wx, wy = s.intent(x, y) if isinstance(s, CooperativeStrategy) else s.sp[:2]
+                broadcasts.append({"x": x, "y": y, "z": z, "vx": vx, "vy": vy, "wx": wx, "wy": wy,
                                    "clock": clocks[k], "state": state, "target": target, "claims0": c0,
                                    "claims1": c1, "visited0": v0, "visited1": v1})
             delivered = ch.step(t, step, broadcasts)
