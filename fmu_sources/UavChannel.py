@@ -30,6 +30,9 @@ _PARAMS = [  # name, unit, default, description
 ]
 
 
+_FIELDS = C.MESSAGE_REAL + C.MESSAGE_INT
+
+
 def _slot(i: int, s: int, name: str) -> str:
     return f"uav{i}_m{s}_{name}"
 
@@ -78,6 +81,7 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
                 self.out_int(f"uav{i}_{name}", f"messages {name} {'by' if name == 'sent' else 'for'} UAV {i}")
         self._model = None
         self._filled = [0] * C.MAX_FLEET      # slots holding a message since the last step, per receiver
+        self._ports = None
 
     def to_xml(self, model_options=dict()):
         root = super().to_xml(model_options)
@@ -100,21 +104,48 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
             self._build()
         model = self._model
         d = self.__dict__
-        broadcasts = [{name: d[f"uav{i}_{name}"] for name in C.BROADCAST_REAL + C.BROADCAST_INT}
-                      for i in range(1, model.n + 1)]
-        delivered = model.step(current_time, step_size, broadcasts)
-        fields = C.MESSAGE_REAL + C.MESSAGE_INT
-        for j, messages in enumerate(delivered):
-            i = j + 1
-            for s in range(len(messages), self._filled[j]):          # slots filled last step, empty now
-                d[_slot(i, s + 1, "sender")] = C.EMPTY
-            for s, message in enumerate(messages):
-                for name, value in zip(fields, message):
-                    d[_slot(i, s + 1, name)] = value
-            self._filled[j] = len(messages)
+        n = model.n
+        ports = self._ports
+        if ports is None or len(ports) != n:
+            ports = self._ports = [(f"uav{i}_x", f"uav{i}_y", f"uav{i}_z", f"uav{i}_clock")
+                                   for i in range(1, n + 1)]
+        positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
+        clocks = [d[c] for *_, c in ports]
+        fields = C.BROADCAST_REAL + C.BROADCAST_INT
+
+        def broadcast(j):
+            return {name: d[f"uav{j + 1}_{name}"] for name in fields}
+        sent = model.counters["sent"]
+        delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
+        filled = self._filled
+        if delivered is None:
+            for j in range(n):
+                if filled[j]:
+                    self._publish(j, ())
+        else:
+            for j, messages in enumerate(delivered):
+                if messages or filled[j]:
+                    self._publish(j, messages)
+        if delivered is not None or model.counters["sent"] != sent or \
+                model.counters["near_misses"] != d["near_misses"]:
+            self._publish_counters()
+        return True
+
+    def _publish(self, j: int, messages) -> None:
+        """Receiver j's slots: the messages that arrived, the slots filled last step and not now emptied."""
+        d = self.__dict__
+        i = j + 1
+        for s in range(len(messages), self._filled[j]):
+            d[_slot(i, s + 1, "sender")] = C.EMPTY
+        for s, message in enumerate(messages):
+            for name, value in zip(_FIELDS, message):
+                d[_slot(i, s + 1, name)] = value
+        self._filled[j] = len(messages)
+
+    def _publish_counters(self) -> None:
+        d, model = self.__dict__, self._model
         for name in C.FLEET_COUNTERS:
             d[f"messages_{name}" if name != "near_misses" else name] = model.counters[name]
         for name in C.UAV_COUNTERS:
             for j, value in enumerate(model.uav_counters[name]):
                 d[f"uav{j + 1}_{name}"] = value
-        return True

@@ -157,34 +157,59 @@ class Channel:
         self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
         self._clock = [None] * self.n
         self._in_flight: list[tuple[float, int, int, tuple]] = []   # (arrival, receiver, sender, message)
-        self._close = np.zeros((self.n, self.n), dtype=bool)          # pairs within the near-miss distance
+        self._close: set = set()                                       # pairs within the near-miss distance
 
-    def _alive(self, broadcasts) -> list[bool]:
-        alive = []
-        for i, b in enumerate(broadcasts):
-            clock = b["clock"]
-            alive.append(self._clock[i] is None or clock != self._clock[i])
-            self._clock[i] = clock
+    def _alive(self, clocks) -> list[bool]:
+        last = self._clock
+        alive = [c is None or clock != c for clock, c in zip(clocks, last)]
+        self._clock = list(clocks)
         return alive
 
-    def _count_near_misses(self, pos: np.ndarray, alive) -> None:
-        d = np.sqrt(((pos[:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))
-        a = np.asarray(alive)
-        close = (d <= self.p.near_miss) & a[:, None] & a[None, :]
-        np.fill_diagonal(close, False)
-        self.counters["near_misses"] += int(np.triu(close & ~self._close, 1).sum())
+    def _count_near_misses(self, positions, alive) -> None:
+        """Pairs (both alive) within ``near_miss`` now and not at the last step: one more encounter each."""
+        lim2 = self.p.near_miss * self.p.near_miss
+        close = set()
+        n = self.n
+        for i in range(n):
+            if not alive[i]:
+                continue
+            xi, yi, zi = positions[i]
+            for j in range(i + 1, n):
+                if alive[j]:
+                    xj, yj, zj = positions[j]
+                    dx, dy, dz = xj - xi, yj - yi, zj - zi
+                    if dx * dx + dy * dy + dz * dz <= lim2:
+                        close.add((i, j))
+        if close:
+            self.counters["near_misses"] += len(close - self._close)
         self._close = close
 
     def step(self, t: float, h: float, broadcasts: list[dict]) -> list[list[tuple]]:
         """``broadcasts[i]``: UAV i's BROADCAST_REAL and BROADCAST_INT values by name, sampled at t.  Returns per
         receiver the messages (MESSAGE_REAL + MESSAGE_INT values, a tuple) arriving in [t, t + h)."""
-        n = self.n
-        alive = self._alive(broadcasts)
-        pos = np.array([[b["x"], b["y"], b["z"]] for b in broadcasts], dtype=float)
-        self._count_near_misses(pos, alive)
-        if self.p.mode != "none":
-            self._send(t, h, broadcasts, alive, pos)
-        return self._deliver(t, h, alive, pos)
+        out = self.advance(t, h, [(b["x"], b["y"], b["z"]) for b in broadcasts], [b["clock"] for b in broadcasts],
+                           broadcasts.__getitem__)
+        return out if out is not None else [[] for _ in range(self.n)]
+
+    def sends_in(self, t: float, h: float) -> bool:
+        """Does a broadcast instant fall in [t, t + h)?"""
+        if self.p.mode == "none":
+            return False
+        period = float(self.p.period)
+        return math.ceil((t - self.EPS) / period) * period < t + h - self.EPS
+
+    def advance(self, t: float, h: float, positions, clocks, broadcast) -> list[list[tuple]] | None:
+        """:meth:`step` on the UAVs' positions (x, y, z) and clocks at t, with ``broadcast(i)`` giving UAV i's
+        whole broadcast (asked for only at a sending instant).  Returns None when nothing arrives."""
+        alive = self._alive(clocks)
+        self._count_near_misses(positions, alive)
+        if self.sends_in(t, h):
+            self._send(t, h, [broadcast(i) if alive[i] else None for i in range(self.n)], alive,
+                       np.array(positions, dtype=float))
+        # messages fly in the order they arrive (one latency for all): the first is the next to arrive
+        if not self._in_flight or self._in_flight[0][0] >= t + h - self.EPS:
+            return None
+        return self._deliver(t, h, alive, positions)
 
     def _send(self, t, h, broadcasts, alive, pos) -> None:
         period = float(self.p.period)

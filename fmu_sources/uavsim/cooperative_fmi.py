@@ -13,6 +13,9 @@ from __future__ import annotations
 
 from . import channel as CH
 from .cooperative import CoopParams, CooperativeStrategy
+from .strategy import PREFLIGHT, TAKEOFF
+
+BEFORE_FIRST_LEG = (PREFLIGHT, TAKEOFF)
 
 PARAMS = [  # name, unit, description (defaults: CoopParams)
     ("separation", "m", "strategy C: predicted horizontal miss distance below which two UAVs conflict"),
@@ -74,13 +77,24 @@ def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> No
     has nothing to do), the outputs and the broadcast out."""
     d = shell.__dict__
     messages = [tuple(d[n] for n in slot) for slot, sender in zip(SLOTS, _SENDERS) if d[sender] >= 0]
-    if messages or not model.quiet(t) or fast_step is None or \
-            not fast_step(model.step_constants, model.mission, d):
-        model.step(t, d["x"], d["y"], d["z"], d["vx"], d["vy"], int(d["phase"]), d["consumed"], d["command"],
-                   messages=messages)
-        shell._publish()
     d["clock"] = t + h
+    if not messages and fast_step is not None and model.quiet(t) and \
+            fast_step(model.step_constants, model.mission, d):
+        # nothing happened (no arrival, no new leg): the claims and counts are as they were, the intent is the
+        # setpoint once flying (before that the first target)
+        if model.mission.state in BEFORE_FIRST_LEG:
+            d["intent_x"], d["intent_y"] = model.intent(d["x"], d["y"])
+        else:
+            d["intent_x"], d["intent_y"] = d["sp_x"], d["sp_y"]
+        return
+    model.step(t, d["x"], d["y"], d["z"], d["vx"], d["vy"], int(d["phase"]), d["consumed"], d["command"],
+               messages=messages)
+    shell._publish()
     d["intent_x"], d["intent_y"] = model.intent(d["x"], d["y"])
-    d["claims0"], d["claims1"], d["visited0"], d["visited1"] = model.broadcast()[2:]
-    c = model.coop
-    d["takeovers"], d["drops"], d["give_ways"] = c.takeovers, c.drops, c.give_ways
+    m, c = model.mission, model.coop
+    # the bit masks change only with the lists they encode (visited and known_visited only grow)
+    key = (tuple(m.remaining), len(m.visited), len(c.known_visited), c.takeovers, c.drops, c.give_ways)
+    if key != d.get("_broadcast_key"):
+        d["_broadcast_key"] = key
+        d["claims0"], d["claims1"], d["visited0"], d["visited1"] = model.broadcast()[2:]
+        d["takeovers"], d["drops"], d["give_ways"] = c.takeovers, c.drops, c.give_ways
