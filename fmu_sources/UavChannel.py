@@ -37,6 +37,12 @@ def _slot(i: int, s: int, name: str) -> str:
     return f"uav{i}_m{s}_{name}"
 
 
+#: receiver j (0-based) -> slot s (0-based) -> its variable names in _FIELDS order
+_SLOT_NAMES = [[tuple(_slot(j + 1, s + 1, name) for name in _FIELDS) for s in range(C.MAX_K)]
+               for j in range(C.MAX_FLEET)]
+_SENDER = _FIELDS.index("sender")
+
+
 class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
     author = "cosim-master"
     description = "Broadcast radio between the UAVs: range, period, latency, seeded loss, k nearest, line of sight"
@@ -91,6 +97,9 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
         return root
 
     def _build(self):
+        if not 1 <= int(self.n_uavs) <= C.MAX_FLEET or not 1 <= int(self.k) <= C.MAX_K:
+            raise ValueError(f"n_uavs {self.n_uavs} and k {self.k}: this channel FMU has ports for 1..{C.MAX_FLEET} "
+                             f"UAVs and 1..{C.MAX_K} message slots")
         self._model = C.Channel(C.ChannelParams(
             mode=str(self.mode), range=float(self.range), period=float(self.period), latency=float(self.latency),
             loss=float(self.loss), k=int(self.k), seed=int(self.seed), line_of_sight=bool(self.line_of_sight),
@@ -134,12 +143,11 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
     def _publish(self, j: int, messages) -> None:
         """Receiver j's slots: the messages that arrived, the slots filled last step and not now emptied."""
         d = self.__dict__
-        i = j + 1
+        names = _SLOT_NAMES[j]
         for s in range(len(messages), self._filled[j]):
-            d[_slot(i, s + 1, "sender")] = C.EMPTY
+            d[names[s][_SENDER]] = C.EMPTY
         for s, message in enumerate(messages):
-            for name, value in zip(_FIELDS, message):
-                d[_slot(i, s + 1, name)] = value
+            d.update(zip(names[s], message))
         self._filled[j] = len(messages)
 
     def _publish_counters(self) -> None:

@@ -493,7 +493,7 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
 
 
 #: the channel FMU's capacity (uavsim/channel.py MAX_FLEET, MAX_K)
-MAX_COMM_FLEET, MAX_COMM_K = 64, 8
+MAX_COMM_FLEET, MAX_COMM_K = 64, 4
 
 
 def _comm(v: _V, given) -> CommConfig:

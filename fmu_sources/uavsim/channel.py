@@ -11,7 +11,8 @@ other UAV receives it
   a wall of unlimited height: a conservative choice for buildings or terrain),
 * unless it is lost: an independent draw per (sender, receiver, message number) with probability ``loss``,
 * ``latency`` s after it was sent, in the step whose interval [t, t + h) holds the arrival instant,
-* among at most ``k`` messages arriving in that step, the nearest senders first (ties: the lower sender index);
+* among at most ``k`` messages arriving in that step, the nearest senders first (their distance when they sent;
+  ties: the lower sender index);
   the others are dropped (counted as ``overflow``), so that a receiver's inputs stay k fixed-size slots whatever
   the fleet size.
 
@@ -30,6 +31,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
+from operator import itemgetter
 
 import numpy as np
 
@@ -44,9 +47,10 @@ MESSAGE_INT = ("sender", "state", "target", "claims0", "claims1", "visited0", "v
 BROADCAST_REAL = ("x", "y", "z", "vx", "vy", "wx", "wy", "clock")
 BROADCAST_INT = ("state", "target", "claims0", "claims1", "visited0", "visited1")
 MASK_WORDS = 2
-#: the channel FMU's fixed capacity: fleet size and message slots per receiver (its ports are declared for these)
+#: the channel FMU's fixed capacity: fleet size and message slots per receiver (its ports are declared for these;
+#: every port costs start-up time in every run, so the slots are as few as the strategy needs)
 MAX_FLEET = 64
-MAX_K = 8
+MAX_K = 4
 MODES = ("none", "perfect", "radio")
 #: the counters the FMU publishes for the fleet (totals) and per UAV (sent by it, received, lost on the way to it)
 FLEET_COUNTERS = ("sent", "received", "lost", "out_of_range", "blocked", "overflow", "near_misses")
@@ -93,8 +97,9 @@ def encode_mask(indices) -> tuple[int, ...]:
     return tuple(w - (1 << 32) if w >= 1 << 31 else w for w in words)
 
 
-def decode_mask(*words) -> set[int]:
-    """The target indices of MASK_WORDS words (as encode_mask writes them)."""
+@lru_cache(maxsize=4096)
+def decode_mask(*words) -> frozenset[int]:
+    """The target indices of MASK_WORDS words (as encode_mask writes them); cached, a fleet repeats its masks."""
     out = set()
     for i, w in enumerate(words):
         w = int(w) & 0xFFFFFFFF
@@ -102,7 +107,7 @@ def decode_mask(*words) -> set[int]:
             low = w & -w
             out.add(32 * i + low.bit_length() - 1)
             w ^= low
-    return out
+    return frozenset(out)
 
 
 @dataclass
@@ -122,10 +127,8 @@ class ChannelParams:
     def check(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
-        if not 1 <= int(self.n_uavs) <= MAX_FLEET:
-            raise ValueError(f"n_uavs {self.n_uavs} outside 1..{MAX_FLEET} (the channel FMU's capacity)")
-        if not 1 <= int(self.k) <= MAX_K:
-            raise ValueError(f"k {self.k} outside 1..{MAX_K}")
+        if int(self.n_uavs) < 1 or int(self.k) < 1:
+            raise ValueError(f"n_uavs and k must be >= 1, got {self.n_uavs} and {self.k}")
         if not self.period > 0:
             raise ValueError(f"period must be > 0, got {self.period}")
         if not 0.0 <= self.loss <= 1.0:
@@ -166,20 +169,21 @@ class Channel:
         return alive
 
     def _count_near_misses(self, positions, alive) -> None:
-        """Pairs (both alive) within ``near_miss`` now and not at the last step: one more encounter each."""
-        lim2 = self.p.near_miss * self.p.near_miss
+        """Pairs (both alive) within ``near_miss`` now and not at the last step: one more encounter each.  A sweep
+        along x: only UAVs within ``near_miss`` in x are compared."""
+        lim = self.p.near_miss
+        lim2 = lim * lim
         close = set()
-        n = self.n
-        for i in range(n):
-            if not alive[i]:
-                continue
-            xi, yi, zi = positions[i]
-            for j in range(i + 1, n):
-                if alive[j]:
-                    xj, yj, zj = positions[j]
-                    dx, dy, dz = xj - xi, yj - yi, zj - zi
-                    if dx * dx + dy * dy + dz * dz <= lim2:
-                        close.add((i, j))
+        order = sorted((positions[i][0], i) for i in range(self.n) if alive[i])
+        for a, (xa, i) in enumerate(order):
+            _, yi, zi = positions[i]
+            for xb, j in order[a + 1:]:
+                if xb - xa > lim:
+                    break
+                _, yj, zj = positions[j]
+                dx, dy, dz = xb - xa, yj - yi, zj - zi
+                if dx * dx + dy * dy + dz * dz <= lim2:
+                    close.add((i, j) if i < j else (j, i))
         if close:
             self.counters["near_misses"] += len(close - self._close)
         self._close = close
@@ -223,8 +227,8 @@ class Channel:
         n = self.n
         senders = [i for i in range(n) if alive[i]]
         for i in senders:
-            self.counters["sent"] += 1
             self.uav_counters["sent"][i] += 1
+        self.counters["sent"] += len(senders)
         if not senders:
             return
         s = np.array(senders)
@@ -233,46 +237,54 @@ class Channel:
         pair = (s[:, None] != receivers[None, :]) & np.asarray(alive)[None, :]
         in_range = pair & (d <= self.range)
         self.counters["out_of_range"] += int((pair & ~in_range).sum())
-        draws = uniform(self.p.seed, s[:, None], receivers[None, :], number) if self.loss > 0.0 else None
-        for a, i in enumerate(senders):
-            b = broadcasts[i]
-            message = (float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]),
-                       float(b["wx"]), float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]),
-                       int(b["claims0"]), int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
-            for j in np.flatnonzero(in_range[a]):
-                j = int(j)
-                if self.zones is not None and self.zones.blocked(pos[i, :2], pos[j, :2]) >= 0:
+        if self.zones is not None:
+            for a, j in zip(*(v.tolist() for v in np.nonzero(in_range))):
+                if self.zones.blocked(pos[s[a], :2], pos[j, :2]) >= 0:
+                    in_range[a, j] = False
                     self.counters["blocked"] += 1
-                    continue
-                if draws is not None and draws[a, j] < self.loss:
-                    self.counters["lost"] += 1
-                    self.uav_counters["lost"][j] += 1
-                    continue
-                self._in_flight.append((sent_at + self.latency, j, i, message))
+        if self.loss > 0.0:
+            lost = in_range & (uniform(self.p.seed, s[:, None], receivers[None, :], number) < self.loss)
+            self.counters["lost"] += int(lost.sum())
+            for j, count in enumerate(lost.sum(axis=0).tolist()):
+                self.uav_counters["lost"][j] += count
+            in_range &= ~lost
+        arrival = sent_at + self.latency
+        messages = {}
+        rows, cols = np.nonzero(in_range)
+        append = self._in_flight.append
+        for a, j, dist in zip(rows.tolist(), cols.tolist(), d[rows, cols].tolist()):
+            i = senders[a]
+            message = messages.get(i)
+            if message is None:
+                b = broadcasts[i]
+                message = messages[i] = (
+                    float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
+                    float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
+                    int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+            append((arrival, j, dist, i, message))
 
     def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
         end = t + h - self.EPS
         arriving: dict[int, list] = {}
-        keep = []
-        for item in self._in_flight:
-            if item[0] < end:
-                arriving.setdefault(item[1], []).append(item)
-            else:
-                keep.append(item)
-        self._in_flight = keep
+        flying = self._in_flight
+        cut = 0
+        while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
+            arriving.setdefault(flying[cut][1], []).append(flying[cut])
+            cut += 1
+        del flying[:cut]
         out: list[list[tuple]] = [[] for _ in range(self.n)]
+        k = self.k
         for j, items in arriving.items():
             if not alive[j]:
                 continue
-            rx, ry, rz = pos[j]
-
-            def nearest(item, rx=rx, ry=ry, rz=rz):
-                m = item[3]
-                return (math.sqrt((m[0] - rx) ** 2 + (m[1] - ry) ** 2 + (m[2] - rz) ** 2), item[2], item[0])
-            items.sort(key=nearest)
-            taken = items[:self.k]
+            items.sort(key=_NEAREST)
+            taken = items[:k]
             self.counters["overflow"] += len(items) - len(taken)
             self.counters["received"] += len(taken)
             self.uav_counters["received"][j] += len(taken)
-            out[j] = [item[3] for item in taken]
+            out[j] = [item[4] for item in taken]
         return out
+
+
+#: the order of the messages arriving at one receiver in one step: the sender's distance when it sent, the sender
+_NEAREST = itemgetter(2, 3, 0)

@@ -76,7 +76,9 @@ def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> No
     """One step of a C strategy on the shell's variables: the messages in, B's step (its compiled twin when C
     has nothing to do), the outputs and the broadcast out."""
     d = shell.__dict__
-    messages = [tuple(d[n] for n in slot) for slot, sender in zip(SLOTS, _SENDERS) if d[sender] >= 0]
+    # the channel fills the slots in order: an empty first slot means no message
+    messages = [tuple(d[n] for n in slot) for slot, sender in zip(SLOTS, _SENDERS) if d[sender] >= 0] \
+        if d["m1_sender"] >= 0 else ()
     d["clock"] = t + h
     if not messages and fast_step is not None and model.quiet(t) and \
             fast_step(model.step_constants, model.mission, d):

@@ -45,7 +45,7 @@ def _summary(result):
 
 # ------------------------------------------------------------------------------------------------ scenario
 @pytest.mark.parametrize("comm,message", [
-    ({"k": 9}, "comm.k: must be <= 8"),
+    ({"k": 5}, "comm.k: must be <= 4"),
     ({"loss": 1.5}, "comm.loss: must be <= 1"),
     ({"period": 0}, "comm.period: must be > 0"),
     ({"mode": "wifi"}, "comm.mode: must be one of radio, perfect, none"),
