@@ -361,7 +361,8 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
             "plan_margin": speed * speed / (2.0 * accel), "brake_accel": accel,
             "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude),
             **({"cruise_speed": speed, "comm_range": _comm_range(scn),
-                                       "comm_los": bool(scn.comm.los)} if scn.strategy == "C" else {})})
+                                       "comm_los": bool(scn.comm.los),
+                                       "lost_timeout": _lost_timeout(scn)} if scn.strategy == "C" else {})})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):
             b.connect(s, v, d, v)
         for v in ("x", "y", "z", "vx", "vy", "phase"):
@@ -390,6 +391,18 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
 def _comm_range(scn: UavScenario) -> float:
     """The range strategy C assumes of its radio (a perfect channel's is unlimited)."""
     return 1e9 if scn.comm.mode == "perfect" else float(scn.comm.range)
+
+
+def _lost_timeout(scn: UavScenario) -> float:
+    """Strategy C's silence before it counts a UAV in range as lost: long enough that a UAV in range and alive
+    stays unheard with probability below 1e-3 (loss^(T / period) <= 1e-3), at least 5 s, at most 120 s."""
+    c = scn.comm
+    loss = 0.0 if c.mode == "perfect" else float(c.loss)
+    if loss <= 0.0:
+        return 5.0
+    if loss >= 1.0:
+        return 120.0
+    return min(120.0, max(5.0, float(c.period) * math.log(1e-3) / math.log(loss) + float(c.latency)))
 
 
 def _add_channel(b: SspBuilder, scn: UavScenario, fmu: Path, uavs: list[dict], zones: str) -> None:

@@ -150,7 +150,10 @@ class CooperativeStrategy(Strategy):
             self._allocate(t, x, y)
         was_flying = m.cmd == 2
         super().step(t, x, y, z, vx, vy, phase, consumed, command)
-        if c.neighbours and (heard or (m.cmd == 2 and not was_flying)):   # news, or the first leg starts
+        avoiding = c.layer or c.holding or c.conflicts or c.imminent
+        # on news, when the first leg starts, and every step while avoiding: a conflict whose partner falls silent
+        # ends when its extrapolated path clears or after lost_timeout, not with the next message
+        if c.neighbours and (heard or avoiding or (m.cmd == 2 and not was_flying)):
             self._assess(t, x, y, z, vx, vy)
         if c.layer or c.holding or c.conflicts or c.imminent:
             self._avoid(x, y, z)

@@ -134,3 +134,15 @@ def test_same_seed_same_run_with_a_lossy_channel(tmp_path):
     assert lost["lost"] > 0
     other = _run(tmp_path, "other", seed=4, **over)
     assert other.metadata["monitors"][COMM_TYPE]["messages"]["lost"] != lost["lost"]
+
+
+def test_lost_timeout_follows_the_loss(tmp_path):
+    # an alive UAV in range stays unheard for T with probability loss^(T / period): T is set so that this is 1e-3
+    import math
+
+    from uavstudy.build import _lost_timeout
+    for loss, expect in ((0.0, 5.0), (0.2, 5.0), (0.5, 0.5 * math.log(1e-3) / math.log(0.5) + 0.2),
+                         (0.9, 0.5 * math.log(1e-3) / math.log(0.9) + 0.2), (0.99, 120.0)):
+        scn = load_scenario_yaml(write_yaml(tmp_path / "t.yaml", comm={"loss": loss, "period": 0.5, "latency": 0.2}))
+        assert _lost_timeout(scn) == pytest.approx(expect)
+        assert loss == 0.0 or loss ** ((_lost_timeout(scn) - 0.2) / 0.5) <= 1e-3 + 1e-12 or expect == 120.0

@@ -147,3 +147,19 @@ def test_same_seed_same_flight(loss):
     a = simulate_fleet(_params("C", SPREAD, RING), ch, t_end=150.0)
     b = simulate_fleet(_params("C", SPREAD, RING), dataclasses.replace(ch), t_end=150.0)
     assert _fingerprint(a) == _fingerprint(b) and a.channel.counters == b.channel.counters
+
+
+def test_a_conflict_with_a_uav_that_falls_silent_ends():
+    # UAV 1 (gives way to UAV 0) flies east; UAV 0, 30 m ahead, comes head-on at 10 m/s: conflict, UAV 1 holds and
+    # climbs.  Then UAV 0 is never heard again (out of range): the conflict must end by itself (its extrapolated
+    # path passes, or lost_timeout), not wait for a message that never comes.
+    s = _flying(index=1, targets=((500.0, 0.0), (600.0, 0.0)), count=2)
+    m0 = (30.0, 0.0, 20.0, -10.0, 0.0, -500.0, 0.0, 1.0, 0, TRANSIT, -1, *CH.encode_mask([]), *CH.encode_mask([]))
+    s.step(1.0, 0.0, 0.0, 20.0, 0.0, 0.0, 2, 0.1, messages=[m0])
+    assert s.coop.conflicts and s.coop.holding and s.sp[2] == 25.0 and s.sp[:2] == (0.0, 0.0)
+    t = 1.0
+    while t < 1.0 + s.c.lost_timeout + 0.05:
+        t = round(t + 0.1, 9)
+        s.step(t, 0.0, 0.0, 20.0, 0.0, 0.0, 2, 0.1)
+    assert not s.coop.conflicts and not s.coop.holding and s.coop.layer == 0
+    assert s.sp == (600.0, 0.0, 20.0)                  # back at cruise, on to its target (index 1)
