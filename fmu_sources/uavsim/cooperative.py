@@ -35,8 +35,10 @@ while a UAV is slower than half its cruise speed, so that UAVs just leaving the 
 see where the others are going.  A predicted miss distance below ``separation`` is a conflict.  Of the pair, the
 UAV with the higher index gives way: it climbs to the layer above the highest layer of those it gives way to
 (``layer_step`` m per layer above the cruise altitude) and holds its horizontal position while it is less than
-``vertical_clearance`` above such a UAV; the other keeps flying unless the closest approach is ``imminent`` s
-away or less and the give-way UAV is not yet clear above it: then it waits too (at the ring of pads both are at
+``vertical_clearance`` above such a UAV, if stopping keeps it out of the other's way (the other's path then
+passes the point it brakes to 0.5 m farther than if both flew on, or, on a collision course, no closer: head-on,
+where it halves the closing speed; in a crossing it flies on and climbs); the other keeps flying unless the closest approach is ``imminent`` s away or less and the give-way
+UAV is not yet clear above it: then it waits too, under the same condition (at the ring of pads both are at
 rest, 8 m apart, when their first legs start).  With no conflict left a UAV descends back to the cruise altitude.
 Before its first leg a UAV broadcasts as its waypoint the target it will start with (B's choice from where it
 stands), so the paths out are known before anyone moves; conflicts are assessed on every message and when the
@@ -106,8 +108,9 @@ class CoopState:
         self.known_visited: set[int] = set()
         self.layer = 0                       # altitude layer flown (0: cruise)
         self.holding = False
-        self.conflicts: list[tuple[int, int, float]] = []   # (neighbour, its layer, its altitude) given way to
-        self.imminent: list[tuple[int, int, float]] = []    # higher indices about to pass: wait for them
+        # (neighbour, its layer, its altitude, whether stopping helps) given way to
+        self.conflicts: list[tuple[int, int, float, bool]] = []
+        self.imminent: list[tuple[int, int, float, bool]] = []    # higher indices about to pass: wait for them
         self.takeovers = 0
         self.drops = 0
         self.give_ways = 0
@@ -247,24 +250,37 @@ class CooperativeStrategy(Strategy):
         if m.cmd == 2:
             sx, sy = m.sp[0], m.sp[1]
             ux, uy = self._intent(x, y, vx, vy, sx, sy)
+            # where it would come to rest if it stopped now (braking at brake_accel)
+            brake = math.hypot(vx, vy) / (2.0 * max(self.p.brake_accel, 1e-6))
+            qx, qy = x + vx * brake, y + vy * brake
             for nb in c.neighbours.values():
                 if nb.state not in AIRBORNE or t - nb.heard > self.c.lost_timeout:
                     continue
                 age = t - nb.sent_time
                 px, py = nb.x + nb.vx * age, nb.y + nb.vy * age
                 nvx, nvy = self._intent(px, py, nb.vx, nb.vy, nb.wx, nb.wy)
-                rx, ry, wx, wy = px - x, py - y, nvx - ux, nvy - uy
-                w2 = wx * wx + wy * wy
-                tc = 0.0 if w2 < 1e-12 else min(max(-(rx * wx + ry * wy) / w2, 0.0), self.c.horizon)
-                if math.hypot(rx + wx * tc, ry + wy * tc) >= self.c.separation:
+                tc, miss = self._closest(px - x, py - y, nvx - ux, nvy - uy)
+                if miss >= self.c.separation:
                     continue
+                # stopping helps when the other's path then passes the point this UAV brakes to clearly farther than
+                # if both flew on, or, on a collision course (miss < 1 m), no closer (head-on: it halves the closing
+                # speed); when it would stop in the other's way (a crossing), it flies on and climbs
+                stopped = self._closest(px - qx, py - qy, nvx, nvy)[1]
+                stop = stopped >= miss + 0.5 or (miss < 1.0 and stopped >= miss - 0.5)
                 if nb.index < me:                       # the lower index has the right of way
-                    conflicts.append((nb.index, self._layer_of(nb.z), nb.z))
+                    conflicts.append((nb.index, self._layer_of(nb.z), nb.z, stop))
                 elif tc <= self.c.imminent:
-                    imminent.append((nb.index, self._layer_of(nb.z), nb.z))
+                    imminent.append((nb.index, self._layer_of(nb.z), nb.z, stop))
         if conflicts and not c.conflicts:
             c.give_ways += 1
         c.conflicts, c.imminent = conflicts, imminent
+
+    def _closest(self, rx, ry, wx, wy) -> tuple[float, float]:
+        """Time (clamped to [0, horizon]) and distance of the closest approach of a relative position (rx, ry)
+        moving at the relative velocity (wx, wy)."""
+        w2 = wx * wx + wy * wy
+        tc = 0.0 if w2 < 1e-12 else min(max(-(rx * wx + ry * wy) / w2, 0.0), self.c.horizon)
+        return tc, math.hypot(rx + wx * tc, ry + wy * tc)
 
     def _avoid(self, x, y, z) -> None:
         c, m = self.coop, self.mission
@@ -273,11 +289,11 @@ class CooperativeStrategy(Strategy):
             return
         clear = self.c.vertical_clearance
         if c.conflicts:
-            c.layer = min(MAX_LAYERS, 1 + max(layer for _, layer, _ in c.conflicts))
+            c.layer = min(MAX_LAYERS, 1 + max(layer for _, layer, _, _ in c.conflicts))
         else:
             c.layer = 0
-        c.holding = any(z - nz < clear for _, _, nz in c.conflicts) or \
-            any(abs(nz - z) < clear for _, _, nz in c.imminent)
+        c.holding = any(stop and z - nz < clear for _, _, nz, stop in c.conflicts) or \
+            any(stop and abs(nz - z) < clear for _, _, nz, stop in c.imminent)
         sx, sy = (float(x), float(y)) if c.holding else (m.sp[0], m.sp[1])
         m.sp = (sx, sy, float(self.p.cruise_altitude) + c.layer * self.c.layer_step)
 
