@@ -16,6 +16,7 @@ from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import mission_encoding as M  # noqa: E402
 from uavsim import native  # noqa: E402
+from uavsim import cooperative_fmi  # noqa: E402
 from uavsim import params as P  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
 from uavsim.strategy import Strategy, StrategyParams  # noqa: E402
@@ -34,7 +35,7 @@ _REAL = [  # name, unit, default, description
     ("brake_accel", "m/s2", P.WP_ACCEL, "deceleration assumed for the safety-net stopping distance"),
 ]
 _STR = [
-    ("strategy", "A", "A: defined order, B: nearest remaining target first"),
+    ("strategy", "A", "A: defined order, B: nearest remaining target first, C: B plus the channel's messages"),
     ("assignment", "equal", "equal (contiguous blocks), roundrobin (k mod N) or spatial (sectors)"),
     ("targets", "", "targets 'x1,y1;x2,y2;...' ENU m (used when n_targets = -1)"),
     ("zones", "", "restricted zones: polygons separated by '|', vertices 'x,y' separated by ';' "
@@ -110,6 +111,7 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
                                  ("last_photo_y", "m", "north position of the last photo")]:
             setattr(self, name, 0.0)
             self.out_real(name, unit, desc)
+        cooperative_fmi.register(self)
         self._model = None
 
     def _register_indexed_mission(self):
@@ -139,9 +141,10 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
         kw = {n: getattr(self, n) for n, *_ in _REAL}
         kw.update({n: str(getattr(self, n)) for n, *_ in _STR})
         kw.update(self._mission())
-        self._model = Strategy(StrategyParams(uav_index=int(self.uav_index),
-                                              uav_count=int(self.uav_count),
-                                              zone_planning=bool(self.zone_planning), **kw))
+        params = StrategyParams(uav_index=int(self.uav_index), uav_count=int(self.uav_count),
+                                zone_planning=bool(self.zone_planning), **kw)
+        self._model = cooperative_fmi.make(self, params) if params.strategy.strip().upper() == "C" \
+            else Strategy(params)
 
     def exit_initialization_mode(self):
         self._build()
@@ -157,6 +160,9 @@ class UavStrategy(StateMixin, UnitsMixin, Fmi2Slave):
         if model is None:
             self._build()
             model = self._model
+        if model.kind == "C":
+            cooperative_fmi.step(self, model, current_time, step_size, _FAST_STEP)
+            return True
         # the compiled step reads the inputs from and writes the outputs to this FMU's variables, by their names
         if _FAST_STEP is not None and _FAST_STEP(model.step_constants, model.mission, self.__dict__):
             return True

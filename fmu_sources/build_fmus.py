@@ -26,7 +26,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy", "UavSitl")
+FMU_NAMES = ("UavDynamics", "UavBattery", "UavWind", "UavStrategy", "UavSitl", "UavChannel")
 #: FMU -> extra packages bundled besides uavsim (with their C sources, compiled here like kernels.c)
 EXTRA_PACKAGES = {"UavSitl": ("sitlsim",)}
 #: FMUs without FMI get/set state (the others mix in uavsim.fmi.StateMixin)

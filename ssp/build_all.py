@@ -7,7 +7,8 @@ restricted zones), ``zones`` = paper_area_zones.yaml (4 restricted zones), N = 1
 B; everything else (24 targets, base, wind, seed, step, stop time) as in the YAML file.  Each archive
 holds the four UAV FMUs once (~0.73 MB each, shared by all instances), i.e. ~3 MB per archive.
 
-It also writes the SITL scenarios ``sitl_zones_{1,4}uav_B.ssp`` from their own YAML files (``AS_IS``).
+It also writes the SITL scenarios ``sitl_zones_{1,4}uav_B.ssp`` and strategy C's ``coop_zones_4uav_C.ssp``
+(docs/cooperative.md) from their own YAML files (``AS_IS``).
 
 By default only the representative set (N = 1 and 4, 8 archives, ~24 MB) is written, since all 16
 (~47 MB) are too big to commit; ``--all`` writes the 16.  Any other variant is one command away::
@@ -27,7 +28,7 @@ REPRESENTATIVE_UAVS = (1, 4)
 
 
 #: scenarios shipped as they are (ArduPilot SITL vehicles, docs/sitl.md): ssp/scenarios/<name>.yaml -> ssp/<name>.ssp
-AS_IS = ("sitl_zones_1uav_B", "sitl_zones_4uav_B")
+AS_IS = ("sitl_zones_1uav_B", "sitl_zones_4uav_B", "coop_zones_4uav_C")
 
 
 def variants(all_counts: bool):

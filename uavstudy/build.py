@@ -62,6 +62,11 @@ FMU_FILES = {DYNAMICS: "UavDynamics.fmu", BATTERY: "UavBattery.fmu", STRATEGY: "
              WIND: "UavWind.fmu"}
 #: the dynamics FMU of a UAV with ``vehicle: sitl`` (docs/sitl.md)
 SITL_FMU = "UavSitl.fmu"
+#: strategy C's channel: one component for the fleet (docs/cooperative.md)
+CHANNEL, CHANNEL_FMU = "channel", "UavChannel.fmu"
+#: what results.parquet records in addition with strategy C: the channel's fleet counters and what C did
+COMM_RECORD = [f"{CHANNEL}.messages_*", f"{CHANNEL}.near_misses"] + \
+    [f"{component('uav*', STRATEGY)}.{v}" for v in ("takeovers", "drops", "give_ways")]
 #: what results.parquet records in addition for the SITL vehicles (not ``sitl_instance``: which instance number was
 #: free is bookkeeping, kept in run.json by the sitl-clock monitor, so that two runs give the same results)
 SITL_RECORD = [f"{component('uav*', DYNAMICS)}.{v}" for v in ("flight_mode", "armed", "ekf_ok", "slip", "max_slip",
@@ -295,6 +300,8 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
     sitl_uavs = [i for i in range(scn.n_uavs) if scn.vehicle_of(i) == "sitl"]
     if sitl_uavs:
         fmus["sitl"] = fmu_dir / SITL_FMU
+    if scn.strategy == "C":
+        fmus[CHANNEL] = fmu_dir / CHANNEL_FMU
     missing = [str(p) for p in fmus.values() if not p.is_file()]
     if missing:
         raise ScenarioError(f"UAV FMU(s) not found: {', '.join(missing)} (build them with "
@@ -316,7 +323,8 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
     b.algorithm = scn.algorithm
     b.algorithm_options = dict(scn.algorithm_options)
     b.record_interval = _record_interval(float(scn.step))
-    b.record = record_patterns(scn.wind.shared) + (SITL_RECORD if sitl_uavs else [])
+    b.record = record_patterns(scn.wind.shared) + (SITL_RECORD if sitl_uavs else []) + \
+        (COMM_RECORD if scn.strategy == "C" else [])
     if scn.wind.shared:
         b.add_component(WIND, fmus[WIND], params=_wind_params(scn, -1))
     speed, accel = float(scn.cruise_speed), float(scn.max_accel)
@@ -351,7 +359,10 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
             # the planning clearance and the safety net's deceleration follow the vehicle: V^2/(2A) is its
             # braking distance at cruise (docs/uav_models.md)
             "plan_margin": speed * speed / (2.0 * accel), "brake_accel": accel,
-            "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude)})
+            "home_x": float(hx), "home_y": float(hy), "cruise_altitude": float(scn.takeoff_altitude),
+            **({"cruise_speed": speed, "comm_range": _comm_range(scn),
+                                       "comm_los": bool(scn.comm.los),
+                                       "lost_timeout": _lost_timeout(scn)} if scn.strategy == "C" else {})})
         for v in ("cmd", "sp_x", "sp_y", "sp_z"):
             b.connect(s, v, d, v)
         for v in ("x", "y", "z", "vx", "vy", "phase"):
@@ -363,6 +374,10 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
             b.connect(wind, v, d, v)
         uavs.append({"name": name, "index": i, DYNAMICS: d, BATTERY: bt, STRATEGY: s, "home": (float(hx), float(hy)),
                      "assigned": _assigned(scn, targets_r, i, (float(hx), float(hy)))})
+    if scn.strategy == "C":
+        _add_channel(b, scn, fmus[CHANNEL], uavs, zones_s)
+        from .comm_monitor import comm_annotation       # what the channel carried, into run.json
+        b.annotations.append(comm_annotation(CHANNEL, {u["name"]: u[STRATEGY] for u in uavs}))
     _check_partition(scn, uavs, len(targets_r))
     _check_idle_uavs(scn, uavs, len(targets_r))
     _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])
@@ -371,6 +386,45 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
         from .sitl_clock import sitl_clock_annotation
         b.annotations.append(sitl_clock_annotation({uavs[i][DYNAMICS]: scn.sitl.coupling for i in sitl_uavs}))
     return b.write(out_path, to_disk=to_disk)
+
+
+def _comm_range(scn: UavScenario) -> float:
+    """The range strategy C assumes of its radio (a perfect channel's is unlimited)."""
+    return 1e9 if scn.comm.mode == "perfect" else float(scn.comm.range)
+
+
+def _lost_timeout(scn: UavScenario) -> float:
+    """Strategy C's silence before it counts a UAV in range as lost: long enough that a UAV in range and alive
+    stays unheard with probability below 1e-3 (loss^(T / period) <= 1e-3), at least 5 s, at most 120 s."""
+    c = scn.comm
+    loss = 0.0 if c.mode == "perfect" else float(c.loss)
+    if loss <= 0.0:
+        return 5.0
+    if loss >= 1.0:
+        return 120.0
+    return min(120.0, max(5.0, float(c.period) * math.log(1e-3) / math.log(loss) + float(c.latency)))
+
+
+def _add_channel(b: SspBuilder, scn: UavScenario, fmu: Path, uavs: list[dict], zones: str) -> None:
+    """Strategy C's channel (uavsim/channel.py): each UAV's broadcast in (its dynamics' position and velocity,
+    its strategy's waypoint, state, target, claims, visited and clock), its k message slots out."""
+    from uavsim.channel import BROADCAST_INT, BROADCAST_REAL, MESSAGE_INT, MESSAGE_REAL
+    c = scn.comm
+    b.add_component(CHANNEL, fmu, params={
+        "mode": c.mode, "range": float(c.range), "period": float(c.period), "latency": float(c.latency),
+        "loss": float(c.loss), "k": int(c.k), "seed": int(scn.seed), "line_of_sight": bool(c.los), "zones": zones,
+        "n_uavs": int(scn.n_uavs), "near_miss": float(c.near_miss)})
+    from_strategy = {"wx": "intent_x", "wy": "intent_y", "state": "mission_state", "target": "current_target"}
+    for u in uavs:
+        port = f"uav{u['index'] + 1}"
+        for v in BROADCAST_REAL + BROADCAST_INT:
+            if v in ("x", "y", "z", "vx", "vy"):
+                b.connect(u[DYNAMICS], v, CHANNEL, f"{port}_{v}")
+            else:
+                b.connect(u[STRATEGY], from_strategy.get(v, v), CHANNEL, f"{port}_{v}")
+        for slot in range(1, int(c.k) + 1):
+            for v in MESSAGE_REAL + MESSAGE_INT:
+                b.connect(CHANNEL, f"{port}_m{slot}_{v}", u[STRATEGY], f"m{slot}_{v}")
 
 
 def build_scenario(yaml_path, out_path, fmu_dir=None) -> Path:

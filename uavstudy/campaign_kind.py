@@ -249,11 +249,11 @@ class UavKind(ScenarioKind):
         return {**params, **{k: options[k] for k in SCENARIO_OPTIONS if k in options}}
 
     def input_fmus(self, scenario: Path) -> dict:
-        """The study's FMUs (every UAV scenario runs the same four), and the SITL vehicle's when the base
-        scenario flies SITL (docs/sitl.md)."""
-        from .build import FMU_FILES, SITL_FMU, default_fmu_dir
+        """The study's FMUs (every UAV scenario runs the same four, strategy C also the channel, which a grid may
+        choose), and the SITL vehicle's when the base scenario flies SITL (docs/sitl.md)."""
+        from .build import CHANNEL_FMU, FMU_FILES, SITL_FMU, default_fmu_dir
         d = default_fmu_dir()
-        files = sorted(FMU_FILES.values()) + ([SITL_FMU] if _uses_sitl(scenario) else [])
+        files = sorted(FMU_FILES.values()) + [CHANNEL_FMU] + ([SITL_FMU] if _uses_sitl(scenario) else [])
         return {f: file_sha256(d / f) if (d / f).is_file() else None for f in files}
 
     def code_roots(self) -> list[Path]:

@@ -33,11 +33,11 @@ from master.errors import ScenarioError
 from uavsim.geodesy import enu_from_geodetic
 from uavsim.mission_encoding import MAX_TARGETS, MAX_ZONE_VERTICES, MAX_ZONES
 
-__all__ = ["UavScenario", "WindConfig", "SitlOptions", "VEHICLES", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
+__all__ = ["UavScenario", "WindConfig", "SitlOptions", "CommConfig", "VEHICLES", "ScenarioError", "load_scenario_yaml", "scenario_from_dict",
            "load_paper_config", "scenario_to_dict", "dump_scenario_yaml",
            "STRATEGIES", "ASSIGNMENTS", "MAX_RANGE_M", "RULE_SETS", "LAYOUTS", "TAKEOFFS", "WIND_EFFECTS"]
 
-STRATEGIES = ("A", "B")
+STRATEGIES = ("A", "B", "C")
 ASSIGNMENTS = ("equal", "spatial")
 WIND_LEVELS = ("weak", "moderate", "strong")
 LAYOUTS = ("fixed", "random")
@@ -112,6 +112,29 @@ class SitlOptions:
     defaults: str = ""
 
 
+COMM_MODES = ("radio", "perfect", "none")
+
+
+@dataclass
+class CommConfig:
+    """The UAV-to-UAV channel strategy C listens to (docs/cooperative.md; uavsim/channel.py).
+
+    ``mode``: ``radio`` (the parameters below), ``perfect`` (unlimited range, no loss, no latency) or ``none``
+    (nothing is sent: C flies as B).  ``range`` m (3-D distance at sending), ``period`` s between a UAV's
+    broadcasts, ``latency`` s, ``loss`` probability per message and receiver (drawn from the scenario seed),
+    ``k`` messages a UAV takes per step (nearest senders first), ``los``: restricted zones block the line of
+    sight, ``near_miss`` m: the distance counted as a near miss.  Only strategy C builds the channel; the
+    section is ignored for A and B (so that one campaign grid may cross strategies with channel axes)."""
+    mode: str = "radio"
+    range: float = 300.0
+    period: float = 1.0
+    latency: float = 0.0
+    loss: float = 0.0
+    k: int = 4
+    los: bool = False
+    near_miss: float = 10.0
+
+
 @dataclass
 class UavScenario:
     """A multi-UAV surveillance mission (see module docstring for units)."""
@@ -150,6 +173,7 @@ class UavScenario:
     # or one entry per UAV
     vehicle: str | list = "point_mass"
     sitl: SitlOptions = field(default_factory=SitlOptions)
+    comm: CommConfig = field(default_factory=CommConfig)   # the channel of strategy C
 
     def vehicle_of(self, index: int) -> str:
         """The vehicle kind of the UAV with 0-based ``index``."""
@@ -451,7 +475,11 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
                     v.fail(f"sitl.{k}", f"expected a path, got {so[k]!r}")
                 sk[k] = so[k].strip()
         kw["sitl"] = SitlOptions(**sk)
+    if "comm" in data:
+        kw["comm"] = _comm(v, data["comm"])
     scn = UavScenario(**kw)
+    if scn.strategy == "C" and scn.n_uavs > MAX_COMM_FLEET:
+        v.fail("n_uavs", f"{scn.n_uavs} UAVs with strategy C, at most {MAX_COMM_FLEET} (the channel FMU's capacity)")
     if scn.stop_time < scn.step:
         v.fail("stop_time", f"must be >= step ({scn.step:g}), got {scn.stop_time:g}")
     if scn.wind.decision_interval < scn.step:
@@ -462,6 +490,30 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
         "zone_name": lambda k: f"zones[{k}].name",
     })
     return scn
+
+
+#: the channel FMU's capacity (uavsim/channel.py MAX_FLEET, MAX_K)
+MAX_COMM_FLEET, MAX_COMM_K = 64, 4
+
+
+def _comm(v: _V, given) -> CommConfig:
+    c = v.mapping("comm", given)
+    v.no_unknown("comm", c, [f.name for f in fields(CommConfig)])
+    ck: dict[str, Any] = {}
+    if "mode" in c:
+        ck["mode"] = v.choice("comm.mode", c["mode"], COMM_MODES)
+    for name, lo, hi, lo_open in (("range", 0.0, MAX_RANGE_M * 4, False), ("period", 0.0, 3600.0, True),
+                                  ("latency", 0.0, 3600.0, False), ("loss", 0.0, 1.0, False),
+                                  ("near_miss", 0.0, 1000.0, True)):
+        if name in c:
+            ck[name] = v.number(f"comm.{name}", c[name], lo=lo, hi=hi, lo_open=lo_open)
+    if "k" in c:
+        ck["k"] = v.integer("comm.k", c["k"], lo=1)
+        if ck["k"] > MAX_COMM_K:
+            v.fail("comm.k", f"must be <= {MAX_COMM_K} (the message slots of the strategy FMU), got {ck['k']}")
+    if "los" in c:
+        ck["los"] = v.boolean("comm.los", c["los"])
+    return CommConfig(**ck)
 
 
 def load_scenario_yaml(path) -> UavScenario:
@@ -526,6 +578,7 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "vehicle": list(scn.vehicle) if isinstance(scn.vehicle, list) else scn.vehicle,
         "sitl": {"coupling": scn.sitl.coupling, "frame": scn.sitl.frame, "speedup": scn.sitl.speedup,
                  "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults},
+        "comm": {f.name: getattr(scn.comm, f.name) for f in fields(CommConfig)},
     }
 
 

@@ -176,8 +176,8 @@ class Strategy:
     def __init__(self, params: StrategyParams | None = None):
         self.p = params or StrategyParams()
         s = self.p.strategy.strip().upper()
-        if s not in ("A", "B"):
-            raise ValueError(f"strategy must be 'A' or 'B', got {self.p.strategy!r}")
+        if s not in ("A", "B", "C"):       # C: uavsim/cooperative.py, B's step plus what it hears
+            raise ValueError(f"strategy must be 'A', 'B' or 'C', got {self.p.strategy!r}")
         self.kind = s
         self.targets = as_points(self.p.targets)
         self.home = (float(self.p.home_x), float(self.p.home_y))

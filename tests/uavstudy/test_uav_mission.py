@@ -77,7 +77,7 @@ def test_build_scenario_cli_validates_and_inspects(tmp_path, capsys):
 
 
 def test_build_bad_yaml_one_line_error(tmp_path, capsys):
-    y = write_yaml(tmp_path / "bad.yaml", strategy="C")
+    y = write_yaml(tmp_path / "bad.yaml", strategy="D")
     assert main(["build-scenario", str(y), "-o", str(tmp_path / "bad.ssp")]) == 1
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "strategy" in err and "bad.yaml" in err

@@ -85,7 +85,7 @@ BAD = [
     (minimal(n_uavs=0), "n_uavs: must be >= 1, got 0"),
     (minimal(n_uavs=1.5), "n_uavs: expected an integer, got 1.5"),
     (minimal(n_uavs=True), "n_uavs: expected an integer, got True"),
-    (minimal(strategy="C"), "strategy: must be one of A, B, got 'C'"),
+    (minimal(strategy="D"), "strategy: must be one of A, B, C, got 'D'"),
     (minimal(assignment="random"), "assignment: must be one of equal, spatial, got 'random'"),
     (minimal(algorithm="rk4"), "algorithm: must be one of {algorithms}, got 'rk4'"),
     (minimal(name=""), "name: expected a non-empty string, got ''"),
@@ -120,7 +120,7 @@ BAD = [
                             "impact_diameter, lookahead, algorithm, end_when_all_landed, zone_planning, "
                             "algorithm_options, rules, cruise_speed, max_accel, layout, layout_seed, area_scale, "
                             "takeoff, takeoff_interval, battery_capacity, "
-                            "vehicle, sitl)"),
+                            "vehicle, sitl, comm)"),
     (minimal(zone_planning="late"), "zone_planning: expected true or false, got 'late'"),
     ({k: v for k, v in minimal().items() if k != "strategy"}, "strategy: missing required field"),
     (minimal(zones={"a": 1}), "zones: expected a list of {name, polygon}"),
@@ -275,7 +275,7 @@ def test_base_from_first_target_line(tmp_path):
 PAPER_BAD = [
     ("props", "uav.count=two\nstrategy=A\n", "init.properties: uav.count: expected an integer, got 'two'"),
     ("props", "uav.count=0\nstrategy=A\n", "init.properties: uav.count: must be >= 1, got 0"),
-    ("props", "uav.count=1\nstrategy=Z\n", "init.properties: strategy: must be one of A, B, got 'Z'"),
+    ("props", "uav.count=1\nstrategy=Z\n", "init.properties: strategy: must be one of A, B, C, got 'Z'"),
     ("props", "uav.count=1\n", "init.properties: strategy: missing required field"),
     ("props", "uav.count=1\nstrategy=A\nwind.probability=2\n",
      "init.properties: wind.probability: must be <= 1, got 2"),

@@ -61,6 +61,14 @@ CONTRACT = {
         "return_threshold": ("parameter", "Real"), "land_threshold": ("parameter", "Real")},
 }
 
+# strategy C's channel (docs/cooperative.md): one broadcast in and k message slots out per UAV, the counters
+CONTRACT["UavChannel"] = {
+    "uav1_x": ("input", "Real"), "uav64_clock": ("input", "Real"), "uav1_claims0": ("input", "Integer"),
+    "uav1_m1_x": ("output", "Real"), "uav64_m4_sender": ("output", "Integer"), "uav1_m1_visited1": ("output", "Integer"),
+    "messages_sent": ("output", "Integer"), "messages_lost": ("output", "Integer"), "near_misses": ("output", "Integer"),
+    "range": ("parameter", "Real"), "loss": ("parameter", "Real"), "latency": ("parameter", "Real"),
+    "period": ("parameter", "Real"), "k": ("parameter", "Integer"), "mode": ("parameter", "String")}
+
 # the SITL vehicle (docs/sitl.md): UavDynamics' connectors plus what SITL adds
 CONTRACT["UavSitl"] = {**CONTRACT["UavDynamics"], "flight_mode": ("output", "Integer"),
                        "armed": ("output", "Integer"), "ekf_ok": ("output", "Integer"), "slip": ("output", "Real"),

@@ -1,0 +1,290 @@
+"""UAV-to-UAV broadcast radio: who hears whose message, when (the plain logic of the UavChannel FMU).
+
+The paper's future work: "a communication channel between the UAVs, so that they can exchange messages between
+them at certain distances, informing their future positions and points of visitation".  One channel serves the
+whole fleet (as one network simulator would): every UAV broadcasts one message per ``period`` -- the message
+number n is sent at n * period, its content sampled at the start of the step holding that instant -- and every
+other UAV receives it
+
+* if the two are within ``range`` m of each other (3-D distance at the sending instant),
+* and, with ``line_of_sight``, if the straight line between them crosses no restricted zone (a zone is treated as
+  a wall of unlimited height: a conservative choice for buildings or terrain),
+* unless it is lost: an independent draw per (sender, receiver, message number) with probability ``loss``,
+* ``latency`` s after it was sent, in the step whose interval [t, t + h) holds the arrival instant,
+* among at most ``k`` messages arriving in that step, the nearest senders first (their distance when they sent;
+  ties: the lower sender index);
+  the others are dropped (counted as ``overflow``), so that a receiver's inputs stay k fixed-size slots whatever
+  the fleet size.
+
+Modes: ``radio`` (the above), ``perfect`` (unlimited range, no loss, no latency, no blocking; period and k as
+given) and ``none`` (nothing is sent: the baseline of a silent channel).
+
+A UAV transmits only while its strategy runs: its ``clock`` (the strategy's time) must have advanced since the
+channel last looked, so a UAV removed from the simulation after a collision falls silent, as a destroyed radio.
+
+The loss draws come from a counter-based generator: the uniform number of (seed, sender, receiver, message
+number) is a pure function of those four integers (SplitMix64's finaliser applied to their combination), so a
+run does not depend on the order in which pairs are evaluated, on how many pairs were in range, nor on the fleet
+around a pair: the same seed gives the same losses, bit for bit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+from operator import itemgetter
+
+import numpy as np
+
+from .zones_planning import ZoneMap, as_zones
+
+#: the fields of one message, as the FMU's Real and Integer variables carry them (``wx``/``wy``: the waypoint the
+#: sender flies to next; ``claims*``/``visited*``: bit masks of target indices, 32 per word; ``state``: its
+#: mission state; ``target``: its current target, -1 none)
+MESSAGE_REAL = ("x", "y", "z", "vx", "vy", "wx", "wy", "sent_time")
+MESSAGE_INT = ("sender", "state", "target", "claims0", "claims1", "visited0", "visited1")
+#: what a UAV hands to the channel each step (the broadcast's content, its own position included, and its clock)
+BROADCAST_REAL = ("x", "y", "z", "vx", "vy", "wx", "wy", "clock")
+BROADCAST_INT = ("state", "target", "claims0", "claims1", "visited0", "visited1")
+MASK_WORDS = 2
+#: the channel FMU's fixed capacity: fleet size and message slots per receiver (its ports are declared for these;
+#: every port costs start-up time in every run, so the slots are as few as the strategy needs)
+MAX_FLEET = 64
+MAX_K = 4
+MODES = ("none", "perfect", "radio")
+#: the counters the FMU publishes for the fleet (totals) and per UAV (sent by it, received, lost on the way to it)
+FLEET_COUNTERS = ("sent", "received", "lost", "out_of_range", "blocked", "overflow", "near_misses")
+UAV_COUNTERS = ("sent", "received", "lost")
+EMPTY = -1          # ``sender`` of an empty slot
+
+_MASK64 = (1 << 64) - 1
+_GOLDEN = 0x9E3779B97F4A7C15
+
+
+def _splitmix_finalize(z):
+    """SplitMix64's output function (Steele, Lea, Flood 2014) on uint64 numpy arrays or Python ints."""
+    if isinstance(z, int):
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK64
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK64
+        return z ^ (z >> 31)
+    with np.errstate(over="ignore"):
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return z ^ (z >> np.uint64(31))
+
+
+def uniform(seed: int, sender, receiver, number: int):
+    """The loss draw of message ``number`` from ``sender`` to ``receiver``: a uniform number in [0, 1), a pure
+    function of the four integers (``sender``/``receiver`` may be integer arrays)."""
+    key = _splitmix_finalize((int(seed) * _GOLDEN + 0x632BE59BD9B4E019) & _MASK64)
+    key = _splitmix_finalize((key ^ (int(number) * _GOLDEN)) & _MASK64)
+    s = np.asarray(sender, dtype=np.uint64)
+    r = np.asarray(receiver, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        z = _splitmix_finalize(np.uint64(key) ^ (s * np.uint64(_GOLDEN)))
+        z = _splitmix_finalize(z ^ (r * np.uint64(0xD1B54A32D192ED03)) + np.uint64(_GOLDEN))
+    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+
+
+def encode_mask(indices) -> tuple[int, ...]:
+    """Target indices (0..63) as MASK_WORDS signed 32-bit words (FMI Integer), bit k % 32 of word k // 32."""
+    words = [0] * MASK_WORDS
+    for k in indices:
+        k = int(k)
+        if not 0 <= k < 32 * MASK_WORDS:
+            raise ValueError(f"target index {k} outside 0..{32 * MASK_WORDS - 1}")
+        words[k >> 5] |= 1 << (k & 31)
+    return tuple(w - (1 << 32) if w >= 1 << 31 else w for w in words)
+
+
+@lru_cache(maxsize=4096)
+def decode_mask(*words) -> frozenset[int]:
+    """The target indices of MASK_WORDS words (as encode_mask writes them); cached, a fleet repeats its masks."""
+    out = set()
+    for i, w in enumerate(words):
+        w = int(w) & 0xFFFFFFFF
+        while w:
+            low = w & -w
+            out.add(32 * i + low.bit_length() - 1)
+            w ^= low
+    return frozenset(out)
+
+
+@dataclass
+class ChannelParams:
+    mode: str = "radio"
+    range: float = 300.0            # m
+    period: float = 1.0             # s between a UAV's broadcasts
+    latency: float = 0.0            # s from sending to receiving
+    loss: float = 0.0               # probability that a message in range is lost on the way to one receiver
+    k: int = 4                      # messages a receiver takes per step, nearest senders first
+    seed: int = 0
+    line_of_sight: bool = False     # restricted zones block the line of sight
+    zones: list = field(default_factory=list)   # polygons [(x, y), ...] (or the String form)
+    n_uavs: int = 1
+    near_miss: float = 10.0         # m, 3-D distance counted as a near miss (once per encounter of a pair)
+
+    def check(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if int(self.n_uavs) < 1 or int(self.k) < 1:
+            raise ValueError(f"n_uavs and k must be >= 1, got {self.n_uavs} and {self.k}")
+        if not self.period > 0:
+            raise ValueError(f"period must be > 0, got {self.period}")
+        if not 0.0 <= self.loss <= 1.0:
+            raise ValueError(f"loss must be in [0, 1], got {self.loss}")
+        if not self.latency >= 0.0 or not self.range >= 0.0:
+            raise ValueError("latency and range must be >= 0")
+
+
+class Channel:
+    """The fleet's radio.  :meth:`step` takes the UAVs' broadcasts at t and returns, per receiver, the messages
+    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals."""
+
+    #: time tolerance: instants within this of a step boundary belong to the step that starts there
+    EPS = 1e-9
+
+    def __init__(self, params: ChannelParams):
+        params.check()
+        self.p = params
+        self.n = int(params.n_uavs)
+        self.k = int(params.k)
+        perfect = params.mode == "perfect"
+        self.range = math.inf if perfect else float(params.range)
+        self.latency = 0.0 if perfect else float(params.latency)
+        self.loss = 0.0 if perfect else float(params.loss)
+        self.zones = ZoneMap(as_zones(params.zones)) if params.line_of_sight and not perfect else None
+        if self.zones is not None and not self.zones:
+            self.zones = None
+        self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
+        self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
+        self._clock = [None] * self.n
+        self._in_flight: list[tuple[float, int, int, tuple]] = []   # (arrival, receiver, sender, message)
+        self._close: set = set()                                       # pairs within the near-miss distance
+
+    def _alive(self, clocks) -> list[bool]:
+        last = self._clock
+        alive = [c is None or clock != c for clock, c in zip(clocks, last)]
+        self._clock = list(clocks)
+        return alive
+
+    def _count_near_misses(self, positions, alive) -> None:
+        """Pairs (both alive) within ``near_miss`` now and not at the last step: one more encounter each.  A sweep
+        along x: only UAVs within ``near_miss`` in x are compared."""
+        lim = self.p.near_miss
+        lim2 = lim * lim
+        close = set()
+        order = sorted((positions[i][0], i) for i in range(self.n) if alive[i])
+        for a, (xa, i) in enumerate(order):
+            _, yi, zi = positions[i]
+            for xb, j in order[a + 1:]:
+                if xb - xa > lim:
+                    break
+                _, yj, zj = positions[j]
+                dx, dy, dz = xb - xa, yj - yi, zj - zi
+                if dx * dx + dy * dy + dz * dz <= lim2:
+                    close.add((i, j) if i < j else (j, i))
+        if close:
+            self.counters["near_misses"] += len(close - self._close)
+        self._close = close
+
+    def step(self, t: float, h: float, broadcasts: list[dict]) -> list[list[tuple]]:
+        """``broadcasts[i]``: UAV i's BROADCAST_REAL and BROADCAST_INT values by name, sampled at t.  Returns per
+        receiver the messages (MESSAGE_REAL + MESSAGE_INT values, a tuple) arriving in [t, t + h)."""
+        out = self.advance(t, h, [(b["x"], b["y"], b["z"]) for b in broadcasts], [b["clock"] for b in broadcasts],
+                           broadcasts.__getitem__)
+        return out if out is not None else [[] for _ in range(self.n)]
+
+    def sends_in(self, t: float, h: float) -> bool:
+        """Does a broadcast instant fall in [t, t + h)?"""
+        if self.p.mode == "none":
+            return False
+        period = float(self.p.period)
+        return math.ceil((t - self.EPS) / period) * period < t + h - self.EPS
+
+    def advance(self, t: float, h: float, positions, clocks, broadcast) -> list[list[tuple]] | None:
+        """:meth:`step` on the UAVs' positions (x, y, z) and clocks at t, with ``broadcast(i)`` giving UAV i's
+        whole broadcast (asked for only at a sending instant).  Returns None when nothing arrives."""
+        alive = self._alive(clocks)
+        self._count_near_misses(positions, alive)
+        if self.sends_in(t, h):
+            self._send(t, h, [broadcast(i) if alive[i] else None for i in range(self.n)], alive,
+                       np.array(positions, dtype=float))
+        # messages fly in the order they arrive (one latency for all): the first is the next to arrive
+        if not self._in_flight or self._in_flight[0][0] >= t + h - self.EPS:
+            return None
+        return self._deliver(t, h, alive, positions)
+
+    def _send(self, t, h, broadcasts, alive, pos) -> None:
+        period = float(self.p.period)
+        number = math.ceil((t - self.EPS) / period)
+        while number * period < t + h - self.EPS:
+            sent_at = number * period
+            self._send_one(number, sent_at, broadcasts, alive, pos)
+            number += 1
+
+    def _send_one(self, number, sent_at, broadcasts, alive, pos) -> None:
+        n = self.n
+        senders = [i for i in range(n) if alive[i]]
+        for i in senders:
+            self.uav_counters["sent"][i] += 1
+        self.counters["sent"] += len(senders)
+        if not senders:
+            return
+        s = np.array(senders)
+        d = np.sqrt(((pos[s][:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))       # senders x receivers
+        receivers = np.arange(n)
+        pair = (s[:, None] != receivers[None, :]) & np.asarray(alive)[None, :]
+        in_range = pair & (d <= self.range)
+        self.counters["out_of_range"] += int((pair & ~in_range).sum())
+        if self.zones is not None:
+            for a, j in zip(*(v.tolist() for v in np.nonzero(in_range))):
+                if self.zones.blocked(pos[s[a], :2], pos[j, :2]) >= 0:
+                    in_range[a, j] = False
+                    self.counters["blocked"] += 1
+        if self.loss > 0.0:
+            lost = in_range & (uniform(self.p.seed, s[:, None], receivers[None, :], number) < self.loss)
+            self.counters["lost"] += int(lost.sum())
+            for j, count in enumerate(lost.sum(axis=0).tolist()):
+                self.uav_counters["lost"][j] += count
+            in_range &= ~lost
+        arrival = sent_at + self.latency
+        messages = {}
+        rows, cols = np.nonzero(in_range)
+        append = self._in_flight.append
+        for a, j, dist in zip(rows.tolist(), cols.tolist(), d[rows, cols].tolist()):
+            i = senders[a]
+            message = messages.get(i)
+            if message is None:
+                b = broadcasts[i]
+                message = messages[i] = (
+                    float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
+                    float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
+                    int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+            append((arrival, j, dist, i, message))
+
+    def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
+        end = t + h - self.EPS
+        arriving: dict[int, list] = {}
+        flying = self._in_flight
+        cut = 0
+        while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
+            arriving.setdefault(flying[cut][1], []).append(flying[cut])
+            cut += 1
+        del flying[:cut]
+        out: list[list[tuple]] = [[] for _ in range(self.n)]
+        k = self.k
+        for j, items in arriving.items():
+            if not alive[j]:
+                continue
+            items.sort(key=_NEAREST)
+            taken = items[:k]
+            self.counters["overflow"] += len(items) - len(taken)
+            self.counters["received"] += len(taken)
+            self.uav_counters["received"][j] += len(taken)
+            out[j] = [item[4] for item in taken]
+        return out
+
+
+#: the order of the messages arriving at one receiver in one step: the sender's distance when it sent, the sender
+_NEAREST = itemgetter(2, 3, 0)
