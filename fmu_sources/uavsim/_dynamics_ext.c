@@ -537,9 +537,11 @@ static PyObject *geodetic_item(PyObject *shell, Py_ssize_t j)
     PyObject *frame = NULL, *x = NULL, *y = NULL, *z = NULL, *key = NULL, *old = NULL, *geo = NULL, *r = NULL;
     double out[3];
     int changed;
-    frame = PyObject_GetAttr(shell, k_frame);
-    x = PyObject_GetAttr(shell, k_x); y = PyObject_GetAttr(shell, k_y); z = PyObject_GetAttr(shell, k_z);
-    if (frame == NULL || x == NULL || y == NULL || z == NULL) goto done;
+    /* one look-up at a time: a second look-up with the first one's AttributeError pending may clear it (its
+       own suppressed look-ups do), and NULL would then go back without an exception (SystemError in hasattr
+       while pythonfmu registers ``lat`` on a shell whose frame is not set yet) */
+    if ((frame = PyObject_GetAttr(shell, k_frame)) == NULL || (x = PyObject_GetAttr(shell, k_x)) == NULL ||
+        (y = PyObject_GetAttr(shell, k_y)) == NULL || (z = PyObject_GetAttr(shell, k_z)) == NULL) goto done;
     if (frame == Py_None || !PyFloat_CheckExact(x) || !PyFloat_CheckExact(y) || !PyFloat_CheckExact(z))
         goto python;
     if ((key = PyTuple_Pack(3, x, y, z)) == NULL || (old = PyObject_GetAttr(shell, k_geo_key)) == NULL) goto done;

@@ -31,7 +31,7 @@ def refused(path: Path) -> str:
     ("grid:\n  n_uav: [1, 2]\n", "grid.n_uav: unknown scenario field 'n_uav' (did you mean 'n_uavs'?)"),
     ("grid:\n  wind.probabilty: 0.1\n",
      "grid.wind.probabilty: unknown scenario field 'wind.probabilty' (did you mean 'wind.probability'?)"),
-    ("grid:\n  strategy: [A, B, C]\n", "grid.strategy: must be one of A, B, got 'C'"),
+    ("grid:\n  strategy: [A, B, D]\n", "grid.strategy: must be one of A, B, C, got 'D'"),
     ("grid:\n  n_uavs: -2\n", "grid.n_uavs: must be >= 1, got -2"),
     ("grid:\n  n_uavs: [1, two]\n", "grid.n_uavs: expected an integer, got 'two'"),
     ("grid:\n  zone_planning: [true, 0]\n", "grid.zone_planning: expected true or false, got 0"),
