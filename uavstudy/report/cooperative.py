@@ -162,7 +162,8 @@ def cooperative_md(r, df, out: Path, name: str) -> list[str]:
         if not np.isfinite(rc[rc["strategy"] == "C"][axis].to_numpy(float)).any():
             continue
         lines += [f"### C - B per {label}", "",
-                  f"Each level pools the other channel settings, both rule sets, every fleet size and wind."
+                  f"Each level pools the other channel settings, both rule sets, every fleet size and wind"
+                  f"{' (and so the 5 m radio, with which C hears almost nothing)' if axis == 'loss' else ''}."
                   f" The benefit disappears at the first level, from the best channel towards the worst, whose "
                   f"verdict is not *yes*.", ""]
         rows, stops = [], []
@@ -212,7 +213,7 @@ def draw_channel_figure(channel: dict, groups: list, out: Path, name: str, layou
             ax = fig.add_subplot(len(CLAIMS), len(axes_names), i * len(axes_names) + j + 1)
             for k, g in enumerate(groups):
                 eff = channel[axis].get((mcol, g), {})
-                levels = sorted(eff)
+                levels = sorted(eff, key=lambda x: CHANNEL_AXES[axis][2] * x)   # best channel on the left
                 if not levels:
                     continue
                 xs = np.arange(len(levels)) + (k - (len(groups) - 1) / 2) * 0.12
@@ -226,7 +227,7 @@ def draw_channel_figure(channel: dict, groups: list, out: Path, name: str, layou
                 ax.set_xticks(np.arange(len(levels)))
                 ax.set_xticklabels([f"{lv:g}" for lv in levels])
             ax.axhline(0.0, color="gray", lw=0.8, ls="--")
-            ax.set_xlabel(CHANNEL_AXES[axis][1])
+            ax.set_xlabel(CHANNEL_AXES[axis][1] + " (worse to the right)")
             ax.set_title(titles[mcol], fontsize=9)
             if i == 0 and j == 0:
                 ax.legend(fontsize=7)
