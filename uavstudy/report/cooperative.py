@@ -163,7 +163,7 @@ def cooperative_md(r, df, out: Path, name: str) -> list[str]:
             continue
         lines += [f"### C - B per {label}", "",
                   f"Each level pools the other channel settings, both rule sets, every fleet size and wind"
-                  f"{' (and so the 5 m radio, with which C hears almost nothing)' if axis == 'loss' else ''}."
+                  f"{' (the shortest ranges too, where C hears little)' if axis == 'loss' else ''}."
                   f" The benefit disappears at the first level, from the best channel towards the worst, whose "
                   f"verdict is not *yes*.", ""]
         rows, stops = [], []
