@@ -41,7 +41,9 @@ def main(argv=None) -> int:
         cells = [ci_text(co.effects_by(g, col)["all"], 2, show_n=False) for col, _, _ in co.METRICS]
         print(f"| {label} | " + " | ".join(cells) + " |")
     cells = {col: co.effects_by(r, col, "_cell") for col, _, _ in co.METRICS}
-    for key in sorted(k for k in cells["successes"] if k != "all"):
+    def numeric(k):   # "range 15 m, loss 0.5" -> (15.0, 0.5)
+        return tuple(float(w.rstrip(",")) for w in k.split() if w.rstrip(",").replace(".", "").isdigit())
+    for key in sorted((k for k in cells["successes"] if k != "all"), key=numeric):
         print(f"| {key} | " + " | ".join(ci_text(cells[col][key], 2, show_n=False) for col, _, _ in co.METRICS)
               + " |")
     print()
