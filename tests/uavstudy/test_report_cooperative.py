@@ -104,5 +104,9 @@ def test_section_states_the_answers(tmp_path):
     text = "\n".join(lines)
     assert "## Strategy C against B" in text
     assert "at 15 m (not shown)" in text
+    # the overall UAV-UAV row carries the interval recomputed here
+    m, lo, hi = _t_interval(_hand_per_layout())
+    row = next(x for x in text.split("\n") if x.startswith("| UAVs removed by UAV-UAV collisions per run | all |"))
+    assert f"{m:+.3f} [{lo:.3f}, {hi:.3f}]" in row and row.rstrip(" |").endswith("yes")
     assert "not within the levels flown" in text
     assert (tmp_path / "fig_channel_benefit.png").is_file()
