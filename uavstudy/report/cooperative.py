@@ -24,7 +24,7 @@ from master.campaign.report import md_table
 from .findings import NOT_SHOWN, REVERSED, YES, direction_verdict
 from .text import ci_text, n_text
 
-__all__ = ["METRICS", "applies", "with_run_values", "c_minus_b", "effects_by", "disappears_at",
+__all__ = ["METRICS", "applies", "with_run_values", "c_minus_b", "effect", "effects_by", "verdict", "disappears_at",
            "cooperative_md", "draw_channel_figure"]
 
 #: (column, what it is, the sign that is a benefit of C: +1 higher is better, -1 lower, None no side)
