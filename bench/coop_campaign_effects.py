@@ -1,13 +1,12 @@
-"""C against B in a campaign of ssp/campaigns/cooperative.yaml: the paired effects, with intervals, per channel
-setting (docs/cooperative.md, "Results").
+"""C against B in a campaign of ssp/campaigns/cooperative.yaml: the paired effects with layout-level intervals,
+overall, per rule set, fleet size, and per channel range x loss cell (docs/cooperative.md, "Results").
 
     python bench/coop_campaign_effects.py results/cooperative        # prints markdown tables
 
-Uses the report's estimators as they are: the per-run frame of ``uavstudy.report.tables.uav_frames`` (the run is
-the unit; a block is a configuration plus repetition, where a campaign paired on the strategy flies B and C
-through the same layout and wind) and ``master.campaign.blocked``: the mean C - B difference over blocks, its t
-interval stratified by configuration and the sign-flip permutation p-value.  B ignores the channel axes, so each
-C run's twin is the B run of the same block.
+Uses the report's estimators as they are (``uavstudy.report.cooperative``): every C run against the B run of the
+same layout, rule set, fleet and wind, the differences averaged per layout, then the mean over layouts with its
+t interval (df = layouts - 1).  The report (``cosim-master report``) has the same numbers per range and per loss
+level; this script adds the finer range x loss cells.
 """
 from __future__ import annotations
 
@@ -17,45 +16,36 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-VALUES = [("successes", "successful UAV missions per run"), ("uav_collided", "UAVs removed by UAV-UAV collisions"),
-          ("zone_collided", "UAVs removed by zone incursions"), ("photos", "targets photographed per run"),
-          ("battery", "mean remaining battery (%)"), ("distance_km", "distance flown per run (km)")]
-
-
-def effects(r, value: str):
-    from master.campaign import blocked as bl
-    d = bl.paired_differences(r, value, "strategy", "B", "C", ["cell", "block"])
-    return bl.blocked_effect(d["diff"].to_numpy(), strata=d["cell"].to_numpy())
-
-
-def fmt(e) -> str:
-    if e.n_blocks == 0:
-        return "n/a"
-    return f"{e.estimate:+.2f} [{e.low:+.2f}, {e.high:+.2f}] p={e.p:.3f}"
-
 
 def main(argv=None) -> int:
     import pandas as pd
 
+    from uavstudy.report import cooperative as co
     from uavstudy.report.tables import uav_frames
+    from uavstudy.report.text import ci_text
     args = sys.argv[1:] if argv is None else argv
     folder = Path(args[0] if args else "results/cooperative")
     df = pd.read_parquet(folder / "results.parquet")
     _, r = uav_frames(df)
-    r["range"] = pd.to_numeric(r["comm.range"])
-    r["loss"] = pd.to_numeric(r["comm.loss"])
-    n_runs = len(r)
-    print(f"{folder}: {n_runs} runs ({(r.strategy == 'B').sum()} B, {(r.strategy == 'C').sum()} C), "
-          f"{r['block'].nunique()} blocks; C - B per run, mean over blocks [95 % stratified t interval], "
-          "sign-flip p\n")
-    groups = [("all", r)] + [(f"rules {k}", g) for k, g in r.groupby("rules")] + \
-        [(f"{int(n)} UAVs", g) for n, g in r.groupby("n_uavs")] + \
-        [(f"range {rg:g} m, loss {ls:g}", g) for (rg, ls), g in r.groupby(["range", "loss"])]
-    print("| runs | blocks | " + " | ".join(name for _, name in VALUES) + " |")
-    print("|---|---|" + "---|" * len(VALUES))
+    r = co.with_run_values(r, df)
+    print(f"{folder}: {len(r)} runs ({(r.strategy == 'B').sum()} B, {(r.strategy == 'C').sum()} C), "
+          f"{r['layout'].nunique()} layouts; C - B per run, mean over layouts [95 % t interval], p\n")
+    c = r["strategy"] == "C"
+    r["_cell"] = "all"
+    r.loc[c, "_cell"] = [f"range {a:g} m, loss {b:g}" for a, b in zip(r.loc[c, "range"], r.loc[c, "loss"])]
+    groups = [("all", r)] + [(f"{k} rules", g) for k, g in r.groupby("rules")] + \
+        [(f"{int(n)} UAVs", g) for n, g in r.groupby("n_uavs")]
+    print("| runs | " + " | ".join(label for _, label, _ in co.METRICS) + " |")
+    print("|---|" + "---|" * len(co.METRICS))
     for label, g in groups:
-        es = [effects(g, v) for v, _ in VALUES]
-        print(f"| {label} | {es[0].n_blocks} | " + " | ".join(fmt(e) for e in es) + " |")
+        cells = [ci_text(co.effects_by(g, col)["all"], 2, show_n=False) for col, _, _ in co.METRICS]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    cells = {col: co.effects_by(r, col, "_cell") for col, _, _ in co.METRICS}
+    def numeric(k):   # "range 15 m, loss 0.5" -> (15.0, 0.5)
+        return tuple(float(w.rstrip(",")) for w in k.split() if w.rstrip(",").replace(".", "").isdigit())
+    for key in sorted((k for k in cells["successes"] if k != "all"), key=numeric):
+        print(f"| {key} | " + " | ".join(ci_text(cells[col][key], 2, show_n=False) for col, _, _ in co.METRICS)
+              + " |")
     print()
     print("| strategy | UAV missions | successes | UAVs removed by UAV-UAV collisions | by zones |")
     print("|---|---|---|---|---|")

@@ -13,6 +13,7 @@ from pathlib import Path
 from master.campaign.report import campaign_facts, failures_md, md_table
 from master.campaign.spec import design_roles
 
+from . import cooperative
 from .figures import draw_figures
 from .findings import (COLLISION_RULE, NOT_SHOWN, REVERSED, YES, explanations, paper_comparison,
                        sensitivity_findings, table2, too_small, verdict_text)
@@ -43,6 +44,10 @@ def uav_report(manifest, df, out: Path) -> str | None:
     design = manifest.get("design") or {}
     settings = run_settings(Path(out).parent, r["run_id"], df)
     lines = _header_md(manifest, df, u, r, settings)
+    if cooperative.applies(r):
+        lines += cooperative.cooperative_md(r, df, out, manifest["name"])
+        if "A" not in set(r["strategy"]):   # a campaign of C against B: the paper's A-vs-B parts have nothing
+            return "\n".join(lines + ["", _diagnostics(u, r), "", "## Failed runs", "", failures_md(df)])
     small = too_small(r)
     if design and not small:
         lines += sensitivity_md(u, r, design)
