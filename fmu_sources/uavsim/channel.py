@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
-from operator import itemgetter
 
 import numpy as np
 
@@ -159,7 +158,8 @@ class Channel:
         self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
         self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
         self._clock = [None] * self.n
-        self._in_flight: list[tuple[float, int, int, tuple]] = []   # (arrival, receiver, sender, message)
+        # per sending instant: (arrival, senders, reached (senders x receivers), distances, sender row -> message)
+        self._in_flight: list[tuple] = []
         self._close: set = set()                                       # pairs within the near-miss distance
 
     def _alive(self, clocks) -> list[bool]:
@@ -248,43 +248,58 @@ class Channel:
             for j, count in enumerate(lost.sum(axis=0).tolist()):
                 self.uav_counters["lost"][j] += count
             in_range &= ~lost
-        arrival = sent_at + self.latency
+        # one entry per sending instant: who reaches whom (senders x receivers) and how far apart they were; the
+        # message of a sender is made once, and only if it reaches someone
+        reach = np.flatnonzero(in_range.any(axis=1)).tolist()
+        if not reach:
+            return
         messages = {}
-        rows, cols = np.nonzero(in_range)
-        append = self._in_flight.append
-        for a, j, dist in zip(rows.tolist(), cols.tolist(), d[rows, cols].tolist()):
+        for a in reach:
             i = senders[a]
-            message = messages.get(i)
-            if message is None:
-                b = broadcasts[i]
-                message = messages[i] = (
-                    float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
-                    float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
-                    int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
-            append((arrival, j, dist, i, message))
+            b = broadcasts[i]
+            messages[a] = (
+                float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
+                float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
+                int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+        self._in_flight.append((sent_at + self.latency, s, in_range, d, messages))
 
     def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
         end = t + h - self.EPS
-        arriving: dict[int, list] = {}
         flying = self._in_flight
         cut = 0
         while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
-            arriving.setdefault(flying[cut][1], []).append(flying[cut])
             cut += 1
+        arriving = flying[:cut]
         del flying[:cut]
+        # the instants arriving in this step stacked: one row per (instant, sender)
+        if len(arriving) == 1:
+            _, s, ok, d, _ = arriving[0]
+            rows = [(0, a) for a in range(len(s))]
+            sender = s
+            when = np.zeros(len(s))
+        else:
+            ok = np.vstack([e[2] for e in arriving])
+            d = np.vstack([e[3] for e in arriving])
+            rows = [(b, a) for b, e in enumerate(arriving) for a in range(len(e[1]))]
+            sender = np.concatenate([e[1] for e in arriving])
+            when = np.concatenate([np.full(len(e[1]), e[0]) for e in arriving])
+        shape = ok.shape
+        # per receiver (column), its rows nearest first: reached ones, by distance when sent, then sender index, then
+        # arrival (lexsort's last key is the first criterion; it is stable)
+        order = np.lexsort((np.broadcast_to(when[:, None], shape), np.broadcast_to(sender[:, None], shape), d, ~ok),
+                           axis=0)
+        counts = ok.sum(axis=0).tolist()
         out: list[list[tuple]] = [[] for _ in range(self.n)]
         k = self.k
-        for j, items in arriving.items():
-            if not alive[j]:
+        received = self.uav_counters["received"]
+        for j, count in enumerate(counts):
+            if not count or not alive[j]:
                 continue
-            items.sort(key=_NEAREST)
-            taken = items[:k]
-            self.counters["overflow"] += len(items) - len(taken)
-            self.counters["received"] += len(taken)
-            self.uav_counters["received"][j] += len(taken)
-            out[j] = [item[4] for item in taken]
+            taken = min(count, k)
+            self.counters["overflow"] += count - taken
+            self.counters["received"] += taken
+            received[j] += taken
+            out[j] = [arriving[b][4][a] for b, a in (rows[r] for r in order[:taken, j].tolist())]
         return out
 
 
-#: the order of the messages arriving at one receiver in one step: the sender's distance when it sent, the sender
-_NEAREST = itemgetter(2, 3, 0)
