@@ -271,23 +271,20 @@ class Channel:
             cut += 1
         arriving = flying[:cut]
         del flying[:cut]
-        # the instants arriving in this step stacked: one row per (instant, sender)
+        # the instants arriving in this step stacked, one row per (instant, sender), ordered by sender then arrival
+        # (one instant: its rows are in sender order already); a stable sort of each receiver's column by (reached
+        # first, distance when sent) then leaves ties in that order: by distance, sender, arrival
         if len(arriving) == 1:
             _, s, ok, d, _ = arriving[0]
             rows = [(0, a) for a in range(len(s))]
-            sender = s
-            when = np.zeros(len(s))
         else:
-            ok = np.vstack([e[2] for e in arriving])
-            d = np.vstack([e[3] for e in arriving])
             rows = [(b, a) for b, e in enumerate(arriving) for a in range(len(e[1]))]
-            sender = np.concatenate([e[1] for e in arriving])
-            when = np.concatenate([np.full(len(e[1]), e[0]) for e in arriving])
-        shape = ok.shape
-        # per receiver (column), its rows nearest first: reached ones, by distance when sent, then sender index, then
-        # arrival (lexsort's last key is the first criterion; it is stable)
-        order = np.lexsort((np.broadcast_to(when[:, None], shape), np.broadcast_to(sender[:, None], shape), d, ~ok),
-                           axis=0)
+            by_sender = np.lexsort((np.concatenate([np.full(len(e[1]), b) for b, e in enumerate(arriving)]),
+                                    np.concatenate([e[1] for e in arriving])))
+            ok = np.vstack([e[2] for e in arriving])[by_sender]
+            d = np.vstack([e[3] for e in arriving])[by_sender]
+            rows = [rows[r] for r in by_sender.tolist()]
+        nearest = np.lexsort((d, ~ok), axis=0)[:self.k].T.tolist()     # per receiver, its k first rows
         counts = ok.sum(axis=0).tolist()
         out: list[list[tuple]] = [[] for _ in range(self.n)]
         k = self.k
@@ -299,7 +296,7 @@ class Channel:
             self.counters["overflow"] += count - taken
             self.counters["received"] += taken
             received[j] += taken
-            out[j] = [arriving[b][4][a] for b, a in (rows[r] for r in order[:taken, j].tolist())]
+            out[j] = [arriving[b][4][a] for b, a in (rows[r] for r in nearest[j][:taken])]
         return out
 
 
