@@ -60,29 +60,40 @@ _MASK64 = (1 << 64) - 1
 _GOLDEN = 0x9E3779B97F4A7C15
 
 
+_U64 = {c: np.uint64(c) for c in (11, 27, 30, 31, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB, _GOLDEN,
+                                   0xD1B54A32D192ED03)}
+
+
 def _splitmix_finalize(z):
-    """SplitMix64's output function (Steele, Lea, Flood 2014) on uint64 numpy arrays or Python ints."""
+    """SplitMix64's output function (Steele, Lea, Flood 2014) on a Python int, or in place on a uint64 numpy array
+    of one dimension or more (whose arithmetic wraps modulo 2**64 without a warning, unlike numpy's scalars)."""
     if isinstance(z, int):
         z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK64
         z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK64
         return z ^ (z >> 31)
-    with np.errstate(over="ignore"):
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return z ^ (z >> np.uint64(31))
+    u = _U64
+    z ^= z >> u[30]
+    z *= u[0xBF58476D1CE4E5B9]
+    z ^= z >> u[27]
+    z *= u[0x94D049BB133111EB]
+    z ^= z >> u[31]
+    return z
 
 
 def uniform(seed: int, sender, receiver, number: int):
     """The loss draw of message ``number`` from ``sender`` to ``receiver``: a uniform number in [0, 1), a pure
-    function of the four integers (``sender``/``receiver`` may be integer arrays)."""
+    function of the four integers (``sender``/``receiver`` may be integer arrays, broadcast together)."""
     key = _splitmix_finalize((int(seed) * _GOLDEN + 0x632BE59BD9B4E019) & _MASK64)
     key = _splitmix_finalize((key ^ (int(number) * _GOLDEN)) & _MASK64)
     s = np.asarray(sender, dtype=np.uint64)
     r = np.asarray(receiver, dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        z = _splitmix_finalize(np.uint64(key) ^ (s * np.uint64(_GOLDEN)))
-        z = _splitmix_finalize(z ^ (r * np.uint64(0xD1B54A32D192ED03)) + np.uint64(_GOLDEN))
-    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+    scalar = s.ndim == 0 and r.ndim == 0
+    s, r = np.atleast_1d(s), np.atleast_1d(r)        # arrays: wrapping arithmetic, no overflow warning
+    u = _U64
+    z = _splitmix_finalize(s * u[_GOLDEN] ^ np.uint64(key))
+    z = _splitmix_finalize(z ^ (r * u[0xD1B54A32D192ED03] + u[_GOLDEN]))
+    out = (z >> u[11]).astype(np.float64) * (1.0 / 9007199254740992.0)
+    return out[0] if scalar else out
 
 
 def encode_mask(indices) -> tuple[int, ...]:
