@@ -9,6 +9,7 @@ sampled at t; the outputs are the deliveries in [t, t + h), so no output depends
 """
 import os
 import sys
+from itertools import chain
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 if _HERE not in sys.path:           # inside the FMU this is resources/, which holds uavsim/
@@ -41,6 +42,13 @@ def _slot(i: int, s: int, name: str) -> str:
 _SLOT_NAMES = [[tuple(_slot(j + 1, s + 1, name) for name in _FIELDS) for s in range(C.MAX_K)]
                for j in range(C.MAX_FLEET)]
 _SENDER = _FIELDS.index("sender")
+#: receiver j -> the names of all its slots in a row (slot 1's fields, slot 2's, ...)
+_FLAT_NAMES = [tuple(name for slot in slots for name in slot) for slots in _SLOT_NAMES]
+_BROADCAST = C.BROADCAST_REAL + C.BROADCAST_INT
+#: UAV j (0-based) -> its broadcast inputs, in _BROADCAST order
+_BROADCAST_NAMES = [tuple(f"uav{j + 1}_{name}" for name in _BROADCAST) for j in range(C.MAX_FLEET)]
+#: per UAV counter (C.UAV_COUNTERS order) -> its output of every UAV
+_COUNTER_NAMES = [tuple(f"uav{j + 1}_{name}" for j in range(C.MAX_FLEET)) for name in C.UAV_COUNTERS]
 
 
 class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
@@ -115,40 +123,35 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
                                    for i in range(1, n + 1)]
         positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
         clocks = [d[c] for *_, c in ports]
-        fields = C.BROADCAST_REAL + C.BROADCAST_INT
 
-        def broadcast(j):
-            return {name: d[f"uav{j + 1}_{name}"] for name in fields}
+        def broadcast(j, _names=_BROADCAST_NAMES):
+            return dict(zip(_BROADCAST, [d[name] for name in _names[j]]))
         sent = model.counters["sent"]
         delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
+        # each receiver's slots: the messages that arrived, the slots filled last step and not now emptied; the
+        # messages of all receivers in one dict update (a fleet's deliveries are thousands of values)
         filled = self._filled
-        if delivered is None:
-            for j in range(n):
-                if filled[j]:
-                    self._publish(j, ())
-        else:
-            for j, messages in enumerate(delivered):
-                if messages or filled[j]:
-                    self._publish(j, messages)
+        arrived = delivered if delivered is not None else [()] * n
+        names, values = [], []
+        for j in range(n):
+            messages = arrived[j]
+            if messages:
+                names += _FLAT_NAMES[j][:len(messages) * len(_FIELDS)]
+                values += chain.from_iterable(messages)
+            if len(messages) < filled[j]:
+                for s in range(len(messages), filled[j]):
+                    d[_SLOT_NAMES[j][s][_SENDER]] = C.EMPTY
+            filled[j] = len(messages)
+        if names:
+            d.update(zip(names, values))
         if delivered is not None or model.counters["sent"] != sent or \
                 model.counters["near_misses"] != d["near_misses"]:
             self._publish_counters()
         return True
 
-    def _publish(self, j: int, messages) -> None:
-        """Receiver j's slots: the messages that arrived, the slots filled last step and not now emptied."""
-        d = self.__dict__
-        names = _SLOT_NAMES[j]
-        for s in range(len(messages), self._filled[j]):
-            d[names[s][_SENDER]] = C.EMPTY
-        for s, message in enumerate(messages):
-            d.update(zip(names[s], message))
-        self._filled[j] = len(messages)
-
     def _publish_counters(self) -> None:
         d, model = self.__dict__, self._model
         for name in C.FLEET_COUNTERS:
             d[f"messages_{name}" if name != "near_misses" else name] = model.counters[name]
-        for name in C.UAV_COUNTERS:
-            for j, value in enumerate(model.uav_counters[name]):
-                d[f"uav{j + 1}_{name}"] = value
+        for name, names in zip(C.UAV_COUNTERS, _COUNTER_NAMES):
+            d.update(zip(names, model.uav_counters[name]))

@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
-from operator import itemgetter
 
 import numpy as np
 
@@ -61,29 +60,40 @@ _MASK64 = (1 << 64) - 1
 _GOLDEN = 0x9E3779B97F4A7C15
 
 
+_U64 = {c: np.uint64(c) for c in (11, 27, 30, 31, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB, _GOLDEN,
+                                   0xD1B54A32D192ED03)}
+
+
 def _splitmix_finalize(z):
-    """SplitMix64's output function (Steele, Lea, Flood 2014) on uint64 numpy arrays or Python ints."""
+    """SplitMix64's output function (Steele, Lea, Flood 2014) on a Python int, or in place on a uint64 numpy array
+    of one dimension or more (whose arithmetic wraps modulo 2**64 without a warning, unlike numpy's scalars)."""
     if isinstance(z, int):
         z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK64
         z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK64
         return z ^ (z >> 31)
-    with np.errstate(over="ignore"):
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return z ^ (z >> np.uint64(31))
+    u = _U64
+    z ^= z >> u[30]
+    z *= u[0xBF58476D1CE4E5B9]
+    z ^= z >> u[27]
+    z *= u[0x94D049BB133111EB]
+    z ^= z >> u[31]
+    return z
 
 
 def uniform(seed: int, sender, receiver, number: int):
     """The loss draw of message ``number`` from ``sender`` to ``receiver``: a uniform number in [0, 1), a pure
-    function of the four integers (``sender``/``receiver`` may be integer arrays)."""
+    function of the four integers (``sender``/``receiver`` may be integer arrays, broadcast together)."""
     key = _splitmix_finalize((int(seed) * _GOLDEN + 0x632BE59BD9B4E019) & _MASK64)
     key = _splitmix_finalize((key ^ (int(number) * _GOLDEN)) & _MASK64)
     s = np.asarray(sender, dtype=np.uint64)
     r = np.asarray(receiver, dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        z = _splitmix_finalize(np.uint64(key) ^ (s * np.uint64(_GOLDEN)))
-        z = _splitmix_finalize(z ^ (r * np.uint64(0xD1B54A32D192ED03)) + np.uint64(_GOLDEN))
-    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+    scalar = s.ndim == 0 and r.ndim == 0
+    s, r = np.atleast_1d(s), np.atleast_1d(r)        # arrays: wrapping arithmetic, no overflow warning
+    u = _U64
+    z = _splitmix_finalize(s * u[_GOLDEN] ^ np.uint64(key))
+    z = _splitmix_finalize(z ^ (r * u[0xD1B54A32D192ED03] + u[_GOLDEN]))
+    out = (z >> u[11]).astype(np.float64) * (1.0 / 9007199254740992.0)
+    return out[0] if scalar else out
 
 
 def encode_mask(indices) -> tuple[int, ...]:
@@ -159,7 +169,8 @@ class Channel:
         self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
         self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
         self._clock = [None] * self.n
-        self._in_flight: list[tuple[float, int, int, tuple]] = []   # (arrival, receiver, sender, message)
+        # per sending instant: (arrival, senders, reached (senders x receivers), distances, sender row -> message)
+        self._in_flight: list[tuple] = []
         self._close: set = set()                                       # pairs within the near-miss distance
 
     def _alive(self, clocks) -> list[bool]:
@@ -248,43 +259,55 @@ class Channel:
             for j, count in enumerate(lost.sum(axis=0).tolist()):
                 self.uav_counters["lost"][j] += count
             in_range &= ~lost
-        arrival = sent_at + self.latency
+        # one entry per sending instant: who reaches whom (senders x receivers) and how far apart they were; the
+        # message of a sender is made once, and only if it reaches someone
+        reach = np.flatnonzero(in_range.any(axis=1)).tolist()
+        if not reach:
+            return
         messages = {}
-        rows, cols = np.nonzero(in_range)
-        append = self._in_flight.append
-        for a, j, dist in zip(rows.tolist(), cols.tolist(), d[rows, cols].tolist()):
+        for a in reach:
             i = senders[a]
-            message = messages.get(i)
-            if message is None:
-                b = broadcasts[i]
-                message = messages[i] = (
-                    float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
-                    float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
-                    int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
-            append((arrival, j, dist, i, message))
+            b = broadcasts[i]
+            messages[a] = (
+                float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
+                float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
+                int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+        self._in_flight.append((sent_at + self.latency, s, in_range, d, messages))
 
     def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
         end = t + h - self.EPS
-        arriving: dict[int, list] = {}
         flying = self._in_flight
         cut = 0
         while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
-            arriving.setdefault(flying[cut][1], []).append(flying[cut])
             cut += 1
+        arriving = flying[:cut]
         del flying[:cut]
+        # the instants arriving in this step stacked, one row per (instant, sender), ordered by sender then arrival
+        # (one instant: its rows are in sender order already); a stable sort of each receiver's column by (reached
+        # first, distance when sent) then leaves ties in that order: by distance, sender, arrival
+        if len(arriving) == 1:
+            _, s, ok, d, _ = arriving[0]
+            rows = [(0, a) for a in range(len(s))]
+        else:
+            rows = [(b, a) for b, e in enumerate(arriving) for a in range(len(e[1]))]
+            by_sender = np.lexsort((np.concatenate([np.full(len(e[1]), b) for b, e in enumerate(arriving)]),
+                                    np.concatenate([e[1] for e in arriving])))
+            ok = np.vstack([e[2] for e in arriving])[by_sender]
+            d = np.vstack([e[3] for e in arriving])[by_sender]
+            rows = [rows[r] for r in by_sender.tolist()]
+        nearest = np.lexsort((d, ~ok), axis=0)[:self.k].T.tolist()     # per receiver, its k first rows
+        counts = ok.sum(axis=0).tolist()
         out: list[list[tuple]] = [[] for _ in range(self.n)]
         k = self.k
-        for j, items in arriving.items():
-            if not alive[j]:
+        received = self.uav_counters["received"]
+        for j, count in enumerate(counts):
+            if not count or not alive[j]:
                 continue
-            items.sort(key=_NEAREST)
-            taken = items[:k]
-            self.counters["overflow"] += len(items) - len(taken)
-            self.counters["received"] += len(taken)
-            self.uav_counters["received"][j] += len(taken)
-            out[j] = [item[4] for item in taken]
+            taken = min(count, k)
+            self.counters["overflow"] += count - taken
+            self.counters["received"] += taken
+            received[j] += taken
+            out[j] = [arriving[b][4][a] for b, a in (rows[r] for r in nearest[j][:taken])]
         return out
 
 
-#: the order of the messages arriving at one receiver in one step: the sender's distance when it sent, the sender
-_NEAREST = itemgetter(2, 3, 0)

@@ -116,6 +116,18 @@ def test_equal_distances_break_ties_by_the_lower_sender():
     assert [_field(m, "sender") for m in out[0]] == [1, 2]
 
 
+def test_several_instants_arriving_in_one_step_are_ordered_by_distance_then_sender_then_arrival():
+    # period 0.04 s in steps of 0.1 s, no latency: instants 0, 0.04, 0.08 all arrive in [0, 0.1).  Senders 1 and 2
+    # both 10 m from receiver 0 (a tie), sender 3 at 30 m: 9 messages for receiver 0, k = 4 of them taken
+    pos = [(0.0, 0.0), (10.0, 0.0), (0.0, 10.0), (0.0, -30.0)]
+    ch, _, out = next(_run(C.ChannelParams(range=1e3, period=0.04, k=4, n_uavs=4), pos, 1))
+    assert [(_field(m, "sender"), _field(m, "sent_time")) for m in out[0]] == \
+        [(1, 0.0), (1, 1 * 0.04), (1, 2 * 0.04), (2, 0.0)]
+    assert ch.counters["sent"] == 3 * 4
+    assert ch.counters["overflow"] == 4 * (3 * 3 - 4)
+    assert ch.counters["received"] == 4 * 4
+
+
 def test_restricted_zone_blocks_the_line_of_sight():
     wall = [[(40.0, -50.0), (60.0, -50.0), (60.0, 50.0), (40.0, 50.0)]]
     pos = [(0.0, 0.0), (100.0, 0.0), (0.0, 100.0)]
