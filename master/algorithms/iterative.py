@@ -30,9 +30,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import CosimError
-from ..fmi.slave import WARNING
 from ..runtime import SavedPoint
 from . import ALGORITHMS
+from .compiled import compile_step
 from .extrapolation import InputExtrapolation, coupled_outputs
 from .coupling_updates import UPDATES
 from .gauss_seidel import GaussSeidel
@@ -84,8 +84,6 @@ class Iterative(GaussSeidel):
             self._feed = InputExtrapolation(self.rt, self.plan, 0)
             self._feed._select()
             self.positions = self._feed.positions
-            rt = self.rt
-            self.components = [(i, rt.multiple[i], *rt.fast_ops(i)) for i in range(len(rt.slaves)) if rt.active[i]]
             self.rt.changed = False
         else:
             self.positions = self._loop_values()
@@ -164,33 +162,16 @@ class Iterative(GaussSeidel):
         through_at = np.array([j for j, p in enumerate(pos) if feed.owner[int(p)] in fed_through], dtype=np.intp)
         through = pos[through_at]
 
+        jacobi = compile_step(rt, self.order, h, gauss_seidel=False)     # the one Jacobi step (fixed_step)
+
         def sweep(n: int, t: float) -> None:
             end = out[pos].copy()
             out[pos] = 0.5 * (self._start + end)
-            stepped = []
-            for i, k, transfers, setters, do_step, getters, _ in self.components:
-                if k > 1 and n % k:
-                    continue
-                for x in transfers:
-                    x()
-                for s in setters:
-                    if (st := s()) > WARNING:
-                        raise rt.slaves[i].fail("setting inputs", st, t)
-                if (st := do_step(t, h * k)) > WARNING and not rt.ends_run_on_request(i, st):
-                    raise rt.slaves[i].fail("doStep", st, t)
-                rt.do_step_calls[i] += 1
-                stepped.append((i, getters))
-            for i, getters in stepped:
-                for g in getters:
-                    if (st := g()) > WARNING:
-                        raise rt.slaves[i].fail("getting outputs", st, t + h)
+            jacobi(n, t)
             # feedthrough outputs at the step's end: from the iterate's end values, not from the mean inputs
             # they were read with
             out[through] = end[through_at]
             feed._refresh(t + h)
-            for i, k, *_, publish in self.components:
-                if k > 1 and publish is not None and (n + 1) % k == 0:
-                    publish()
         return sweep
 
     def _count(self, iterations: int, converged: bool) -> None:
