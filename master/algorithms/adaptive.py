@@ -115,7 +115,7 @@ class Adaptive(Algorithm):
         """The active components, the coupled values, and the outputs step doubling compares; the history
         restarts (at t: None until the first step) when the coupled values change."""
         rt = self.rt
-        self._feed._select()                 # the feedthrough components refreshed after each step
+        self._feed.select()                 # the feedthrough components refreshed after each step
         positions, _ = coupled_outputs(rt)
         if not self.history or not np.array_equal(positions, self.positions):
             self.history[:] = [(t, rt.out["Real"][positions].copy())]
@@ -269,7 +269,7 @@ class Adaptive(Algorithm):
         # that no shorter step reduces, which drove the stiff oscillator's steps to the minimum step (an
         # algorithm with an estimate of its own, ECCO, keeps Jacobi's held-input samples, as libcosim has them)
         if self.extrapolation or self._refresh_held:
-            self._feed._refresh(t + h)
+            self._feed.refresh(t + h)
         history.insert(0, (t + h, out[pos].copy()))
         del history[self.extrapolation + 1:]
         return predicted

@@ -140,7 +140,7 @@ class InputExtrapolation:
 
     def around(self, step, ratio: float = 1.0):
         """The step with extrapolated inputs (``ratio``: its length in master steps)."""
-        self._select()
+        self.select()
         if self.derivatives_step is not None:
             return self._with_derivatives(step)
         out, pos, history = self.rt.out["Real"], self.positions, self.history
@@ -156,7 +156,7 @@ class InputExtrapolation:
                 elif len(w) > 1:
                     out[pos[idx]] = w @ np.array(history)[:len(w), idx]
             step(n, t)
-            self._refresh(t)
+            self.refresh(t)
             history.appendleft(out[pos].copy())
         return extrapolated_step
 
@@ -214,7 +214,7 @@ class InputExtrapolation:
                 if (st := put(values)) > WARNING:
                     raise rt.slaves[i].fail("setting input derivatives", st, t)
             step(n, t)
-            self._refresh(t)
+            self.refresh(t)
             if self.slopes:
                 read_slopes(t)
             history.appendleft(out[pos].copy())
@@ -231,7 +231,7 @@ class InputExtrapolation:
         by_producer = {}
         for j, p in enumerate(pos):
             by_producer.setdefault(self.owner[int(p)], []).append(j)
-        through = [i for i, _ in self._refreshed]
+        through = [i for i, _ in self.refreshed]
         getters = {}
         for i, js in by_producer.items():
             slave = rt.slaves[i]
@@ -272,7 +272,7 @@ class InputExtrapolation:
         return [(int(k), np.flatnonzero(orders == k)) for k in sorted(set(orders.tolist()))]
 
     # -- which values, which components ------------------------------------------------------------------
-    def _select(self) -> None:
+    def select(self) -> None:
         """Positions in out["Real"] of coupled outputs of active components stepping every step, and the
         components whose coupled outputs have direct feedthrough; history restarts when they change."""
         rt = self.rt
@@ -281,7 +281,7 @@ class InputExtrapolation:
         feeds = {rt.names[owner[p]] for p in positions}
         through = {ln.src.component for ln in self.plan.links
                    if ln.src.component in feeds and ln.dst.causality == "input" and self._feeds_through(ln.src)}
-        self._refreshed = [(i, rt.fast_ops(i)) for i in self.refresh_order if rt.names[i] in through]
+        self.refreshed = [(i, rt.fast_ops(i)) for i in self.refresh_order if rt.names[i] in through]
         if not np.array_equal(positions, self.positions) or not self.history:
             self.positions = positions
             self.history.clear()
@@ -291,9 +291,9 @@ class InputExtrapolation:
         deps = self.plan.feedthrough.get(output.component, {}).get(output.name)
         return deps is None or len(deps) > 0        # None: no declaration, so it depends on every input
 
-    def _refresh(self, t: float) -> None:
+    def refresh(self, t: float) -> None:
         """Inputs of the feedthrough components from the new outputs, and their outputs read again."""
-        for i, (transfers, setters, _, getters, _) in self._refreshed:
+        for i, (transfers, setters, _, getters, _) in self.refreshed:
             for x in transfers:
                 x()
             for op, what in [(s, "setting inputs") for s in setters] + [(g, "getting outputs") for g in getters]:

@@ -37,10 +37,10 @@ def interpolation_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]
 def interpolating_sweep(rt, order: list[int], h: float, ratio: float, extrapolator, samples_back: int):
     """The Gauss-Seidel step over ``order`` with the known inputs interpolated through ``samples_back``
     earlier samples (``extrapolator.history``, newest first)."""
-    extrapolator._select()
+    extrapolator.select()
     out, history = rt.out["Real"], extrapolator.history
     owner = extrapolator.owner
-    through = {i for i, _ in extrapolator._refreshed}
+    through = {i for i, _ in extrapolator.refreshed}
     fail, step_failed = _failer(rt), _step_failer(rt)
     weights = [np.array(interpolation_weights(m, ratio)) for m in range(1, samples_back + 2)]
     positions = extrapolator.positions

@@ -82,7 +82,7 @@ class Iterative(GaussSeidel):
         super()._build()
         if self.interpolate_inputs:
             self._feed = InputExtrapolation(self.rt, self.plan, 0)
-            self._feed._select()
+            self._feed.select()
             self.positions = self._feed.positions
             self.rt.changed = False
         else:
@@ -158,7 +158,7 @@ class Iterative(GaussSeidel):
         the iterate U on entry and G(U) on return."""
         rt, pos, feed = self.rt, self.positions, self._feed
         out = rt.out["Real"]
-        fed_through = {i for i, _ in feed._refreshed}
+        fed_through = {i for i, _ in feed.refreshed}
         through_at = np.array([j for j, p in enumerate(pos) if feed.owner[int(p)] in fed_through], dtype=np.intp)
         through = pos[through_at]
 
@@ -171,7 +171,7 @@ class Iterative(GaussSeidel):
             # feedthrough outputs at the step's end: from the iterate's end values, not from the mean inputs
             # they were read with
             out[through] = end[through_at]
-            feed._refresh(t + h)
+            feed.refresh(t + h)
         return sweep
 
     def _count(self, iterations: int, converged: bool) -> None:
