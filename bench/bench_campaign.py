@@ -1,4 +1,5 @@
-"""Throughput of the paper campaign (ssp/campaigns/paper.yaml, 336 runs) and a profile of one run.
+"""Throughput of the paper campaign (ssp/campaigns/paper.yaml, 2688 runs on 24 layouts) and a profile of one run.
+The figures measured before 2026-11-28 are of its 3-layout form, 336 runs: ``--fraction 0.125`` runs that size.
 
     python bench/bench_campaign.py                      # full campaign on every core + profile
     python bench/bench_campaign.py --fraction 0.25      # every 4th run (stratified), extrapolated
@@ -248,7 +249,7 @@ def run_bench(fraction: float, workers: int | None, output: Path | None, keep_ou
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fraction", type=float, default=1.0, help="run every round(1/F)-th run (default 1: all 336)")
+    ap.add_argument("--fraction", type=float, default=1.0, help="run every round(1/F)-th run (default 1: all 2688; 0.125: the 336 runs of the earlier figures)")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--output", type=Path, default=None, help="campaign folder (default: a temporary one)")
     ap.add_argument("--keep-output", action="store_true")
