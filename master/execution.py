@@ -787,15 +787,25 @@ def _steps_to(start: float, h: float, t: float) -> int:
 def write_run_files(out_dir: Path, meta: dict, events: list) -> None:
     """events.csv (when there are events) and run.json, each replaced atomically."""
     if events:
-        tmp = out_dir / "events.csv.tmp"
-        if not write_events_csv(events, tmp):       # values the pandas twin does not cover
-            import pandas as pd
-            pd.DataFrame(events).to_csv(tmp, index=False)
-        os.replace(tmp, out_dir / "events.csv")
+        def write_events(tmp: Path) -> None:
+            if not write_events_csv(events, tmp):       # values the pandas twin does not cover
+                import pandas as pd
+                pd.DataFrame(events).to_csv(tmp, index=False)
+        _replace(out_dir / "events.csv", write_events)
     meta["products"] = products(out_dir)
-    tmp = out_dir / "run.json.tmp"
-    tmp.write_text(json.dumps(meta, indent=2, default=_json_default))
-    os.replace(tmp, out_dir / "run.json")
+    _replace(out_dir / "run.json", lambda tmp: tmp.write_text(json.dumps(meta, indent=2, default=_json_default)))
+
+
+def _replace(target: Path, write) -> None:
+    """``write(tmp)`` then tmp renamed to ``target``; a write that fails (a full disk) leaves the old ``target``
+    and no half-written ``.tmp`` beside it."""
+    tmp = target.with_name(target.name + ".tmp")
+    try:
+        write(tmp)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, target)
 
 
 def _json_default(o):

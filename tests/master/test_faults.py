@@ -309,3 +309,29 @@ def test_the_api_raises_with_the_result_attached(tmp_path, test_fmus):
     with pytest.raises(CosimError, match="SIGABRT") as e:
         run_supervised(_faulty(tmp_path, test_fmus, 3), output=tmp_path / "api")
     assert e.value.result.metadata["rows_recorded"] == 6
+
+
+@pytest.mark.parametrize("failing", ["run.json.tmp", "events.csv.tmp"])
+def test_a_run_file_that_does_not_fit_leaves_the_old_one_and_no_tmp(tmp_path, monkeypatch, failing):
+    """issue 25: a disk that fills while run.json (or events.csv) is written left a 0-byte ``.tmp`` beside it."""
+    import errno
+
+    from master import execution
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "run.json").write_text('{"outcome": "completed", "earlier": true}\n')
+    real_write_text, real_events = Path.write_text, execution.write_events_csv
+
+    def full(path):
+        with open(path, "w") as fh:             # the file is created, then the disk is full
+            fh.write("")
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(Path, "write_text", lambda self, *a, **k: full(self) if self.name == failing
+                        else real_write_text(self, *a, **k))
+    monkeypatch.setattr(execution, "write_events_csv", lambda ev, path: full(path) if path.name == failing
+                        else real_events(ev, path))
+    with pytest.raises(OSError):
+        execution.write_run_files(out, {"outcome": "error"}, [{"time": 1.0, "event": "collision"}])
+    assert not (out / failing).exists()
+    assert json.loads((out / "run.json").read_text())["earlier"] is True
