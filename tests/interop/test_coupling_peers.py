@@ -24,7 +24,6 @@ agreement expected per peer (docs/interoperability.md), each against an independ
 """
 from __future__ import annotations
 
-import importlib.util
 
 import numpy as np
 import pytest
@@ -32,6 +31,7 @@ from peer_runs import REPO, Job, absent, run_jobs
 
 import analytic as an
 import master
+from coupling_refs import coupling_reference
 
 SSPS = [f"{base}{suffix}" for suffix in ("", "_py")
         for base in ("oscillator_fd", "oscillator_dd", "oscillator_stiff", "algebraic_loop")]
@@ -41,10 +41,7 @@ LOOP = [("L1", "y"), ("L2", "y"), ("L1", "u"), ("L2", "u")]
 
 
 def _exact():
-    spec = importlib.util.spec_from_file_location("oscillator_exact", REPO / "ssp" / "coupling" / "oscillator_exact.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return coupling_reference("oscillator_exact")
 
 
 def _setup(name):

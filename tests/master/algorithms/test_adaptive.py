@@ -12,6 +12,7 @@ import pytest
 
 import fmu_factory
 import master
+from coupling_refs import COUPLING, coupling_reference
 from master.ssp.writer import SspBuilder
 
 from analytic import chain_exact, two_mass_cosim_steps
@@ -263,12 +264,7 @@ def test_held_inputs_on_the_stiff_oscillator_take_the_steps_the_tolerance_asks_f
     # (safety 0.9) takes between N and 2 N. A tolerance on |y_i| alone fell to atol where the force crosses
     # zero, and a held feedthrough sample carried the previous step's change that no shorter step reduces:
     # 27685 steps down to the 1e-8 minimum over this second, one accepted above the tolerance.
-    import importlib.util
-    repo = Path(__file__).resolve().parents[3]
-    spec = importlib.util.spec_from_file_location("oscillator_exact_adaptive",
-                                                  repo / "ssp" / "coupling" / "oscillator_exact.py")
-    ex = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ex)
+    ex = coupling_reference("oscillator_exact")
     stop, rtol = 1.0, 1e-2
     t = np.linspace(0.0, stop, 200001)
     x1, v1, x2, v2 = ex.two_mass(t, **ex.STIFF)
@@ -277,7 +273,7 @@ def test_held_inputs_on_the_stiff_oscillator_take_the_steps_the_tolerance_asks_f
     rate = np.maximum(np.abs(dforce) / (rtol + rtol * np.maximum.accumulate(np.abs(force))),
                       np.abs(v1) / (rtol + rtol * np.maximum.accumulate(np.abs(x1))))
     fewest = float(np.sum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t)))
-    r = master.run(repo / "ssp/coupling/oscillator_stiff.ssp", output=tmp_path / "out", algorithm="adaptive",
+    r = master.run(COUPLING / "oscillator_stiff.ssp", output=tmp_path / "out", algorithm="adaptive",
                    step_rtol=rtol, stop_time=stop, record=["A.x", "B.F"])
     info = r.metadata["algorithm_info"]
     assert fewest <= info["steps"] <= 2 * fewest, (fewest, info)

@@ -4,7 +4,6 @@ producers' output derivatives (fmi2GetRealOutputDerivatives). Measured against t
 (ssp/coupling/oscillator_exact.py): order K + 1 with 1 (3 with K = 2 where the step mean gives 2), K + 2 with 2
 (hold + slope: 2, linear + slope: 3); the interpolating FMU against an ODE solution with a quadratic input; the
 derivative weights by hand; one-line refusals."""
-import importlib.util
 import zipfile
 from pathlib import Path
 
@@ -12,6 +11,7 @@ import numpy as np
 import pytest
 
 import master
+from coupling_refs import coupling_reference
 from master.algorithms.extrapolation import derivative_weights, hermite_derivative_weights
 from master.cli import main
 
@@ -22,10 +22,7 @@ STEPS = [0.02, 0.01, 0.005]
 
 
 def _exact():
-    spec = importlib.util.spec_from_file_location("oscillator_exact_for_derivatives", COUPLING / "oscillator_exact.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return coupling_reference("oscillator_exact")
 
 
 def _order(**options) -> float:
@@ -33,7 +30,7 @@ def _order(**options) -> float:
     errors = []
     for h in STEPS:
         r = master.run(INTERP, algorithm="jacobi", step=h, record=["A.x", "B.x"], **options)
-        t, want = r.frame["time"].to_numpy(), fd(r.frame["time"].to_numpy())
+        want = fd(r.frame["time"].to_numpy())
         errors.append(max(np.max(np.abs(r.frame[c].to_numpy() - want[c])) for c in ("A.x", "B.x")))
     return float(np.polyfit(np.log(STEPS), np.log(errors), 1)[0])
 

@@ -4,7 +4,6 @@ method and take the same iterations. Expectations from the loop matrix (eigenval
 solves a linear loop of n values exactly once it has n residual differences (iteration n + 2, the first two being
 the plain and the relaxed step), Aitken's single factor cannot zero two eigenvalues of opposite sign at once,
 and the fixed point contracts by 0.739 per iteration."""
-import importlib.util
 import math
 from pathlib import Path
 
@@ -12,19 +11,13 @@ import numpy as np
 import pytest
 
 import master
+from coupling_refs import coupling_reference
 
 REPO = Path(__file__).resolve().parents[3]
 COUPLING = REPO / "ssp" / "coupling"
 
 
-def _module(name):
-    spec = importlib.util.spec_from_file_location(f"{name}_under_test", COUPLING / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-L2 = _module("loop2_exact")
+L2 = coupling_reference("loop2_exact")
 SIGNALS = ["P.y1", "P.y2", "Q.y1", "Q.y2"]
 
 

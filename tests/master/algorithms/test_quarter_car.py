@@ -2,7 +2,6 @@
 the shipped reference against a matrix-exponential solution, the FMUs converging to it, and ECCO's gain over
 fixed steps at the same number of macro steps (the comparison of the paper, which reports error reductions of up
 to 93 %; docs/coupling.md gives the measured table)."""
-import importlib.util
 import zipfile
 from pathlib import Path
 
@@ -11,6 +10,7 @@ import pytest
 from scipy.linalg import expm
 
 import master
+from coupling_refs import coupling_reference
 
 REPO = Path(__file__).resolve().parents[3]
 COUPLING = REPO / "ssp" / "coupling"
@@ -18,10 +18,7 @@ SIGNALS = ["chassis.z", "chassis.v", "wheel.x", "wheel.v"]
 
 
 def _reference():
-    spec = importlib.util.spec_from_file_location("quarter_car_exact_under_test", COUPLING / "quarter_car_exact.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return coupling_reference("quarter_car_exact")
 
 
 QX = _reference()

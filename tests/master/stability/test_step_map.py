@@ -3,7 +3,6 @@ ssp/coupling/oscillator_step_map.py (docs/coupling.md, "Stability of the coupled
 every scheme on the two-mass oscillators to 1e-6; the realization step on a matrix known beforehand; a plain run
 growing at the rate the radius predicts; the sweep's files and its one-line errors."""
 import csv
-import importlib.util
 import math
 from pathlib import Path
 
@@ -11,6 +10,7 @@ import numpy as np
 import pytest
 
 import master
+from coupling_refs import coupling_reference
 from master.cli import main
 from master.errors import CosimError
 from master.stability import identify, spectral_radius
@@ -21,15 +21,8 @@ REPO = Path(__file__).resolve().parents[3]
 COUPLING = REPO / "ssp" / "coupling"
 
 
-def _module(name):
-    spec = importlib.util.spec_from_file_location(f"{name}_under_test", COUPLING / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-CLOSED = _module("oscillator_step_map")
-EXACT = _module("oscillator_exact")
+CLOSED = coupling_reference("oscillator_step_map")
+EXACT = coupling_reference("oscillator_exact")
 ITERATIVE = dict(coupling_tol=1e-13, coupling_max_iter=200, coupling_update="aitken")
 
 CASES = [  # (ssp, coupling, parameters, algorithm, K, M, step)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import master
+from coupling_refs import coupling_reference
 from master.cli import main
 from master.results import read_results
 from master.study import run_study
@@ -40,10 +41,7 @@ def _fixed_point(t, a1=0.5, b1=1.0, c1=0.5, w1=1.0, a2=-0.8, b2=2.0, c2=0.0, w2=
 
 
 def test_shipped_closed_form_is_the_modal_solution():
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("oscillator_exact_under_test", EXACT)
-    ex = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ex)
+    ex = coupling_reference("oscillator_exact")
     t = np.linspace(0.0, 10.0, 301)
     got = ex.fd(t)
     x1, v1, x2, v2 = two_mass_exact(t)

@@ -3,7 +3,6 @@ its step and written into study.csv, a warning where that error is not well belo
 failed reference that still leaves the grid's table. Expectations come from the closed form of the two-mass
 oscillator (ssp/coupling/oscillator_exact.py, checked against tests/analytic.py in test_study.py)."""
 import csv
-import importlib.util
 import json
 from pathlib import Path
 
@@ -12,6 +11,7 @@ import pandas as pd
 import pytest
 
 import master
+from coupling_refs import coupling_reference
 from master.ssp.writer import SspBuilder
 from master.study import run_study
 
@@ -21,10 +21,7 @@ EXACT = COUPLING / "oscillator_exact.py"
 
 
 def _exact():
-    spec = importlib.util.spec_from_file_location("oscillator_exact_reference_test", EXACT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return coupling_reference("oscillator_exact")
 
 
 def _table(folder) -> list[dict]:
