@@ -374,6 +374,8 @@ class Execution:
         check = None if self.options.allow_nonfinite else rt.nonfinite_error
         finite = None if check is None else finite_check(rt.out["Real"], rt.real_zeros)
         last_n = st.steps - 1 if st.last_step is not None else -1       # a shorter final step
+        finals, partial = self._final_macro_steps()
+        special = sorted(set(finals) | ({last_n} if last_n >= 0 else set()) | ({st.steps - 1} if partial else set()))
         bar = None
         if self.options.progress:
             from tqdm import tqdm
@@ -384,9 +386,10 @@ class Execution:
         quiet.__enter__()
         try:
             while n < target:
-                if driver is not None and n != last_n:
+                if driver is not None and n not in special:
+                    upto = next((m for m in special if m > n), target)
                     try:
-                        driver.advance(n, target if last_n < n else min(target, last_n), bar)
+                        driver.advance(n, min(target, upto), bar)
                     finally:
                         n = self.n
                     if rt.stop_reason is not None:
@@ -395,12 +398,19 @@ class Execution:
                 t = start + n * h          # integer step counting: no drift from accumulated additions
                 for mp in manipulators:
                     mp.before_step(n, t)
-                if n == last_n:
+                if n in finals:
+                    step_sized(n, t, st.last_step if n == last_n else h, finals[n])
+                    t1 = st.stop if n == last_n else start + (n + 1) * h
+                elif n == last_n:
                     step_sized(n, t, st.last_step)
                     t1 = st.stop
                 else:
                     step(n, t)
                     t1 = start + (n + 1) * h
+                if partial and n == st.steps - 1:
+                    for i in partial:          # a last macro step shorter than k master steps ends here
+                        if rt.active[i]:
+                            rt.publish(i)
                 meta["last_time"] = t1
                 for ob in observers:
                     ob.after_step(n, t, t1)
@@ -421,6 +431,21 @@ class Execution:
             meta["last_time"] = self.time
             if bar is not None:
                 bar.close()
+
+    def _final_macro_steps(self) -> tuple[dict, list]:
+        """({master step n0: {component index: length}}, [components whose last macro step is shorter than k master
+        steps]): the last macro steps that settings.final_macro_steps ends at the stop time, where the algorithm
+        can size them (``sizes_macro_steps``); the shorter ones publish their outputs at the last master step."""
+        st, rt = self.settings, self.rt
+        if not st.final_steps or not self.algorithm.sizes_macro_steps:
+            return {}, []
+        finals, partial = {}, []
+        for name, (n0, length) in st.final_steps.items():
+            i = rt.names.index(name)
+            finals.setdefault(n0, {})[i] = length
+            if n0 + rt.multiple[i] > st.steps:
+                partial.append(i)
+        return finals, partial
 
     def _step_driver(self):
         """The step driver of this execution (master/drivers/), chosen at its first call, or None."""

@@ -28,6 +28,9 @@ class Settings:
     last_step: float | None = None       # the length of a shorter final step, when the interval is not whole
     tolerance: float | None = None       # given to every FMU; None: each FMU's own default experiment tolerance
     sources: dict = field(default_factory=dict)   # setting -> where it came from
+    #: component on a step multiple -> (n0, length): its last macro step starts at master step n0 and is ``length``
+    #: long, so that it ends at the stop time (``final_macro_steps``: only where k h would not end there)
+    final_steps: dict = field(default_factory=dict)
 
 
 def _fmu_default(fmus, attr: str):
@@ -85,6 +88,25 @@ def _exact_last_step(start: float, stop: float, h: float, n: int) -> float | Non
     if start + n * h == stop and last + h == stop:
         return None
     return stop - last
+
+
+def final_macro_steps(start: float, stop: float, h: float, steps: int, multiples: dict) -> dict:
+    """Per component on a step multiple k > 1 whose last macro step, started at n0 = k floor((steps - 1) / k), would
+    not end exactly at ``stop`` as the FMU adds its doStep's arguments (start + n0 h, plus k h): (n0, stop - (start +
+    n0 h)). Such a step ends 1 ulp past the stop time (k = 2, 0.1 s to 50 s: 49.800000000000004 + 0.2), or, where
+    the interval is no whole number of macro steps, up to (k - 1) h past it; FMI 2.0 forbids a step past the stop
+    time given to fmi2SetupExperiment. The last macro step is then shortened (or lengthened by an ulp) to end
+    there, and its outputs are published at the last master step."""
+    final = {}
+    for name, k in multiples.items():
+        if k <= 1:
+            continue
+        n0 = (steps - 1) // k * k
+        t0 = start + n0 * h
+        if n0 + k == steps and t0 + k * h == stop:
+            continue
+        final[name] = (n0, stop - t0)
+    return final
 
 
 def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=None, algorithm=None,
@@ -150,4 +172,4 @@ def resolve_settings(model, shown_as, *, start_time=None, stop_time=None, step=N
     sources["tolerance"] = "command line" if tolerance is not None else "each FMU's DefaultExperiment"
     alg = algorithm or s.algorithm or "jacobi"
     return Settings(start, stop, step, steps, alg, record_every, multiples, source or "command line", last,
-                    tolerance, sources)
+                    tolerance, sources, final_macro_steps(start, stop, step, steps, multiples))

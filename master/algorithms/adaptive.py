@@ -80,6 +80,7 @@ class Adaptive(Algorithm):
                       "one adaptive step")
     rejects = True                   # a step above the tolerance is rolled back and retried
     honours_per_output_extrapolation = False     # its predictor takes one order for all outputs (docs/coupling.md)
+    sizes_macro_steps = False        # a component's last macro step keeps k h (settings.final_macro_steps)
     defaults = {"step_rtol": 1e-4, "min_step_ratio": 1e-6, "initial_ratio": 1.0}
 
     def configure(self, options) -> None:

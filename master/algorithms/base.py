@@ -101,30 +101,35 @@ class Algorithm:
         self._step = self._compile(self.h)
         self.rt.changed = False
 
-    def _compile(self, h: float):
-        step = self._sweep(h)
+    def _compile(self, h: float, lengths: dict | None = None):
+        step = self._sweep(h, lengths)
         if self.feeds_inputs:      # only then: the default step stays the compiled function itself
             step = self._extrapolator.around(step, h / self.h)
         return step
 
-    def _sweep(self, h: float):
-        if self.threads > 1:
+    def _sweep(self, h: float, lengths: dict | None = None):
+        if self.threads > 1 and not lengths:
             from .parallel import compile_parallel_step
             return compile_parallel_step(self.rt, self.order, h, self._pool)
         from .compiled import compile_step
-        return compile_step(self.rt, self.order, h, self.gauss_seidel)
+        return compile_step(self.rt, self.order, h, self.gauss_seidel, lengths)
 
     def step(self, n: int, t: float) -> None:
         if self.rt.changed:      # a monitor took a component out: step the others only
             self._build()
         self._step(n, t)
 
-    def step_sized(self, n: int, t: float, h: float) -> None:
+    #: whether ``step_sized`` takes ``lengths`` (the last macro steps of components on a step multiple, which the
+    #: execution then ends at the stop time: settings.final_macro_steps)
+    sizes_macro_steps = True
+
+    def step_sized(self, n: int, t: float, h: float, lengths: dict | None = None) -> None:
         """One step of another length than the master step (the shorter last step of an interval that is not
-        a whole number of steps)."""
+        a whole number of steps); ``lengths``: component index -> the length of its doStep in this step, for
+        components on a step multiple whose last macro step starts here."""
         if self.rt.changed:
             self._build()
-        self._compile(h)(n, t)
+        self._compile(h, lengths)(n, t)
 
     def finish(self, out_dir) -> dict:
         """Called once when the run closes (also after a failure): files of its own in ``out_dir`` (None: the

@@ -34,11 +34,11 @@ from .fixed_step import reference_step
 CHUNK_LINES = 400
 
 
-def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
+def compile_step(rt, order: list[int], h: float, gauss_seidel: bool, lengths: dict | None = None):
     """``step(n, t)``: what ``fixed_step.reference_step`` returns, generated as straight-line code (unless
     accelerators are switched off)."""
     if not accel.enabled():
-        return reference_step(rt, order, h, gauss_seidel)
+        return reference_step(rt, order, h, gauss_seidel, lengths)
     from ctypes import c_double
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
@@ -48,7 +48,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
     active = [i for i in order if rt.active[i]]
     for i in active:
         k = rt.multiple[i]
-        ns[f"H{i}"] = h * k
+        ns[f"H{i}"] = hk = (lengths or {}).get(i, h * k)
         raw = rt.slaves[i].raw_step
         cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
         # a cycle sets the inputs itself: the setters are bound only for the other two ways
@@ -65,7 +65,7 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool):
             lines.append(f"x{i}_{j}()")
         if raw is not None:
             ns[f"d{i}"] = raw
-            ns[f"CH{i}"] = c_double(h * k)
+            ns[f"CH{i}"] = c_double(hk)
             for j, s in enumerate(setters):
                 ns[f"s{i}_{j}"] = s
                 lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")

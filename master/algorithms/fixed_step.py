@@ -15,13 +15,15 @@ from __future__ import annotations
 from ..fmi.slave import WARNING
 
 
-def reference_step(rt, order: list[int], h: float, gauss_seidel: bool):
-    """``step(n, t)``: one master step of the active components of ``rt`` in ``order``."""
+def reference_step(rt, order: list[int], h: float, gauss_seidel: bool, lengths: dict | None = None):
+    """``step(n, t)``: one master step of the active components of ``rt`` in ``order``; ``lengths``: component
+    index -> the length of its doStep (its last macro step, ended at the stop time), instead of k h."""
     components = []
     for i in order:
         if rt.active[i]:
             transfers, setters, do_step, getters, publish = rt.fast_ops(i)
-            components.append((i, rt.slaves[i], rt.multiple[i], transfers, setters, do_step, getters, publish))
+            components.append((i, rt.slaves[i], rt.multiple[i], transfers, setters, do_step, getters, publish,
+                               (lengths or {}).get(i, h * rt.multiple[i])))
     calls = rt.do_step_calls
 
     def read_outputs(i, slave, getters, t_end):
@@ -30,7 +32,7 @@ def reference_step(rt, order: list[int], h: float, gauss_seidel: bool):
                 raise slave.fail("getting outputs", st, t_end)
 
     def step(n: int, t: float) -> None:
-        for i, slave, k, transfers, setters, do_step, getters, _ in components:
+        for i, slave, k, transfers, setters, do_step, getters, _, hk in components:
             if n % k:
                 continue
             rt.calling(i)           # for a supervisor: a crash from here on is this component's
@@ -40,14 +42,14 @@ def reference_step(rt, order: list[int], h: float, gauss_seidel: bool):
                 if (st := set_()) > WARNING:
                     raise slave.fail("setting inputs", st, t)
             calls[i] += 1
-            if (st := do_step(t, h * k)) > WARNING and not rt.ends_run_on_request(i, st):
+            if (st := do_step(t, hk)) > WARNING and not rt.ends_run_on_request(i, st):
                 raise slave.fail("doStep", st, t)
             if gauss_seidel:
-                read_outputs(i, slave, getters, t + h * k)
-        for i, slave, k, _, _, _, getters, publish in components:
+                read_outputs(i, slave, getters, t + hk)
+        for i, slave, k, _, _, _, getters, publish, hk in components:
             if not gauss_seidel and n % k == 0:
                 rt.calling(i)
-                read_outputs(i, slave, getters, t + h * k)
+                read_outputs(i, slave, getters, t + hk)
             if publish is not None and (n + 1) % k == 0:
                 publish()
         rt.calling(-1)

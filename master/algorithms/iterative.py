@@ -44,6 +44,7 @@ class Iterative(GaussSeidel):
     loop_treatment = ("iterative repeats each step until the connections listed as broken agree with the values "
                       "the step produces (within --coupling-tol)")
     honours_extrapolation = False       # the iteration, not a prediction, settles the inputs
+    sizes_macro_steps = False           # a component's last macro step keeps k h (settings.final_macro_steps)
 
     def configure(self, options) -> None:
         super().configure(options)

@@ -93,3 +93,55 @@ def test_iterative_ends_at_the_stop_time(tmp_path, test_fmus):
     # its steps are the compiled step of jacobi and gauss-seidel (checked on the FMU's clock above), iterated
     r = master.run(_masses_ssp(tmp_path, test_fmus), output=None, algorithm="iterative")
     assert r.frame["time"].iloc[-1] == 50.0 and r.frame["time"].max() == 50.0 and len(r.frame) == 501
+
+
+# -- components on a step multiple k > 1: their last macro step ends at the stop time too -------------------------
+
+def test_final_macro_steps_end_at_the_stop_time_as_the_fmu_adds_them():
+    from master.settings import final_macro_steps
+    # k = 2, 0.1 s to 50 s: the last macro step starts at n = 498, 49.800000000000004, and 0.2 from there ends at
+    # 50.00000000000001; k = 5: 495 * 0.1 + 0.5 is 50.0 (nothing to correct); k = 3, 0.1 s to 1 s: 10 steps are no
+    # whole number of macro steps, the last starts at n = 9 and would end at 1.2
+    assert 498 * 0.1 + 2 * 0.1 > 50.0 and 495 * 0.1 + 5 * 0.1 == 50.0
+    final = final_macro_steps(0.0, 50.0, 0.1, 500, {"a": 2, "b": 5, "c": 1})
+    assert set(final) == {"a"} and final["a"][0] == 498 and 498 * 0.1 + final["a"][1] == 50.0
+    n0, length = final_macro_steps(0.0, 1.0, 0.1, 10, {"s": 3})["s"]
+    assert n0 == 9 and 9 * 0.1 + length == 1.0 and length < 0.1 + 1e-12
+
+
+def _multirate_clock(tmp_path, test_fmus, stop, step, k):
+    b = SspBuilder("clock", stop=stop, step=step, step_multiples={"clock": k})
+    b.add_component("clock", test_fmus["c2:Faulty"], params={"mode": 0, "fail_time": 1e9})
+    b.add_component("g", test_fmus["c2:Gain"], params={"k": 2.0})
+    b.connect("clock", "y", "g", "u")
+    return b.write(tmp_path / f"clock{k}.ssp")
+
+
+MULTIRATE = [("jacobi", {}), ("jacobi", {"native_loop": False}), ("jacobi", {"threads": 2}), ("gauss-seidel", {}),
+             ("jacobi", {"pure_python": True})]
+
+
+@pytest.mark.parametrize("stop,step,k", [(50.0, 0.1, 2), (1.0, 0.1, 3), (0.3, 0.1, 3)])
+@pytest.mark.parametrize("algorithm,options", MULTIRATE,
+                         ids=[f"{a}-{'-'.join(o) or 'default'}" for a, o in MULTIRATE])
+def test_a_component_on_a_step_multiple_ends_at_the_stop_time(tmp_path, test_fmus, monkeypatch, stop, step, k,
+                                                              algorithm, options):
+    # clock.y is the FMU's own t + h after each of its doSteps; before, k = 2 ended at 50.00000000000001, and k = 3
+    # over 10 steps took its last step from 0.9 to 1.2 (and never showed it): FMI 2.0 forbids a step past the
+    # stop time given to fmi2SetupExperiment
+    options = dict(options)
+    if options.pop("pure_python", False):
+        from master import accel
+        monkeypatch.setenv(accel.ENV, "1")
+    r = master.run(_multirate_clock(tmp_path, test_fmus, stop, step, k), output=None, record=["*"],
+                   algorithm=algorithm, **options)
+    df = r.frame
+    n = int(round(stop / step))
+    assert len(df) == n + 1 and df["time"].iloc[-1] == stop
+    y = df["clock.y"].to_numpy()
+    assert y.max() == stop and y[-1] == stop                 # its last macro step ends there, and is shown
+    macro_ends = [min(m * k, n) for m in range(1, -(-n // k) + 1)]
+    # its outputs change where its macro steps end (published there), and only there
+    changes = [j for j in range(1, n + 1) if y[j] != y[j - 1]]
+    assert changes == macro_ends
+    np.testing.assert_allclose(y[macro_ends], np.array(macro_ends) * step, rtol=1e-12)
