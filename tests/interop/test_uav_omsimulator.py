@@ -12,7 +12,8 @@
    an SSD (``test_it_drops_string_parameters``), so strategy "B" flew as the FMU's default "A".  With the Strings
    set through its API after instantiation the whole 825 s mission of paper_free_1uav_B is ours to rounding
    (measured 2026-11-28: 2.7e-10 m in x, 3.1e-10 m in y, 4.5e-12 m in z, 1.1e-13 in soc; integers identical),
-   the rounding of its summed clock and of the step it passes, (t + h) - t.
+   the rounding of its summed clock and of the step it passes, (t + h) - t.  No form of the SSP works around it
+   (``test_no_form_of_the_ssp_gets_a_string_through``): only the API or Integer forms in the FMUs would.
 """
 from __future__ import annotations
 
@@ -39,6 +40,8 @@ model.setResultFile("")
 out = {"strategy": Capi.getString("model.root.uav1_strat.strategy")[0],
        "assignment": Capi.getString("model.root.uav1_strat.assignment")[0],
        "n_targets": Capi.getInteger("model.root.uav1_strat.n_targets")[0]}
+if sys.argv[4] == "initialize":
+    model.initialize()
 if sys.argv[4] == "simulate":
     model.setFixedStepSize(0.1); model.setStopTime(10.0)
     model.initialize(); model.simulate()
@@ -49,12 +52,75 @@ print(json.dumps(out))
 """
 
 
-def _child(what, tmp_path):
-    proc = subprocess.run([sys.executable, "-c", _CHILD, str(TESTS), str(oms_lib()), str(SSP), what],
+def _child(what, tmp_path, ssp=SSP, check=True):
+    proc = subprocess.run([sys.executable, "-c", _CHILD, str(TESTS), str(oms_lib()), str(ssp), what],
                           capture_output=True, text=True, timeout=300, cwd=tmp_path,
                           env={**os.environ, "TMPDIR": str(tmp_path)})
+    if not check:
+        return proc
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+_INLINE_STRATEGY = '<ssv:Parameter name="strategy">\n                    <ssv:String value="B"/>\n                  </ssv:Parameter>'
+
+
+def _strategy_elsewhere(tmp_path, form):
+    """paper_free_1uav_B with uav1_strat's strategy "B" given another way (``form``): "ssv", in a .ssv file bound
+    at the component; "system", as a String parameter connector of the system, bound there and connected to
+    uav1_strat.strategy."""
+    import zipfile
+    with zipfile.ZipFile(SSP) as z:
+        ssd = z.read("SystemStructure.ssd").decode()
+        files = {i.filename: z.read(i.filename) for i in z.infolist()}
+    assert ssd.count(_INLINE_STRATEGY) == 1
+    ssd = ssd.replace(_INLINE_STRATEGY, "")
+    value = '<ssv:Parameter name="strategy"><ssv:String value="B"/></ssv:Parameter>'
+    if form == "ssv":
+        files["resources/strategy.ssv"] = (
+            '<?xml version="1.0" encoding="UTF-8"?>\n<ssv:ParameterSet version="1.0" name="scenario" '
+            f'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"><ssv:Parameters>{value}'
+            '</ssv:Parameters></ssv:ParameterSet>\n').encode()
+        at = ssd.index("<ssd:ParameterBindings>", ssd.index('<ssd:Component name="uav1_strat"'))
+        ssd = ssd[:at] + '<ssd:ParameterBindings><ssd:ParameterBinding source="resources/strategy.ssv"/>' + \
+            ssd[at + len("<ssd:ParameterBindings>"):]
+    else:
+        head = '<ssd:System name="paper_free_1uav_B">'
+        ssd = ssd.replace(head, head + '<ssd:Connectors><ssd:Connector name="strategy" kind="parameter"><ssc:String/>'
+                          '</ssd:Connector></ssd:Connectors><ssd:ParameterBindings><ssd:ParameterBinding>'
+                          '<ssd:ParameterValues><ssv:ParameterSet version="1.0" name="scenario"><ssv:Parameters>'
+                          f'{value}</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>'
+                          '</ssd:ParameterBindings>', 1)
+        ssd = ssd.replace("<ssd:Connections>", '<ssd:Connections><ssd:Connection startConnector="strategy" '
+                          'endElement="uav1_strat" endConnector="strategy"/>', 1)
+    files["SystemStructure.ssd"] = ssd.encode()
+    out = tmp_path / f"strategy_{form}.ssp"
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in files.items():
+            z.writestr(name, data)
+    return out
+
+
+def _ours_before_start(ssp, name):
+    ex = master.Execution(ssp, output=None)
+    try:
+        return ex.get(name)
+    finally:
+        ex.close()
+
+
+def test_no_form_of_the_ssp_gets_a_string_through(tmp_path):
+    """A .ssv file and a system-level value are dropped like an inline one (all go through oms_setString before
+    instantiation); a connected String parameter connector of the system breaks its initialisation (oms_ma
+    transfers no Strings). cosim-master takes "B" from each."""
+    ssv = _strategy_elsewhere(tmp_path, "ssv")
+    assert _ours_before_start(ssv, "uav1_strat.strategy") == "B"
+    assert _child("values", tmp_path, ssv)["strategy"] == "A"
+    system = _strategy_elsewhere(tmp_path, "system")
+    assert _ours_before_start(system, "uav1_strat.strategy") == "B"
+    assert _child("values", tmp_path, system)["strategy"] == "A"
+    proc = _child("initialize", tmp_path, system, check=False)
+    assert proc.returncode != 0 and "[updateInputs] internal error" in proc.stdout + proc.stderr
 
 
 def test_it_drops_string_parameters(tmp_path):
