@@ -44,7 +44,11 @@ class Iterative(GaussSeidel):
     loop_treatment = ("iterative repeats each step until the connections listed as broken agree with the values "
                       "the step produces (within --coupling-tol)")
     honours_extrapolation = False       # the iteration, not a prediction, settles the inputs
-    sizes_macro_steps = False           # a component's last macro step keeps k h (settings.final_macro_steps)
+
+    @property
+    def sizes_macro_steps(self) -> bool:
+        # the interpolating iterations step every component k h (settings.final_macro_steps)
+        return not self.interpolate_inputs and not self.interpolation
 
     def configure(self, options) -> None:
         super().configure(options)
@@ -105,10 +109,10 @@ class Iterative(GaussSeidel):
             self._build()
         self._iterate(self._interpolated(self.h) if self.interpolate_inputs else self._step, n, t, self.h)
 
-    def step_sized(self, n: int, t: float, h: float) -> None:
+    def step_sized(self, n: int, t: float, h: float, lengths: dict | None = None) -> None:
         if self.rt.changed:
             self._build()
-        self._iterate(self._interpolated(h) if self.interpolate_inputs else self._compile(h), n, t, h)
+        self._iterate(self._interpolated(h) if self.interpolate_inputs else self._compile(h, lengths), n, t, h)
 
     def _iterate(self, step, n: int, t: float, h: float) -> None:
         out, pos = self.rt.out["Real"], self.positions

@@ -145,3 +145,26 @@ def test_a_component_on_a_step_multiple_ends_at_the_stop_time(tmp_path, test_fmu
     changes = [j for j in range(1, n + 1) if y[j] != y[j - 1]]
     assert changes == macro_ends
     np.testing.assert_allclose(y[macro_ends], np.array(macro_ends) * step, rtol=1e-12)
+
+
+@pytest.mark.parametrize("algorithm", ["iterative", "jacobi"])
+def test_iterated_steps_of_a_component_on_a_step_multiple_end_at_the_stop_time(tmp_path, test_fmus, monkeypatch,
+                                                                               algorithm):
+    # B on k = 3 over 500 steps of 0.1 s: its last macro step starts at n = 498 (49.800000000000004) and is cut
+    # to 50 - that; each (t, h) of a doStep recorded in the reference step (accelerators off: it calls fast_ops')
+    from master import accel
+    monkeypatch.setenv(accel.ENV, "1")
+    ends = {}
+    fast_ops = Runtime.fast_ops
+
+    def recording(self, i, setters=True):
+        ops = list(fast_ops(self, i, setters))
+        step = ops[2]
+        ops[2] = lambda t, h: ends.setdefault(self.names[i], []).append(t + h) or step(t, h)
+        return tuple(ops)
+
+    monkeypatch.setattr(Runtime, "fast_ops", recording)
+    r = master.run(_masses_ssp(tmp_path, test_fmus), output=None, algorithm=algorithm, step_multiples={"B": 3})
+    assert r.frame["time"].iloc[-1] == 50.0 and len(r.frame) == 501
+    assert max(ends["B"]) == 50.0 and ends["B"][-1] == 50.0 and max(ends["A"]) == 50.0
+    assert sorted(set(np.round(ends["B"], 9))) == [round(min(3 * m, 500) * 0.1, 9) for m in range(1, 168)]
