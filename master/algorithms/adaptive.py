@@ -80,7 +80,7 @@ class Adaptive(Algorithm):
                       "one adaptive step")
     rejects = True                   # a step above the tolerance is rolled back and retried
     honours_per_output_extrapolation = False     # its predictor takes one order for all outputs (docs/coupling.md)
-    sizes_macro_steps = False        # a component's last macro step keeps k h (settings.final_macro_steps)
+    _lengths: dict = {}              # step_sized's lengths, for the master step it runs
     defaults = {"step_rtol": 1e-4, "min_step_ratio": 1e-6, "initial_ratio": 1.0}
 
     def configure(self, options) -> None:
@@ -139,8 +139,12 @@ class Adaptive(Algorithm):
     def step(self, n: int, t: float) -> None:
         self._advance(n, t, self.h)
 
-    def step_sized(self, n: int, t: float, h: float) -> None:
-        self._advance(n, t, h)
+    def step_sized(self, n: int, t: float, h: float, lengths: dict | None = None) -> None:
+        self._lengths = lengths or {}       # the last macro steps of components on a step multiple, cut to the stop
+        try:
+            self._advance(n, t, h)
+        finally:
+            self._lengths = {}
 
     def _advance(self, n: int, t0: float, length: float) -> None:
         """The master step [t0, t0 + length] in accepted adaptive steps."""
@@ -256,7 +260,8 @@ class Adaptive(Algorithm):
             for s in setters:
                 if (st := s()) > WARNING:
                     raise rt.slaves[i].fail("setting inputs", st, t)
-            if (st := do_step(t, h if k == 1 else self.h * k)) > WARNING and not rt.ends_run_on_request(i, st):
+            hk = h if k == 1 else self._lengths.get(i, self.h * k)
+            if (st := do_step(t, hk)) > WARNING and not rt.ends_run_on_request(i, st):
                 raise rt.slaves[i].fail("doStep", st, t)
             rt.do_step_calls[i] += 1
             stepped.append((i, getters))
