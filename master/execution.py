@@ -434,10 +434,10 @@ class Execution:
 
     def _final_macro_steps(self) -> tuple[dict, list]:
         """({master step n0: {component index: length}}, [components whose last macro step is shorter than k master
-        steps]): the last macro steps that settings.final_macro_steps ends at the stop time, where the algorithm
-        can size them (``sizes_macro_steps``); the shorter ones publish their outputs at the last master step."""
+        steps]): the last macro steps that settings.final_macro_steps ends at the stop time (the algorithm's
+        ``step_sized`` gives them these lengths); the shorter ones publish their outputs at the last master step."""
         st, rt = self.settings, self.rt
-        if not st.final_steps or not self.algorithm.sizes_macro_steps:
+        if not st.final_steps:
             return {}, []
         finals, partial = {}, []
         for name, (n0, length) in st.final_steps.items():

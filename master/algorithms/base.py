@@ -119,10 +119,6 @@ class Algorithm:
             self._build()
         self._step(n, t)
 
-    #: whether ``step_sized`` takes ``lengths`` (the last macro steps of components on a step multiple, which the
-    #: execution then ends at the stop time: settings.final_macro_steps)
-    sizes_macro_steps = True
-
     def step_sized(self, n: int, t: float, h: float, lengths: dict | None = None) -> None:
         """One step of another length than the master step (the shorter last step of an interval that is not
         a whole number of steps); ``lengths``: component index -> the length of its doStep in this step, for

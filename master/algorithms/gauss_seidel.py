@@ -32,14 +32,10 @@ class GaussSeidel(Algorithm):
                 "interpolated": [names[p] for p in self._step_interpolated]}}
         return info
 
-    @property
-    def sizes_macro_steps(self) -> bool:
-        return not self.interpolation          # the interpolating sweep steps every component k h
-
     def _sweep(self, h: float, lengths: dict | None = None):
         if not self.interpolation:
             return super()._sweep(h, lengths)
         from .gs_interpolation import interpolating_sweep
-        sweep = interpolating_sweep(self.rt, self.order, h, h / self.h, self._extrapolator, self.interpolation)
+        sweep = interpolating_sweep(self.rt, self.order, h, h / self.h, self._extrapolator, self.interpolation, lengths)
         self._step_interpolated = sweep.interpolated
         return sweep

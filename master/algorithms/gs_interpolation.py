@@ -34,9 +34,10 @@ def interpolation_weights(samples: int, ratio: float = 1.0) -> tuple[float, ...]
     return interval_mean_weights((ratio, *(-np.arange(samples - 1, dtype=float))), ratio)
 
 
-def interpolating_sweep(rt, order: list[int], h: float, ratio: float, extrapolator, samples_back: int):
+def interpolating_sweep(rt, order: list[int], h: float, ratio: float, extrapolator, samples_back: int,
+                        lengths: dict | None = None):
     """The Gauss-Seidel step over ``order`` with the known inputs interpolated through ``samples_back``
-    earlier samples (``extrapolator.history``, newest first)."""
+    earlier samples (``extrapolator.history``, newest first); ``lengths`` as in ``fixed_step.reference_step``."""
     extrapolator.select()
     out, history = rt.out["Real"], extrapolator.history
     owner = extrapolator.owner
@@ -50,7 +51,7 @@ def interpolating_sweep(rt, order: list[int], h: float, ratio: float, extrapolat
             continue
         mine = np.array([j for j, p in enumerate(positions) if owner[int(p)] == i and i not in through],
                         dtype=np.intp)
-        plan_.append((i, rt.multiple[i], h * rt.multiple[i], rt.fast_ops(i), mine))
+        plan_.append((i, rt.multiple[i], (lengths or {}).get(i, h * rt.multiple[i]), rt.fast_ops(i), mine))
     produced = np.concatenate([m for *_, m in plan_]) if plan_ else np.zeros(0, dtype=np.intp)
     calls = rt.do_step_calls
 

@@ -45,11 +45,6 @@ class Iterative(GaussSeidel):
                       "the step produces (within --coupling-tol)")
     honours_extrapolation = False       # the iteration, not a prediction, settles the inputs
 
-    @property
-    def sizes_macro_steps(self) -> bool:
-        # the interpolating iterations step every component k h (settings.final_macro_steps)
-        return not self.interpolate_inputs and not self.interpolation
-
     def configure(self, options) -> None:
         super().configure(options)
         self.rtol = float(options.coupling_tol)
@@ -112,7 +107,7 @@ class Iterative(GaussSeidel):
     def step_sized(self, n: int, t: float, h: float, lengths: dict | None = None) -> None:
         if self.rt.changed:
             self._build()
-        self._iterate(self._interpolated(h) if self.interpolate_inputs else self._compile(h, lengths), n, t, h)
+        self._iterate(self._interpolated(h, lengths) if self.interpolate_inputs else self._compile(h, lengths), n, t, h)
 
     def _iterate(self, step, n: int, t: float, h: float) -> None:
         out, pos = self.rt.out["Real"], self.positions
@@ -158,7 +153,7 @@ class Iterative(GaussSeidel):
                           "which converge where the fixed point does not)",
                           file=getattr(self.plan, "shown_as", None), element="--coupling-max-iter", time=t)
 
-    def _interpolated(self, h: float):
+    def _interpolated(self, h: float, lengths: dict | None = None):
         """The Jacobi sweep with trapezoidal inputs (``--coupling-interpolation 1``): out[positions] holds
         the iterate U on entry and G(U) on return."""
         rt, pos, feed = self.rt, self.positions, self._feed
@@ -167,7 +162,7 @@ class Iterative(GaussSeidel):
         through_at = np.array([j for j, p in enumerate(pos) if feed.owner[int(p)] in fed_through], dtype=np.intp)
         through = pos[through_at]
 
-        jacobi = compile_step(rt, self.order, h, gauss_seidel=False)     # the one Jacobi step (fixed_step)
+        jacobi = compile_step(rt, self.order, h, False, lengths)     # the one Jacobi step (fixed_step)
 
         def sweep(n: int, t: float) -> None:
             end = out[pos].copy()
