@@ -89,3 +89,35 @@ def test_chunked_step_with_components_taken_out(tmp_path, test_fmus, monkeypatch
     assert got.equals(want)
     for c in got.columns:
         assert got[c].to_numpy().tobytes() == want[c].to_numpy().tobytes(), c
+
+
+@pytest.mark.parametrize("algorithm", ["jacobi", "gauss-seidel"])
+@pytest.mark.parametrize("kind", ["c2", "py"])
+def test_a_failure_in_a_later_chunk_keeps_the_counts_and_rows_of_the_reference(tmp_path, test_fmus, monkeypatch,
+                                                                                algorithm, kind):
+    """A component in the middle of a chunked step fails after rebuilds: the error, the rows kept and the doStep
+    counts (the deferred counts of the chunks before it and of its own chunk up to it) are the reference's."""
+    b = SspBuilder("fail", stop=1.0, step=0.1)
+    b.add_component("one", test_fmus[f"{kind}:Integrator"], params={"x0": 1.0})
+    for k in range(N):
+        b.add_component(f"i{k}", test_fmus[f"{kind}:Integrator"])
+        b.connect("one", "y", f"i{k}", "u")
+        if k == 6:       # fails in the step that ends after 0.65 s
+            b.add_component("bad", test_fmus[f"{kind}:Faulty"], params={"fail_time": 0.65, "mode": 1})
+    ann = etree.Element("{http://ssp-standard.org/SSP1/SystemStructureCommon}Annotation", type=TYPE)
+    etree.SubElement(ann, "{https://example.org/freeze}FreezeAt", plan="i1:0.3 i9:0.5")
+    b.annotations.append(ann)
+    ssp = b.write(tmp_path / "fail.ssp")
+    monkeypatch.setattr(compiled, "CHUNK_LINES", 6)
+
+    def run(name):
+        r = master.run(ssp, output=tmp_path / name, algorithm=algorithm, record=["i*.y"], raise_on_error=False)
+        return r.frame, r.metadata
+    got, got_meta = run("compiled")
+    monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "1")
+    want, want_meta = run("reference")
+    assert got_meta["outcome"] == want_meta["outcome"] == "error"
+    assert "bad" in got_meta["error"] and got_meta["error"] == want_meta["error"]
+    assert got_meta["fmu_calls"] == want_meta["fmu_calls"]
+    assert got_meta["fmu_calls"]["do_step"]["i0"] == 7 and got_meta["fmu_calls"]["do_step"]["i1"] == 3
+    assert got.equals(want) and len(got) == 7          # rows at 0 .. 0.6 s
