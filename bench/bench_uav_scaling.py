@@ -21,8 +21,8 @@ Each (N, step) runs in its own subprocess (``--child``), which builds the SSP, r
 one JSON line: FMU count, steps, wall time of the run, time of the step loop (``Execution._steps``
 wrapped), the CPU time before the first step (setup) and after the last (outputs), time in the monitor's
 ``after_step`` (perf_counter around each call), peak RSS (VmHWM of /proc/self/status, whole run), VmRSS before
-and after the loop, the size of the monitor's map track and the mission outcome.  The parent prints one table and writes it with the machine description and the raw
-numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
+and after the loop, the size of the monitor's map track and the mission outcome.  The parent prints one table
+and writes it with the machine description and the raw numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
 
 Memory: the child resets its peak RSS (VmHWM, ``/proc/self/clear_refs``) at the start of each phase of
 ``PHASES`` (setup, FMU instantiation and initialization, the step loop, each recording flush and Parquet
@@ -325,7 +325,8 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
            # CPU time of the process from opening the SSP to the first step (FMUs loaded, instantiated and
            # initialized, the step compiled), and from the last step to run.json (outputs)
            "setup_cpu_s": loop["cpu_at_start"] - cpu0 if "cpu_at_start" in loop else None,
-           "after_cpu_s": cpu_end - loop["cpu_at_end"] if "cpu_at_end" in loop else None, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
+           "after_cpu_s": cpu_end - loop["cpu_at_end"] if "cpu_at_end" in loop else None,
+           "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
            "hwm_kb": int(phases.peak["whole process"]), "rss_start_kb": loop.get("rss_start_kb"),
            "rss_end_kb": loop.get("rss_end_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
