@@ -22,7 +22,8 @@ one JSON line: FMU count, steps, wall time of the run, time of the step loop (``
 wrapped), the CPU time before the first step (setup) and after the last (outputs), time in the monitor's
 ``after_step`` (perf_counter around each call), peak RSS (VmHWM of /proc/self/status, whole run), VmRSS before
 and after the loop, the size of the monitor's map track and the mission outcome.  The parent prints one table
-and writes it with the machine description and the raw numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
+and writes it with the machine description and the raw numbers to ``bench/results/uav_scaling_<date>.md``
+(``--no-write``: print only).
 
 Memory: the child resets its peak RSS (VmHWM, ``/proc/self/clear_refs``) at the start of each phase of
 ``PHASES`` (setup, FMU instantiation and initialization, the step loop, each recording flush and Parquet
