@@ -19,10 +19,11 @@ a 1.0 s step; for N <= 16 the 0.1 s step (the paper's) is measured too.
 Each (N, step) runs in its own subprocess (``--child``), which builds the SSP, runs it with
 ``master.runner.run`` (results.parquet written, no CSV, UAV monitor and its outputs included) and reports
 one JSON line: FMU count, steps, wall time of the run, time of the step loop (``Execution._steps``
-wrapped), time in the monitor's ``after_step`` (perf_counter around each call), peak RSS (VmHWM of
-/proc/self/status, whole run), VmRSS before and after the loop, the size of the monitor's map track and
-the mission outcome.  The parent prints one table and writes it with the machine description and the raw
-numbers to ``bench/results/uav_scaling_<date>.md`` (``--no-write``: print only).
+wrapped), the CPU time before the first step (setup) and after the last (outputs), time in the monitor's
+``after_step`` (perf_counter around each call), peak RSS (VmHWM of /proc/self/status, whole run), VmRSS before
+and after the loop, the size of the monitor's map track and the mission outcome.  The parent prints one table
+and writes it with the machine description and the raw numbers to ``bench/results/uav_scaling_<date>.md``
+(``--no-write``: print only).
 
 Memory: the child resets its peak RSS (VmHWM, ``/proc/self/clear_refs``) at the start of each phase of
 ``PHASES`` (setup, FMU instantiation and initialization, the step loop, each recording flush and Parquet
@@ -280,11 +281,13 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         def timed_loop(*a, **kw):
             loop["rss_start_kb"] = _status_kb("VmRSS")
             c, cpu = time.perf_counter(), time.process_time()
+            loop.setdefault("cpu_at_start", cpu)
             try:
                 return orig_loop(*a, **kw)
             finally:
                 loop["s"] = time.perf_counter() - c
                 loop["cpu_s"] = time.process_time() - cpu
+                loop["cpu_at_end"] = time.process_time()
                 loop["rss_end_kb"] = _status_kb("VmRSS")
         Execution._steps = timed_loop
 
@@ -295,8 +298,10 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
         prof.enable()
     t = time.perf_counter()
     rss_run0 = _status_kb("VmRSS")
+    cpu0 = time.process_time()
     res = runner.run(ssp, output=tmp / "out", write_csv=False, raise_on_error=False)
     wall = time.perf_counter() - t
+    cpu_end = time.process_time()
     if prof is not None:
         prof.disable()
         import io
@@ -317,7 +322,12 @@ def child(n: int, step: float, stop: float, zones: bool, profile: int, block_row
            # the time simulated: the monitor ends the run once every UAV is down (endWhenAllLanded)
            "sim_s": meta.get("last_time", stop) - meta.get("start_time", 0.0), "wall_s": wall,
            "ended_early": (meta.get("ended_early") or {}).get("time"),
-           "loop_s": loop.get("s"), "loop_cpu_s": loop.get("cpu_s"), "build_s": build_s, "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
+           "loop_s": loop.get("s"), "loop_cpu_s": loop.get("cpu_s"), "build_s": build_s,
+           # CPU time of the process from opening the SSP to the first step (FMUs loaded, instantiated and
+           # initialized, the step compiled), and from the last step to run.json (outputs)
+           "setup_cpu_s": loop["cpu_at_start"] - cpu0 if "cpu_at_start" in loop else None,
+           "after_cpu_s": cpu_end - loop["cpu_at_end"] if "cpu_at_end" in loop else None,
+           "monitor_s": mon_time[0], "monitor_calls": mon_time[1],
            "hwm_kb": int(phases.peak["whole process"]), "rss_start_kb": loop.get("rss_start_kb"),
            "rss_end_kb": loop.get("rss_end_kb"), "track_mb": track_mb,
            "outcome": meta.get("outcome"), "error": meta.get("error"),
@@ -362,13 +372,14 @@ def _machine() -> list[str]:
     return lines
 
 
-HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | loop s | RTF loop | RTF loop CPU | peak RSS MB "
+HEADER = ("| N | FMUs | step s | steps | sim s | wall s | RTF | setup CPU s | loop s | RTF loop | RTF loop CPU "
+          "| after loop CPU s | peak RSS MB "
           "| RSS growth in loop MB | monitor track MB | monitor us/step | monitor share | outcome |")
 
 
 def _row(r: dict, mission: float) -> str:
     if r.get("error") and r.get("wall_s") is None:
-        return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | | | {r['error']} |"
+        return f"| {r['n']} | | {r['step']:g} | | {r['stop']:g} | | | | | | | | | | | | | {r['error']} |"
     # a run shortened by --stop-256 is extrapolated; one the monitor ended early (fleet down) is not
     scale = mission / r["stop"] if r["stop"] < mission - 1e-9 and not r.get("ended_early") else 1.0
     wall, loop = r["wall_s"], r["loop_s"]
@@ -391,9 +402,14 @@ def _row(r: dict, mission: float) -> str:
     if r.get("error"):
         outcome += f"; {r['error']}"
     return (f"| {r['n']} | {r['fmus']} | {r['step']:g} | {int(r['steps'] * scale)} | {sim:g} | {wall:.1f}{ext} | "
-            f"{sim / wall:.0f}x | {loop:.2f} | {sim / loop:.0f}x | {rtf_cpu} | {r['hwm_kb'] / 1024:.0f} | "
+            f"{sim / wall:.0f}x | {_secs(r.get('setup_cpu_s'))} | {loop:.2f} | {sim / loop:.0f}x | {rtf_cpu} | "
+            f"{_secs(r.get('after_cpu_s'))} | {r['hwm_kb'] / 1024:.0f} | "
             f"{'' if growth is None else f'{growth:.0f}'} | {track} | "
             f"{mon_us:.1f} | {100 * share:.1f} % | {outcome} |")
+
+
+def _secs(x) -> str:
+    return "" if x is None else f"{x:.2f}"
 
 
 def phase_table(r: dict) -> str:
@@ -479,6 +495,8 @@ def _write(table: str, results: list, total: float, zones: bool, mission: float)
             "",
             "- wall s: `master.runner.run` from opening the SSP to run.json (FMU loading, the loop, the UAV "
             "outputs: trajectory.csv, summary, map.png); results.parquet written, no CSV.",
+            "- setup CPU s: CPU time of the run from opening the SSP to the first step (FMUs loaded, instantiated "
+            "and initialized, the step compiled); after loop CPU s: from the last step to run.json (the outputs).",
             "- loop s: the step loop alone (`Execution._steps`, recording included); RTF loop = sim s / loop s; "
             "RTF loop CPU: the same over the process's CPU time in the loop (less sensitive to a busy machine).",
             "- `--repeat R`: each row is the run with the shortest loop of R (the others' times in the raw results).",

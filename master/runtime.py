@@ -74,6 +74,9 @@ class Runtime:
         self.slaves = [None] * n
         self.do_step_calls = [0] * n  # per component, rolled-back steps included: the work a run cost (run.json)
         self.call_folds = []          # compiled steps' deferred doStep counts (compiled.py): fold() adds them in
+        # what the compiled step keeps between its rebuilds (compiled.py: per component its lines and bound ops,
+        # per chunk its code), so that taking a component out recompiles only the chunk it was in
+        self.step_memo = {}
         self._logging_on = logging_on
         self._inprocess = inprocess
         self._solver = solver

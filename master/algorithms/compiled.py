@@ -17,7 +17,7 @@ caught exception kept out of the report (it never showed: the op had handled it 
 
 Jacobi's inputs come from one tuple per buffer type made at the step's start by ``struct`` from just the positions
 the step reads (``_unpacker``: the same objects ``tolist`` gives there); the doStep counts of the components that step
-every master step are deferred (``_defer_counts``): the step counts its own complete calls and Execution._steps folds
+every master step are deferred (``_deferred``): the step counts its own complete calls and Execution._steps folds
 them into ``rt.do_step_calls`` when it returns, a step cut short by an exception counting the components it reached.
 
 A large system's step is split into chunks of about ``CHUNK_LINES`` lines, each a function the step calls:
@@ -43,73 +43,95 @@ def compile_step(rt, order: list[int], h: float, gauss_seidel: bool, lengths: di
     ns: dict = {"_fail": _failer(rt), "_step_failed": _step_failer(rt), "_D": c_double, "_calls": rt.do_step_calls}
     ns["_cycle_failed"] = _cycle_failer(ns["_fail"], ns["_step_failed"])
     ns["_fail_handling"] = _failer(rt, in_handler=True)
-    body: list[list[str]] = []     # per component, its lines (each block one unit of a chunk)
-    tail: list[list[str]] = []
-    active = [i for i in order if rt.active[i]]
-    for i in active:
-        k = rt.multiple[i]
-        ns[f"H{i}"] = hk = (lengths or {}).get(i, h * k)
-        raw = rt.slaves[i].raw_step
-        cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
-        # a cycle sets the inputs itself: the setters are bound only for the other two ways
-        transfers, setters, step, getters, publish = rt.fast_ops(i, setters=cycle is None)
-        due = [] if k == 1 else [f"if n % {k} == 0:"]
-        inline = getattr(cycle, "inline", None)
-        # Jacobi: the inputs of an inline cycle taken from the step's lists of the output values (no copy into
-        # the input buffers, no list made per port), when every one is an output's value as it is
-        sources = rt.write_sources[i] if inline is not None and not gauss_seidel else [None]
-        from_lists = all(p is not None for p in sources)
-        lines = []
-        for j, x in enumerate(() if from_lists else transfers):
-            ns[f"x{i}_{j}"] = x
-            lines.append(f"x{i}_{j}()")
-        if raw is not None:
-            ns[f"d{i}"] = raw
-            ns[f"CH{i}"] = c_double(hk)
-            for j, s in enumerate(setters):
-                ns[f"s{i}_{j}"] = s
-                lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-            lines.append(f"_calls[{i}] += 1")
-            lines.append(f"if (st := d{i}(ct, CH{i}, 1)) > 1: _step_failed({i}, st, t)")
-        elif inline is not None:
-            values = None
-            if from_lists:
-                values = [_listed(typ, p) for (typ, _), p in zip(rt.write_ports[i], sources)]
-            lines += _inline_cycle(ns, i, inline, values)
-            if from_lists and transfers:
-                ns[f"R{i}"] = _with_transfers(transfers, inline.sets_failed)
-        elif cycle is not None:
-            # inputs and step in one call (an in-process slave: see Slave.bound_cycle), which counts the step
-            ns[f"c{i}"] = cycle
-            lines.append(f"if (st := c{i}(t, H{i})) > 1: _cycle_failed({i}, st, t)")
-        else:
-            ns[f"d{i}"] = step
-            for j, s in enumerate(setters):
-                ns[f"s{i}_{j}"] = s
-                lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
-            lines.append(f"_calls[{i}] += 1")
-            lines.append(f"if (st := d{i}(t, H{i})) > 1: _step_failed({i}, st, t)")
-        gets = []
-        for j, g in enumerate(getters):
-            if getattr(g, "inline", None) is not None:
-                gets += _inline_get(ns, i, j, g.inline)
-                continue
-            ns[f"g{i}_{j}"] = g
-            gets.append(f"if (st := g{i}_{j}()) > 1: _fail({i}, 'getting outputs', st, t + H{i})")
-        if gauss_seidel:
-            lines += gets
-        body.append(_under(due, lines))
-        if not gauss_seidel and gets:
-            # Jacobi: nobody reads a value produced in this step, so all outputs are fetched after all steps
-            tail.append(_under(due, gets))
-        if publish is not None:
-            ns[f"p{i}"] = publish
-            tail.append([f"if (n + 1) % {k} == 0: p{i}()"])
+    # a rebuild (a component taken out) reuses the other components' lines and bound ops, and the code of the
+    # chunks it leaves as they were (_assemble): a fleet of 256 UAVs rebuilt its whole step once per landing
+    memo = getattr(rt, "step_memo", None)
+    memo = {} if memo is None else memo.setdefault(("compiled", h, gauss_seidel), {})
+    made = memo.setdefault("components", {})
+    body: list[tuple] = []     # per component, (key, its lines) (each block one unit of a chunk)
+    tail: list[tuple] = []
+    for i in order:
+        if not rt.active[i]:
+            continue
+        # a last step cut short to end at the stop time has its own length, so its own lines
+        hk = (lengths or {}).get(i, h * rt.multiple[i])
+        if (i, hk) not in made:
+            made[(i, hk)] = _component(rt, i, hk, gauss_seidel)
+        own, lines, after = made[(i, hk)]
+        ns.update(own)
+        body.append((("step", i), lines))
+        tail += [(("after", i, j), b) for j, b in enumerate(after)]
     name = f"<cosim-master step: {'gauss-seidel' if gauss_seidel else 'jacobi'}>"
-    fn = _assemble(ns, body + tail, name, rt.out)
+    fn = _assemble(ns, body + tail, name, rt.out, memo)
     if getattr(fn, "fold", None) is not None:
         rt.call_folds.append(fn.fold)       # Execution._steps folds them in when it returns
     return fn
+
+
+def _component(rt, i: int, hk: float, gauss_seidel: bool):
+    """Component i's part of the step of length hk: (the names its lines use, bound to its ops; its lines in the
+    sweep; its blocks after the sweep (Jacobi's output fetches, a staged component's publish))."""
+    from ctypes import c_double
+    ns: dict = {}
+    k = rt.multiple[i]
+    ns[f"H{i}"] = hk
+    raw = rt.slaves[i].raw_step
+    cycle = None if raw is not None else rt.slaves[i].bound_cycle(rt.write_ports[i], rt.do_step_calls, i)
+    # a cycle sets the inputs itself: the setters are bound only for the other two ways
+    transfers, setters, step, getters, publish = rt.fast_ops(i, setters=cycle is None)
+    due = [] if k == 1 else [f"if n % {k} == 0:"]
+    inline = getattr(cycle, "inline", None)
+    # Jacobi: the inputs of an inline cycle taken from the step's lists of the output values (no copy into
+    # the input buffers, no list made per port), when every one is an output's value as it is
+    sources = rt.write_sources[i] if inline is not None and not gauss_seidel else [None]
+    from_lists = all(p is not None for p in sources)
+    lines = []
+    for j, x in enumerate(() if from_lists else transfers):
+        ns[f"x{i}_{j}"] = x
+        lines.append(f"x{i}_{j}()")
+    if raw is not None:
+        ns[f"d{i}"] = raw
+        ns[f"CH{i}"] = c_double(hk)
+        for j, s in enumerate(setters):
+            ns[f"s{i}_{j}"] = s
+            lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+        lines.append(f"_calls[{i}] += 1")
+        lines.append(f"if (st := d{i}(ct, CH{i}, 1)) > 1: _step_failed({i}, st, t)")
+    elif inline is not None:
+        values = None
+        if from_lists:
+            values = [_listed(typ, p) for (typ, _), p in zip(rt.write_ports[i], sources)]
+        lines += _inline_cycle(ns, i, inline, values)
+        if from_lists and transfers:
+            ns[f"R{i}"] = _with_transfers(transfers, inline.sets_failed)
+    elif cycle is not None:
+        # inputs and step in one call (an in-process slave: see Slave.bound_cycle), which counts the step
+        ns[f"c{i}"] = cycle
+        lines.append(f"if (st := c{i}(t, H{i})) > 1: _cycle_failed({i}, st, t)")
+    else:
+        ns[f"d{i}"] = step
+        for j, s in enumerate(setters):
+            ns[f"s{i}_{j}"] = s
+            lines.append(f"if (st := s{i}_{j}()) > 1: _fail({i}, 'setting inputs', st, t)")
+        lines.append(f"_calls[{i}] += 1")
+        lines.append(f"if (st := d{i}(t, H{i})) > 1: _step_failed({i}, st, t)")
+    gets = []
+    for j, g in enumerate(getters):
+        if getattr(g, "inline", None) is not None:
+            gets += _inline_get(ns, i, j, g.inline)
+            continue
+        ns[f"g{i}_{j}"] = g
+        gets.append(f"if (st := g{i}_{j}()) > 1: _fail({i}, 'getting outputs', st, t + H{i})")
+    if gauss_seidel:
+        lines += gets
+    after = []
+    if not gauss_seidel and gets:
+        # Jacobi: nobody reads a value produced in this step, so all outputs are fetched after all steps
+        after.append(_under(due, gets))
+    if publish is not None:
+        ns[f"p{i}"] = publish
+        after.append([f"if (n + 1) % {k} == 0: p{i}()"])
+    return ns, _under(due, lines), after
 
 
 def _under(due: list[str], lines: list[str]) -> list[str]:
@@ -216,15 +238,87 @@ def _unpacker(buf, positions: list[int]):
     return struct.Struct("".join(fmt)).unpack_from, memoryview(buf).cast("B")
 
 
-def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
-    """``def step(n, t)`` running ``blocks`` in order: one function, or chunks of it that the step calls."""
+def _assemble(ns: dict, blocks: list[tuple], name: str, out: dict, memo: dict):
+    """``def step(n, t)`` running ``blocks`` ((key, lines) each) in order: one function, or chunks of it that the
+    step calls. ``memo`` keeps the chunk each block went into and each chunk's code: a block keeps its chunk when
+    others are taken out, so a rebuild compiles again only the chunks that lost one."""
+    chunk_of = memo.get("chunk_of")
+    if chunk_of is None or any(key not in chunk_of for key, _ in blocks):
+        chunk_of = memo["chunk_of"] = _layout(blocks)
+        memo["parts"] = {}
+    if len(set(chunk_of.values())) == 1:
+        return _one_function(ns, [ln for _, b in blocks for ln in b], name, out)
+    members: dict[int, list] = {}
+    for key, b in blocks:
+        members.setdefault(chunk_of[key], []).append((key, b))
+    parts = memo["parts"]
+    head, calls, sources, counted, listed = [], [], [], {}, set()
+    for c, chunk in members.items():        # in the order of the blocks: a layout's chunks follow it
+        keys = tuple(key for key, _ in chunk)
+        if c not in parts or parts[c][0] != keys:
+            parts[c] = (keys, *_part(c, [ln for _, b in chunk for ln in b], name, out))
+        _, code, src, uses, counted[c] = parts[c]
+        args = []
+        for typ, positions in uses:
+            if positions is None:       # the whole list, made once for every chunk that uses it
+                if typ not in listed:
+                    listed.add(typ)
+                    head.append(f"V{typ} = _out{typ}.tolist()")
+                    ns[f"_out{typ}"] = out[typ]
+                args.append(f"V{typ}")
+                continue
+            # only the values this chunk uses, as a tuple in the order of their positions; all taken at the
+            # step's start (Jacobi: before the tail of any chunk changes an output)
+            head.append(f"V{typ}_{c} = _unpack{typ}_{c}(_mem{typ})")
+            ns[f"_unpack{typ}_{c}"], ns[f"_mem{typ}"] = _unpacker(out[typ], positions)
+            args.append(f"V{typ}_{c}")
+        calls.append(f"_part{c}(n, t{''.join(', ' + a for a in args)})")
+        sources.append(src)
+        exec(code, ns)
+    _fold_counts(ns, counted)
+    sources.append(_function("step", head + calls + ["_ran[0] += 1"]))
+    exec(_code(sources[-1], name), ns)
+    fn = ns["step"]
+    fn.source = "".join(sources)
+    fn.fold = ns["_fold"]
+    return fn
+
+
+def _layout(blocks: list[tuple]) -> dict:
+    """Block key -> chunk: consecutive blocks, a new chunk where one would pass ``CHUNK_LINES`` lines."""
+    chunk_of, c, size = {}, 0, 0
+    for key, b in blocks:
+        if size and size + len(b) > CHUNK_LINES:
+            c, size = c + 1, 0
+        chunk_of[key] = c
+        size += len(b)
+    return chunk_of
+
+
+def _part(c: int, lines: list[str], name: str, out: dict):
+    """Chunk c as ``_part{c}(n, t, V...)``: (its code, its source, per list it reads (type, the positions it
+    reads, or None for the whole list), the components whose doStep counts it defers)."""
+    uses = []
+    for typ in sorted({m.group(1) for ln in lines for m in _LIST_USE.finditer(ln)}):
+        used = sorted({int(m.group(2)) for ln in lines for m in _LIST_ITEM.finditer(ln) if m.group(1) == typ})
+        if _unpacker(out[typ], used) is None:
+            uses.append((typ, None))
+            continue
+        uses.append((typ, used))
+        lines = _renumbered([lines], typ, {p: k for k, p in enumerate(used)})[0]
+    comps = _deferred(lines)
+    params = "".join(f", V{typ}" for typ, _ in uses)
+    src = _function(f"_part{c}", _counting(c, lines, True), params)
+    return _code(src, name), src, uses, comps
+
+
+def _one_function(ns: dict, lines: list[str], name: str, out: dict):
+    """``def step(n, t)`` of ``lines`` in one function."""
     # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
     # changes before the tail, which comes after every input is set)
-    lists = sorted({m.group(1) for m in _LIST_USE.finditer("\n".join(ln for b in blocks for ln in b))})
     head = []
-    for typ in lists:
-        used = sorted({int(m.group(2)) for b in blocks for ln in b for m in _LIST_ITEM.finditer(ln)
-                       if m.group(1) == typ})
+    for typ in sorted({m.group(1) for ln in lines for m in _LIST_USE.finditer(ln)}):
+        used = sorted({int(m.group(2)) for ln in lines for m in _LIST_ITEM.finditer(ln) if m.group(1) == typ})
         unpack = _unpacker(out[typ], used)
         if unpack is None:
             head.append(f"V{typ} = _out{typ}.tolist()")
@@ -233,25 +327,18 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
         # only the values the step uses, as a tuple in the order of their positions
         head.append(f"V{typ} = _unpack{typ}(_mem{typ})")
         ns[f"_unpack{typ}"], ns[f"_mem{typ}"] = unpack
-        blocks = _renumbered(blocks, typ, {p: k for k, p in enumerate(used)})
-    chunks: list[list[str]] = [[]]
-    for b in blocks:
-        if chunks[-1] and len(chunks[-1]) + len(b) > CHUNK_LINES:
-            chunks.append([])
-        chunks[-1].extend(b)
-    counted = _defer_counts(ns, chunks)
-    params = "".join(f", V{typ}" for typ in lists)
-    tail = ["_ran[0] += 1"] if counted else []
-    if len(chunks) == 1:
-        sources = [_function("step", _counting(0, head + chunks[0], counted) + tail)]
+        lines = _renumbered([lines], typ, {p: k for k, p in enumerate(used)})[0]
+    lines = list(lines)
+    comps = _deferred(lines)
+    if comps:
+        _fold_counts(ns, {0: comps})
+        src = _function("step", _counting(0, head + lines, True) + ["_ran[0] += 1"])
     else:
-        sources = [_function(f"_part{k}", _counting(k, c, counted), params) for k, c in enumerate(chunks)]
-        sources.append(_function("step", head + [f"_part{k}(n, t{params})" for k in range(len(chunks))] + tail))
-    for src in sources:         # one at a time: the compiler's tree of one chunk, not of the whole step
-        exec(_code(src, name), ns)
+        src = _function("step", head + lines)
+    exec(_code(src, name), ns)
     fn = ns["step"]
-    fn.source = "".join(sources)
-    if counted:
+    fn.source = src
+    if comps:
         fn.fold = ns["_fold"]
     return fn
 
@@ -259,33 +346,36 @@ def _assemble(ns: dict, blocks: list[list[str]], name: str, out: dict):
 _COUNT = re.compile(r"_calls\[(\d+)\] \+= 1")
 
 
-def _defer_counts(ns: dict, chunks: list[list[str]]) -> list[list[int]]:
+def _deferred(lines: list[str]) -> list[int]:
     """The doStep counts of the components that step every master step (their unindented ``_calls[i] += 1``)
-    taken out of the step: it counts its own complete calls instead (``_ran``), one increment instead of one per
-    component, and ``fold()`` adds them to ``rt.do_step_calls``; each such line becomes ``_k = m``, the number of
-    them reached in its chunk, which a step cut short by an exception counts (``_partial``) before it goes on.
-    Returns, per chunk, the components whose counts are deferred, in order ([] everywhere: nothing deferred)."""
+    taken out of ``lines`` (changed in place): the step counts its own complete calls instead (``_ran``), one
+    increment instead of one per component, and ``fold()`` adds them to ``rt.do_step_calls``; each such line
+    becomes ``_k = m``, the number of them reached in its chunk, which a step cut short by an exception counts
+    (``_partial``) before it goes on. Returns the components whose counts are deferred, in order."""
+    comps = []
+    for j, ln in enumerate(lines):
+        m = _COUNT.fullmatch(ln)
+        if m:
+            comps.append(int(m.group(1)))
+            lines[j] = f"_k = {len(comps)}"
+    return comps
+
+
+def _fold_counts(ns: dict, counted: dict[int, list[int]]) -> None:
+    """``_ran``, ``_partial(chunk, reached)`` and ``_fold()`` of the step's deferred counts, ``counted``: chunk ->
+    its components whose counts are deferred (in the order of the chunks)."""
     calls = ns["_calls"]
-    counted: list[list[int]] = []
-    for chunk in chunks:
-        comps = []
-        for j, ln in enumerate(chunk):
-            m = _COUNT.fullmatch(ln)
-            if m:
-                comps.append(int(m.group(1)))
-                chunk[j] = f"_k = {len(comps)}"
-        counted.append(comps)
-    if not any(counted):
-        return []
     ran = ns["_ran"] = [0]
-    every = [i for comps in counted for i in comps]
+    every = [i for comps in counted.values() for i in comps]
 
     def partial(chunk: int, reached: int) -> None:
-        for comps in counted[:chunk]:
+        for c, comps in counted.items():
+            if c == chunk:
+                for i in comps[:reached]:
+                    calls[i] += 1
+                return
             for i in comps:
                 calls[i] += 1
-        for i in counted[chunk][:reached]:
-            calls[i] += 1
 
     def fold() -> None:
         r, ran[0] = ran[0], 0
@@ -294,11 +384,11 @@ def _defer_counts(ns: dict, chunks: list[list[str]]) -> list[list[int]]:
                 calls[i] += r
     ns["_partial"] = partial
     ns["_fold"] = fold
-    return counted
 
 
-def _counting(chunk: int, lines: list[str], counted: list[list[int]]) -> list[str]:
-    """``lines`` in the ``try`` that counts the components a step cut short by an exception has reached."""
+def _counting(chunk: int, lines: list[str], counted: bool) -> list[str]:
+    """``lines`` in the ``try`` that counts the components a step cut short by an exception has reached (when
+    ``counted``: the step defers counts)."""
     if not counted:
         return lines
     return (["_k = 0", "try:"] + ["    " + ln for ln in lines]
