@@ -20,6 +20,9 @@ decided on its inputs then) and where the UAV was then (its strategy's position 
 * ``give_way`` / ``give_way_end`` -- it started / stopped giving way to ``other`` (the right-of-way climb;
   ``distance``: horizontal, to the other's position then).
 
+A detail's words before its first " (" say the event in short (the ground-station stream's status text, e.g.
+"took over target 3 of uav2").
+
 And it keeps **who heard whom**: the channel's message slots name the senders of the messages each UAV received
 in a step; the links at a moment T are the (receiver, sender) pairs with a message arriving within one broadcast
 period before T.  T is the annotation's ``linksAt`` when given, else the first takeover, else the first drop,
@@ -227,28 +230,27 @@ class CommMonitor(Monitor):
         col = {v: i for i, v in enumerate(WATCHED)}
         for k in np.flatnonzero((before != after).any(axis=1)):
             b, a = before[k], after[k]
-            name = self.names[k]
             if a[col["takeovers"]] > b[col["takeovers"]]:
                 targets = _targets(a[col["taken0"]], a[col["taken1"]])
                 other = self._name(a[col["taken_from"]])
                 self._emit(t0, "takeover", k, other, None,
-                           f"{name} took over target{'s' if len(targets) != 1 else ''} "
-                           f"{', '.join(map(str, targets))} (claimed by {other}, gone home or lost)")
+                           f"took over target{'s' if len(targets) != 1 else ''} {', '.join(map(str, targets))} "
+                           f"of {other} (its claim; it went home or was lost)")
             if a[col["drops"]] > b[col["drops"]]:
                 targets = _targets(a[col["dropped0"]], a[col["dropped1"]])
                 other = self._name(a[col["dropped_to"]])
                 self._emit(t0, "drop", k, other, None,
-                           f"{name} dropped target{'s' if len(targets) != 1 else ''} "
-                           f"{', '.join(map(str, targets))} (outbid by {other}, nearer)")
+                           f"dropped target{'s' if len(targets) != 1 else ''} {', '.join(map(str, targets))} "
+                           f"to {other} (a better bid: nearer)")
             g0, g1 = int(b[col["give_way_to"]]), int(a[col["give_way_to"]])
             if g1 != g0:
                 if g1 >= 0:
                     other = self._name(g1)
                     self._emit(t0, "give_way", k, other, self._apart(k, g1),
-                               f"{name} gives way to {other} (climbs to the layer above it)")
+                               f"gives way to {other} (climbs to the layer above it)")
                 else:
                     self._emit(t0, "give_way_end", k, self._name(g0), self._apart(k, g0),
-                               f"{name} no longer gives way to {self._name(g0)} (back to its cruise altitude)")
+                               f"clear of {self._name(g0)} (back to its cruise altitude)")
 
     def _name(self, index) -> str | None:
         index = int(index)

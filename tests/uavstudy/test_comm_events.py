@@ -65,7 +65,7 @@ def test_takeover_event_when_the_lost_uav_should_have_been_heard(tmp_path):
     assert len(take) == 1
     row = take.iloc[0]
     assert (row.uav, row.other) == ("uav1", "uav2")
-    assert "target 1 " in row.detail                       # the southern target, global index 1
+    assert row.detail.startswith("took over target 1 of uav2 (")     # the southern target, global index 1
     assert t_r + LOST_TIMEOUT - PERIOD - STEP - 1e-6 <= row.time <= t_r + LOST_TIMEOUT + 1e-6
     # where uav1 was then: its recorded track (1 s rows) within a second's flight of the event's position
     traj = pd.read_csv(res.output_dir / "trajectory.csv")
