@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 import weakref
+from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -174,19 +175,31 @@ class CommMonitor(Monitor):
         _BY_CONTEXT[ctx] = self
         n = len(self.names)
         strategies = list(self.uavs.values())
-        # every watched value is an FMI Integer: one take per step reads them all, (n, len(WATCHED)) as a view
-        self._watch_idx = np.array([self._where[f"{s}.{v}"][1] for s in strategies for v in WATCHED], dtype=np.intp)
-        self._watch_type = self._where[f"{strategies[0]}.{WATCHED[0]}"][0] if n else "Integer"
-        self._watch = self._take(self._watch_type, self._watch_idx).reshape(n, len(WATCHED))
-        self._watch_bytes = self._watch.tobytes()
-        self._send_idx = np.array([self._where[f"{self.channel}.uav{k}_m{s}_sender"][1] for k in range(1, n + 1)
-                                   for s in range(1, SLOTS + 1)], dtype=np.intp)
-        self._send_type = self._where[f"{self.channel}.uav1_m1_sender"][0] if n else "Integer"
-        # heard[r, s]: when receiver r last received a message of sender s (the end of the step it arrived in)
-        self.heard = np.full((n, n), -math.inf)
+        # the watched values and the senders of the message slots are FMI Integers: ONE take per step reads them
+        # all into one preallocated array (a numpy call per value would cost more than the rest of the step)
+        watch = [self._where[f"{s}.{v}"] for s in strategies for v in WATCHED]
+        send = [self._where[f"{self.channel}.uav{k}_m{s}_sender"] for k in range(1, n + 1)
+                for s in range(1, SLOTS + 1)]
+        types = {typ for typ, _ in watch + send}
+        if len(types) > 1:
+            raise ScenarioError(f"the strategies' C outputs and the channel's senders have different types "
+                                f"({', '.join(sorted(types))}): not a UavStrategy / UavChannel?", file=self.shown_as,
+                                element="comm:Comm")
+        self._type = types.pop() if types else "Integer"
+        self._idx = np.array([j for _, j in watch + send], dtype=np.intp)
+        self._read = np.empty(self._idx.size, dtype=ctx.buffer(self._type).dtype)
+        self._nw = len(watch)
+        self._gather()
+        self._watch = self._read[:self._nw].astype(np.int64).reshape(n, len(WATCHED))
+        self._watch_bytes = self._read[:self._nw].tobytes()
+        self._no_message = np.full(len(send), -1, dtype=self._read.dtype).tobytes()
+        # (end of the step, the senders of every slot as bytes) of the last period's steps with arrivals
+        self._recent: deque = deque()
+        # with linksAt, who heard whom matters only in the period before it
+        self._track_from = -math.inf if self.links_at is None else self.links_at - self.period - 1.0
 
-    def _take(self, typ: str, idx: np.ndarray) -> np.ndarray:
-        return np.take(self.ctx.buffer(typ), idx).astype(np.int64)
+    def _gather(self) -> None:
+        self.ctx.buffer(self._type).take(self._idx, out=self._read, mode="clip")   # indices are valid
 
     def _value(self, name: str) -> int:
         typ, j = self._where[name]
@@ -203,21 +216,23 @@ class CommMonitor(Monitor):
 
     # -- after every step ----------------------------------------------------------------------------
     def after_step(self, n: int, t0: float, t1: float) -> None:
-        watch = self._take(self._watch_type, self._watch_idx)
-        b = watch.tobytes()
-        if b != self._watch_bytes:
-            self._events(t0, self._watch, watch.reshape(self._watch.shape))
-            self._watch, self._watch_bytes = watch.reshape(self._watch.shape), b
+        self._gather()
+        read = self._read
+        if read[:self._nw].tobytes() != self._watch_bytes:
+            watch = read[:self._nw].astype(np.int64).reshape(self._watch.shape)
+            self._events(t0, self._watch, watch)
+            self._watch, self._watch_bytes = watch, read[:self._nw].tobytes()
         if self.links_at is not None and "linksAt" not in self.moments and t0 >= self.links_at - 1e-9:
             self._moment("linksAt", t0)
-        if self._needs_senders():
-            # a slot naming the same sender as in the last step is a new message of it: no bytes shortcut here
-            senders = self._take(self._send_type, self._send_idx).reshape(-1, SLOTS)
-            receivers, slots = np.nonzero(senders >= 0)
-            if receivers.size:
-                s = senders[receivers, slots]
-                ok = s < len(self.names)
-                self.heard[receivers[ok], s[ok]] = t1
+        if t1 >= self._track_from and self._needs_senders():
+            b = read[self._nw:].tobytes()
+            if b != self._no_message:
+                # kept as bytes, decoded only at the moment (a slot naming the same sender as in the last step is a
+                # new message of it: every non-empty slot counts)
+                recent = self._recent
+                recent.append((t1, b))
+                while recent[0][0] <= t1 - self.period - 1e-9:
+                    recent.popleft()
 
     def _needs_senders(self) -> bool:
         """Who heard whom is kept until the moment of the links has come: linksAt, or the first takeover (the
@@ -277,11 +292,17 @@ class CommMonitor(Monitor):
     def _moment(self, why: str, t: float) -> None:
         """The links at t: the pairs with a message arriving within one period before t, and where each UAV
         was."""
-        receivers, senders = np.nonzero(self.heard > t - self.period + 1e-9)
+        n = len(self.names)
+        pairs = set()
+        for t1, b in self._recent:
+            if t - self.period + 1e-9 < t1 <= t + 1e-9:
+                senders = np.frombuffer(b, dtype=self._read.dtype).reshape(n, SLOTS)
+                pairs.update((int(r), int(senders[r, s])) for r, s in zip(*np.nonzero(senders >= 0))
+                             if senders[r, s] < n)
         self.moments[why] = {
             "time": round(float(t), 9), "why": why, "period": self.period,
             "positions": {name: self.position(k) for k, name in enumerate(self.names)},
-            "links": [(self.names[r], self.names[s]) for r, s in zip(receivers.tolist(), senders.tolist())]}
+            "links": [(self.names[r], self.names[s]) for r, s in sorted(pairs)]}
 
     def links(self) -> dict | None:
         """The links of the moment chosen (linksAt, else the first takeover, drop or give-way): ``{"time", "why",
