@@ -43,6 +43,7 @@ from lxml import etree
 from master.errors import ScenarioError
 from master.monitors import Monitor, register
 from master.ssp.writer import NS as SSP_NS
+from uavsim.channel import MAX_K, ChannelParams, decode_mask
 
 COMM_TYPE = "org.cosim-master.uav-comm"
 COMM_NS = "https://cosim-master.org/ssp/uav-comm"
@@ -57,8 +58,8 @@ WATCHED = ("takeovers", "drops", "give_way_to", "taken0", "taken1", "taken_from"
 EVENT_TYPE = "coop"
 #: which C event sets the moment of the links when the annotation names none, first choice first
 LINK_MOMENTS = ("takeover", "drop", "give_way")
-SLOTS = 4               # the channel's message slots per UAV (uavsim.channel.MAX_K)
-DEFAULT_PERIOD = 1.0    # s, the channel's default broadcast period (uavsim.channel.ChannelParams)
+SLOTS = MAX_K                           # the channel's message slots per UAV
+DEFAULT_PERIOD = ChannelParams.period   # s, its broadcast period when the SSD gives none
 
 __all__ = ["CommMonitor", "comm_annotation", "links_of", "COMM_TYPE", "COMM_FILE", "EVENT_TYPE"]
 
@@ -129,15 +130,6 @@ def _period(plan, channel: str) -> float:
         if var.component == channel and var.name == "period":
             period = float(value)
     return period
-
-
-def _targets(word0: int, word1: int) -> list[int]:
-    """Target indices of a two-word bit mask (uavsim.channel.encode_mask's layout)."""
-    out = []
-    for i, w in enumerate((word0, word1)):
-        w = int(w) & 0xFFFFFFFF
-        out += [32 * i + b for b in range(32) if w >> b & 1]
-    return out
 
 
 @register(COMM_TYPE)
@@ -246,13 +238,13 @@ class CommMonitor(Monitor):
         for k in np.flatnonzero((before != after).any(axis=1)):
             b, a = before[k], after[k]
             if a[col["takeovers"]] > b[col["takeovers"]]:
-                targets = _targets(a[col["taken0"]], a[col["taken1"]])
+                targets = sorted(decode_mask(a[col["taken0"]], a[col["taken1"]]))
                 other = self._name(a[col["taken_from"]])
                 self._emit(t0, "takeover", k, other, None,
                            f"took over target{'s' if len(targets) != 1 else ''} {', '.join(map(str, targets))} "
                            f"of {other} (its claim; it went home or was lost)")
             if a[col["drops"]] > b[col["drops"]]:
-                targets = _targets(a[col["dropped0"]], a[col["dropped1"]])
+                targets = sorted(decode_mask(a[col["dropped0"]], a[col["dropped1"]]))
                 other = self._name(a[col["dropped_to"]])
                 self._emit(t0, "drop", k, other, None,
                            f"dropped target{'s' if len(targets) != 1 else ''} {', '.join(map(str, targets))} "
