@@ -143,11 +143,18 @@ class CommMonitor(Monitor):
         self.origin = _origin(plan, shown_as) if plan is not None else None
         self.period = _period(plan, self.channel) if plan is not None else DEFAULT_PERIOD
         self.moments: dict[str, dict] = {}       # why -> the links then (first takeover, drop, give-way; linksAt)
+        # a strategy FMU built before C had its event outputs (an older SSP) still runs: counters and links, no events
+        self.watched = WATCHED
+        if plan is not None and self.uavs:
+            try:
+                plan.var(f"{next(iter(self.uavs.values()))}.{WATCHED[-1]}")
+            except (KeyError, ValueError, TypeError, ScenarioError):
+                self.watched = ()
         if plan is not None:
             for v in self.required_variables():
                 try:
                     plan.var(v)
-                except (KeyError, ValueError, TypeError):
+                except (KeyError, ValueError, TypeError, ScenarioError):
                     raise ScenarioError(f"{v} is not a variable of the system (not a UavChannel / UavStrategy?)",
                                         file=shown_as, element="comm:Comm") from None
 
@@ -156,7 +163,7 @@ class CommMonitor(Monitor):
         names = [f"{c}.messages_{n}" for n in FLEET] + [f"{c}.near_misses"]
         for k, (name, strategy) in enumerate(self.uavs.items(), start=1):
             names += [f"{c}.uav{k}_{n}" for n in PER_UAV] + [f"{strategy}.{n}" for n in STRATEGY_COUNTS]
-            names += [f"{strategy}.{n}" for n in WATCHED if n not in STRATEGY_COUNTS]
+            names += [f"{strategy}.{n}" for n in self.watched if n not in STRATEGY_COUNTS]
             names += [f"{strategy}.{n}" for n in ("x", "y", "z")]
             names += [f"{c}.uav{k}_m{s}_sender" for s in range(1, SLOTS + 1)]
         return names
@@ -169,7 +176,7 @@ class CommMonitor(Monitor):
         strategies = list(self.uavs.values())
         # the watched values and the senders of the message slots are FMI Integers: ONE take per step reads them
         # all into one preallocated array (a numpy call per value would cost more than the rest of the step)
-        watch = [self._where[f"{s}.{v}"] for s in strategies for v in WATCHED]
+        watch = [self._where[f"{s}.{v}"] for s in strategies for v in self.watched]
         send = [self._where[f"{self.channel}.uav{k}_m{s}_sender"] for k in range(1, n + 1)
                 for s in range(1, SLOTS + 1)]
         types = {typ for typ, _ in watch + send}
@@ -182,7 +189,7 @@ class CommMonitor(Monitor):
         self._read = np.empty(self._idx.size, dtype=ctx.buffer(self._type).dtype)
         self._nw = len(watch)
         self._gather()
-        self._watch = self._read[:self._nw].astype(np.int64).reshape(n, len(WATCHED))
+        self._watch = self._read[:self._nw].astype(np.int64).reshape(n, len(self.watched))
         self._watch_bytes = self._read[:self._nw].tobytes()
         self._no_message = np.full(len(send), -1, dtype=self._read.dtype).tobytes()
         # (end of the step, the senders of every slot as bytes) of the last period's steps with arrivals

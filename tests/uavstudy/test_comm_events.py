@@ -113,3 +113,26 @@ def test_give_way_event_when_the_first_legs_cross(tmp_path):
     assert len(kinds) % 2 == 0
     assert res.metadata["monitors"][COMM_TYPE]["uavs"]["uav2"]["give_ways"] == len(kinds) // 2
     assert (ev[ev.type == "uav"]).empty
+
+
+def test_an_ssp_built_before_cs_event_outputs_still_runs_without_events():
+    """A strategy FMU without the event outputs (an SSP built before them): the monitor keeps its counters and
+    links and writes no events, instead of refusing the run."""
+    from types import SimpleNamespace
+
+    from master.errors import ScenarioError
+    from uavstudy.comm_monitor import WATCHED, CommMonitor, comm_annotation
+
+    class OldPlan:
+        params, model = [], SimpleNamespace(annotations={})
+
+        def var(self, q):
+            if q.split(".")[-1] in WATCHED[2:]:
+                raise ScenarioError(f"component {q.split('.')[0]!r} has no variable {q.split('.')[-1]!r}")
+            return SimpleNamespace(type="Integer")
+
+    mon = CommMonitor(comm_annotation("channel", {"uav1": "uav1_strat", "uav2": "uav2_strat"}), OldPlan(), "old.ssp")
+    assert mon.watched == ()
+    names = mon.required_variables()
+    assert "uav1_strat.takeovers" in names and "channel.uav2_m4_sender" in names
+    assert not any(n.endswith((".give_way_to", ".taken0", ".dropped_to")) for n in names)
