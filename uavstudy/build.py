@@ -377,7 +377,7 @@ def build_ssp(scn: UavScenario, out_path, fmu_dir=None, to_disk: bool = True) ->
     if scn.strategy == "C":
         _add_channel(b, scn, fmus[CHANNEL], uavs, zones_s)
         from .comm_monitor import comm_annotation       # what the channel carried, into run.json
-        b.annotations.append(comm_annotation(CHANNEL, {u["name"]: u[STRATEGY] for u in uavs}))
+        b.annotations.append(comm_annotation(CHANNEL, {u["name"]: u[STRATEGY] for u in uavs}, scn.comm.links_at))
     _check_partition(scn, uavs, len(targets_r))
     _check_idle_uavs(scn, uavs, len(targets_r))
     _check_targets_on_base(scn, targets_r, [u["home"] for u in uavs])

@@ -16,7 +16,9 @@
 * ``map.png`` -- local ENU map: base and pads, targets (visited / not visited), zones, UAV paths with
   time marks and direction arrows, collision and landing markers, scale bar, legend; title with
   scenario, strategy, the time the mission ended and the results.  Beyond ``MAX_UAV_LEGEND`` UAVs it is a
-  fleet's map: tracks and pads coloured by outcome, a legend by outcome with its number of UAVs.
+  fleet's map: tracks and pads coloured by outcome, a legend by outcome with its number of UAVs.  For strategy
+  C, the links at a moment (who heard whom within one broadcast period: ``uavstudy.comm_monitor``) as thin
+  lines between where the UAVs were then, solid when both heard each other, dotted when one way only.
 
 Outcome of a UAV (first that applies):
 
@@ -651,6 +653,76 @@ def _draw_end_markers(ax, mon, uavs: list[dict], handles) -> None:
                                   mec=style["edgecolors"], mew=style.get("linewidths", 1.0), label=label))
 
 
+def link_segments(links: dict | None, absent=()) -> list[tuple]:
+    """The links of a moment (``comm_monitor.CommMonitor.links``) as map segments: ``(uav a, uav b, both ways,
+    (xa, ya), (xb, yb))`` per pair that heard each other in at least one direction, a < b by name, without the
+    UAVs in ``absent`` (removed by then)."""
+    if not links:
+        return []
+    heard = {(r, s) for r, s in links["links"] if r not in absent and s not in absent and r != s}
+    pos = links["positions"]
+    out = []
+    for a, b in sorted({tuple(sorted(p)) for p in heard}):
+        out.append((a, b, (a, b) in heard and (b, a) in heard, tuple(pos[a][:2]), tuple(pos[b][:2])))
+    return out
+
+
+def _draw_links(ax, mon, handles) -> list[tuple]:
+    """Strategy C's links at their moment, thin grey lines (gid ``comm_links``: solid both ways, dotted one way);
+    returns the segments drawn."""
+    from matplotlib.lines import Line2D
+
+    from .comm_monitor import links_of
+    links = links_of(getattr(mon, "ctx", None))
+    if not links:
+        return []
+    t = links["time"]
+    absent = {spec.name for spec, rec in zip(mon.cfg.uavs, mon.records)
+              if rec.removed_time is not None and rec.removed_time <= t}
+    segments = link_segments(links, absent)
+    _add_links(ax, segments, 0.7)
+    why = {"linksAt": "", "takeover": ", the first takeover", "drop": ", the first drop",
+           "give_way": ", the first give-way"}.get(links["why"], "")
+    handles.append(Line2D([], [], color="dimgray", lw=0.7,
+                          label=f"heard each other at t={t:.1f} s{why} (dotted: one way)"))
+    return segments
+
+
+def _add_links(ax, segments, width: float) -> None:
+    from matplotlib.collections import LineCollection
+    for both, style in ((True, "solid"), (False, (0, (1, 2)))):
+        chosen = [[pa, pb] for _, _, two, pa, pb in segments if two == both]
+        if chosen:
+            ax.add_collection(LineCollection(chosen, colors="dimgray", linewidths=width, linestyles=style,
+                                             alpha=0.9, zorder=4, gid="comm_links" if both else "comm_links_one_way"))
+
+
+def _links_inset(ax, segments) -> None:
+    """Links within a small part of the map (at the ring of pads, where the first give-ways are) again in an inset
+    zoomed on them, each UAV named."""
+    pts = np.array([p for *_, pa, pb in segments for p in (pa, pb)], dtype=float)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    if max(hi - lo) > 0.08 * max(x1 - x0, y1 - y0):
+        return
+    inset = ax.inset_axes([0.02, 0.70, 0.28, 0.28])
+    _add_links(inset, segments, 1.0)
+    named = {}
+    for a, b, _, pa, pb in segments:
+        named[a], named[b] = pa, pb
+    for name, (x, y) in named.items():
+        inset.plot([x], [y], "o", ms=3, color="black")
+        inset.annotate(name, (x, y), xytext=(2, 2), textcoords="offset points", fontsize=6)
+    half = max(max(hi - lo) / 2.0, 5.0) * 1.3
+    mid = (lo + hi) / 2.0
+    inset.set_xlim(mid[0] - half, mid[0] + half)
+    inset.set_ylim(mid[1] - half, mid[1] + half)
+    inset.set_aspect("equal")
+    inset.tick_params(labelsize=6)
+    inset.set_title("links (zoom)", fontsize=7)
+    ax.indicate_inset_zoom(inset, edgecolor="dimgray")
+
+
 def _draw_frame(ax, origin) -> None:
     """Axes, grid, scale bar (lower right, framed, so it never hides the base) and the frame's origin."""
     from matplotlib.font_manager import FontProperties
@@ -715,8 +787,11 @@ def map_figure(mon, uavs: list[dict], total: dict, traj=None):
     ax.scatter([0.0], [0.0], s=220, marker="s", facecolors="none", edgecolors="black", linewidths=2.2, zorder=8)
     handles.append(Line2D([], [], ls="", marker="s", ms=10, mfc="none", mec="black", mew=2.2, label="base"))
     _draw_tracks(ax, mon, uavs, traj, handles)
+    segments = _draw_links(ax, mon, handles)
     _draw_end_markers(ax, mon, uavs, handles)
     _draw_frame(ax, cfg.origin)
+    if segments:
+        _links_inset(ax, segments)
     # up to MAX_UAV_LEGEND UAVs the legend names every UAV (no labels on the map, where the pads' ring is too small for
     # them), beyond it every outcome; a long one is split into columns rather than running off the figure
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,

@@ -123,7 +123,8 @@ class CommConfig:
     (nothing is sent: C flies as B).  ``range`` m (3-D distance at sending), ``period`` s between a UAV's
     broadcasts, ``latency`` s, ``loss`` probability per message and receiver (drawn from the scenario seed),
     ``k`` messages a UAV takes per step (nearest senders first), ``los``: restricted zones block the line of
-    sight, ``near_miss`` m: the distance counted as a near miss.  Only strategy C builds the channel; the
+    sight, ``near_miss`` m: the distance counted as a near miss; ``links_at`` s: the moment whose links (who heard
+    whom) map.png draws (None: the first takeover, drop or give-way).  Only strategy C builds the channel; the
     section is ignored for A and B (so that one campaign grid may cross strategies with channel axes)."""
     mode: str = "radio"
     range: float = 300.0
@@ -133,6 +134,7 @@ class CommConfig:
     k: int = 4
     los: bool = False
     near_miss: float = 10.0
+    links_at: float | None = None
 
 
 @dataclass
@@ -513,6 +515,8 @@ def _comm(v: _V, given) -> CommConfig:
             v.fail("comm.k", f"must be <= {MAX_COMM_K} (the message slots of the strategy FMU), got {ck['k']}")
     if "los" in c:
         ck["los"] = v.boolean("comm.los", c["los"])
+    if c.get("links_at") is not None:
+        ck["links_at"] = v.number("comm.links_at", c["links_at"], lo=0.0, hi=1e9, lo_open=False)
     return CommConfig(**ck)
 
 
@@ -578,7 +582,8 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "vehicle": list(scn.vehicle) if isinstance(scn.vehicle, list) else scn.vehicle,
         "sitl": {"coupling": scn.sitl.coupling, "frame": scn.sitl.frame, "speedup": scn.sitl.speedup,
                  "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults},
-        "comm": {f.name: getattr(scn.comm, f.name) for f in fields(CommConfig)},
+        "comm": {f.name: getattr(scn.comm, f.name) for f in fields(CommConfig)
+                 if getattr(scn.comm, f.name) is not None},
     }
 
 

@@ -101,7 +101,7 @@ class Neighbour:
 class CoopState:
     """What C keeps beside B's MissionState: the neighbour table, the news, the avoidance and its counts."""
     __slots__ = ("neighbours", "known_visited", "layer", "holding", "conflicts", "imminent", "takeovers", "drops",
-                 "give_ways", "next_expiry")
+                 "give_ways", "next_expiry", "last_taken", "last_dropped")
 
     def __init__(self):
         self.neighbours: dict[int, Neighbour] = {}
@@ -115,6 +115,11 @@ class CoopState:
         self.drops = 0
         self.give_ways = 0
         self.next_expiry = math.inf          # when the next active neighbour counts as lost
+        # what the last allocation that took over / dropped anything did, (target, the other UAV's index) in
+        # target order, for the events (the counts say when it changed): the UAV whose claim it was / the best
+        # bidder that outbid this one
+        self.last_taken: list[tuple[int, int]] = []
+        self.last_dropped: list[tuple[int, int]] = []
 
 
 def _bid(x, y, target) -> float:
@@ -197,13 +202,16 @@ class CooperativeStrategy(Strategy):
         active = [nb for nb in c.neighbours.values() if nb.state in ACTIVE and nb.index not in lost]
         gone = [nb for nb in c.neighbours.values() if nb.state not in ACTIVE or nb.index in lost]
         targets = self.targets
-        keep = []
+        keep, dropped, taken_now = [], [], []
         for k in m.remaining:
             if k in c.known_visited:
                 continue                                    # rule 1: photographed by another
             mine = (_bid(x, y, targets[k]), me)
-            if any(k in nb.claims and (_bid(nb.x, nb.y, targets[k]), nb.index) < mine for nb in active):
+            better = [(_bid(nb.x, nb.y, targets[k]), nb.index) for nb in active if k in nb.claims]
+            best = min(better) if better else None
+            if best is not None and best < mine:
                 c.drops += 1                                # rule 2: outbid
+                dropped.append((k, best[1]))
                 continue
             keep.append(k)
         taken = set(keep)
@@ -216,6 +224,11 @@ class CooperativeStrategy(Strategy):
                 if all(mine < (_bid(nb.x, nb.y, targets[k]), nb.index) for nb in bidders):
                     keep.append(k)                          # rule 3: the best bid for an orphan
                     c.takeovers += 1
+                    taken_now.append((k, min(nb.index for nb in gone if k in nb.claims)))
+        if dropped:
+            c.last_dropped = sorted(dropped)
+        if taken_now:
+            c.last_taken = taken_now
         if keep == m.remaining:
             return
         m.remaining = keep
@@ -274,6 +287,10 @@ class CooperativeStrategy(Strategy):
         if conflicts and not c.conflicts:
             c.give_ways += 1
         c.conflicts, c.imminent = conflicts, imminent
+
+    def giving_way_to(self) -> int:
+        """The index of the UAV this one gives way to now (the lowest of its conflicts), -1 when none."""
+        return min(j for j, *_ in self.coop.conflicts) if self.coop.conflicts else -1
 
     def _closest(self, rx, ry, wx, wy) -> tuple[float, float]:
         """Time (clamped to [0, horizon]) and distance of the closest approach of a relative position (rx, ry)

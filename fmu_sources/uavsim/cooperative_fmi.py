@@ -33,6 +33,15 @@ BROADCAST_OUTPUTS = ("claims0", "claims1", "visited0", "visited1")
 COUNT_OUTPUTS = (("takeovers", "strategy C: orphaned targets taken over"),
                  ("drops", "strategy C: targets dropped to a better bid"),
                  ("give_ways", "strategy C: conflicts in which this UAV gave way"))
+#: what C's last takeover / drop / give-way was, for the events (uavstudy/comm_monitor.py): the counts above say
+#: when a takeover or drop happened, these which targets and with whom
+EVENT_OUTPUTS = (("taken0", "strategy C: targets taken over in the last step that took any over, bit mask word 0"),
+                 ("taken1", "strategy C: targets taken over in the last step that took any over, bit mask word 1"),
+                 ("taken_from", "strategy C: index of the UAV whose claim the lowest of those targets was"),
+                 ("dropped0", "strategy C: targets dropped in the last step that dropped any, bit mask word 0"),
+                 ("dropped1", "strategy C: targets dropped in the last step that dropped any, bit mask word 1"),
+                 ("dropped_to", "strategy C: index of the best bidder for the lowest of those targets"),
+                 ("give_way_to", "strategy C: index of the UAV this one gives way to now (-1: none)"))
 SLOTS = [[f"m{s}_{name}" for name in SLOT_FIELDS] for s in range(1, CH.MAX_K + 1)]
 _SENDERS = [f"m{s}_sender" for s in range(1, CH.MAX_K + 1)]
 
@@ -63,6 +72,9 @@ def register(shell) -> None:
         shell.out_int(name, f"broadcast: {name[:-1]} targets, bit mask word {name[-1]}")
     for name, desc in COUNT_OUTPUTS:
         setattr(shell, name, 0)
+        shell.out_int(name, desc)
+    for name, desc in EVENT_OUTPUTS:
+        setattr(shell, name, -1 if name in ("taken_from", "dropped_to", "give_way_to") else 0)
         shell.out_int(name, desc)
 
 
@@ -100,3 +112,10 @@ def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> No
         d["_broadcast_key"] = key
         d["claims0"], d["claims1"], d["visited0"], d["visited1"] = model.broadcast()[2:]
         d["takeovers"], d["drops"], d["give_ways"] = c.takeovers, c.drops, c.give_ways
+        if c.last_taken:
+            d["taken0"], d["taken1"] = CH.encode_mask([k for k, _ in c.last_taken])
+            d["taken_from"] = c.last_taken[0][1]
+        if c.last_dropped:
+            d["dropped0"], d["dropped1"] = CH.encode_mask([k for k, _ in c.last_dropped])
+            d["dropped_to"] = c.last_dropped[0][1]
+    d["give_way_to"] = model.giving_way_to()

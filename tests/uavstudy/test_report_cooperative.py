@@ -32,12 +32,13 @@ def _table():
         # B flies once, with the channel values of one C setting (as cooperative.yaml's runs: do)
         rows.append(dict(run_id=f"b{i}", strategy="B", layout=lay, config=_config(300.0, 0.0), rules="paper",
                          n_uavs=4, area="zones", wind=0.0, uav_collided=B_UAV, zone_collided=1, successes=1,
-                         battery=40.0, distance_km=3.0, targets_per_wh=0.10, range=np.nan, loss=np.nan))
+                         battery=40.0, distance_km=3.0, targets_per_wh=0.10, fleet_complete=0.0, range=np.nan,
+                         loss=np.nan))
         for (rg, ls), c in C_UAV.items():
             rows.append(dict(run_id=f"c{i}-{rg:g}-{ls:g}", strategy="C", layout=lay, config=_config(rg, ls),
                              rules="paper", n_uavs=4, area="zones", wind=0.0, uav_collided=c[i], zone_collided=1,
                              successes=1 + (B_UAV - c[i]) // 2, battery=40.0 - 2.0 * i, distance_km=3.0 + 0.1 * i,
-                             targets_per_wh=0.10 + 0.01 * i, range=rg, loss=ls))
+                             targets_per_wh=0.10 + 0.01 * i, fleet_complete=float(c[i] == 0), range=rg, loss=ls))
     return pd.DataFrame(rows)
 
 

@@ -37,6 +37,8 @@ MISSION_COMPONENT = m.MAV_COMP_ID_ONBOARD_COMPUTER
 SEVERITY = {"return_low": m.MAV_SEVERITY_WARNING, "forced_landing": m.MAV_SEVERITY_CRITICAL,
             "landed_away": m.MAV_SEVERITY_WARNING, "return_commanded": m.MAV_SEVERITY_NOTICE,
             "landing_commanded": m.MAV_SEVERITY_NOTICE}
+#: strategy C's decisions (uavstudy/comm_monitor.py) -> severity: a change of claims is worth a notice
+COOP_SEVERITY = {"takeover": m.MAV_SEVERITY_NOTICE, "drop": m.MAV_SEVERITY_NOTICE}
 SHORT = {"takeoff": "taking off", "transit": "flying to its targets",
          "return_started": "all targets done, returning", "return_low": "battery 80% used, returning",
          "landing": "landing at the base", "forced_landing": "battery 95% used, landing here",
@@ -121,7 +123,7 @@ class StreamServer:
     def _texts(self, events) -> list[bytes]:
         """A STATUSTEXT for each event the monitor emitted (and one for each removal it made)."""
         out = []
-        for typ, name, uav, other in events:
+        for typ, name, uav, other, detail in events:
             if uav not in self.names and uav not in self.companions:
                 continue
             if typ == "mission":
@@ -134,6 +136,9 @@ class StreamServer:
             elif typ == "zone":
                 out.append(self._text(uav, m.MAV_SEVERITY_EMERGENCY, f"zone_incursion: entered {other}"))
                 out.append(self._removal(uav, "zone incursion"))
+            elif typ == "coop":       # strategy C: "uav1 took over target 3 of uav2", the detail's short form
+                out.append(self._text(uav, COOP_SEVERITY.get(name, m.MAV_SEVERITY_INFO),
+                                      f"{uav} {detail.split(' (', 1)[0]}"))
         return out
 
     def _text(self, uav: str, severity: int, text: str) -> bytes:

@@ -3,7 +3,8 @@
 What each vehicle sends (encoded in the streaming process, :mod:`uavstudy.mavlink.server`):
 GLOBAL_POSITION_INT and ATTITUDE at ``rate`` per simulated second; HEARTBEAT, VFR_HUD, SYS_STATUS,
 BATTERY_STATUS, EXTENDED_SYS_STATE and MISSION_CURRENT once a simulated second; HOME_POSITION every 5 s; a
-STATUSTEXT for every event the UAV monitor emitted (and every removal), for every photo (with
+STATUSTEXT for every event the UAV monitor emitted (and every removal), for every decision of strategy C (a
+takeover, a drop, a give-way and its end: the comm monitor's events), for every photo (with
 MISSION_ITEM_REACHED) and for every command; COMMAND_ACK of the commands applied.
 
 ``VehicleStream`` (observer, after the UAV monitor): after a step that is a tick of the stream, or that has
@@ -39,7 +40,7 @@ log = logging.getLogger("cosim_master")
 #: MAVLink command -> (value of the strategy's command input, mission state that shows it taken, event name)
 COMMANDS = {m.MAV_CMD_NAV_RETURN_TO_LAUNCH: (COMMAND_RETURN, RETURN_CMD, "return_to_launch"),
             m.MAV_CMD_NAV_LAND: (COMMAND_LAND, LAND_CMD, "land")}
-STREAMED_EVENTS = ("mission", "uav", "zone")
+STREAMED_EVENTS = ("mission", "uav", "zone", "coop")
 #: the pipe to the streaming process holds this many bytes (Linux F_SETPIPE_SZ; the default is 64 kB): ~1600
 #: ticks of a 4-UAV fleet, ~25 of a 254-UAV one
 PIPE_BYTES = 1 << 20
@@ -217,7 +218,7 @@ class VehicleStream(Observer):
         fleet.read()
         streamed = []
         if new:
-            streamed = [(e.get("type"), e.get("event"), e.get("uav"), e.get("other"))
+            streamed = [(e.get("type"), e.get("event"), e.get("uav"), e.get("other"), e.get("detail") or "")
                         for e in events[self.events_seen:] if e.get("type") in STREAMED_EVENTS]
         acks = self._taken(fleet.columns) if hub.applied else []
         self.events_seen = len(events)       # our own command events are not sent back as monitor events

@@ -10,6 +10,10 @@ level, ...), then the layouts' values give the mean with its t interval (df = la
 *yes* when the interval excludes 0 on the side the question asks for, *reversed* on the other side, otherwise
 *not shown*.  The benefit "disappears" at the first channel level, from the best channel towards the worst
 (longest range first; lowest loss first), whose verdict is not *yes*.
+
+Beside the monitor's per-UAV success (a UAV's own assigned targets, which counts a UAV that handed a target to a
+better-placed one as incomplete), the section judges the **fleet**: a run's fleet mission is complete when the
+fleet photographed every target of the mission, whoever did (``fleet_complete``, 1 or 0 per run).
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ __all__ = ["METRICS", "applies", "with_run_values", "c_minus_b", "effect", "effe
 
 #: (column, what it is, the sign that is a benefit of C: +1 higher is better, -1 lower, None no side)
 METRICS = [("successes", "successful UAV missions per run", +1),
+           ("fleet_complete", "runs whose fleet photographed every target (fraction)", +1),
            ("uav_collided", "UAVs removed by UAV-UAV collisions per run", -1),
            ("zone_collided", "UAVs removed by zone incursions per run", -1),
            ("battery", "remaining battery, mean over the run's UAVs (%)", +1),
@@ -45,19 +50,29 @@ def applies(r) -> bool:
 
 
 def with_run_values(r, df):
-    """``r`` with ``targets_per_wh`` (the fleet's targets visited over its energy, from the run's total row) and
-    the channel levels ``range``/``loss`` as numbers (NaN where a run has none: B)."""
+    """``r`` with ``targets_per_wh`` (the fleet's targets visited over its energy, from the run's total row),
+    ``fleet_complete`` (1 when the fleet visited every target of the mission, else 0; from the total row) and the
+    channel levels ``range``/``loss`` as numbers (NaN where a run has none: B)."""
     import pandas as pd
     r = r.copy()
-    if df is not None and {"targets_visited", "energy_used_Wh_sum"} <= set(df.columns):
+    total = None
+    if df is not None and "targets_visited" in df.columns:
         from ..names import TOTAL_ROW, UAV_COLUMN
-        t = df[df[UAV_COLUMN] == TOTAL_ROW].set_index("run_id")
-        visited = pd.to_numeric(t.loc[r["run_id"], "targets_visited"], errors="coerce").to_numpy(float)
-        wh = pd.to_numeric(t.loc[r["run_id"], "energy_used_Wh_sum"], errors="coerce").to_numpy(float)
+        total = df[df[UAV_COLUMN] == TOTAL_ROW].set_index("run_id")
+    if total is not None and "energy_used_Wh_sum" in total.columns:
+        visited = pd.to_numeric(total.loc[r["run_id"], "targets_visited"], errors="coerce").to_numpy(float)
+        wh = pd.to_numeric(total.loc[r["run_id"], "energy_used_Wh_sum"], errors="coerce").to_numpy(float)
         with np.errstate(divide="ignore", invalid="ignore"):
             r["targets_per_wh"] = np.where(wh > 0, visited / wh, np.nan)
     elif "targets_per_wh" not in r.columns:
         r["targets_per_wh"] = np.nan
+    if total is not None and "targets_total" in total.columns:
+        visited = pd.to_numeric(total.loc[r["run_id"], "targets_visited"], errors="coerce").to_numpy(float)
+        of = pd.to_numeric(total.loc[r["run_id"], "targets_total"], errors="coerce").to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            r["fleet_complete"] = np.where(np.isfinite(visited) & np.isfinite(of), (visited >= of) * 1.0, np.nan)
+    elif "fleet_complete" not in r.columns:
+        r["fleet_complete"] = np.nan
     for name, (col, _, _) in CHANNEL_AXES.items():
         if name not in r.columns:
             r[name] = pd.to_numeric(r[col], errors="coerce") if col in r.columns else np.nan
@@ -150,6 +165,7 @@ def cooperative_md(r, df, out: Path, name: str) -> list[str]:
             rows.append([label, gname, ci_text(ci, 3), verdict(ci, sign)])
     lines += ["### C - B per run, overall and per rule set", "",
               md_table(["quantity", "runs", "C - B", "verdict"], rows), ""]
+    lines += _success_levels(groups)
     if "n_uavs" in rc.columns:
         rows = []
         for n, g in rc.groupby("n_uavs"):
@@ -195,6 +211,29 @@ def cooperative_md(r, df, out: Path, name: str) -> list[str]:
                   "range and per message loss, mean over layouts with its 95 % t interval, for all runs and per "
                   "rule set.", ""]
     return lines
+
+
+def _success_levels(groups) -> list[str]:
+    """Per-UAV and fleet-level success of B and C side by side (means over the runs of each strategy): the
+    monitor's per-UAV success counts a target handed to a better-placed UAV against the UAV that dropped it, the
+    fleet's completion does not."""
+    rows = []
+    for gname, g in groups:
+        b, c = g[g["strategy"] == "B"], g[g["strategy"] == "C"]
+        if not len(b) or not len(c) or not np.isfinite(g["fleet_complete"].to_numpy(float)).any():
+            continue
+        per_uav = [f"{x['successes'].mean():.2f} of {x['n_uavs'].mean():.2f}" if "n_uavs" in x.columns
+                   else f"{x['successes'].mean():.2f}" for x in (b, c)]
+        rows.append([gname, *per_uav, *(f"{x['fleet_complete'].mean():.3f}" for x in (b, c)), f"{len(b)} / {len(c)}"])
+    if not rows:
+        return []
+    return ["### Per-UAV and fleet-level success", "",
+            "Means over the runs of each strategy (descriptive; the C - B rows above are the paired comparison). "
+            "Per-UAV success is the monitor's: a UAV's own assigned targets photographed and back home, so a UAV "
+            "that dropped a target to a better-placed UAV counts as incomplete; the fleet's mission is complete "
+            "when every target was photographed, by whichever UAV.", "",
+            md_table(["runs", "successful UAVs per run, B", "successful UAVs per run, C", "fleet complete, B",
+                      "fleet complete, C", "runs B / C"], rows), ""]
 
 
 def draw_channel_figure(channel: dict, groups: list, out: Path, name: str, layouts: int) -> Path:

@@ -32,8 +32,8 @@ def _vr(slave, name):
 def test_two_strategies_share_the_table_and_keep_their_own_parameters():
     cls = _shell_class("UavStrategy")
     a, b = _new(cls, "a"), _new(cls, "b")
-    # the mission + the shell + strategy C's (uavsim/cooperative_fmi.py: 8 parameters, 4 x 15 message slots, 10 outputs)
-    assert a.vars is b.vars and len(a.vars) == len(list(M.parameter_names())) + 41 + 78
+    # the mission + the shell + strategy C's (uavsim/cooperative_fmi.py: 8 parameters, 4 x 15 message slots, 17 outputs)
+    assert a.vars is b.vars and len(a.vars) == len(list(M.parameter_names())) + 41 + 85
     assert all(v.getter is None and v.setter is None for v in a.vars.values())   # nothing bound to one instance
     one, two = M.encode([(10.0, 20.0)], []), M.encode([(1.0, 2.0), (3.0, 4.0), (5.0, 6.0)], [])
     for slave, values in ((a, one), (b, two)):
