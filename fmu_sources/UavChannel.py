@@ -18,7 +18,12 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import channel as C  # noqa: E402
+from uavsim import native  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
+
+# the compiled step (uavsim/_channel_ext.c, the library built with this FMU), None: the Python step alone
+_EXT = native.load_extension("_channel_ext", os.path.join(_HERE, "uavsim"))
+_ADVANCE = _EXT.advance if _EXT is not None else None
 
 _UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "wx": "m", "wy": "m", "sent_time": "s",
           "clock": "s"}
@@ -117,17 +122,22 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
         model = self._model
         d = self.__dict__
         n = model.n
-        ports = self._ports
-        if ports is None or len(ports) != n:
-            ports = self._ports = [(f"uav{i}_x", f"uav{i}_y", f"uav{i}_z", f"uav{i}_clock")
-                                   for i in range(1, n + 1)]
-        positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
-        clocks = [d[c] for *_, c in ports]
-
-        def broadcast(j, _names=_BROADCAST_NAMES):
-            return dict(zip(_BROADCAST, [d[name] for name in _names[j]]))
         sent = model.counters["sent"]
-        delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
+        # the compiled step reads the broadcasts from this FMU's variables by their names; NotImplemented: it
+        # declined (a value it does not take), nothing done
+        delivered = NotImplemented if _ADVANCE is None else \
+            _ADVANCE(model, current_time, step_size, d, _BROADCAST_NAMES)
+        if delivered is NotImplemented:
+            ports = self._ports
+            if ports is None or len(ports) != n:
+                ports = self._ports = [(f"uav{i}_x", f"uav{i}_y", f"uav{i}_z", f"uav{i}_clock")
+                                       for i in range(1, n + 1)]
+            positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
+            clocks = [d[c] for *_, c in ports]
+
+            def broadcast(j, _names=_BROADCAST_NAMES):
+                return dict(zip(_BROADCAST, [d[name] for name in _names[j]]))
+            delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
         # each receiver's slots: the messages that arrived, the slots filled last step and not now emptied; the
         # messages of all receivers in one dict update (a fleet's deliveries are thousands of values)
         filled = self._filled

@@ -166,17 +166,19 @@ class Channel:
         self.zones = ZoneMap(as_zones(params.zones)) if params.line_of_sight and not perfect else None
         if self.zones is not None and not self.zones:
             self.zones = None
+        #: the zones as records of their edges (zones_planning.zone_record), for the compiled step (_channel_ext.c)
+        self.zone_records = self.zones.records() if self.zones is not None else []
         self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
         self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
-        self._clock = [None] * self.n
+        self.last_clock = [None] * self.n
         # per sending instant: (arrival, [(distance, sender, receiver) of each pair it reaches], sender -> message)
-        self._in_flight: list[tuple] = []
-        self._close: set = set()                                       # pairs within the near-miss distance
+        self.in_flight: list[tuple] = []
+        self.close_pairs: set = set()                                       # pairs within the near-miss distance
 
     def _alive(self, clocks) -> list[bool]:
-        last = self._clock
+        last = self.last_clock
         alive = [c is None or clock != c for clock, c in zip(clocks, last)]
-        self._clock = list(clocks)
+        self.last_clock = list(clocks)
         return alive
 
     def _count_near_misses(self, positions, alive) -> None:
@@ -196,8 +198,8 @@ class Channel:
                 if dx * dx + dy * dy + dz * dz <= lim2:
                     close.add((i, j) if i < j else (j, i))
         if close:
-            self.counters["near_misses"] += len(close - self._close)
-        self._close = close
+            self.counters["near_misses"] += len(close - self.close_pairs)
+        self.close_pairs = close
 
     def step(self, t: float, h: float, broadcasts: list[dict]) -> list[list[tuple]]:
         """``broadcasts[i]``: UAV i's BROADCAST_REAL and BROADCAST_INT values by name, sampled at t.  Returns per
@@ -221,7 +223,7 @@ class Channel:
         if self.sends_in(t, h):
             self._send(t, h, [broadcast(i) if alive[i] else None for i in range(self.n)], alive, positions)
         # messages fly in the order they arrive (one latency for all): the first is the next to arrive
-        if not self._in_flight or self._in_flight[0][0] >= t + h - self.EPS:
+        if not self.in_flight or self.in_flight[0][0] >= t + h - self.EPS:
             return None
         return self._deliver(t, h, alive)
 
@@ -285,11 +287,11 @@ class Channel:
                     float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
                     float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
                     int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
-        self._in_flight.append((sent_at + self.latency, pairs, messages))
+        self.in_flight.append((sent_at + self.latency, pairs, messages))
 
     def _deliver(self, t, h, alive) -> list[list[tuple]]:
         end = t + h - self.EPS
-        flying = self._in_flight
+        flying = self.in_flight
         cut = 0
         while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
             cut += 1
