@@ -14,7 +14,7 @@
  *   visited0, visited1).
  *
  * It returns NotImplemented, having changed nothing, where the Python step must run: a fleet above MAX_N, a
- * position or clock that is not a finite float, a broadcast value that float() or int() refuses.
+ * position that is not a finite float (or a subclass of float), a broadcast value that float() or int() refuses.
  *
  * Rounding: a distance is sqrt((dx*dx + dy*dy) + dz*dz) as the reference writes it (and numpy summed it before),
  * built with -ffp-contract=off; the loss draws are SplitMix64 on unsigned 64-bit integers, as the reference's.
@@ -526,7 +526,7 @@ static PyObject *value(PyObject *variables, PyObject *names, long i, int f)
     return v;
 }
 
-/* positions and clocks (exact finite floats, else 0: the Python step runs) */
+/* positions (finite floats, else 0: the Python step runs) and clocks (compared as Python does) */
 static int read_state(struct ctx *c, PyObject *variables, PyObject *names)
 {
     PyObject *last = PyObject_GetAttr(c->ch, s_last_clock);
@@ -537,11 +537,11 @@ static int read_state(struct ctx *c, PyObject *variables, PyObject *names)
     for (i = 0; i < c->n; i++) {
         struct uav *u = &c->u[i];
         PyObject *was = PyList_GetItem(last, i);
-        double xyz[3], now, before;
+        double xyz[3];
         for (f = 0; f < 3; f++) {
             PyObject *v = value(variables, names, i, f);
             if (v == NULL) goto done;
-            if (!PyFloat_CheckExact(v)) { Py_DECREF(v); rc = 0; goto done; }
+            if (!PyFloat_Check(v)) { Py_DECREF(v); rc = 0; goto done; }      /* a float (numpy's too) */
             xyz[f] = PyFloat_AsDouble(v);
             Py_DECREF(v);
             if (!isfinite(xyz[f])) { rc = 0; goto done; }
@@ -550,12 +550,8 @@ static int read_state(struct ctx *c, PyObject *variables, PyObject *names)
         u->clock = value(variables, names, i, F_CLOCK);        /* kept: the new last_clock holds it */
         if (u->clock == NULL) goto done;
         Py_DECREF(u->clock);                                    /* variables keeps it alive during the step */
-        if (!PyFloat_CheckExact(u->clock)) { rc = 0; goto done; }
         if (was == Py_None) { u->alive = 1; continue; }
-        if (!PyFloat_CheckExact(was)) { rc = 0; goto done; }
-        now = PyFloat_AsDouble(u->clock);
-        before = PyFloat_AsDouble(was);
-        u->alive = now != before;
+        if ((u->alive = PyObject_RichCompareBool(u->clock, was, Py_NE)) < 0) goto done;    /* clock != last */
     }
     rc = 1;
 done:
