@@ -52,6 +52,8 @@ _FLAT_NAMES = [tuple(name for slot in slots for name in slot) for slots in _SLOT
 _BROADCAST = C.BROADCAST_REAL + C.BROADCAST_INT
 #: UAV j (0-based) -> its broadcast inputs, in _BROADCAST order
 _BROADCAST_NAMES = [tuple(f"uav{j + 1}_{name}" for name in _BROADCAST) for j in range(C.MAX_FLEET)]
+#: the fleet's counters' outputs (C.FLEET_COUNTERS order)
+_FLEET_COUNTER_NAMES = tuple(f"messages_{name}" if name != "near_misses" else name for name in C.FLEET_COUNTERS)
 #: per UAV counter (C.UAV_COUNTERS order) -> its output of every UAV
 _COUNTER_NAMES = [tuple(f"uav{j + 1}_{name}" for j in range(C.MAX_FLEET)) for name in C.UAV_COUNTERS]
 
@@ -143,7 +145,8 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
         filled = self._filled
         arrived = delivered if delivered is not None else [()] * n
         names, values = [], []
-        for j in range(n):
+        # nothing arrived and every slot empty already: no receiver to visit
+        for j in range(n if delivered is not None or any(filled) else 0):
             messages = arrived[j]
             if messages:
                 names += _FLAT_NAMES[j][:len(messages) * len(_FIELDS)]
@@ -161,7 +164,6 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
 
     def _publish_counters(self) -> None:
         d, model = self.__dict__, self._model
-        for name in C.FLEET_COUNTERS:
-            d[f"messages_{name}" if name != "near_misses" else name] = model.counters[name]
+        d.update(zip(_FLEET_COUNTER_NAMES, map(model.counters.__getitem__, C.FLEET_COUNTERS)))
         for name, names in zip(C.UAV_COUNTERS, _COUNTER_NAMES):
             d.update(zip(names, model.uav_counters[name]))

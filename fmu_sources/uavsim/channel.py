@@ -149,7 +149,11 @@ class ChannelParams:
 
 class Channel:
     """The fleet's radio.  :meth:`step` takes the UAVs' broadcasts at t and returns, per receiver, the messages
-    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals."""
+    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals.
+
+    Its state is plain Python and public (``last_clock``, ``close_pairs``, ``in_flight``, the counters): the
+    UavChannel FMU's compiled step (``_channel_ext.c``, the accelerator ``uavsim.channel-step`` of
+    :meth:`advance`) reads and writes the same objects, so either step may follow the other."""
 
     #: time tolerance: instants within this of a step boundary belong to the step that starts there
     EPS = 1e-9
