@@ -18,7 +18,12 @@ if _HERE not in sys.path:           # inside the FMU this is resources/, which h
 from pythonfmu import Fmi2Slave  # noqa: E402
 
 from uavsim import channel as C  # noqa: E402
+from uavsim import native  # noqa: E402
 from uavsim.fmi import StateMixin, UnitsMixin  # noqa: E402
+
+# the compiled step (uavsim/_channel_ext.c, the library built with this FMU), None: the Python step alone
+_EXT = native.load_extension("_channel_ext", os.path.join(_HERE, "uavsim"))
+_ADVANCE = _EXT.advance if _EXT is not None else None
 
 _UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "wx": "m", "wy": "m", "sent_time": "s",
           "clock": "s"}
@@ -47,6 +52,8 @@ _FLAT_NAMES = [tuple(name for slot in slots for name in slot) for slots in _SLOT
 _BROADCAST = C.BROADCAST_REAL + C.BROADCAST_INT
 #: UAV j (0-based) -> its broadcast inputs, in _BROADCAST order
 _BROADCAST_NAMES = [tuple(f"uav{j + 1}_{name}" for name in _BROADCAST) for j in range(C.MAX_FLEET)]
+#: the fleet's counters' outputs (C.FLEET_COUNTERS order)
+_FLEET_COUNTER_NAMES = tuple(f"messages_{name}" if name != "near_misses" else name for name in C.FLEET_COUNTERS)
 #: per UAV counter (C.UAV_COUNTERS order) -> its output of every UAV
 _COUNTER_NAMES = [tuple(f"uav{j + 1}_{name}" for j in range(C.MAX_FLEET)) for name in C.UAV_COUNTERS]
 
@@ -117,23 +124,29 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
         model = self._model
         d = self.__dict__
         n = model.n
-        ports = self._ports
-        if ports is None or len(ports) != n:
-            ports = self._ports = [(f"uav{i}_x", f"uav{i}_y", f"uav{i}_z", f"uav{i}_clock")
-                                   for i in range(1, n + 1)]
-        positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
-        clocks = [d[c] for *_, c in ports]
-
-        def broadcast(j, _names=_BROADCAST_NAMES):
-            return dict(zip(_BROADCAST, [d[name] for name in _names[j]]))
         sent = model.counters["sent"]
-        delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
+        # the compiled step reads the broadcasts from this FMU's variables by their names; NotImplemented: it
+        # declined (a value it does not take), nothing done
+        delivered = NotImplemented if _ADVANCE is None else \
+            _ADVANCE(model, current_time, step_size, d, _BROADCAST_NAMES)
+        if delivered is NotImplemented:
+            ports = self._ports
+            if ports is None or len(ports) != n:
+                ports = self._ports = [(f"uav{i}_x", f"uav{i}_y", f"uav{i}_z", f"uav{i}_clock")
+                                       for i in range(1, n + 1)]
+            positions = [(d[x], d[y], d[z]) for x, y, z, _ in ports]
+            clocks = [d[c] for *_, c in ports]
+
+            def broadcast(j, _names=_BROADCAST_NAMES):
+                return dict(zip(_BROADCAST, [d[name] for name in _names[j]]))
+            delivered = model.advance(current_time, step_size, positions, clocks, broadcast)
         # each receiver's slots: the messages that arrived, the slots filled last step and not now emptied; the
         # messages of all receivers in one dict update (a fleet's deliveries are thousands of values)
         filled = self._filled
         arrived = delivered if delivered is not None else [()] * n
         names, values = [], []
-        for j in range(n):
+        # nothing arrived and every slot empty already: no receiver to visit
+        for j in range(n if delivered is not None or any(filled) else 0):
             messages = arrived[j]
             if messages:
                 names += _FLAT_NAMES[j][:len(messages) * len(_FIELDS)]
@@ -151,7 +164,6 @@ class UavChannel(StateMixin, UnitsMixin, Fmi2Slave):
 
     def _publish_counters(self) -> None:
         d, model = self.__dict__, self._model
-        for name in C.FLEET_COUNTERS:
-            d[f"messages_{name}" if name != "near_misses" else name] = model.counters[name]
+        d.update(zip(_FLEET_COUNTER_NAMES, map(model.counters.__getitem__, C.FLEET_COUNTERS)))
         for name, names in zip(C.UAV_COUNTERS, _COUNTER_NAMES):
             d.update(zip(names, model.uav_counters[name]))

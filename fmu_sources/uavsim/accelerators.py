@@ -540,3 +540,142 @@ KERNELS_BATTERY = KernelsBattery()
 DYNAMICS_STEP = DynamicsStep()
 BATTERY_STEP = BatteryStep()
 WIND_STEP = WindStep()
+
+
+# ------------------------------------------------------------------ the channel's step
+
+def _channel_zone(rng) -> list:
+    """A zone of the paper area (oblique quadrilaterals), an axis-aligned square, or a random polygon (concave
+    about half the time)."""
+    from .strategy_accel import PAPER_ZONES, SQUARES
+    r = rng.random()
+    if r < 0.3:
+        return rng.choice(PAPER_ZONES)
+    if r < 0.45:
+        return rng.choice(SQUARES)
+    cx, cy, s = rng.uniform(-250, 250), rng.uniform(-250, 250), rng.uniform(10, 80)
+    corners = ((-1, -1), (1, -1), (1.2, 0.5), (0, 1), (-1, 0.7)) if rng.random() < 0.5 else \
+        ((-1, -1), (1, -1), (1, 1), (0.1, 0.1), (-1, 1))
+    return [(cx + s * dx, cy + s * dy) for dx, dy in corners]
+
+
+def _channel_params(rng, n: int) -> dict:
+    mode = rng.choice(["radio"] * 6 + ["perfect", "none"])
+    zones = [_channel_zone(rng) for _ in range(rng.choice([0, 1, 2, 3, 3]))]
+    return dict(mode=mode, range=rng.choice([300.0, 120.0, 50.0, 0.0, math.inf, rng.uniform(5.0, 400.0)]),
+                period=rng.choice([0.5, 1.0, 0.25, 0.3, rng.uniform(0.05, 2.0)]),
+                latency=rng.choice([0.0, 0.2, 0.35, 1.3, rng.uniform(0.0, 3.0)]),
+                loss=rng.choice([0.0, 0.1, 0.5, 0.9, 1.0, rng.random()]), k=rng.randint(1, 4),
+                seed=rng.choice([0, 1, 7, rng.randrange(1 << 40), -rng.randrange(1 << 20)]),
+                line_of_sight=bool(zones) and rng.random() < 0.8, zones=zones, n_uavs=n,
+                near_miss=rng.choice([10.0, 30.0, rng.uniform(0.0, 60.0)]))
+
+
+def _grazing(rng, zones, a):
+    """A point such that the line from ``a`` passes a zone's corner within a few mm, or about an edge's middle
+    (the line of sight undecided by the compiled test, left to ZoneMap.blocked), or crosses the zone."""
+    z = rng.choice(zones)
+    c = list(rng.choice(z)) if rng.random() < 0.6 else \
+        [0.5 * (p + q) for p, q in zip(*rng.sample(z, 2))]
+    off = rng.choice([0.0, 1e-4, -1e-4, 2e-3, -2e-3, 1e-7, rng.uniform(-1.0, 1.0)])
+    dx, dy = c[0] - a[0], c[1] - a[1]
+    L = math.hypot(dx, dy) or 1.0
+    f = rng.uniform(1.2, 3.0)
+    return a[0] + f * dx - off * dy / L, a[1] + f * dy - off * dx / L
+
+
+class ChannelStep(_Declared):
+    """UavChannel's step in C (_channel_ext.c): Channel.advance, run on fleets flying random walks over many steps
+    with every parameter varied (range, period, latency, loss, k, seed, mode, near-miss distance) and zones that
+    block the line of sight; UAVs that fall silent (their clock stops) and come back, pairs at exactly the range,
+    lines of sight grazing a zone's corner or edge, several sending instants in one step and several arriving in
+    one step, and now and then a position the compiled step leaves to Python (an int, a NaN)."""
+    name = "uavsim.channel-step"
+    replaces = "uavsim.channel:Channel.advance"
+
+    def load(self):
+        if native.disabled():
+            return None, f"{native.ENV} is set"
+        ext = native.load_extension("_channel_ext")
+        return (ext, None) if ext is not None else native.build_extension("_channel_ext")
+
+    def cases(self, rng):
+        for _ in range(60):
+            yield self._flight(rng, rng.choice([1, 2, 3, 4, 4, 4, 6, 8]), rng.randint(20, 120))
+        yield self._flight(rng, 64, 30)
+
+    @staticmethod
+    def _flight(rng, n: int, steps: int) -> dict:
+        from .channel import BROADCAST_INT
+        params = _channel_params(rng, n)
+        h = rng.choice([0.1, 0.1, 0.25, 0.05, 0.3, 1.0, rng.uniform(0.01, 1.5)])
+        spread = rng.choice([30.0, 150.0, 400.0])
+        pos = [[rng.uniform(-spread, spread), rng.uniform(-spread, spread), rng.choice([0.0, rng.uniform(0, 40)])]
+               for _ in range(n)]
+        vel = [[rng.uniform(-12, 12), rng.uniform(-12, 12), rng.uniform(-1, 1)] for _ in range(n)]
+        clocks = [0.0] * n
+        silent = {rng.randrange(n): (rng.randrange(steps), rng.randrange(steps)) for _ in range(rng.randint(0, 2))}
+        t = rng.choice([0.0, 0.0, rng.uniform(0.0, 100.0), -h])
+        out = []
+        for s in range(steps):
+            if params["zones"] and n > 1 and rng.random() < 0.2:       # a line of sight along a zone's corner
+                i, j = rng.sample(range(n), 2)
+                pos[j][:2] = _grazing(rng, params["zones"], pos[i])
+            if n > 1 and rng.random() < 0.05 and math.isfinite(params["range"]):     # exactly at the range
+                i, j = rng.sample(range(n), 2)
+                pos[j] = [pos[i][0] + params["range"], pos[i][1], pos[i][2]]
+            uavs = []
+            for i in range(n):
+                lo, hi = silent.get(i, (steps, steps))
+                if not min(lo, hi) <= s < max(lo, hi):
+                    clocks[i] = t + h
+                for a in range(3):
+                    pos[i][a] += h * vel[i][a]
+                    if rng.random() < 0.02:
+                        vel[i][a] = -vel[i][a]
+                b = dict(zip(("x", "y", "z"), pos[i]), vx=vel[i][0], vy=vel[i][1], wx=rng.uniform(-300, 300),
+                         wy=rng.uniform(-300, 300), clock=clocks[i])
+                b.update({name: rng.randrange(-(1 << 31), 1 << 31) if name[-1].isdigit() else rng.randrange(-1, 12)
+                          for name in BROADCAST_INT})
+                if rng.random() < 0.003:          # values the compiled step leaves to Python
+                    b[rng.choice(["x", "y", "z", "clock"])] = rng.choice([3, math.nan, math.inf])
+                uavs.append(b)
+            out.append((t, h if rng.random() < 0.9 else rng.choice([0.5 * h, 3.0 * h]), uavs))
+            t += out[-1][1]
+        return dict(params=params, steps=out)
+
+    @staticmethod
+    def _channel(case):
+        from .channel import Channel, ChannelParams
+        return Channel(ChannelParams(**case["params"]))
+
+    @staticmethod
+    def _observed(ch, seen) -> tuple:
+        state = {k: v for k, v in vars(ch).items() if k not in ("p", "zones")}
+        return seen, state
+
+    def reference(self, case):
+        ch = self._channel(case)
+        seen = []
+        for t, h, uavs in case["steps"]:
+            seen.append(_outcome(ch.advance, t, h, [(b["x"], b["y"], b["z"]) for b in uavs],
+                                 [b["clock"] for b in uavs], uavs.__getitem__))
+        return self._observed(ch, seen)
+
+    def accelerated(self, impl, case):
+        from .channel import BROADCAST_INT, BROADCAST_REAL
+        ch = self._channel(case)
+        fields = BROADCAST_REAL + BROADCAST_INT
+        names = [tuple(f"uav{i + 1}_{f}" for f in fields) for i in range(ch.n)]
+        seen = []
+        for t, h, uavs in case["steps"]:
+            variables = {f"uav{i + 1}_{f}": b[f] for i, b in enumerate(uavs) for f in fields}
+            got = _outcome(impl.advance, ch, t, h, variables, names)
+            if got is NotImplemented:             # as the shell does: the Python step
+                got = _outcome(ch.advance, t, h, [(b["x"], b["y"], b["z"]) for b in uavs],
+                               [b["clock"] for b in uavs], uavs.__getitem__)
+            seen.append(got)
+        return self._observed(ch, seen)
+
+
+CHANNEL_STEP = ChannelStep()

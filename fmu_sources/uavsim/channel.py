@@ -149,7 +149,11 @@ class ChannelParams:
 
 class Channel:
     """The fleet's radio.  :meth:`step` takes the UAVs' broadcasts at t and returns, per receiver, the messages
-    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals."""
+    arriving in [t, t + h) (at most k, nearest first); ``counters`` and ``uav_counters`` keep the totals.
+
+    Its state is plain Python and public (``last_clock``, ``close_pairs``, ``in_flight``, the counters): the
+    UavChannel FMU's compiled step (``_channel_ext.c``, the accelerator ``uavsim.channel-step`` of
+    :meth:`advance`) reads and writes the same objects, so either step may follow the other."""
 
     #: time tolerance: instants within this of a step boundary belong to the step that starts there
     EPS = 1e-9
@@ -166,17 +170,19 @@ class Channel:
         self.zones = ZoneMap(as_zones(params.zones)) if params.line_of_sight and not perfect else None
         if self.zones is not None and not self.zones:
             self.zones = None
+        #: the zones as records of their edges (zones_planning.zone_record), for the compiled step (_channel_ext.c)
+        self.zone_records = self.zones.records() if self.zones is not None else []
         self.counters = dict.fromkeys(FLEET_COUNTERS, 0)
         self.uav_counters = {c: [0] * self.n for c in UAV_COUNTERS}
-        self._clock = [None] * self.n
-        # per sending instant: (arrival, senders, reached (senders x receivers), distances, sender row -> message)
-        self._in_flight: list[tuple] = []
-        self._close: set = set()                                       # pairs within the near-miss distance
+        self.last_clock = [None] * self.n
+        # per sending instant: (arrival, [(distance, sender, receiver) of each pair it reaches], sender -> message)
+        self.in_flight: list[tuple] = []
+        self.close_pairs: set = set()                                       # pairs within the near-miss distance
 
     def _alive(self, clocks) -> list[bool]:
-        last = self._clock
+        last = self.last_clock
         alive = [c is None or clock != c for clock, c in zip(clocks, last)]
-        self._clock = list(clocks)
+        self.last_clock = list(clocks)
         return alive
 
     def _count_near_misses(self, positions, alive) -> None:
@@ -196,8 +202,8 @@ class Channel:
                 if dx * dx + dy * dy + dz * dz <= lim2:
                     close.add((i, j) if i < j else (j, i))
         if close:
-            self.counters["near_misses"] += len(close - self._close)
-        self._close = close
+            self.counters["near_misses"] += len(close - self.close_pairs)
+        self.close_pairs = close
 
     def step(self, t: float, h: float, broadcasts: list[dict]) -> list[list[tuple]]:
         """``broadcasts[i]``: UAV i's BROADCAST_REAL and BROADCAST_INT values by name, sampled at t.  Returns per
@@ -219,22 +225,21 @@ class Channel:
         alive = self._alive(clocks)
         self._count_near_misses(positions, alive)
         if self.sends_in(t, h):
-            self._send(t, h, [broadcast(i) if alive[i] else None for i in range(self.n)], alive,
-                       np.array(positions, dtype=float))
+            self._send(t, h, [broadcast(i) if alive[i] else None for i in range(self.n)], alive, positions)
         # messages fly in the order they arrive (one latency for all): the first is the next to arrive
-        if not self._in_flight or self._in_flight[0][0] >= t + h - self.EPS:
+        if not self.in_flight or self.in_flight[0][0] >= t + h - self.EPS:
             return None
-        return self._deliver(t, h, alive, positions)
+        return self._deliver(t, h, alive)
 
-    def _send(self, t, h, broadcasts, alive, pos) -> None:
+    def _send(self, t, h, broadcasts, alive, positions) -> None:
         period = float(self.p.period)
         number = math.ceil((t - self.EPS) / period)
         while number * period < t + h - self.EPS:
             sent_at = number * period
-            self._send_one(number, sent_at, broadcasts, alive, pos)
+            self._send_one(number, sent_at, broadcasts, alive, positions)
             number += 1
 
-    def _send_one(self, number, sent_at, broadcasts, alive, pos) -> None:
+    def _send_one(self, number, sent_at, broadcasts, alive, positions) -> None:
         n = self.n
         senders = [i for i in range(n) if alive[i]]
         for i in senders:
@@ -242,72 +247,80 @@ class Channel:
         self.counters["sent"] += len(senders)
         if not senders:
             return
-        s = np.array(senders)
-        d = np.sqrt(((pos[s][:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))       # senders x receivers
-        receivers = np.arange(n)
-        pair = (s[:, None] != receivers[None, :]) & np.asarray(alive)[None, :]
-        in_range = pair & (d <= self.range)
-        self.counters["out_of_range"] += int((pair & ~in_range).sum())
+        # the pairs in range, sender by sender, receivers in order: (distance when sent, sender, receiver); the
+        # squares summed as (dx^2 + dy^2) + dz^2 (the accelerator and the results of earlier versions round so)
+        pos = [(float(x), float(y), float(z)) for x, y, z in positions]
+        pairs = []
+        out_of_range = 0
+        for i in senders:
+            xi, yi, zi = pos[i]
+            for j in range(n):
+                if j == i or not alive[j]:
+                    continue
+                dx, dy, dz = xi - pos[j][0], yi - pos[j][1], zi - pos[j][2]
+                d = math.sqrt((dx * dx + dy * dy) + dz * dz)
+                if d <= self.range:
+                    pairs.append((d, i, j))
+                else:
+                    out_of_range += 1
+        self.counters["out_of_range"] += out_of_range
         if self.zones is not None:
-            for a, j in zip(*(v.tolist() for v in np.nonzero(in_range))):
-                if self.zones.blocked(pos[s[a], :2], pos[j, :2]) >= 0:
-                    in_range[a, j] = False
-                    self.counters["blocked"] += 1
-        if self.loss > 0.0:
-            lost = in_range & (uniform(self.p.seed, s[:, None], receivers[None, :], number) < self.loss)
-            self.counters["lost"] += int(lost.sum())
-            for j, count in enumerate(lost.sum(axis=0).tolist()):
-                self.uav_counters["lost"][j] += count
-            in_range &= ~lost
-        # one entry per sending instant: who reaches whom (senders x receivers) and how far apart they were; the
-        # message of a sender is made once, and only if it reaches someone
-        reach = np.flatnonzero(in_range.any(axis=1)).tolist()
-        if not reach:
+            heard = [q for q in pairs if self.zones.blocked(pos[q[1]][:2], pos[q[2]][:2]) < 0]
+            self.counters["blocked"] += len(pairs) - len(heard)
+            pairs = heard
+        if self.loss > 0.0 and pairs:
+            draws = uniform(self.p.seed, np.array([q[1] for q in pairs]), np.array([q[2] for q in pairs]), number)
+            kept = []
+            lost = self.uav_counters["lost"]
+            for q, u in zip(pairs, draws.tolist()):
+                if u < self.loss:
+                    lost[q[2]] += 1
+                else:
+                    kept.append(q)
+            self.counters["lost"] += len(pairs) - len(kept)
+            pairs = kept
+        if not pairs:
             return
+        # one entry per sending instant: its arrival, the pairs that reach, and the message of each sender among
+        # them (made once per sender)
         messages = {}
-        for a in reach:
-            i = senders[a]
-            b = broadcasts[i]
-            messages[a] = (
-                float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
-                float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
-                int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
-        self._in_flight.append((sent_at + self.latency, s, in_range, d, messages))
+        for _, i, _ in pairs:
+            if i not in messages:
+                b = broadcasts[i]
+                messages[i] = (
+                    float(b["x"]), float(b["y"]), float(b["z"]), float(b["vx"]), float(b["vy"]), float(b["wx"]),
+                    float(b["wy"]), float(sent_at), i, int(b["state"]), int(b["target"]), int(b["claims0"]),
+                    int(b["claims1"]), int(b["visited0"]), int(b["visited1"]))
+        self.in_flight.append((sent_at + self.latency, pairs, messages))
 
-    def _deliver(self, t, h, alive, pos) -> list[list[tuple]]:
+    def _deliver(self, t, h, alive) -> list[list[tuple]]:
         end = t + h - self.EPS
-        flying = self._in_flight
+        flying = self.in_flight
         cut = 0
         while cut < len(flying) and flying[cut][0] < end:      # in order of arrival (one latency for all)
             cut += 1
         arriving = flying[:cut]
         del flying[:cut]
-        # the instants arriving in this step stacked, one row per (instant, sender), ordered by sender then arrival
-        # (one instant: its rows are in sender order already); a stable sort of each receiver's column by (reached
-        # first, distance when sent) then leaves ties in that order: by distance, sender, arrival
-        if len(arriving) == 1:
-            _, s, ok, d, _ = arriving[0]
-            rows = [(0, a) for a in range(len(s))]
-        else:
-            rows = [(b, a) for b, e in enumerate(arriving) for a in range(len(e[1]))]
-            by_sender = np.lexsort((np.concatenate([np.full(len(e[1]), b) for b, e in enumerate(arriving)]),
-                                    np.concatenate([e[1] for e in arriving])))
-            ok = np.vstack([e[2] for e in arriving])[by_sender]
-            d = np.vstack([e[3] for e in arriving])[by_sender]
-            rows = [rows[r] for r in by_sender.tolist()]
-        nearest = np.lexsort((d, ~ok), axis=0)[:self.k].T.tolist()     # per receiver, its k first rows
-        counts = ok.sum(axis=0).tolist()
+        # per receiver, what reaches it from the instants arriving in this step, nearest first (the distance when
+        # sent), ties by sender, then by arrival
+        reaching: list[list] = [[] for _ in range(self.n)]
+        for b, (_, pairs, messages) in enumerate(arriving):
+            for d, i, j in pairs:
+                reaching[j].append((d, i, b, messages[i]))
         out: list[list[tuple]] = [[] for _ in range(self.n)]
         k = self.k
         received = self.uav_counters["received"]
-        for j, count in enumerate(counts):
-            if not count or not alive[j]:
+        for j, heard in enumerate(reaching):
+            if not heard or not alive[j]:
                 continue
-            taken = min(count, k)
-            self.counters["overflow"] += count - taken
+            heard.sort(key=_nearest_first)
+            taken = min(len(heard), k)
+            self.counters["overflow"] += len(heard) - taken
             self.counters["received"] += taken
             received[j] += taken
-            out[j] = [arriving[b][4][a] for b, a in (rows[r] for r in nearest[j][:taken])]
+            out[j] = [q[3] for q in heard[:taken]]
         return out
 
 
+def _nearest_first(q):
+    return q[0], q[1], q[2]

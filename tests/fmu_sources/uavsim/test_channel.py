@@ -8,6 +8,27 @@ import pytest
 from uavsim import channel as C
 
 
+@pytest.fixture(autouse=True, params=["python", "compiled"])
+def channel_step(request, monkeypatch):
+    """Every test twice: with the Python step (the reference) and with the compiled step of the UavChannel FMU
+    (uavsim/_channel_ext.c, which must take every broadcast these tests make: a decline fails the test)."""
+    if request.param == "compiled":
+        from uavsim.accelerators import CHANNEL_STEP
+        ext, why = CHANNEL_STEP.load()
+        if ext is None:
+            pytest.skip(f"the compiled channel step is not available here: {why}")
+        fields = C.BROADCAST_REAL + C.BROADCAST_INT
+
+        def step(self, t, h, broadcasts):
+            names = [tuple(f"uav{i}_{f}" for f in fields) for i in range(self.n)]
+            variables = {f"uav{i}_{f}": b[f] for i, b in enumerate(broadcasts) for f in fields}
+            out = ext.advance(self, t, h, variables, names)
+            assert out is not NotImplemented, "the compiled step declined"
+            return out if out is not None else [[] for _ in range(self.n)]
+        monkeypatch.setattr(C.Channel, "step", step)
+    return request.param
+
+
 def _bc(x, y, z=20.0, clock=0.0, state=2, target=-1, claims=(), visited=()):
     c0, c1 = C.encode_mask(claims)
     v0, v1 = C.encode_mask(visited)
