@@ -45,6 +45,12 @@ class CsvSink(Sink):
     file_name = "results.csv"
     _fh = None
 
+    @property
+    def concurrent(self) -> bool:
+        """Whether its rows are formatted by C, without the GIL (SinkGroup then writes it beside the others)."""
+        from .csv_native import formatter
+        return formatter() is not None
+
     def open(self, out_dir, schema):
         super().open(out_dir, schema)
         self.path = out_dir / self.file_name
