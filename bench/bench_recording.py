@@ -9,7 +9,7 @@ one-variable run, with the load average before and after.
 
 ``--pure`` adds the same runs with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the reference).
 After the runs it checks what the issue asks: results.csv holds the same bytes as the Python reference
-(``master.sinks.csv.format_rows``) writes for the first rows, and the whole CSV reads back to the Parquet table
+(``master.sinks.csv_text.format_rows``) writes for the first rows, and the whole CSV reads back to the Parquet table
 bit for bit.
 """
 from __future__ import annotations
@@ -61,7 +61,7 @@ def check_csv(out: Path) -> list[str]:
     import pyarrow.csv as pc
     import pyarrow.parquet as pq
 
-    from master.sinks.csv import format_rows
+    from master.sinks.csv_text import format_rows
     table = pq.read_table(out / "results.parquet")
     lines = []
     head = table.slice(0, 5000)
@@ -75,9 +75,10 @@ def check_csv(out: Path) -> list[str]:
     same = back.num_rows == table.num_rows and all(
         a.to_numpy().view("u8").tobytes() == b.to_numpy().view("u8").tobytes()
         for a, b in zip(back.combine_chunks().columns, table.combine_chunks().columns))
+    sizes = {name: os.path.getsize(out / name) / 1e6 for name in ("results.csv", "results.parquet")}
     lines.append(f"all {table.num_rows} rows x {table.num_columns} columns of results.csv read back to the Parquet "
-                 f"table bit for bit: {'yes' if same else 'NO'}; results.csv {os.path.getsize(out / 'results.csv') / 1e6:.0f} MB, "
-                 f"results.parquet {os.path.getsize(out / 'results.parquet') / 1e6:.0f} MB")
+                 f"table bit for bit: {'yes' if same else 'NO'}; "
+                 + ", ".join(f"{name} {mb:.0f} MB" for name, mb in sizes.items()))
     return lines
 
 

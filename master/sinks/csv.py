@@ -1,43 +1,18 @@
 """results.csv: a header, then one line per row; doubles written with repr (they read back exactly), FMI 3.0
 Binary values as lowercase hexadecimal digits (as the FMI cross-check results write them).
 
-``format_rows`` is the one reference for the text of the rows; ``csv_native.py`` (C, an accelerator declared
-in master/accel.py's way) writes the same bytes for tables of numbers and Booleans ~20 times faster, and with
-``COSIM_MASTER_PURE_PYTHON=1`` or without a C compiler the reference writes them."""
+``csv_text.format_rows`` is the one reference for the text of the rows; ``csv_native.py`` (C, an accelerator
+declared in master/accel.py's way) writes the same bytes for tables of numbers and Booleans ~20 times faster,
+and with ``COSIM_MASTER_PURE_PYTHON=1`` or without a C compiler the reference writes them."""
 from __future__ import annotations
-
-import pyarrow as pa
 
 from . import SINKS
 from .base import Sink
+from .csv_native import formatter, native_chunks
+from .csv_text import csv_quote, format_rows
 
 
-def csv_quote(s: str) -> str:
-    if any(ch in s for ch in ',"\n'):
-        return '"' + s.replace('"', '""') + '"'
-    return s
-
-
-CSV_CELLS = 1 << 16         # cells turned into text at a time
-
-
-def _format(typ):
-    """The function that turns a column's values into CSV text."""
-    if pa.types.is_floating(typ):
-        return lambda vals: [repr(float(x)) for x in vals]
-    if pa.types.is_boolean(typ):
-        return lambda vals: ["true" if x else "false" for x in vals]
-    if pa.types.is_string(typ):
-        return lambda vals: [csv_quote(str(x)) for x in vals]
-    if pa.types.is_binary(typ):
-        return lambda vals: [x.hex() for x in vals]
-    return lambda vals: [str(int(x)) for x in vals]
-
-
-def format_rows(block: pa.Table) -> str:
-    """The CSV lines of ``block``'s rows (each ending in a newline): the reference."""
-    cols = [_format(col.type)(col.to_numpy(zero_copy_only=False)) for col in block.columns]
-    return "".join(",".join(r) + "\n" for r in zip(*cols))
+CSV_CELLS = 1 << 16         # cells turned into text at a time (by the reference)
 
 
 @SINKS.register("csv")
@@ -48,7 +23,6 @@ class CsvSink(Sink):
     @property
     def concurrent(self) -> bool:
         """Whether its rows are formatted by C, without the GIL (SinkGroup then writes it beside the others)."""
-        from .csv_native import formatter
         return formatter() is not None
 
     def open(self, out_dir, schema):
@@ -67,7 +41,6 @@ class CsvSink(Sink):
             data = data[self._fh.write(data):]
 
     def write(self, block):
-        from .csv_native import native_chunks
         chunks = native_chunks(block)
         if chunks is not None:
             for data in chunks:

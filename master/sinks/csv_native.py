@@ -1,4 +1,4 @@
-"""results.csv's rows written by C (``csv_format.c``): the accelerator of :func:`master.sinks.csv.format_rows`.
+"""results.csv's rows written by C (``csv_format.c``): the accelerator of ``master.sinks.csv_text.format_rows``.
 
 The reference turns every cell into a Python string (repr of a double costs ~0.6 us in CPython's own dtoa, plus
 the string and the join), ~5 MB of CSV a second; a table of 120 doubles over 200,000 rows took 40 s. The C
@@ -22,6 +22,7 @@ import pyarrow as pa
 
 from .. import accel
 from ..native_build import compile_cached
+from .csv_text import format_rows
 
 SOURCE = Path(__file__).with_name("csv_format.c")
 FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared", "-std=gnu11"]
@@ -128,7 +129,7 @@ class CsvFormat:
     powers of two and ten and their neighbours, where the shortest decimal is decided by its ends; integers,
     ties, the limits of fixed notation)."""
     name = "master.csv-format"
-    replaces = "master.sinks.csv:format_rows"
+    replaces = "master.sinks.csv_text:format_rows"
 
     def load(self):
         if not accel.enabled():
@@ -185,7 +186,6 @@ class CsvFormat:
         return pa.table({name: cols[name] for name in order})
 
     def reference(self, case):
-        from .csv import format_rows
         return format_rows(case).encode()
 
     def accelerated(self, impl, case):
