@@ -124,9 +124,14 @@ class SinkGroup:
         block is still written everywhere or rolled back everywhere."""
         side = [s for s in self.open_sinks if getattr(s, "concurrent", False)][1:]
         futures = {s: self._pool(len(side)).submit(_written, s, table) for s in side} if side else {}
-        errors = {s: _written(s, table) for s in self.open_sinks if s not in futures}
-        for s, f in futures.items():
-            errors[s] = f.result()
+        errors = {}
+        try:
+            for s in self.open_sinks:
+                if s not in futures:
+                    errors[s] = _written(s, table)
+        finally:       # the helpers have finished before anything else happens, an interrupt here included
+            for s, f in futures.items():
+                errors[s] = f.result()
         for s in self.open_sinks:       # the first in the sinks' order, as if written one after another
             if errors[s] is not None:
                 if not isinstance(errors[s], OSError):
