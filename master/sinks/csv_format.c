@@ -11,6 +11,7 @@
  *
  * Plain C without Python's API: called through ctypes, which lets other threads run meanwhile. */
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 typedef unsigned __int128 u128;
@@ -285,20 +286,49 @@ static inline char *put_signed(int64_t v, char *o)
 /* the column kinds (csv_native.KINDS) */
 enum { K_F64 = 1, K_F32, K_I8, K_I16, K_I32, K_I64, K_U8, K_U16, K_U32, K_U64, K_BOOL };
 
+/* a column's last double and its text: a value that repeats the one above it (a parameter, a state at rest)
+ * is copied, not formatted again */
+typedef struct {
+    uint64_t bits;
+    uint32_t len;               /* 0: nothing yet */
+    char text[28];
+} Last;
+
+/* repr(x) at o through the column's Last; o has at least 24 bytes of room past the text (every cell reserves
+ * 25 bytes, see cm_csv_rows), so the 24-byte copies stay inside the buffer */
+static inline char *put_double_cached(double x, char *o, Last *last)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    if (last->len && last->bits == bits) {
+        memcpy(o, last->text, 24);
+        return o + last->len;
+    }
+    char *end = put_double(x, o);
+    last->bits = bits;
+    last->len = (uint32_t)(end - o);
+    memcpy(last->text, o, 24);
+    return end;
+}
+
 /* Rows row0 .. row0+nrows-1 of ncols columns (cols[c]: the column's values, of kinds[c]) as CSV lines at out,
- * which holds at least nrows * (25 * ncols + 1) bytes; returns the bytes written, or -1 without tables. */
+ * which holds at least nrows * (25 * ncols + 1) bytes; returns the bytes written, or -1 without tables (or
+ * memory). */
 int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols, int64_t row0, int64_t nrows,
                     char *out)
 {
     if (!have_tables)
+        return -1;
+    Last *last = calloc((size_t)(ncols > 0 ? ncols : 1), sizeof(Last));
+    if (!last)
         return -1;
     char *o = out;
     for (int64_t r = row0; r < row0 + nrows; r++) {
         for (int64_t c = 0; c < ncols; c++) {
             const void *col = cols[c];
             switch (kinds[c]) {
-            case K_F64: o = put_double(((const double *)col)[r], o); break;
-            case K_F32: o = put_double((double)((const float *)col)[r], o); break;
+            case K_F64: o = put_double_cached(((const double *)col)[r], o, &last[c]); break;
+            case K_F32: o = put_double_cached((double)((const float *)col)[r], o, &last[c]); break;
             case K_I8: o = put_signed(((const int8_t *)col)[r], o); break;
             case K_I16: o = put_signed(((const int16_t *)col)[r], o); break;
             case K_I32: o = put_signed(((const int32_t *)col)[r], o); break;
@@ -316,10 +346,13 @@ int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols
                     o += 5;
                 }
                 break;
-            default: return -1;
+            default:
+                free(last);
+                return -1;
             }
             *o++ = c + 1 < ncols ? ',' : '\n';
         }
     }
+    free(last);
     return (int64_t)(o - out);
 }

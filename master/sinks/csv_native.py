@@ -113,7 +113,7 @@ def _chunks(lib, kinds, arrays, ncols, nrows):
         n = min(rows, nrows - row0)
         written = lib.cm_csv_rows(ncols, kind_arr.ctypes.data, addresses.ctypes.data, row0, n, buf.ctypes.data)
         if written < 0:
-            raise RuntimeError("the CSV formatter has no power tables")
+            raise MemoryError("the CSV formatter has no power tables or no memory")
         yield view[:written]
 
 
@@ -142,6 +142,8 @@ class CsvFormat:
             yield self._doubles(rng, 3000)
         for _ in range(4):
             yield self._mixed(rng, rng.randrange(0, 40))
+        for _ in range(3):
+            yield self._repeating(rng, rng.randrange(1, 400))
 
     @staticmethod
     def _double(rng) -> float:
@@ -184,6 +186,22 @@ class CsvFormat:
         order = list(cols)
         rng.shuffle(order)
         return pa.table({name: cols[name] for name in order})
+
+    def _repeating(self, rng, rows):
+        """Columns whose values repeat the row above (copied, not formatted again) or change to a neighbour
+        (0.0 and -0.0, NaNs of other payloads) or a value of a text of another length."""
+        cols = {}
+        for k in range(rng.randrange(1, 6)):
+            pool = [self._double(rng) for _ in range(3)] + [0.0, -0.0, math.nan, -math.nan]
+            values, v = [], rng.choice(pool)
+            for _ in range(rows):
+                if rng.random() < 0.3:
+                    v = rng.choice(pool)
+                values.append(v)
+            typ = rng.choice([pa.float64(), pa.float32()])
+            with np.errstate(over="ignore"):
+                cols[f"r{k}"] = pa.array(np.array(values, dtype=typ.to_pandas_dtype()), typ)
+        return pa.table(cols)
 
     def reference(self, case):
         return format_rows(case).encode()

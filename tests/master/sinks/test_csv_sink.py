@@ -51,6 +51,20 @@ def test_doubles_are_written_as_python_writes_them(tmp_path, writer):
     assert lines[1:] == [f"{float(k)!r},{text}" for k, (_, text) in enumerate(DOUBLES)]
 
 
+def test_repeated_values_and_their_neighbours(tmp_path, writer):
+    # a value equal to the one above is copied from it: one that only looks alike (-0.0, another NaN) is not
+    values = [293.15, 293.15, 293.15, 1e-5, 1e-5, 0.0, -0.0, -0.0, 0.0, float("nan"), float("-nan"), 1e16, 1e16,
+              0.1, 0.1 + 0.2, 0.1 + 0.2]
+    table = pa.table({"x": pa.array(values), "c": pa.array([2.5] * len(values)),
+                      "f": pa.array([0.1] * 3 + [0.2] * (len(values) - 3), pa.float32())})
+    lines = _written(tmp_path, table).splitlines()[1:]
+    assert [line.split(",")[0] for line in lines] == [
+        "293.15", "293.15", "293.15", "1e-05", "1e-05", "0.0", "-0.0", "-0.0", "0.0", "nan", "nan", "1e+16",
+        "1e+16", "0.1", "0.30000000000000004", "0.30000000000000004"]
+    assert {line.split(",")[1] for line in lines} == {"2.5"}
+    assert [line.split(",")[2] for line in lines] == ["0.10000000149011612"] * 3 + ["0.20000000298023224"] * 13
+
+
 def test_integers_booleans_and_float32_columns(tmp_path, writer):
     table = pa.table({"i8": pa.array([-128, 127, 0], pa.int8()), "u8": pa.array([0, 255, 7], pa.uint8()),
                       "i16": pa.array([-32768, 32767, -1], pa.int16()), "u16": pa.array([65535, 0, 1], pa.uint16()),
