@@ -5,9 +5,11 @@ all variables without CSV, and all variables with CSV (the default outputs), as 
 the median wall time and CPU time (user + system of the command and its child), and each against the
 one-variable run, with the load average before and after.
 
-    python bench/bench_recording.py [--rounds 5] [--steps 200000] [--no-supervise] [--pure]
+    python bench/bench_recording.py [--rounds 5] [--steps 200000] [--no-supervise] [--pure] [--before CLI]
 
-``--pure`` adds the same runs with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the reference).
+``--pure`` adds the all-variables run with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the
+reference); ``--before CLI`` adds every configuration run by another checkout's ``cosim-master`` (e.g.
+``/work/main/.venv/bin/cosim-master``), in the same rounds.
 After the runs it checks what the issue asks: results.csv holds the same bytes as the Python reference
 (``master.sinks.csv_text.format_rows``) writes for the first rows, and the whole CSV reads back to the Parquet table
 bit for bit.
@@ -40,10 +42,11 @@ def _cli() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "master.cli"]
 
 
-def run_once(fmu: Path, out: Path, args: list[str], env: dict, steps: int, supervise: bool) -> tuple[float, float]:
+def run_once(fmu: Path, out: Path, args: list[str], env: dict, steps: int, supervise: bool,
+             cli: list[str] | None = None) -> tuple[float, float]:
     """(wall s, CPU s) of one ``cosim-master run``."""
     shutil.rmtree(out, ignore_errors=True)
-    cmd = _cli() + ["run", str(fmu), "--stop-time", repr(steps * 1e-4), "--step", "1e-4", "-o", str(out),
+    cmd = (cli or _cli()) + ["run", str(fmu), "--stop-time", repr(steps * 1e-4), "--step", "1e-4", "-o", str(out),
                     "--no-progress"] + args + ([] if supervise else ["--no-supervise"])
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -88,25 +91,28 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=200_000)
     ap.add_argument("--no-supervise", action="store_true")
     ap.add_argument("--pure", action="store_true", help="also run the pure-Python CSV writer (once a round)")
+    ap.add_argument("--before", metavar="CLI", help="another checkout's cosim-master, run in the same rounds")
     a = ap.parse_args(argv)
     from bench.recording.build import build_fmu
-    configs = {**CONFIGS, **(PURE if a.pure else {})}
+    configs = {name: (args, env, None) for name, (args, env) in {**CONFIGS, **(PURE if a.pure else {})}.items()}
+    if a.before:
+        configs.update({f"before: {name}": (args, env, [a.before]) for name, (args, env) in CONFIGS.items()})
     with tempfile.TemporaryDirectory(prefix="bench_recording_") as tmp:
         tmp = Path(tmp)
         fmu = build_fmu(tmp)
-        run_once(fmu, tmp / "warm", CONFIGS["one variable"][0], {}, 1000, not a.no_supervise)   # builds, caches
+        for _, _, cli in configs.values():      # builds and caches (native loop, formatter, FMU unpacked)
+            run_once(fmu, tmp / "warm", CONFIGS["one variable"][0], {}, 1000, not a.no_supervise, cli)
         load0 = os.getloadavg()
         times: dict[str, list[tuple[float, float]]] = {k: [] for k in configs}
         for r in range(a.rounds):
             order = list(configs) if r % 2 == 0 else list(reversed(configs))
             for name in order:
-                args, env = configs[name]
-                times[name].append(run_once(fmu, tmp / "out", args, env, a.steps, not a.no_supervise))
+                args, env, cli = configs[name]
+                times[name].append(run_once(fmu, tmp / "out", args, env, a.steps, not a.no_supervise, cli))
         load1 = os.getloadavg()
         run_once(fmu, tmp / "out", configs["all, CSV"][0], {}, a.steps, not a.no_supervise)
         checks = check_csv(tmp / "out")
-    base_wall = statistics.median(w for w, _ in times["one variable"])
-    base_cpu = statistics.median(c for _, c in times["one variable"])
+    base = {"": "one variable", "before: ": "before: one variable"}
     mode = "--no-supervise" if a.no_supervise else "supervised (the default)"
     print(f"ControlledTemperature stand-in (120 Reals), {a.steps} steps of 1e-4 s, `cosim-master run`, {mode}; "
           f"{a.rounds} rounds alternating, medians")
@@ -115,6 +121,8 @@ def main(argv=None) -> int:
     print("| recording | wall s | x one variable | CPU s | x one variable | walls |")
     print("|---|---:|---:|---:|---:|---|")
     for name, ts in times.items():
+        one = times[base["before: " if name.startswith("before: ") else ""]]
+        base_wall, base_cpu = statistics.median(w for w, _ in one), statistics.median(c for _, c in one)
         wall = statistics.median(w for w, _ in ts)
         cpu = statistics.median(c for _, c in ts)
         print(f"| {name} | {wall:.2f} | {wall / base_wall:.2f} | {cpu:.2f} | {cpu / base_cpu:.2f} | "
