@@ -310,6 +310,7 @@ def entry() -> int:
         # the exit code is decided: a Ctrl-C while the interpreter shuts down would turn it into a death by signal
         import signal
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)       # and so would a SIGTERM (its handler is reset then)
 
 
 def main(argv=None) -> int:

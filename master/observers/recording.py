@@ -104,24 +104,34 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
     numeric = sorted((k for k, kind in enumerate(kinds) if kind not in OBJECT_FILL),
                      key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
-    arrays = [pa.array(block[:, 0])]
+    # one transposing copy, after which each column is contiguous and Arrow wraps it without another: a column
+    # of the row-major block taken alone was a strided copy each (most of a wide table's cost here)
+    columns = np.ascontiguousarray(block.T)
+    arrays = [_wrapped(columns[0], pa.float64())]
     j = 0
     for k, kind in enumerate(kinds):
+        typ = fields[k].type
         if kind in OBJECT_FILL:
-            arrays.append(pa.array([r[j] for r in str_rows], type=fields[k].type))
+            arrays.append(pa.array([r[j] for r in str_rows], type=typ))
             j += 1
             continue
-        col = block[:, column_of[k]]
-        if kind in BIT_STORED:
-            bits = np.ascontiguousarray(col).view(np.dtype(kind.lower()))
-            arrays.append(pa.array(bits, type=fields[k].type))
+        col = columns[column_of[k]]
+        if kind in BIT_STORED:      # UInt32 is kept in the Int64 buffer: its values narrowed to their width
+            arrays.append(_wrapped(col.view(np.dtype(kind.lower())).astype(typ.to_pandas_dtype(), copy=False), typ))
         elif kind == "Integer":
-            arrays.append(pa.array(col.astype(fields[k].type.to_pandas_dtype())))
+            arrays.append(_wrapped(col.astype(typ.to_pandas_dtype()), typ))
         elif kind == "Boolean":
-            arrays.append(pa.array(col != 0))
+            arrays.append(pa.Array.from_buffers(typ, len(col), [None, pa.py_buffer(
+                np.packbits(col != 0, bitorder="little"))]))
         else:
-            arrays.append(pa.array(col))
+            arrays.append(_wrapped(col, typ))
     return pa.Table.from_arrays(arrays, schema=schema)
+
+
+def _wrapped(values: np.ndarray, typ: pa.DataType) -> pa.Array:
+    """A contiguous numpy array as an Arrow array of ``typ`` (its own width), without a copy; ``pa.array`` of a
+    numpy array would import pandas (~0.5 s) to ask whether it is a Series."""
+    return pa.Array.from_buffers(typ, len(values), [None, pa.py_buffer(values)])
 
 
 class DeferredBlock:

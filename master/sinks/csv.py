@@ -1,39 +1,29 @@
 """results.csv: a header, then one line per row; doubles written with repr (they read back exactly), FMI 3.0
-Binary values as lowercase hexadecimal digits (as the FMI cross-check results write them)."""
-from __future__ import annotations
+Binary values as lowercase hexadecimal digits (as the FMI cross-check results write them).
 
-import pyarrow as pa
+``csv_text.format_rows`` is the one reference for the text of the rows; ``csv_native.py`` (C, an accelerator
+declared in master/accel.py's way) writes the same bytes for tables of numbers and Booleans ~20 times faster,
+and with ``COSIM_MASTER_PURE_PYTHON=1`` or without a C compiler the reference writes them."""
+from __future__ import annotations
 
 from . import SINKS
 from .base import Sink
+from .csv_native import formatter, native_chunks
+from .csv_text import csv_quote, format_rows
 
 
-def csv_quote(s: str) -> str:
-    if any(ch in s for ch in ',"\n'):
-        return '"' + s.replace('"', '""') + '"'
-    return s
-
-
-CSV_CELLS = 1 << 16         # cells turned into text at a time
-
-
-def _format(typ):
-    """The function that turns a column's values into CSV text."""
-    if pa.types.is_floating(typ):
-        return lambda vals: [repr(float(x)) for x in vals]
-    if pa.types.is_boolean(typ):
-        return lambda vals: ["true" if x else "false" for x in vals]
-    if pa.types.is_string(typ):
-        return lambda vals: [csv_quote(str(x)) for x in vals]
-    if pa.types.is_binary(typ):
-        return lambda vals: [x.hex() for x in vals]
-    return lambda vals: [str(int(x)) for x in vals]
+CSV_CELLS = 1 << 16         # cells turned into text at a time (by the reference)
 
 
 @SINKS.register("csv")
 class CsvSink(Sink):
     file_name = "results.csv"
     _fh = None
+
+    @property
+    def concurrent(self) -> bool:
+        """Whether its rows are formatted by C, without the GIL (SinkGroup then writes it beside the others)."""
+        return formatter() is not None
 
     def open(self, out_dir, schema):
         super().open(out_dir, schema)
@@ -44,18 +34,23 @@ class CsvSink(Sink):
         self._put(",".join(csv_quote(c) for c in schema.names) + "\n")
 
     def _put(self, text: str) -> None:
-        data = memoryview(text.encode("utf-8"))
+        self._put_bytes(memoryview(text.encode("utf-8")))
+
+    def _put_bytes(self, data: memoryview) -> None:
         while data:                 # a raw write may take part of the bytes (the last room on a disk)
             data = data[self._fh.write(data):]
 
     def write(self, block):
-        formats = [(_format(col.type), col.to_numpy(zero_copy_only=False)) for col in block.columns]
+        chunks = native_chunks(block)
+        if chunks is not None:
+            for data in chunks:
+                self._put_bytes(data)
+            return
         # a slice of rows at a time: every cell becomes a Python string first, ~60 bytes each, so a whole
         # block of a wide table (thousands of columns) at once would cost many times the block
-        step = max(1, CSV_CELLS // max(1, len(formats)))
+        step = max(1, CSV_CELLS // max(1, block.num_columns))
         for start in range(0, block.num_rows, step):
-            cols = [fmt(vals[start:start + step]) for fmt, vals in formats]
-            self._put("".join(",".join(r) + "\n" for r in zip(*cols)))
+            self._put(format_rows(block.slice(start, step)))
 
     def mark(self):
         return self._fh.tell()

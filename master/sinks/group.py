@@ -61,6 +61,7 @@ class SinkGroup:
         self._reserve = None
         self.open_sinks: list = []
         self._closed = False
+        self._threads = None
 
     def open(self, schema) -> None:
         self.schema = schema
@@ -103,19 +104,46 @@ class SinkGroup:
             return
         with deferred_interrupt():
             marks = [s.mark() for s in self.open_sinks]
-            for s in self.open_sinks:
-                try:
-                    s.write(table)
-                except OSError as exc:
-                    for other, m in zip(self.open_sinks, marks):
-                        other.rollback(m)
-                    # the reserve is still held: the rows kept here leave room for closing the files
-                    self.rows += self._rows_that_fit(table)
-                    self._release_reserve()
-                    where = ", ".join(str(p) for p in s.files()) or type(s).__name__
-                    self.failure = write_failure(exc, where)
-                    raise CosimError(self.failure, element="results") from None
+            failed = self._write_each(table)
+            if failed is not None:
+                s, exc = failed
+                for other, m in zip(self.open_sinks, marks):
+                    other.rollback(m)
+                # the reserve is still held: the rows kept here leave room for closing the files
+                self.rows += self._rows_that_fit(table)
+                self._release_reserve()
+                where = ", ".join(str(p) for p in s.files()) or type(s).__name__
+                self.failure = write_failure(exc, where)
+                raise CosimError(self.failure, element="results") from None
             self.rows += table.num_rows
+
+    def _write_each(self, table):
+        """Every open sink writes ``table``; returns (the first sink that failed, its OSError) or None. The sinks
+        that let go of the GIL while they write (``concurrent``: Parquet, the CSV formatted in C) write at the
+        same time, the first here and the others on a helper thread each, and all have finished on return; a
+        block is still written everywhere or rolled back everywhere."""
+        side = [s for s in self.open_sinks if getattr(s, "concurrent", False)][1:]
+        futures = {s: self._pool(len(side)).submit(_written, s, table) for s in side} if side else {}
+        errors = {}
+        try:
+            for s in self.open_sinks:
+                if s not in futures:
+                    errors[s] = _written(s, table)
+        finally:       # the helpers have finished before anything else happens, an interrupt here included
+            for s, f in futures.items():
+                errors[s] = f.result()
+        for s in self.open_sinks:       # the first in the sinks' order, as if written one after another
+            if errors[s] is not None:
+                if not isinstance(errors[s], OSError):
+                    raise errors[s]
+                return s, errors[s]
+        return None
+
+    def _pool(self, workers: int):
+        if self._threads is None:
+            from concurrent.futures import ThreadPoolExecutor
+            self._threads = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="sink")
+        return self._threads
 
     def _rows_that_fit(self, table) -> int:
         """Writes the longest first part of ``table`` that the sinks still able to take rows accept (every one
@@ -144,6 +172,9 @@ class SinkGroup:
         if getattr(self, "_closed", False):
             return
         self._closed = True
+        if getattr(self, "_threads", None) is not None:
+            self._threads.shutdown()
+            self._threads = None
         with deferred_interrupt():
             for s in self.open_sinks:
                 try:
@@ -170,3 +201,12 @@ class SinkGroup:
             with contextlib.suppress(OSError):
                 self._reserve.unlink()
             self._reserve = None
+
+
+def _written(sink, table):
+    """None when ``sink`` wrote ``table``, else the exception its write raised."""
+    try:
+        sink.write(table)
+    except Exception as exc:        # noqa: BLE001 -- handed to the group, which rolls back or raises it
+        return exc
+    return None

@@ -11,6 +11,7 @@ from .base import Sink
 class ParquetSink(Sink):
     file_name = "results.parquet"
     _writer = None
+    concurrent = True       # pyarrow encodes and writes without the GIL (SinkGroup writes it beside the others)
 
     def open(self, out_dir, schema):
         # imported here, not with the module: the registry imports every sink module, and pyarrow.parquet (with
@@ -20,7 +21,12 @@ class ParquetSink(Sink):
         self.path = out_dir / self.file_name
         # column statistics for thousands of columns times many row groups would make the footer, which the
         # writer keeps in memory until close, the largest thing in a long wide run
-        self._writer = pq.ParquetWriter(str(self.path), schema, write_statistics=len(schema) <= 257)
+        # no dictionary for floating-point columns: a simulation's doubles rarely repeat, so the writer built a
+        # dictionary for each column chunk only to give it up (twice the time, and a larger file); integers,
+        # Booleans and strings keep theirs
+        dictionary = [f.name for f in schema if not pa.types.is_floating(f.type)]
+        self._writer = pq.ParquetWriter(str(self.path), schema, write_statistics=len(schema) <= 257,
+                                        use_dictionary=dictionary)
 
     def write(self, block):
         self._writer.write_table(block)

@@ -57,9 +57,14 @@ def test_row_groups_within_the_budget_and_results_unchanged(tmp_path, test_fmus,
     assert (tmp_path / "default" / "results.csv").read_bytes() == (tmp_path / "small" / "results.csv").read_bytes()
 
 
-def test_csv_written_in_slices_equals_the_parquet(tmp_path, test_fmus, monkeypatch):
+@pytest.mark.parametrize("formatter", ["C", "Python"])
+def test_csv_written_in_slices_equals_the_parquet(tmp_path, test_fmus, monkeypatch, formatter):
     import master.sinks.csv as csv_sink
+    import master.sinks.csv_native as csv_native
+    if formatter == "Python":        # the reference writes the rows (CSV_CELLS), else C (CHUNK_CELLS)
+        monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "1")
     monkeypatch.setattr(csv_sink, "CSV_CELLS", 5)      # under a row of 7 cells: one row per slice
+    monkeypatch.setattr(csv_native, "CHUNK_CELLS", 5)
     out = tmp_path / "out"
     run(_chain(tmp_path, test_fmus), output=out)
     df = read_results(out)

@@ -1,0 +1,137 @@
+"""What recording every variable costs: a run of bench/recording's ControlledTemperature FMU (a stand-in for the
+20-sim cross-check FMU: 120 Real variables, cheap steps) over 200,000 steps of 1e-4 s, recording one variable,
+all variables without CSV, and all variables with CSV (the default outputs), as ``cosim-master run`` does it
+(supervised unless ``--no-supervise``). The configurations run alternately, ``--rounds`` times; the table gives
+the median wall time and CPU time (user + system of the command and its child), and each against the
+one-variable run, with the load average before and after.
+
+    python bench/bench_recording.py [--rounds 5] [--steps 200000] [--no-supervise] [--pure] [--before CLI]
+
+``--pure`` adds the all-variables run with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the
+reference); ``--before CLI`` adds every configuration run by another checkout's ``cosim-master`` (e.g.
+``/work/main/.venv/bin/cosim-master``), in the same rounds.
+After the runs it checks what the issue asks: results.csv holds the same bytes as the Python reference
+(``master.sinks.csv_text.format_rows``) writes for the first rows, and the whole CSV reads back to the Parquet table
+bit for bit.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(REPO))
+
+CONFIGS = {"one variable": (["--record", "ControlledTemperature.sensor.T"], {}),
+           "all, no CSV": (["--record", "ControlledTemperature.*", "--no-csv"], {}),
+           "all, CSV": (["--record", "ControlledTemperature.*"], {})}
+PURE = {"all, CSV, pure Python": (["--record", "ControlledTemperature.*"], {"COSIM_MASTER_PURE_PYTHON": "1"})}
+
+
+def _cli() -> list[str]:
+    exe = Path(sys.executable).with_name("cosim-master")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "master.cli"]
+
+
+def run_once(fmu: Path, out: Path, args: list[str], env: dict, steps: int, supervise: bool,
+             cli: list[str] | None = None) -> tuple[float, float]:
+    """(wall s, CPU s) of one ``cosim-master run``."""
+    shutil.rmtree(out, ignore_errors=True)
+    cmd = (cli or _cli()) + ["run", str(fmu), "--stop-time", repr(steps * 1e-4), "--step", "1e-4", "-o", str(out),
+                    "--no-progress"] + args + ([] if supervise else ["--no-supervise"])
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **env})
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def check_csv(out: Path) -> list[str]:
+    """The CSV against the reference writer (first rows, bytes) and against the Parquet table (every value)."""
+    import pyarrow.csv as pc
+    import pyarrow.parquet as pq
+
+    from master.sinks.csv_text import format_rows
+    table = pq.read_table(out / "results.parquet")
+    lines = []
+    head = table.slice(0, 5000)
+    with open(out / "results.csv", "rb") as fh:
+        fh.readline()
+        got = b"".join(fh.readline() for _ in range(head.num_rows))
+    lines.append(f"first {head.num_rows} rows as the Python reference writes them: "
+                 f"{'yes' if got == format_rows(head).encode() else 'NO'}")
+    back = pc.read_csv(out / "results.csv", convert_options=pc.ConvertOptions(
+        column_types={f.name: f.type for f in table.schema}))
+    same = back.num_rows == table.num_rows and all(
+        a.to_numpy().view("u8").tobytes() == b.to_numpy().view("u8").tobytes()
+        for a, b in zip(back.combine_chunks().columns, table.combine_chunks().columns))
+    sizes = {name: os.path.getsize(out / name) / 1e6 for name in ("results.csv", "results.parquet")}
+    lines.append(f"all {table.num_rows} rows x {table.num_columns} columns of results.csv read back to the Parquet "
+                 f"table bit for bit: {'yes' if same else 'NO'}; "
+                 + ", ".join(f"{name} {mb:.0f} MB" for name, mb in sizes.items()))
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=200_000)
+    ap.add_argument("--no-supervise", action="store_true")
+    ap.add_argument("--pure", action="store_true", help="also run the pure-Python CSV writer (once a round)")
+    ap.add_argument("--before", metavar="CLI", help="another checkout's cosim-master, run in the same rounds")
+    a = ap.parse_args(argv)
+    from bench.recording.build import build_fmu
+    configs = {name: (args, env, None) for name, (args, env) in {**CONFIGS, **(PURE if a.pure else {})}.items()}
+    if a.before:
+        configs.update({f"before: {name}": (args, env, [a.before]) for name, (args, env) in CONFIGS.items()})
+    with tempfile.TemporaryDirectory(prefix="bench_recording_") as tmp:
+        tmp = Path(tmp)
+        fmu = build_fmu(tmp)
+        for _, _, cli in configs.values():      # builds and caches (native loop, formatter, FMU unpacked)
+            run_once(fmu, tmp / "warm", CONFIGS["one variable"][0], {}, 1000, not a.no_supervise, cli)
+        load0 = os.getloadavg()
+        times: dict[str, list[tuple[float, float]]] = {k: [] for k in configs}
+        for r in range(a.rounds):
+            order = list(configs) if r % 2 == 0 else list(reversed(configs))
+            for name in order:
+                args, env, cli = configs[name]
+                times[name].append(run_once(fmu, tmp / "out", args, env, a.steps, not a.no_supervise, cli))
+        load1 = os.getloadavg()
+        run_once(fmu, tmp / "out", configs["all, CSV"][0], {}, a.steps, not a.no_supervise)
+        checks = check_csv(tmp / "out")
+    base = {"": "one variable", "before: ": "before: one variable"}
+    mode = "--no-supervise" if a.no_supervise else "supervised (the default)"
+    print(f"ControlledTemperature stand-in (120 Reals), {a.steps} steps of 1e-4 s, `cosim-master run`, {mode}; "
+          f"{a.rounds} rounds alternating, medians")
+    print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, after {load1[0]:.2f} {load1[1]:.2f} "
+          f"{load1[2]:.2f} (2 cores)\n")
+    print("| recording | wall s | x one variable | CPU s | x one variable | walls |")
+    print("|---|---:|---:|---:|---:|---|")
+    for name, ts in times.items():
+        one = times[base["before: " if name.startswith("before: ") else ""]]
+        base_wall, base_cpu = statistics.median(w for w, _ in one), statistics.median(c for _, c in one)
+        wall = statistics.median(w for w, _ in ts)
+        cpu = statistics.median(c for _, c in ts)
+        print(f"| {name} | {wall:.2f} | {wall / base_wall:.2f} | {cpu:.2f} | {cpu / base_cpu:.2f} | "
+              f"{' '.join(f'{w:.2f}' for w, _ in ts)} |")
+    print()
+    for line in checks:
+        print(f"- {line}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,358 @@
+/* The text of results.csv's rows in C: the accelerator of master/sinks/csv.py's ``format_rows`` (see
+ * csv_native.py). A double is written as Python's repr writes it: the shortest decimal that reads back to the
+ * same double (and of those the closest to it, ties to an even last digit), in fixed notation for decimal
+ * exponents from -4 to 16 and in Python's exponent notation (e+16, e-05) outside; repr through the C API costs
+ * ~0.6 us a value, which made a wide CSV the slowest part of a run.
+ *
+ * The shortest digits are found as in Ulf Adams' Ryu (PLDI 2018): the value and the two ends of the interval of
+ * decimals that round to it are scaled by a power of ten with 128-bit fixed-point powers of five, and digits
+ * are taken off while the interval still holds a shorter decimal.  The power tables are computed exactly by
+ * Python (csv_native.py) and handed over once with cm_csv_tables.
+ *
+ * Plain C without Python's API: called through ctypes, which lets other threads run meanwhile. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef unsigned __int128 u128;
+
+#define MANTISSA_BITS 52
+#define EXPONENT_BITS 11
+#define BIAS 1023
+#define POW5_INV_BITCOUNT 125
+#define POW5_BITCOUNT 125
+#define POW5_INV_ENTRIES 342
+#define POW5_ENTRIES 326
+
+static uint64_t POW5_INV[POW5_INV_ENTRIES][2];     /* low, high 64 bits of floor(2^(bits(5^i)-1+125) / 5^i) + 1 */
+static uint64_t POW5[POW5_ENTRIES][2];             /* low, high 64 bits of 5^i scaled to exactly 125 bits */
+static int have_tables;
+
+void cm_csv_tables(const uint64_t *inv, const uint64_t *pow5)
+{
+    memcpy(POW5_INV, inv, sizeof POW5_INV);
+    memcpy(POW5, pow5, sizeof POW5);
+    have_tables = 1;
+}
+
+/* bit length of 5^e (e >= 1; 1 for e = 0) */
+static inline int32_t pow5bits(int32_t e) { return (int32_t)(((uint32_t)e * 1217359) >> 19) + 1; }
+/* floor(log10(2^e)) and floor(log10(5^e)) for the exponents a double can have */
+static inline uint32_t log10pow2(int32_t e) { return ((uint32_t)e * 78913) >> 18; }
+static inline uint32_t log10pow5(int32_t e) { return ((uint32_t)e * 732923) >> 20; }
+
+static inline int multiple_of_pow5(uint64_t v, uint32_t p)
+{
+    uint32_t count = 0;
+    while (v % 5 == 0) {
+        v /= 5;
+        count++;
+    }
+    return count >= p;
+}
+
+static inline int multiple_of_pow2(uint64_t v, uint32_t p) { return (v & ((1ull << p) - 1)) == 0; }
+
+/* (m * mul) >> j for a 128-bit mul and j >= 64 */
+static inline uint64_t mul_shift(uint64_t m, const uint64_t *mul, int32_t j)
+{
+    u128 low = (u128)m * mul[0];
+    u128 high = (u128)m * mul[1];
+    return (uint64_t)(((low >> 64) + high) >> (j - 64));
+}
+
+/* the shortest decimal of a finite nonzero double given by its fields: digits * 10^exp10 */
+static void shortest(uint64_t ieee_mantissa, uint32_t ieee_exponent, uint64_t *digits, int32_t *exp10)
+{
+    int32_t e2;
+    uint64_t m2;
+    if (ieee_exponent == 0) {
+        e2 = 1 - BIAS - MANTISSA_BITS - 2;
+        m2 = ieee_mantissa;
+    } else {
+        e2 = (int32_t)ieee_exponent - BIAS - MANTISSA_BITS - 2;
+        m2 = (1ull << MANTISSA_BITS) | ieee_mantissa;
+    }
+    const int accept_bounds = (m2 & 1) == 0;     /* an even mantissa: a decimal on the interval's end reads back */
+    const uint64_t mv = 4 * m2;
+    /* the interval below is half as wide at a power of two (but not below the smallest normal) */
+    const uint32_t mm_shift = ieee_mantissa != 0 || ieee_exponent <= 1;
+
+    uint64_t vr, vp, vm;
+    int32_t e10;
+    int vm_trailing_zeros = 0, vr_trailing_zeros = 0;
+    if (e2 >= 0) {
+        const uint32_t q = log10pow2(e2) - (e2 > 3);
+        e10 = (int32_t)q;
+        const int32_t k = POW5_INV_BITCOUNT + pow5bits((int32_t)q) - 1;
+        const int32_t i = -e2 + (int32_t)q + k;
+        vr = mul_shift(mv, POW5_INV[q], i);
+        vp = mul_shift(mv + 2, POW5_INV[q], i);
+        vm = mul_shift(mv - 1 - mm_shift, POW5_INV[q], i);
+        if (q <= 21) {
+            /* only here can the scaled values be exact (multiples of 5^q) */
+            if (mv % 5 == 0)
+                vr_trailing_zeros = multiple_of_pow5(mv, q);
+            else if (accept_bounds)
+                vm_trailing_zeros = multiple_of_pow5(mv - 1 - mm_shift, q);
+            else
+                vp -= multiple_of_pow5(mv + 2, q);
+        }
+    } else {
+        const uint32_t q = log10pow5(-e2) - (-e2 > 1);
+        e10 = (int32_t)q + e2;
+        const int32_t i = -e2 - (int32_t)q;
+        const int32_t k = pow5bits(i) - POW5_BITCOUNT;
+        const int32_t j = (int32_t)q - k;
+        vr = mul_shift(mv, POW5[i], j);
+        vp = mul_shift(mv + 2, POW5[i], j);
+        vm = mul_shift(mv - 1 - mm_shift, POW5[i], j);
+        if (q <= 1) {
+            /* mv has at least q trailing zero bits: the scaled values are exact */
+            vr_trailing_zeros = 1;
+            if (accept_bounds)
+                vm_trailing_zeros = mm_shift == 1;
+            else
+                --vp;
+        } else if (q < 63) {
+            vr_trailing_zeros = multiple_of_pow2(mv, q);
+        }
+    }
+
+    int32_t removed = 0;
+    uint8_t last_removed = 0;
+    uint64_t out;
+    if (vm_trailing_zeros || vr_trailing_zeros) {
+        /* the rare exact cases: the lower end may be a decimal that reads back, and a tie rounds to even */
+        while (vp / 10 > vm / 10) {
+            vm_trailing_zeros &= vm % 10 == 0;
+            vr_trailing_zeros &= last_removed == 0;
+            last_removed = (uint8_t)(vr % 10);
+            vr /= 10;
+            vp /= 10;
+            vm /= 10;
+            removed++;
+        }
+        if (vm_trailing_zeros) {
+            while (vm % 10 == 0) {
+                vr_trailing_zeros &= last_removed == 0;
+                last_removed = (uint8_t)(vr % 10);
+                vr /= 10;
+                vp /= 10;
+                vm /= 10;
+                removed++;
+            }
+        }
+        if (vr_trailing_zeros && last_removed == 5 && vr % 2 == 0)
+            last_removed = 4;
+        out = vr + ((vr == vm && (!accept_bounds || !vm_trailing_zeros)) || last_removed >= 5);
+    } else {
+        int round_up = 0;
+        if (vp / 100 > vm / 100) {
+            round_up = vr % 100 >= 50;
+            vr /= 100;
+            vp /= 100;
+            vm /= 100;
+            removed += 2;
+        }
+        while (vp / 10 > vm / 10) {
+            round_up = vr % 10 >= 5;
+            vr /= 10;
+            vp /= 10;
+            vm /= 10;
+            removed++;
+        }
+        out = vr + (vr == vm || round_up);
+    }
+    *digits = out;
+    *exp10 = e10 + removed;
+}
+
+static const char PAIRS[201] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+/* the decimal digits of v at the end of buf[0..24): returns where they start */
+static inline char *udigits(uint64_t v, char *end)
+{
+    char *p = end;
+    while (v >= 100) {
+        const uint64_t r = v % 100;
+        v /= 100;
+        p -= 2;
+        memcpy(p, PAIRS + 2 * r, 2);
+    }
+    if (v >= 10) {
+        p -= 2;
+        memcpy(p, PAIRS + 2 * v, 2);
+    } else {
+        *--p = (char)('0' + v);
+    }
+    return p;
+}
+
+/* repr(x) at o; returns the end (at most 24 characters) */
+static char *put_double(double x, char *o)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    const int sign = (int)(bits >> 63);
+    const uint64_t mantissa = bits & ((1ull << MANTISSA_BITS) - 1);
+    const uint32_t exponent = (uint32_t)((bits >> MANTISSA_BITS) & ((1u << EXPONENT_BITS) - 1));
+    if (exponent == (1u << EXPONENT_BITS) - 1) {
+        if (mantissa) {                     /* every NaN is "nan", whatever its sign */
+            memcpy(o, "nan", 3);
+            return o + 3;
+        }
+        if (sign)
+            *o++ = '-';
+        memcpy(o, "inf", 3);
+        return o + 3;
+    }
+    if (sign)
+        *o++ = '-';
+    if (exponent == 0 && mantissa == 0) {
+        memcpy(o, "0.0", 3);
+        return o + 3;
+    }
+    uint64_t digits;
+    int32_t e10;
+    shortest(mantissa, exponent, &digits, &e10);
+    char buf[24];
+    char *d = udigits(digits, buf + sizeof buf);
+    const int32_t n = (int32_t)(buf + sizeof buf - d);
+    const int32_t point = n + e10;          /* the value is 0.<digits> * 10^point */
+    if (point <= -4 || point > 16) {
+        *o++ = d[0];
+        if (n > 1) {
+            *o++ = '.';
+            memcpy(o, d + 1, (size_t)(n - 1));
+            o += n - 1;
+        }
+        int32_t e = point - 1;
+        *o++ = 'e';
+        *o++ = e < 0 ? '-' : '+';
+        if (e < 0)
+            e = -e;
+        if (e >= 100) {
+            *o++ = (char)('0' + e / 100);
+            e %= 100;
+        }
+        memcpy(o, PAIRS + 2 * e, 2);
+        return o + 2;
+    }
+    if (point <= 0) {
+        memcpy(o, "0.", 2);
+        o += 2;
+        memset(o, '0', (size_t)(-point));
+        o += -point;
+        memcpy(o, d, (size_t)n);
+        return o + n;
+    }
+    if (point >= n) {
+        memcpy(o, d, (size_t)n);
+        o += n;
+        memset(o, '0', (size_t)(point - n));
+        o += point - n;
+        memcpy(o, ".0", 2);
+        return o + 2;
+    }
+    memcpy(o, d, (size_t)point);
+    o += point;
+    *o++ = '.';
+    memcpy(o, d + point, (size_t)(n - point));
+    return o + (n - point);
+}
+
+static inline char *put_unsigned(uint64_t v, char *o)
+{
+    char buf[24];
+    char *d = udigits(v, buf + sizeof buf);
+    const size_t n = (size_t)(buf + sizeof buf - d);
+    memcpy(o, d, n);
+    return o + n;
+}
+
+static inline char *put_signed(int64_t v, char *o)
+{
+    if (v < 0) {
+        *o++ = '-';
+        return put_unsigned(0 - (uint64_t)v, o);
+    }
+    return put_unsigned((uint64_t)v, o);
+}
+
+/* the column kinds (csv_native.KINDS) */
+enum { K_F64 = 1, K_F32, K_I8, K_I16, K_I32, K_I64, K_U8, K_U16, K_U32, K_U64, K_BOOL };
+
+/* a column's last double and its text: a value that repeats the one above it (a parameter, a state at rest)
+ * is copied, not formatted again */
+typedef struct {
+    uint64_t bits;
+    uint32_t len;               /* 0: nothing yet */
+    char text[28];
+} Last;
+
+/* repr(x) at o through the column's Last; o has at least 24 bytes of room past the text (every cell reserves
+ * 25 bytes, see cm_csv_rows), so the 24-byte copies stay inside the buffer */
+static inline char *put_double_cached(double x, char *o, Last *last)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    if (last->len && last->bits == bits) {
+        memcpy(o, last->text, 24);
+        return o + last->len;
+    }
+    char *end = put_double(x, o);
+    last->bits = bits;
+    last->len = (uint32_t)(end - o);
+    memcpy(last->text, o, 24);
+    return end;
+}
+
+/* Rows row0 .. row0+nrows-1 of ncols columns (cols[c]: the column's values, of kinds[c]) as CSV lines at out,
+ * which holds at least nrows * (25 * ncols + 1) bytes; returns the bytes written, or -1 without tables (or
+ * memory). */
+int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols, int64_t row0, int64_t nrows,
+                    char *out)
+{
+    if (!have_tables)
+        return -1;
+    Last *last = calloc((size_t)(ncols > 0 ? ncols : 1), sizeof(Last));
+    if (!last)
+        return -1;
+    char *o = out;
+    for (int64_t r = row0; r < row0 + nrows; r++) {
+        for (int64_t c = 0; c < ncols; c++) {
+            const void *col = cols[c];
+            switch (kinds[c]) {
+            case K_F64: o = put_double_cached(((const double *)col)[r], o, &last[c]); break;
+            case K_F32: o = put_double_cached((double)((const float *)col)[r], o, &last[c]); break;
+            case K_I8: o = put_signed(((const int8_t *)col)[r], o); break;
+            case K_I16: o = put_signed(((const int16_t *)col)[r], o); break;
+            case K_I32: o = put_signed(((const int32_t *)col)[r], o); break;
+            case K_I64: o = put_signed(((const int64_t *)col)[r], o); break;
+            case K_U8: o = put_unsigned(((const uint8_t *)col)[r], o); break;
+            case K_U16: o = put_unsigned(((const uint16_t *)col)[r], o); break;
+            case K_U32: o = put_unsigned(((const uint32_t *)col)[r], o); break;
+            case K_U64: o = put_unsigned(((const uint64_t *)col)[r], o); break;
+            case K_BOOL:
+                if (((const uint8_t *)col)[r]) {
+                    memcpy(o, "true", 4);
+                    o += 4;
+                } else {
+                    memcpy(o, "false", 5);
+                    o += 5;
+                }
+                break;
+            default:
+                free(last);
+                return -1;
+            }
+            *o++ = c + 1 < ncols ? ',' : '\n';
+        }
+    }
+    free(last);
+    return (int64_t)(o - out);
+}
