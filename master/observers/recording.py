@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from ..arrow_numpy import from_numpy, from_objects
 from ..fmi.slave import OBJECT_FILL
 from ..plan import Var
 from ..sinks.group import SinkGroup
@@ -104,23 +105,23 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
     numeric = sorted((k for k, kind in enumerate(kinds) if kind not in OBJECT_FILL),
                      key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
-    arrays = [pa.array(block[:, 0])]
+    arrays = [from_numpy(block[:, 0])]
     j = 0
     for k, kind in enumerate(kinds):
         if kind in OBJECT_FILL:
-            arrays.append(pa.array([r[j] for r in str_rows], type=fields[k].type))
+            arrays.append(from_objects([r[j] for r in str_rows], fields[k].type))
             j += 1
             continue
         col = block[:, column_of[k]]
         if kind in BIT_STORED:
             bits = np.ascontiguousarray(col).view(np.dtype(kind.lower()))
-            arrays.append(pa.array(bits, type=fields[k].type))
+            arrays.append(from_numpy(bits, fields[k].type))
         elif kind == "Integer":
-            arrays.append(pa.array(col.astype(fields[k].type.to_pandas_dtype())))
+            arrays.append(from_numpy(col.astype(fields[k].type.to_pandas_dtype())))
         elif kind == "Boolean":
-            arrays.append(pa.array(col != 0))
+            arrays.append(from_numpy(col != 0))
         else:
-            arrays.append(pa.array(col))
+            arrays.append(from_numpy(col))
     return pa.Table.from_arrays(arrays, schema=schema)
 
 

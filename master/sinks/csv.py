@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pyarrow as pa
 
+from ..arrow_numpy import to_numpy
 from . import SINKS
 from .base import Sink
 
@@ -49,7 +50,7 @@ class CsvSink(Sink):
             data = data[self._fh.write(data):]
 
     def write(self, block):
-        formats = [(_format(col.type), col.to_numpy(zero_copy_only=False)) for col in block.columns]
+        formats = [(_format(col.type), to_numpy(col)) for col in block.columns]
         # a slice of rows at a time: every cell becomes a Python string first, ~60 bytes each, so a whole
         # block of a wide table (thousands of columns) at once would cost many times the block
         step = max(1, CSV_CELLS // max(1, len(formats)))
