@@ -105,7 +105,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--stop-time", type=_number, metavar="SECONDS", help="simulated time to stop at, in seconds")
     r.add_argument("--start-time", type=_number, metavar="SECONDS", help="simulated start time, in seconds")
     r.add_argument("--step", type=_number, metavar="SECONDS", help="master (communication) step size, in seconds")
-    r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
+    # the registry as choices, with a metavar: a name given is looked up alone, the list only made for --help
+    r.add_argument("--algorithm", choices=ALGORITHMS, metavar="NAME",
+                   help="co-simulation algorithm: %(choices)s (default: jacobi)")
     _algorithm_option_flags(r)
     r.add_argument("--extrapolate", action="append", metavar="COMPONENT.VARIABLE=K", default=[],
                    help="extrapolation order K (0, 1, 2) of one coupled output, overriding --extrapolation for it "
@@ -175,8 +177,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="show the settings a run with this master step size would use")
     i.add_argument("--stop-time", type=_number, metavar="SECONDS",
                    help="show the settings a run to this simulated time would use")
-    i.add_argument("--algorithm", choices=ALGORITHMS.names(),
-                   help="show the settings and loop treatment of this algorithm (default: the scenario's)")
+    i.add_argument("--algorithm", choices=ALGORITHMS, metavar="NAME",
+                   help="show the settings and loop treatment of this algorithm: %(choices)s (default: the "
+                        "scenario's)")
     i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)",
@@ -217,8 +220,8 @@ def _parser() -> argparse.ArgumentParser:
                                     "(docs/coupling.md).")
     st.add_argument("scenario", help="the scenario studied: an .ssp archive, an unpacked SSP folder or a "
                                      "SystemStructure.ssd file")
-    st.add_argument("--algorithm", nargs="+", required=True, metavar="A",
-                    help=f"the algorithms compared, one or more of: {', '.join(ALGORITHMS.names())}")
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A", choices=ALGORITHMS,
+                    help="the algorithms compared, one or more of: %(choices)s")
     st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
                     help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
     st.add_argument("--step", nargs="+", type=_number, required=True, metavar="H",
