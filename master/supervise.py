@@ -442,14 +442,18 @@ class _Supervisor:
             self.header[:] = 0.0
             self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
+            # the child goes on initializing while the sinks open here (pyarrow.parquet imported, files created): on
+            # two cores neither waits for the other
+            conn.send(("shm", path))
             try:
                 self.group.open(self.schema)
-            except CosimError as exc:       # a disk full before the first row: the child is stopped
-                os.unlink(path)             # (the child, which unlinks it once mapped, never gets its name)
+            except CosimError as exc:       # a disk full before the first row: the child is stopped, no row kept
+                try:
+                    os.unlink(path)         # unless the child, which unlinks it once mapped, has already
+                except FileNotFoundError:
+                    pass
                 self.write_error = exc
                 self.stop("results could not be written", kill=True)
-                return
-            conn.send(("shm", path))
         elif kind == "close":
             self.finishing_started()
             self.group.close()

@@ -1,8 +1,5 @@
-"""master.arrow_numpy against pyarrow's own conversions (the peer it stands in for), bit for bit, and the point of it:
-a run never imports pandas."""
-import subprocess
-import sys
-
+"""master.arrow_numpy against pyarrow's own conversions (the peer it stands in for), bit for bit (that a run then
+imports no pandas: tests/master/test_run_imports.py)."""
 import numpy as np
 import pyarrow as pa
 import pytest
@@ -84,29 +81,3 @@ def test_values_it_does_not_cover_are_left_to_pyarrow():
     assert from_objects(["a", None], pa.string()).to_pylist() == ["a", None]      # a null
     with_null = pa.array([1.0, None])
     assert np.isnan(to_numpy(with_null)[1])
-
-
-RUN = """
-import sys
-from master.ssp.writer import SspBuilder
-b = SspBuilder("d")
-b.add_component("d", {fmu!r})
-ssp = b.write({tmp!r} + "/d.ssp")
-from master.cli import main
-for extra in ([], ["--no-supervise"]):
-    code = main(["run", str(ssp), "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
-                 {tmp!r} + "/out" + "".join(extra)] + extra)
-    assert code == 0, code
-"""
-
-
-def test_a_run_imports_neither_pandas_nor_pyarrow_compute_in_either_process(tmp_path, reference_fmus):
-    # -X importtime reports the imports of the forked simulation process too, on the same stderr
-    fmu = reference_fmus / "fmi2" / "Dahlquist.fmu"
-    proc = subprocess.run([sys.executable, "-X", "importtime", "-c", RUN.format(fmu=str(fmu), tmp=str(tmp_path))],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    imported = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines() if line.startswith("import time")}
-    assert "master.execution" in imported and "pyarrow.parquet" in imported
-    assert not {"pandas", "pyarrow.compute"} & imported
-    assert (tmp_path / "out" / "results.csv").read_text() == (tmp_path / "out--no-supervise" / "results.csv").read_text()
