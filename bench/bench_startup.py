@@ -2,6 +2,7 @@
 
     python bench/bench_startup.py                     # 10 rounds, Reference FMU Dahlquist (FMI 2.0), 100 steps of 0.1 s
     python bench/bench_startup.py --rounds 20 --shared ../shared
+    python bench/bench_startup.py --before ../main    # another checkout's cosim-master too, in the same rounds
 
 The FMU is the Modelica Reference FMU Dahlquist (``shared/reference-fmus/fmi2``), run for 10 s in steps of 0.1 s
 by every tool; cosim-master runs it as a one-component SSP (written once, before timing, by
@@ -15,11 +16,14 @@ whose speed drifts affects all alike:
 - ``fmpy simulate FMU --stop-time 10 --output-interval 0.1 --output-file OUT.csv`` (fmpy extracts the FMU into a
   temporary folder, simulates and writes one CSV).
 
-Each is a fresh process, timed from its start to its exit (wall clock) with the CPU time of the process and its
-children (``getrusage``). One warm-up round is not counted (Python's bytecode caches, the page cache, our FMU cache);
-the interpreter writes bytecode caches as it does for a user (``PYTHONDONTWRITEBYTECODE`` is removed from the
-children's environment). The table gives the median and best wall time, the median CPU time, and the median over the
-rounds of each command's wall time divided by fmpy's in the same round; the load average is printed before and after.
+cosim-master is started as its console script is (``from master.cli import entry; sys.exit(entry())``) with
+``PYTHONPATH`` set to this checkout, and with ``--before DIR`` also to that one (the same interpreter and packages:
+only ``master`` differs). Each is a fresh process, timed from its start to its exit (wall clock) with the CPU time
+of the process and its children (``getrusage``). One warm-up round is not counted (Python's bytecode caches, the
+page cache, our FMU cache); the interpreter writes bytecode caches as it does for a user
+(``PYTHONDONTWRITEBYTECODE`` is removed from the children's environment). The table gives the median and best
+wall time, the median CPU time, and the median over the rounds of each command's wall time divided by fmpy's in
+the same round; the load average is printed before and after.
 Each command's result is checked: cosim-master's last x against fmpy's.
 """
 from __future__ import annotations
@@ -41,12 +45,13 @@ sys.path.insert(0, str(ROOT))
 STOP, STEP = 10.0, 0.1
 
 
-def _tool(name: str) -> list[str]:
-    """The console script beside this interpreter (as a user runs it), else the module."""
-    script = Path(sys.executable).parent / name
-    if script.is_file():
-        return [str(script)]
-    return [sys.executable, "-m", {"cosim-master": "master.cli", "fmpy": "fmpy.cli"}[name]]
+ENTRY = "import sys; from master.cli import entry; sys.exit(entry())"     # what the console script runs
+
+
+def _fmpy() -> list[str]:
+    """fmpy's console script beside this interpreter (as a user runs it), else its module."""
+    script = Path(sys.executable).parent / "fmpy"
+    return [str(script)] if script.is_file() else [sys.executable, "-m", "fmpy.cli"]
 
 
 def _timed(cmd: list[str], env: dict, cwd: Path) -> tuple[float, float]:
@@ -72,6 +77,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=10, help="alternating rounds measured (default 10)")
     ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared",
                     help="the shared folder holding reference-fmus/ (default: ../shared from the checkout)")
+    ap.add_argument("--before", type=Path, default=None, metavar="DIR",
+                    help="another checkout whose cosim-master is measured too, alternating with this one")
     args = ap.parse_args()
     fmu = args.shared / "reference-fmus" / "fmi2" / "Dahlquist.fmu"
     if not fmu.is_file():
@@ -83,29 +90,32 @@ def main() -> None:
     b.add_component("dahlquist", fmu)
     ssp = b.write(tmp / "dahlquist.ssp")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    cm = _tool("cosim-master")
-    run = [*cm, "run", str(ssp), "--stop-time", f"{STOP:g}", "--step", f"{STEP:g}", "--record", "dahlquist.x"]
-    commands = {
-        "cosim-master run (supervised)": [*run, "-o", str(tmp / "sup")],
-        "cosim-master run --no-supervise": [*run, "-o", str(tmp / "nosup"), "--no-supervise"],
-        "fmpy simulate": [*_tool("fmpy"), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
-                          f"{STEP:g}", "--output-file", str(tmp / "fmpy.csv")],
-    }
+    run = ["run", str(ssp), "--stop-time", f"{STOP:g}", "--step", f"{STEP:g}", "--record", "dahlquist.x"]
+    commands: dict[str, tuple[list[str], dict]] = {}
+    for label, tree in (("", ROOT),) + ((("before: ", args.before.resolve()),) if args.before else ()):
+        tree_env = dict(env, PYTHONPATH=str(tree))
+        cm = [sys.executable, "-c", ENTRY, *run]
+        out = tmp / (label.strip(": ") or "this")
+        commands[f"{label}cosim-master run (supervised)"] = ([*cm, "-o", str(out / "sup")], tree_env)
+        commands[f"{label}cosim-master run --no-supervise"] = ([*cm, "-o", str(out / "nosup"), "--no-supervise"],
+                                                               tree_env)
+    commands["fmpy simulate"] = ([*_fmpy(), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
+                                  f"{STEP:g}", "--output-file", str(tmp / "fmpy.csv")], env)
     names = list(commands)
     load_before = os.getloadavg()
     for name in names:                               # warm-up, not counted
-        _timed(commands[name], env, tmp)
+        _timed(*commands[name], tmp)
     want = _last(tmp / "fmpy.csv", "x")
-    for out in ("sup", "nosup"):
-        got = _last(tmp / out / "results.csv", "dahlquist.x")
+    for csv_file in tmp.glob("*/*/results.csv"):
+        got = _last(csv_file, "dahlquist.x")
         if got != want:
-            raise SystemExit(f"{out}: last x {got!r}, fmpy {want!r}")
+            raise SystemExit(f"{csv_file}: last x {got!r}, fmpy {want!r}")
 
     wall: dict[str, list[float]] = {n: [] for n in names}
     cpu: dict[str, list[float]] = {n: [] for n in names}
     for r in range(args.rounds):
         for name in names[r % len(names):] + names[:r % len(names)]:
-            w, c = _timed(commands[name], env, tmp)
+            w, c = _timed(*commands[name], tmp)
             wall[name].append(w)
             cpu[name].append(c)
     load_after = os.getloadavg()
