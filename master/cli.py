@@ -220,8 +220,10 @@ def _parser() -> argparse.ArgumentParser:
                                     "(docs/coupling.md).")
     st.add_argument("scenario", help="the scenario studied: an .ssp archive, an unpacked SSP folder or a "
                                      "SystemStructure.ssd file")
-    st.add_argument("--algorithm", nargs="+", required=True, metavar="A", choices=ALGORITHMS,
-                    help="the algorithms compared, one or more of: %(choices)s")
+    # checked by the study (its own one-line error), listed by `run --help`: listing them here imported them all
+    st.add_argument("--algorithm", nargs="+", required=True, metavar="A",
+                    help="the algorithms compared, one or more of the names `cosim-master run --help` lists for "
+                         "--algorithm")
     st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
                     help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
     st.add_argument("--step", nargs="+", type=_number, required=True, metavar="H",
