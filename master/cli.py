@@ -105,7 +105,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--stop-time", type=_number, metavar="SECONDS", help="simulated time to stop at, in seconds")
     r.add_argument("--start-time", type=_number, metavar="SECONDS", help="simulated start time, in seconds")
     r.add_argument("--step", type=_number, metavar="SECONDS", help="master (communication) step size, in seconds")
-    r.add_argument("--algorithm", choices=ALGORITHMS.names(), help="co-simulation algorithm (default: jacobi)")
+    # the registry as choices, with a metavar: a name given is looked up alone, the list only made for --help
+    r.add_argument("--algorithm", choices=ALGORITHMS, metavar="NAME",
+                   help="co-simulation algorithm: %(choices)s (default: jacobi)")
     _algorithm_option_flags(r)
     r.add_argument("--extrapolate", action="append", metavar="COMPONENT.VARIABLE=K", default=[],
                    help="extrapolation order K (0, 1, 2) of one coupled output, overriding --extrapolation for it "
@@ -175,8 +177,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="show the settings a run with this master step size would use")
     i.add_argument("--stop-time", type=_number, metavar="SECONDS",
                    help="show the settings a run to this simulated time would use")
-    i.add_argument("--algorithm", choices=ALGORITHMS.names(),
-                   help="show the settings and loop treatment of this algorithm (default: the scenario's)")
+    i.add_argument("--algorithm", choices=ALGORITHMS, metavar="NAME",
+                   help="show the settings and loop treatment of this algorithm: %(choices)s (default: the "
+                        "scenario's)")
     i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
     c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)",
@@ -217,8 +220,10 @@ def _parser() -> argparse.ArgumentParser:
                                     "(docs/coupling.md).")
     st.add_argument("scenario", help="the scenario studied: an .ssp archive, an unpacked SSP folder or a "
                                      "SystemStructure.ssd file")
+    # checked by the study (its own one-line error), listed by `run --help`: listing them here imported them all
     st.add_argument("--algorithm", nargs="+", required=True, metavar="A",
-                    help=f"the algorithms compared, one or more of: {', '.join(ALGORITHMS.names())}")
+                    help="the algorithms compared, one or more of the names `cosim-master run --help` lists for "
+                         "--algorithm")
     st.add_argument("--extrapolation", nargs="+", type=int, default=[0], metavar="K",
                     help="the input extrapolation orders compared, of 0, 1, 2 (default: 0)")
     st.add_argument("--step", nargs="+", type=_number, required=True, metavar="H",
@@ -304,8 +309,12 @@ def entry() -> int:
     if hasattr(signal, "SIGXFSZ"):
         # a file size limit (ulimit -f) is a write that fails, as a full disk is, not a death that loses the run
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    import gc
+    # what the start-up imports create lives as long as the process: the cyclic collector, which went over it again
+    # and again while it grew (~20 ms of a short run), is off until the command's modules are in (_import_command)
+    gc.disable()
     try:
-        return main()
+        return main(own_process=True)
     finally:
         # the exit code is decided: a Ctrl-C while the interpreter shuts down would turn it into a death by signal
         import signal
@@ -313,11 +322,13 @@ def entry() -> int:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)       # and so would a SIGTERM (its handler is reset then)
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, own_process: bool = False) -> int:
+    """The command line ``argv``; ``own_process``: this process is the command's alone (``entry``), see
+    ``_import_command``."""
     args = _parser().parse_args(argv)
     _show_warnings()
     try:
-        _import_command(args.command)
+        _import_command(args.command, own_process)
         return _dispatch(args)
     except CosimError as exc:
         if getattr(args, "debug", False):
@@ -338,13 +349,20 @@ COMMAND_MODULES = {"run": ("master.runner", "master.supervise"), "inspect": ("ma
                    "report": ("master.campaign.report",), "build-scenario": ("master.scenario_kinds",)}
 
 
-def _import_command(command: str) -> None:
-    """Imports the command's modules, then lets a Ctrl-C raise KeyboardInterrupt, which the command handles."""
+def _import_command(command: str, own_process: bool = False) -> None:
+    """Imports the command's modules, then lets a Ctrl-C raise KeyboardInterrupt, which the command handles. In a
+    process of its own the command starts with everything imported so far frozen (``gc.freeze``: never collected,
+    and a forked child, the supervised run's simulation, does not copy the pages a collection would write) and the
+    collector on again."""
     import importlib
 
     from .interrupts import started
     for name in COMMAND_MODULES.get(command, ()):
         importlib.import_module(name)
+    if own_process:
+        import gc
+        gc.freeze()
+        gc.enable()
     started()
 
 

@@ -79,6 +79,8 @@ class _PipeSink(Sink):
 
 
 class _ChildRecording(Recording):
+    results_read_after = True       # something finishing after the recording reads the result files (_child says)
+
     def __init__(self, base: Recording, conn):
         super().__init__(base.variables, [], None, every=base.every, steps=base.steps, block_rows=base.block_rows)
         self.conn = conn
@@ -129,10 +131,12 @@ class _ChildRecording(Recording):
         if self.header is not None:
             self.header[H_PHASE], self.header[H_COMPONENT], self.header[H_NATIVE] = 0, -1, -1
         info = super().finish(out_dir, outcome)
-        # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete
-        _send(self.conn, ("close",))
-        reply = self.conn.recv()
-        info.update(reply[1])
+        # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete; a run
+        # with nothing that finishes after the recording goes on (one hand-over between the processes fewer)
+        _send(self.conn, ("close", self.results_read_after))
+        if self.results_read_after:
+            reply = self.conn.recv()
+            info.update(reply[1])
         return info
 
     def sample(self, t):
@@ -336,6 +340,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
         ex.events = _SentEvents(conn)
         rec.algorithm = ex.algorithm
         rec._step_sent = None
+        rec.results_read_after = bool(ex.monitors or ex.extra_observers or ex.live_observers)
         ex.initialize()
         rec.send_names()
         ex.simulate_until()
@@ -442,19 +447,24 @@ class _Supervisor:
             self.header[:] = 0.0
             self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
+            # the child goes on initializing while the sinks open here (pyarrow.parquet imported, files created): on
+            # two cores neither waits for the other
+            conn.send(("shm", path))
             try:
                 self.group.open(self.schema)
-            except CosimError as exc:       # a disk full before the first row: the child is stopped
-                os.unlink(path)             # (the child, which unlinks it once mapped, never gets its name)
+            except CosimError as exc:       # a disk full before the first row: the child is stopped, no row kept
+                try:
+                    os.unlink(path)         # unless the child, which unlinks it once mapped, has already
+                except FileNotFoundError:
+                    pass
                 self.write_error = exc
                 self.stop("results could not be written", kill=True)
-                return
-            conn.send(("shm", path))
         elif kind == "close":
             self.finishing_started()
             self.group.close()
-            conn.send(("closed", {"rows": self.group.rows, **({"notes": self.group.notes} if self.group.notes
-                                                                  else {})}))
+            if msg[1]:          # the child waits for the files before its monitors read them
+                conn.send(("closed", {"rows": self.group.rows, **({"notes": self.group.notes} if self.group.notes
+                                                                      else {})}))
         elif kind == "names":
             self.names, self.step_lines = msg[1], msg[2]
         elif kind == "native_loop":

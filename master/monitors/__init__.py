@@ -8,9 +8,16 @@ stays generic. Monitors of other packages (the UAV study's, third parties') regi
 from __future__ import annotations
 
 from ..registry import Registry
+from ..ssp.connection_extrapolation import TYPE as EXTRAPOLATION_TYPE
+from ..ssp.power_bonds import POWER_BONDS_TYPE
+from ..ssp.settings_annotations import OUR_TYPE as SETTINGS_TYPE
 from .base import Monitor, MonitorContext
 
 MONITORS: Registry[type[Monitor]] = Registry("monitor", "cosim_master.monitors")
+
+#: the engine's own annotation types, which no monitor is switched on by: an SSD with no others (every SSP that
+#: ssp.writer writes has the settings annotation) is run without reading the installed packages' entry points
+ENGINE_ANNOTATIONS = frozenset({SETTINGS_TYPE, POWER_BONDS_TYPE, EXTRAPOLATION_TYPE})
 
 
 def register(annotation_type: str):
@@ -26,7 +33,7 @@ def monitors_for(model, plan, shown_as) -> list[Monitor]:
     be loaded is an error: the scenario must not run without it)."""
     found = []
     for typ, element in model.annotations.items():
-        cls = MONITORS.find(typ) if typ else None
+        cls = MONITORS.find(typ) if typ and typ not in ENGINE_ANNOTATIONS else None
         if cls is not None:
             if not getattr(cls, "annotation_type", ""):
                 cls.annotation_type = typ

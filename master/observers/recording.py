@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from ..arrow_numpy import from_numpy, from_objects
 from ..fmi.slave import OBJECT_FILL
 from ..plan import Var
 from ..sinks.group import SinkGroup
@@ -107,31 +108,24 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
     # one transposing copy, after which each column is contiguous and Arrow wraps it without another: a column
     # of the row-major block taken alone was a strided copy each (most of a wide table's cost here)
     columns = np.ascontiguousarray(block.T)
-    arrays = [_wrapped(columns[0], pa.float64())]
+    arrays = [from_numpy(columns[0])]
     j = 0
     for k, kind in enumerate(kinds):
         typ = fields[k].type
         if kind in OBJECT_FILL:
-            arrays.append(pa.array([r[j] for r in str_rows], type=typ))
+            arrays.append(from_objects([r[j] for r in str_rows], typ))
             j += 1
             continue
         col = columns[column_of[k]]
         if kind in BIT_STORED:      # UInt32 is kept in the Int64 buffer: its values narrowed to their width
-            arrays.append(_wrapped(col.view(np.dtype(kind.lower())).astype(typ.to_pandas_dtype(), copy=False), typ))
+            arrays.append(from_numpy(col.view(np.dtype(kind.lower())), typ))
         elif kind == "Integer":
-            arrays.append(_wrapped(col.astype(typ.to_pandas_dtype()), typ))
+            arrays.append(from_numpy(col, typ))
         elif kind == "Boolean":
-            arrays.append(pa.Array.from_buffers(typ, len(col), [None, pa.py_buffer(
-                np.packbits(col != 0, bitorder="little"))]))
+            arrays.append(from_numpy(col != 0, typ))
         else:
-            arrays.append(_wrapped(col, typ))
+            arrays.append(from_numpy(col, typ))
     return pa.Table.from_arrays(arrays, schema=schema)
-
-
-def _wrapped(values: np.ndarray, typ: pa.DataType) -> pa.Array:
-    """A contiguous numpy array as an Arrow array of ``typ`` (its own width), without a copy; ``pa.array`` of a
-    numpy array would import pandas (~0.5 s) to ask whether it is a Series."""
-    return pa.Array.from_buffers(typ, len(values), [None, pa.py_buffer(values)])
 
 
 class DeferredBlock:

@@ -21,6 +21,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import accel
+from ..arrow_numpy import to_numpy
 from ..native_build import compile_cached
 from .csv_text import format_rows
 
@@ -82,7 +83,7 @@ def _columns(block: pa.Table):
         kind = KINDS.get(col.type)
         if kind is None or col.null_count:
             return None
-        values = col.to_numpy(zero_copy_only=False)
+        values = to_numpy(col)
         if kind == KINDS[pa.bool_()]:
             values = values.view(np.uint8)
         arrays.append(np.ascontiguousarray(values))

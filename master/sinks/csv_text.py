@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import pyarrow as pa
 
+from ..arrow_numpy import to_numpy
+
 
 def csv_quote(s: str) -> str:
     if any(ch in s for ch in ',"\n'):
@@ -28,5 +30,5 @@ def _format(typ):
 
 def format_rows(block: pa.Table) -> str:
     """The CSV lines of ``block``'s rows (each ending in a newline): the reference."""
-    cols = [_format(col.type)(col.to_numpy(zero_copy_only=False)) for col in block.columns]
+    cols = [_format(col.type)(to_numpy(col)) for col in block.columns]
     return "".join(",".join(r) + "\n" for r in zip(*cols))

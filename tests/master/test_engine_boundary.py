@@ -7,7 +7,7 @@
 
    ====  ==========================================================================================================
    L0    foundations: errors, values, units, registry, yamlio, interrupts, _version, cache_paths, accel,
-         algorithm_options -- import nothing of master/ but each other
+         algorithm_options, arrow_numpy -- import nothing of master/ but each other
    L1    ssp/* (reading SSPs) | fmi/* (loading and calling FMUs) | native_build; ssp/ and fmi/ never import each
          other: what both need (the cache root, the file hash) is in cache_paths (L0)
    L2    plan/* (the SSD checked against the FMUs); ssp/writer (SSP authoring: it reads the FMUs' descriptions
@@ -186,6 +186,7 @@ LAYERS = {
     "master.errors": 0, "master.values": 0, "master.units": 0, "master.registry": 0, "master.yamlio": 0,
     "master.interrupts": 0, "master._version": 0, "master.cache_paths": 0, "master.accel": 0,
     "master.algorithm_options": 0,
+    "master.arrow_numpy": 0,
     # L1 reading the scenario | loading the FMUs
     "master.ssp": 1, "master.fmi": 1, "master.native_build": 1,
     # L2 the plan; SSP authoring

@@ -1,0 +1,137 @@
+"""Start-up: ``cosim-master run`` of a one-FMU SSP against ``fmpy simulate`` of the same FMU, alternating.
+
+    python bench/bench_startup.py                     # 10 rounds, Reference FMU Dahlquist (FMI 2.0), 100 steps of 0.1 s
+    python bench/bench_startup.py --rounds 20 --shared ../shared
+    python bench/bench_startup.py --before ../main    # another checkout's cosim-master too, in the same rounds
+
+The FMU is the Modelica Reference FMU Dahlquist (``shared/reference-fmus/fmi2``), run for 10 s in steps of 0.1 s
+by every tool; cosim-master runs it as a one-component SSP (written once, before timing, by
+``master.ssp.writer.SspBuilder``). Every round runs, in an order rotated from one round to the next so that a machine
+whose speed drifts affects all alike:
+
+- ``cosim-master run SSP --stop-time 10 --step 0.1 --record dahlquist.x -o DIR`` (supervised: the default; the
+  output fmpy records, an SSP without connections records nothing by default): results.parquet, results.csv,
+  run.json;
+- the same with ``--no-supervise``;
+- ``fmpy simulate FMU --stop-time 10 --output-interval 0.1 --output-file OUT.csv`` (fmpy extracts the FMU into a
+  temporary folder, simulates and writes one CSV).
+
+cosim-master is started as its console script is (``from master.cli import entry; sys.exit(entry())``) with
+``PYTHONPATH`` set to this checkout, and with ``--before DIR`` also to that one (the same interpreter and packages:
+only ``master`` differs). Each is a fresh process, timed from its start to its exit (wall clock) with the CPU time
+of the process and its children (``getrusage``). One warm-up round is not counted (Python's bytecode caches, the
+page cache, our FMU cache); the interpreter writes bytecode caches as it does for a user
+(``PYTHONDONTWRITEBYTECODE`` is removed from the children's environment). The table gives the median and best
+wall time, the median CPU time, and the median over the rounds of each command's wall time divided by fmpy's in
+the same round; the load average is printed before and after.
+Each command's result is checked: cosim-master's last x against fmpy's.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+STOP, STEP = 10.0, 0.1
+
+
+ENTRY = "import sys; from master.cli import entry; sys.exit(entry())"     # what the console script runs
+
+
+def _fmpy() -> list[str]:
+    """fmpy's console script beside this interpreter (as a user runs it), else its module."""
+    script = Path(sys.executable).parent / "fmpy"
+    return [str(script)] if script.is_file() else [sys.executable, "-m", "fmpy.cli"]
+
+
+def _timed(cmd: list[str], env: dict, cwd: Path) -> tuple[float, float]:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def _last(path: Path, column: str) -> float:
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return float(rows[-1][column])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=10, help="alternating rounds measured (default 10)")
+    ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared",
+                    help="the shared folder holding reference-fmus/ (default: ../shared from the checkout)")
+    ap.add_argument("--before", type=Path, default=None, metavar="DIR",
+                    help="another checkout whose cosim-master is measured too, alternating with this one")
+    args = ap.parse_args()
+    fmu = args.shared / "reference-fmus" / "fmi2" / "Dahlquist.fmu"
+    if not fmu.is_file():
+        raise SystemExit(f"{fmu}: not found (give --shared)")
+
+    from master.ssp.writer import SspBuilder
+    tmp = Path(tempfile.mkdtemp(prefix="bench-startup-"))
+    b = SspBuilder("dahlquist")
+    b.add_component("dahlquist", fmu)
+    ssp = b.write(tmp / "dahlquist.ssp")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    run = ["run", str(ssp), "--stop-time", f"{STOP:g}", "--step", f"{STEP:g}", "--record", "dahlquist.x"]
+    commands: dict[str, tuple[list[str], dict]] = {}
+    for label, tree in (("", ROOT),) + ((("before: ", args.before.resolve()),) if args.before else ()):
+        tree_env = dict(env, PYTHONPATH=str(tree))
+        cm = [sys.executable, "-c", ENTRY, *run]
+        out = tmp / (label.strip(": ") or "this")
+        commands[f"{label}cosim-master run (supervised)"] = ([*cm, "-o", str(out / "sup")], tree_env)
+        commands[f"{label}cosim-master run --no-supervise"] = ([*cm, "-o", str(out / "nosup"), "--no-supervise"],
+                                                               tree_env)
+    commands["fmpy simulate"] = ([*_fmpy(), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
+                                  f"{STEP:g}", "--output-file", str(tmp / "fmpy.csv")], env)
+    names = list(commands)
+    load_before = os.getloadavg()
+    for name in names:                               # warm-up, not counted
+        _timed(*commands[name], tmp)
+    want = _last(tmp / "fmpy.csv", "x")
+    for csv_file in tmp.glob("*/*/results.csv"):
+        got = _last(csv_file, "dahlquist.x")
+        if got != want:
+            raise SystemExit(f"{csv_file}: last x {got!r}, fmpy {want!r}")
+
+    wall: dict[str, list[float]] = {n: [] for n in names}
+    cpu: dict[str, list[float]] = {n: [] for n in names}
+    for r in range(args.rounds):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            w, c = _timed(*commands[name], tmp)
+            wall[name].append(w)
+            cpu[name].append(c)
+    load_after = os.getloadavg()
+    ref = wall["fmpy simulate"]
+
+    print(f"Dahlquist (FMI 2.0), {int(round(STOP / STEP))} steps of {STEP:g} s; {args.rounds} alternating rounds; "
+          f"load average {' '.join(f'{x:.2f}' for x in load_before)} before, "
+          f"{' '.join(f'{x:.2f}' for x in load_after)} after")
+    print()
+    print("| command | wall median (s) | wall best (s) | CPU median (s) | wall / fmpy's (median of rounds) |")
+    print("|---|---|---|---|---|")
+    for name in names:
+        ratio = statistics.median(w / f for w, f in zip(wall[name], ref))
+        print(f"| {name} | {statistics.median(wall[name]):.3f} | {min(wall[name]):.3f} | "
+              f"{statistics.median(cpu[name]):.3f} | {ratio:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
