@@ -143,10 +143,16 @@ class CooperativeStrategy(Strategy):
                 *CH.encode_mask(self.coop.known_visited.union(m.visited)))
 
     def quiet(self, t: float) -> bool:
-        """Nothing of C's can act in a step at t without a message: no avoidance under way, no neighbour due to be
-        declared lost (then B's step, or its compiled twin, is C's whole step)."""
+        """Nothing of C's can act in a step at t without a message: no avoidance under way (nor a conflict or an
+        imminent pass watched, which :meth:`step` re-assesses every step), no neighbour due to be declared lost
+        (then B's step, or its compiled twin, is C's whole step).  The one other thing :meth:`step` does without
+        a message, assessing when the first leg starts, comes with B's state change, which the compiled twin
+        leaves to this step."""
+        return not self._avoiding() and t < self.coop.next_expiry
+
+    def _avoiding(self) -> bool:
         c = self.coop
-        return c.layer == 0 and not c.holding and t < c.next_expiry
+        return bool(c.layer or c.holding or c.conflicts or c.imminent)
 
     # ------------------------------------------------------------------ the step
     def step(self, t, x, y, z, vx, vy, phase, consumed, command=None, messages=()):
@@ -158,12 +164,12 @@ class CooperativeStrategy(Strategy):
             self._allocate(t, x, y)
         was_flying = m.cmd == 2
         super().step(t, x, y, z, vx, vy, phase, consumed, command)
-        avoiding = c.layer or c.holding or c.conflicts or c.imminent
+        avoiding = self._avoiding()
         # on news, when the first leg starts, and every step while avoiding: a conflict whose partner falls silent
         # ends when its extrapolated path clears or after lost_timeout, not with the next message
         if c.neighbours and (heard or avoiding or (m.cmd == 2 and not was_flying)):
             self._assess(t, x, y, z, vx, vy)
-        if c.layer or c.holding or c.conflicts or c.imminent:
+        if self._avoiding():
             self._avoid(x, y, z)
 
     def hear(self, t: float, message: tuple) -> None:

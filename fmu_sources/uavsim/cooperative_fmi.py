@@ -92,7 +92,9 @@ def step(shell, model: CooperativeStrategy, t: float, h: float, fast_step) -> No
     messages = [tuple(d[n] for n in slot) for slot, sender in zip(SLOTS, _SENDERS) if d[sender] >= 0] \
         if d["m1_sender"] >= 0 else ()
     d["clock"] = t + h
-    if not messages and fast_step is not None and model.quiet(t) and \
+    # the compiled step publishes none of C's outputs: the first step (no broadcast key yet) is Python's, which
+    # publishes the claims, visited and counts; later quiet steps change none of them
+    if not messages and fast_step is not None and "_broadcast_key" in d and model.quiet(t) and \
             fast_step(model.step_constants, model.mission, d):
         # nothing happened (no arrival, no new leg): the claims and counts are as they were, the intent is the
         # setpoint once flying (before that the first target)
