@@ -1,0 +1,54 @@
+"""``cosim-master`` run in the test process: ``master.cli.main(argv)`` with its exit status, stdout and stderr, as
+``subprocess.run`` would give them, without a new interpreter importing the program again (most of a short
+command's CPU). For tests of what the command says and decides; a test of the process itself (signals, exit by
+a signal, what a real program prints when it dies, tracebacks of an uncaught error) keeps the subprocess.
+
+The command runs in ``cwd`` (given back afterwards) and its changes to the process are undone: the signal
+handlers it installs, and the handler it puts on the engine's logger (which would hide the engine's warnings
+from later tests' ``caplog``). A supervised ``run`` still simulates in a forked child, as the program does.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import logging
+import os
+import signal
+from dataclasses import dataclass
+from pathlib import Path
+
+_SIGNALS = [s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGXFSZ", None)) if s is not None]
+
+
+@dataclass
+class CliResult:
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def run_cli(args, cwd=None) -> CliResult:
+    from master.cli import main
+
+    argv = [str(a) for a in args]
+    log = logging.getLogger("cosim_master")
+    saved_log = (list(log.handlers), log.level, log.propagate)
+    saved_signals = {s: signal.getsignal(s) for s in _SIGNALS}
+    here = os.getcwd()
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        if cwd is not None:
+            os.chdir(Path(cwd))
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(argv)
+            except SystemExit as exc:       # argparse: usage errors (2), --help and --version (0)
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        os.chdir(here)
+        for s, handler in saved_signals.items():
+            signal.signal(s, handler)
+        log.handlers[:] = saved_log[0]
+        log.setLevel(saved_log[1])
+        log.propagate = saved_log[2]
+    return CliResult(int(code or 0), out.getvalue(), err.getvalue())
