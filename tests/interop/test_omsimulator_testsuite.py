@@ -37,6 +37,7 @@ import pandas as pd
 import pytest
 
 import master
+from cli_in_process import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 OMS = Path(os.environ.get("COSIM_OMSIMULATOR", REPO.parent / "shared" / "omsimulator"))
@@ -160,8 +161,7 @@ def test_embrace_parameter_set_with_values_the_mapping_does_not_cover(tmp_path, 
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "master.cli", "run", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=600)
+    return run_cli(["run", *args], cwd)     # in this process (a supervised run still simulates in a child)
 
 
 def test_the_command_line_runs_them(tmp_path):
