@@ -3,7 +3,6 @@ values set in one update per slave and type (``Slave.values_setter``), in-proces
 and what one run leaves for the next in the same process (the step code shared by the runs of one structure)."""
 from pathlib import Path
 
-import pytest
 
 import master
 from master.execution import Execution
