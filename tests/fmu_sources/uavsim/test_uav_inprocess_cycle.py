@@ -41,6 +41,7 @@ def test_cycle_runs_and_counts_like_the_binaries(tmp_path, binaries):
     assert used and all(used)                 # every UAV FMU took the shortcut
     assert a.frame.equals(binaries[0])
     assert _calls(tmp_path / "a") == binaries[1]
+    assert a.frame["uav1_dyn.z"].max() > 5.0          # the vehicles flew: the inputs really reached them
 
 
 def _failing_set(monkeypatch, component, transient):
