@@ -5,7 +5,8 @@ a signal, what a real program prints when it dies, tracebacks of an uncaught err
 
 The command runs in ``cwd`` (given back afterwards) and its changes to the process are undone: the signal
 handlers it installs, and the handler it puts on the engine's logger (which would hide the engine's warnings
-from later tests' ``caplog``). A supervised ``run`` still simulates in a forked child, as the program does; the
+from later tests' ``caplog``); the logger starts without handlers, as in a new process, so that its warnings
+reach this command's stderr. A supervised ``run`` still simulates in a forked child, as the program does; the
 output is taken at the file descriptors (1 and 2, and ``sys.stdout``/``sys.stderr`` on them, line-buffered), so
 what that child or an FMU's C code writes is in ``stdout``/``stderr`` as it would be from the program
 (append mode: writers sharing the file never overwrite each other).
@@ -48,6 +49,9 @@ def run_cli(args, cwd=None) -> CliResult:
             os.dup2(err.fileno(), 2)
             if cwd is not None:
                 os.chdir(Path(cwd))
+            # as in a new process: the command puts its own handler on the engine's logger, writing to this
+            # stderr (a handler an earlier in-process command left would write to that command's stderr)
+            log.handlers[:] = []
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
                 try:
                     code = main(argv)
