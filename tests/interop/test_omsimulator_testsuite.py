@@ -40,6 +40,7 @@ import pandas as pd
 import pytest
 
 import master
+from cli_in_process import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 OMS = Path(os.environ.get("COSIM_OMSIMULATOR", REPO.parent / "shared" / "omsimulator"))
@@ -212,8 +213,7 @@ def _connected_inputs(name: str) -> list:
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "master.cli", "run", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=600)
+    return run_cli(["run", *args], cwd)     # in this process (a supervised run still simulates in a child)
 
 
 def test_the_command_line_runs_them(tmp_path):

@@ -14,6 +14,7 @@ import pytest
 import master
 from master.errors import CosimError, FmuError, ScenarioError
 
+from cli_in_process import run_cli
 from ssd_text import component, connection, connector, experiment, inline_params, settings, ssd, write_folder, zip_folder
 
 CLI = [sys.executable, "-m", "master.cli"]
@@ -38,9 +39,14 @@ def _two(tmp_path, test_fmus, src_conn=None, dst_conn=None, conns=None):
                                                 "Gain.fmu": test_fmus["c2:Gain"]})
 
 
-def _cli(args, cwd):
+def _cli_process(args, cwd):
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
     return subprocess.run(CLI + args, capture_output=True, text=True, cwd=cwd, env=env, timeout=120)
+
+
+def _cli(args, cwd):
+    """The command's messages and exit status, in this process (the program's own process: _cli_process)."""
+    return run_cli(args, cwd)
 
 
 def _one_line(msg: str):
@@ -179,7 +185,7 @@ def test_fmu_failing_a_step_keeps_results(tmp_path, test_fmus, kind, mode, statu
 def test_cli_error_is_one_line_without_traceback(tmp_path, test_fmus):
     folder = write_folder(tmp_path / "s", _faulty_ssd(1), {"Faulty.fmu": test_fmus["c2:Faulty"],
                                                             "Gain.fmu": test_fmus["c2:Gain"]})
-    res = _cli(["run", str(folder), "--output", str(tmp_path / "out")], tmp_path)
+    res = _cli_process(["run", str(folder), "--output", str(tmp_path / "out")], tmp_path)
     assert res.returncode == 1
     lines = res.stderr.strip().splitlines()
     # the FMU's own log line (shown per component at the default level) comes first, then the error
@@ -188,7 +194,7 @@ def test_cli_error_is_one_line_without_traceback(tmp_path, test_fmus):
     assert len(err) == 1 and err[0].startswith("cosim-master: error: ") and "Traceback" not in res.stderr
     assert "component f" in err[0] and "t=0.5" in err[0]
     assert (tmp_path / "out" / "results.csv").read_text().count("\n") == 7   # header + 6 rows
-    res = _cli(["run", str(folder), "--output", str(tmp_path / "out2"), "--debug"], tmp_path)
+    res = _cli_process(["run", str(folder), "--output", str(tmp_path / "out2"), "--debug"], tmp_path)
     assert res.returncode != 0 and "Traceback" in res.stderr
 
 

@@ -1,9 +1,6 @@
 """A bare .fmu runs and inspects like an SSP of one component (FMPy, OMSimulator and libcosim's ``cosim
 run-single`` run one FMU directly): its default experiment, ``--input``, ``--param``, ``--record``, ``-o``."""
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,15 +8,14 @@ import pandas as pd
 import pytest
 
 import master
+from cli_in_process import run_cli
 
 REFERENCE = Path(__file__).resolve().parents[2].parent / "shared" / "reference-fmus"
-CLI = [sys.executable, "-m", "master.cli"]
 
 
 def _cli(args, cwd):
-    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    return subprocess.run(CLI + [str(a) for a in args], capture_output=True, text=True, cwd=cwd, env=env,
-                          timeout=120)
+    """The command in this process (tests/cli_in_process.py): what it says and writes is what is checked here."""
+    return run_cli(args, cwd)
 
 
 def _reference(name: str) -> Path:

@@ -17,6 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
+from cli_in_process import run_cli
 from master.errors import CosimError
 from master.ssp.writer import SspBuilder
 
@@ -175,8 +176,7 @@ def small_disk(tmp_path):
 def test_a_full_disk_keeps_readable_and_equal_results(tmp_path, test_fmus, small_disk, supervised):
     ssp = _long_chain(tmp_path, test_fmus, stop=20.0)        # ~10 MB of CSV: does not fit in 6 MB
     out = small_disk / "out"
-    args = CLI + ["run", str(ssp), "-o", str(out)] + ([] if supervised else ["--no-supervise"])
-    r = subprocess.run(args, capture_output=True, text=True, env=_env(), timeout=300)
+    r = run_cli(["run", str(ssp), "-o", str(out)] + ([] if supervised else ["--no-supervise"]))   # in-process
     assert r.returncode == 1
     line = _one_line(r.stderr)
     assert "disk full while writing" in line and "component" not in line, line
@@ -198,9 +198,8 @@ def test_a_disk_full_from_the_start_is_one_line(tmp_path, test_fmus, small_disk,
         except OSError:
             pass
     out = small_disk / "out"
-    args = CLI + ["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(out)] + ([] if supervised else
-                                                                                   ["--no-supervise"])
-    r = subprocess.run(args, capture_output=True, text=True, env=_env(), timeout=120)
+    r = run_cli(["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(out)] + ([] if supervised else
+                                                                                ["--no-supervise"]))
     assert r.returncode == 1
     line = _one_line(r.stderr)
     assert "results: disk full while writing" in line and "component" not in line, line
@@ -297,8 +296,7 @@ def test_an_output_path_that_is_a_file_is_one_line(tmp_path, test_fmus):
     target = tmp_path / "taken"
     target.write_text("mine")
     for extra in ([], ["--no-supervise"]):
-        r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(target)] + extra,
-                           capture_output=True, text=True, env=_env(), timeout=120)
+        r = run_cli(["run", str(_faulty(tmp_path, test_fmus, 0)), "-o", str(target)] + extra)     # in-process
         assert r.returncode == 1
         assert "the output folder is a file, not a folder" in _one_line(r.stderr)
         assert target.read_text() == "mine"

@@ -12,17 +12,19 @@ from pathlib import Path
 import pytest
 
 import master
+from cli_in_process import run_cli
 
 
 def _run(args, cwd, stderr_tty: bool) -> tuple[int, str]:
-    """The CLI run in a subprocess with its stderr a pseudo-terminal (of 24 x 100 characters: a fresh pty has no
-    size, and a bar fits in none) or a pipe; returns the exit code and what reached stderr."""
+    """The CLI run with its stderr a pseudo-terminal (in a subprocess; of 24 x 100 characters: a fresh pty has no
+    size, and a bar fits in none) or not a terminal (in this process, its stderr a file: what the command asks,
+    isatty(), is false for a pipe and a log file alike); returns the exit code and what reached stderr."""
+    if not stderr_tty:
+        r = run_cli(args, cwd)
+        return r.returncode, r.stderr
     cmd = [sys.executable, "-m", "master.cli", *map(str, args)]
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
     env.pop("COLUMNS", None)
-    if not stderr_tty:
-        r = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, timeout=120)
-        return r.returncode, r.stderr.decode(errors="replace")
     parent, child = pty.openpty()
     fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
     p = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=child)

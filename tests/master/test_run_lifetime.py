@@ -16,6 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
+from cli_in_process import run_cli
 
 CLI = [sys.executable, "-m", "master.cli"]
 REPO = Path(master.__file__).parents[1]
@@ -216,8 +217,8 @@ def test_a_second_ctrl_c_while_the_products_are_written_still_ends_the_run(tmp_p
 
 # -- the output folder: a rerun keeps the earlier run until it has results; one line for a folder it cannot use ----
 def _short(out, *extra):
-    return subprocess.run(CLI + ["run", str(OSCILLATOR), "--stop-time", "1", "-o", str(out), *extra],
-                          capture_output=True, text=True, env=_env(), timeout=120)
+    """A short run, through the command in this process: what it does with its output folder is the subject."""
+    return run_cli(["run", str(OSCILLATOR), "--stop-time", "1", "-o", str(out), *extra])
 
 
 def _one_line(r) -> str:
@@ -291,9 +292,7 @@ def test_a_read_only_output_folder_is_one_line(read_only_folder):
         for extra in ([], ["--no-supervise"]):
             line = _one_line(_short(out, *extra))
             assert str(out) in line and "Read-only file system" in line, line
-        r = subprocess.run(CLI + ["campaign", str(campaign), "-o", str(out), "--no-progress"], capture_output=True,
-                           text=True, env=_env(), timeout=120)
-        line = _one_line(r)
+        line = _one_line(run_cli(["campaign", str(campaign), "-o", str(out), "--no-progress"]))
         assert str(out) in line and "Read-only file system" in line, line
 
 

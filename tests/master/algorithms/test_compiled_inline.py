@@ -21,7 +21,10 @@ def _run(tmp_path, name, **kw):
     return res.frame, json.loads((tmp_path / name / "run.json").read_text())["fmu_calls"]
 
 
-@pytest.mark.parametrize("algorithm, multiples", [("jacobi", None), ("jacobi", {"uav2_strat": 2, "wind": 3}),
+# Jacobi without step multiples (the SSD's own algorithm) is the same pair of runs as
+# tests/fmu_sources/uavsim/test_uav_inprocess_cycle.py::test_cycle_runs_and_counts_like_the_binaries, which
+# asserts all three of these checks on it
+@pytest.mark.parametrize("algorithm, multiples", [("jacobi", {"uav2_strat": 2, "wind": 3}),
                                                   ("gauss-seidel", None), ("gauss-seidel", {"uav1_bat": 2})])
 def test_inline_step_equals_the_binaries(tmp_path, algorithm, multiples):
     a, calls_a = _run(tmp_path, "a", algorithm=algorithm, step_multiples=multiples, inprocess=True)

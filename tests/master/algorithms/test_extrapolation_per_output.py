@@ -1,14 +1,13 @@
 """Per-output extrapolation orders and Gauss-Seidel interpolation of known inputs, on the two-mass oscillator
 (C FMUs MassA/MassB) against its closed form. docs/coupling.md derives the expected orders."""
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
 
 import master
+from cli_in_process import run_cli
 from master.algorithms.gs_interpolation import interpolation_weights
 from master.ssp.writer import SspBuilder
 
@@ -76,9 +75,9 @@ def test_ssd_annotation_cli_and_api_give_the_same_run(tmp_path, masses):
     mixed = master.run(annotated, output=None, record=["*"], extrapolation_for={"B.F": 0})
     assert mixed.metadata["algorithm_info"]["extrapolation"]["per_output"] == {"A.x": 1, "B.F": 0}
     out = tmp_path / "cli"
-    subprocess.run([sys.executable, "-m", "master.cli", "run", str(plain), "--output", str(out), "--record", "*",
-                    "--extrapolate", "A.x=1", "--extrapolate", "B.F=2", "--no-supervise"], check=True,
-                   capture_output=True, text=True)
+    r = run_cli(["run", str(plain), "--output", str(out), "--record", "*", "--extrapolate", "A.x=1", "--extrapolate",
+                 "B.F=2", "--no-supervise"])
+    assert r.returncode == 0, r.stderr
     cli = pd.read_parquet(out / "results.parquet")
     np.testing.assert_array_equal(cli[list(api.frame.columns)].to_numpy(), api.frame.to_numpy())
     run_json = json.loads((out / "run.json").read_text())
@@ -102,8 +101,8 @@ def test_bad_per_output_settings_are_one_line_errors(tmp_path, masses, options, 
 
 
 def test_bad_order_on_the_command_line_is_one_line(tmp_path, masses):
-    p = subprocess.run([sys.executable, "-m", "master.cli", "run", str(_osc(tmp_path, masses, 0.1)), "--output",
-                        str(tmp_path / "out"), "--extrapolate", "A.x=one"], capture_output=True, text=True)
+    p = run_cli(["run", str(_osc(tmp_path, masses, 0.1)), "--output", str(tmp_path / "out"), "--extrapolate",
+                 "A.x=one"])
     assert p.returncode != 0 and "Traceback" not in p.stderr
     assert p.stderr.strip() == "cosim-master: error: --extrapolate A.x: the order must be 0, 1 or 2, got 'one'"
 

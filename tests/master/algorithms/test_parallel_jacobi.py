@@ -7,16 +7,14 @@ and the doSteps really overlap, seen from the FMUs' own clock readings (Faulty m
 doStep started and ended)."""
 import json
 import re
-import subprocess
-import sys
 
 import pytest
 
 import master
+from cli_in_process import run_cli
 from master.errors import CosimError
 from master.ssp.writer import SspBuilder
 
-CLI = [sys.executable, "-m", "master.cli"]
 
 
 def _oscillator(tmp_path, test_fmus, step=0.01, stop=5.0):
@@ -111,8 +109,7 @@ def test_a_terminate_request_in_a_thread_ends_the_run_after_the_step_as_sequenti
 
 def test_the_cli_reports_a_failing_thread_in_one_line(tmp_path, test_fmus):
     ssp = _two_faulty(tmp_path, test_fmus, (1, 1), (0.5, 0.5))
-    r = subprocess.run(CLI + ["run", str(ssp), "-o", str(tmp_path / "o"), "--threads", "2"], capture_output=True,
-                       text=True, timeout=120)
+    r = run_cli(["run", str(ssp), "-o", str(tmp_path / "o"), "--threads", "2"])
     lines = [ln for ln in r.stderr.strip().splitlines() if ln.startswith("cosim-master:")]
     assert r.returncode == 1 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
     assert "component f1" in lines[0] and "t=0.5" in lines[0], lines[0]
@@ -162,8 +159,7 @@ def test_bad_threads_values_are_one_line_errors(tmp_path, test_fmus, kw, element
 
 
 def test_bad_threads_on_the_command_line_is_one_line(tmp_path, test_fmus):
-    r = subprocess.run(CLI + ["run", str(_oscillator(tmp_path, test_fmus)), "-o", str(tmp_path / "o"), "--threads",
-                              "0"], capture_output=True, text=True, timeout=120)
+    r = run_cli(["run", str(_oscillator(tmp_path, test_fmus)), "-o", str(tmp_path / "o"), "--threads", "0"])
     lines = [ln for ln in r.stderr.strip().splitlines() if ln.startswith("cosim-master:")]
     assert r.returncode != 0 and len(lines) == 1 and "--threads" in lines[0] and "Traceback" not in r.stderr
 

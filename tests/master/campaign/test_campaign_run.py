@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from campaign_helpers import write_chain_ssp
+from cli_in_process import run_cli
 from master.campaign.runner import run_campaign
 from master.campaign.spec import load_campaign, seed_for
 
@@ -106,20 +107,21 @@ def test_resume_after_max_runs_gives_the_same_table(reference, tmp_path, chain_f
     camp = write_campaign(tmp_path)
     out = tmp_path / "out"
     from master.cli import main
+    # one worker (the count has its own test; each spawned worker imports the engine anew)
     # the command line's --max-runs / --retry-failed are run_campaign's max_runs / retry_failed
-    assert main(["campaign", str(camp), "-o", str(out), "--workers", "2", "--no-progress", "--max-runs", "3"]) == 1
+    assert main(["campaign", str(camp), "-o", str(out), "--workers", "1", "--no-progress", "--max-runs", "3"]) == 1
     assert len(table(out)) == 3
-    s2 = run_campaign(camp, output=out, workers=2, progress=False)
+    s2 = run_campaign(camp, output=out, workers=1, progress=False)
     assert (s2.skipped, s2.ran_now, s2.pending) == (3, 7, 0)
     same_tables(table(out), table(d / "out"))
-    s3 = run_campaign(camp, output=out, workers=2, progress=False)
+    s3 = run_campaign(camp, output=out, workers=1, progress=False)
     assert (s3.skipped, s3.ran_now) == (10, 0)
     same_tables(table(out), table(d / "out"))
     # failed runs are finished runs; retry_failed runs them again (and they fail the same way)
-    s4 = run_campaign(camp, output=out, workers=2, progress=False, retry_failed=True)
+    s4 = run_campaign(camp, output=out, workers=1, progress=False, retry_failed=True)
     assert (s4.skipped, s4.ran_now, s4.failed) == (6, 4, 4)
     same_tables(table(out), table(d / "out"))
-    assert main(["campaign", str(camp), "-o", str(out), "--workers", "2", "--no-progress", "--retry-failed",
+    assert main(["campaign", str(camp), "-o", str(out), "--workers", "1", "--no-progress", "--retry-failed",
                  "--max-runs", "1"]) == 1
     same_tables(table(out), table(d / "out"))
 
@@ -218,8 +220,7 @@ def test_another_campaign_is_not_written_into_a_campaign_folder(tmp_path, chain_
     other = tmp_path / "other.yaml"
     other.write_text(first.read_text().replace("name: slow", "name: another"))
     from master.cli import main
-    r = subprocess.run([sys.executable, "-m", "master.cli", "campaign", str(other), "-o", str(out), "--no-progress"],
-                       env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True, timeout=120)
+    r = run_cli(["campaign", str(other), "-o", str(out), "--no-progress"])     # the command, in this process
     assert r.returncode == 1 and r.stderr.strip() == (
         f"cosim-master: error: {out}: --output: the folder holds the campaign 'slow', not 'another': give another "
         "-o DIR (or remove the folder to start anew)"), r.stderr
@@ -234,18 +235,20 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch)
     without_failing_runs = CAMPAIGN[:CAMPAIGN.index("runs:\n")] + CAMPAIGN[CAMPAIGN.index("run:\n"):]
     camp = write_campaign(tmp_path, without_failing_runs)
     out = tmp_path / "out"
-    s = run_campaign(camp, output=out, workers=2, progress=False)
+    # one worker process each time (the worker count is test_one_worker_gives_the_same_table's; staleness is
+    # decided before any worker runs): each spawned worker imports the engine anew
+    s = run_campaign(camp, output=out, workers=1, progress=False)
     assert s.ok and s.total == 6
     before = table(out)
     # same parameters, different scenario file (another default of an unrelated parameter)
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus, k=7.0)
-    s = run_campaign(camp, output=out, workers=2, progress=False, max_runs=2)
+    s = run_campaign(camp, output=out, workers=1, progress=False, max_runs=2)
     assert s.stale == 6 and s.ran_now == 2 and s.pending == 4
     assert s.stale_reasons == {"scenario file chain.ssp changed": 6}
     assert "stale" in s.describe() and "chain.ssp changed" in s.describe()
     # stale records are not mixed into the table
     assert len(table(out)) == 2
-    s = run_campaign(camp, output=out, workers=2, progress=False)
+    s = run_campaign(camp, output=out, workers=1, progress=False)
     assert s.ok and s.stale == 4 and s.ran_now == 4
     after = table(out)
     assert (after["scenario_sha256"] != before["scenario_sha256"]).all()
@@ -253,7 +256,7 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch)
     # the master's (or uavsim's) code is an input too: after an upgrade the records are stale
     import master.campaign.identity as identity
     monkeypatch.setattr(identity, "_code_sha", "0" * 64)
-    s = run_campaign(camp, output=out, workers=2, progress=False, max_runs=0)
+    s = run_campaign(camp, output=out, workers=1, progress=False, max_runs=0)
     assert s.stale == 6 and s.stale_reasons == {"cosim-master's code changed": 6}
 
 

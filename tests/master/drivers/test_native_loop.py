@@ -166,20 +166,17 @@ def test_cli_switch_recorded(tmp_path, test_fmus):
     """--no-native-loop turns it off, supervised (the CLI's default) or not; a supervised run uses the loop
     (tests/master/drivers/test_native_loop_supervised.py: crashes in it)."""
     import json
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
+
+    from cli_in_process import run_cli
     ssp = _chain(tmp_path, test_fmus, n=2, stop=0.5)
-    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
     cases = ((["--no-supervise"], {"used": True, "steps": 5}),
              (["--no-supervise", "--no-native-loop"], {"used": False, "reason": "switched off"}),
              ([], {"used": True, "steps": 5}),
              (["--no-native-loop"], {"used": False, "reason": "switched off"}))
     for k, (flags, expected) in enumerate(cases):
         out = tmp_path / f"out{k}"
-        subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), *flags], check=True,
-                       env=env, capture_output=True)
+        r = run_cli(["run", str(ssp), "-o", str(out), *flags])        # in-process: the switch is the subject
+        assert r.returncode == 0, r.stderr
         assert json.loads((out / "run.json").read_text())["native_loop"] == expected
 
 

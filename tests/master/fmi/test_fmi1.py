@@ -1,7 +1,5 @@
 """FMI 1.0 co-simulation FMUs as components: the test FMUs c1:* are built from the same model files as their
 FMI 2.0 twins (tests/fmus_c/fmi1_framework.c), so a system gives the same values whichever version runs it."""
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -9,6 +7,7 @@ from fmpy.validation import validate_fmu
 
 import fmu_factory
 import master
+from cli_in_process import run_cli
 from master.errors import CosimError, ScenarioError
 from master.fmi.cache import load_fmu
 from master.fmi.factory import choose_kind, slave_class
@@ -93,8 +92,7 @@ def test_parameter_from_the_ssd_and_the_command_line(tmp_path, test_fmus):
     # the SSD sets I1.x0 = 1; G.y = k I1.y with the command line's k at the start
     assert df["I1.y"].iloc[0] == 1.0 and df["G.y"].iloc[0] == 3.0
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), "--param", "G.k=3"],
-                       capture_output=True, text=True, timeout=120)
+    r = run_cli(["run", str(ssp), "-o", str(out), "--param", "G.k=3"])
     assert r.returncode == 0, r.stderr
 
 

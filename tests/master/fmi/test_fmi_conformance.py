@@ -3,9 +3,6 @@ Modelica Reference FMUs' own results (``ref/*.csv``), hand computations, and the
 standard allows (our C framework logs "illegal call sequence" for any other)."""
 import json
 import logging
-import os
-import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -15,6 +12,7 @@ import pytest
 from lxml import etree
 
 import master
+from cli_in_process import run_cli
 from master.errors import FmuError, ScenarioError
 from master.manipulators import Manipulator
 from master.ssp.writer import SspBuilder
@@ -252,9 +250,7 @@ def test_lenient_reads_a_duplicate_variable_name_with_a_warning(tmp_path, test_f
 
 
 def _cli(args):
-    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    return subprocess.run([sys.executable, "-m", "master.cli"] + args, capture_output=True, text=True,
-                          timeout=120, env=env)
+    return run_cli(args)        # in this process: the choice is the subject here, not the program's process
 
 
 def test_the_command_line_chooses_the_implementation(tmp_path, reference_fmus):

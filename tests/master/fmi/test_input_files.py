@@ -3,10 +3,6 @@ FMI cross-check ``_in.csv`` format). Expectations are the FMI cross-check rules,
 a continuous Real input interpolates linearly between rows, any other holds the last row at or before t; before
 the first row the first value, after the last the last."""
 import csv
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,6 +10,7 @@ import pytest
 
 import fmu_factory
 import master
+from cli_in_process import run_cli
 from fmu_factory import CModel, Var
 from master.cli import main
 from master.errors import ScenarioError
@@ -121,10 +118,9 @@ def test_lenient_ignores_the_columns_that_name_no_input_and_says_which(tmp_path,
     """The one Feedthrough_in.csv of the Reference FMUs drives the FMI 2.0 Feedthrough too (from the command line:
     the warning reaches the terminal of a supervised run)."""
     out = tmp_path / "out"
-    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    r = subprocess.run([sys.executable, "-m", "master.cli", "run", str(_feedthrough_ssp(tmp_path, reference_fmus, "fmi2")),
-                        "-o", str(out), "--input", str(reference_fmus / "ref" / "Feedthrough_in.csv"), "--lenient",
-                        "--record", "m.Int32_output"], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    r = run_cli(["run", str(_feedthrough_ssp(tmp_path, reference_fmus, "fmi2")), "-o", str(out), "--input",
+                 str(reference_fmus / "ref" / "Feedthrough_in.csv"), "--lenient", "--record", "m.Int32_output"],
+                cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "ignoring columns Int8_input, UInt8_input, Int16_input, UInt16_input, UInt32_input, Int64_input, " \
            "UInt64_input" in r.stderr

@@ -2,9 +2,6 @@
 against fmpy, and the solvers (CVode BDF and Adams, forward Euler) against closed forms of Dahlquist's
 x' = -k x. Every expectation is computed here, independently of the master."""
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +9,7 @@ import pandas as pd
 import pytest
 
 import master
+from cli_in_process import run_cli
 from master.errors import CosimError
 from master.ssp.writer import SspBuilder
 
@@ -232,11 +230,9 @@ def test_solver_options_are_checked_before_the_run(tmp_path, options, message, r
 
 def test_the_command_line_chooses_the_solver(tmp_path, reference_fmus):
     out = tmp_path / "out"
-    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
     ssp = _dahlquist(tmp_path, reference_fmus)
-    r = subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out), "--implementation",
-                        "m=me", "--solver", "euler", "--solver-step", "0.25"],
-                       capture_output=True, text=True, timeout=120, env=env)
+    r = run_cli(["run", str(ssp), "-o", str(out), "--implementation", "m=me", "--solver", "euler",
+                 "--solver-step", "0.25"])
     assert r.returncode == 0, r.stderr
     stats = json.loads((out / "run.json").read_text())["solvers"]["m"]     # the supervised run's run.json
     assert (stats["solver"], stats["internal_step"], stats["steps"]) == ("euler", 0.25, 20)

@@ -16,6 +16,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
+from cli_in_process import run_cli
 from master.errors import CosimError
 from master.runner import run
 
@@ -32,8 +33,9 @@ def free_port(kind=socket.SOCK_DGRAM) -> int:
     return port
 
 
-def cli(*args, timeout=120):
-    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+def cli(*args):
+    """``cosim-master run SSP ARGS`` in this process (tests/cli_in_process.py): its messages and outputs are checked."""
+    return run_cli(["run", str(SSP), *args], cwd=ROOT)
 
 
 def test_paced_streamed_run_is_bit_identical_to_a_plain_one(tmp_path):
