@@ -288,16 +288,27 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _show_warnings() -> None:
-    """The engine's warnings (logger 'cosim_master') as 'cosim-master: warning: ...' lines on stderr."""
+def _show_warnings():
+    """The engine's warnings (logger 'cosim_master') as 'cosim-master: warning: ...' lines on stderr, until the
+    returned function puts the logger back: ``main`` may be called again in one process (a notebook, a test), and
+    a handler left behind would write to the stderr of an earlier call and keep the warnings from the caller's
+    own logging."""
     import logging
     log = logging.getLogger("cosim_master")
-    if not log.handlers:
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(logging.Formatter("cosim-master: %(levelname)s: %(message)s"))
-        log.addHandler(handler)
-        log.setLevel(logging.WARNING)
-        log.propagate = False
+    if log.handlers:        # the caller set up the engine's logging: it stays theirs
+        return lambda: None
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("cosim-master: %(levelname)s: %(message)s"))
+    level, propagate = log.level, log.propagate
+    log.addHandler(handler)
+    log.setLevel(logging.WARNING)
+    log.propagate = False
+
+    def restore():
+        log.removeHandler(handler)
+        log.setLevel(level)
+        log.propagate = propagate
+    return restore
 
 
 def entry() -> int:
@@ -326,7 +337,7 @@ def main(argv=None, *, own_process: bool = False) -> int:
     """The command line ``argv``; ``own_process``: this process is the command's alone (``entry``), see
     ``_import_command``."""
     args = _parser().parse_args(argv)
-    _show_warnings()
+    restore_logging = _show_warnings()
     try:
         _import_command(args.command, own_process)
         return _dispatch(args)
@@ -341,6 +352,8 @@ def main(argv=None, *, own_process: bool = False) -> int:
         print(f"cosim-master: {'stopped by SIGTERM' if term else 'interrupted'}"
               + ("; the same command resumes the campaign" if args.command == "campaign" else ""), file=sys.stderr)
         return 143 if term else 130
+    finally:
+        restore_logging()
 
 
 #: the modules a command imports before it starts work: a Ctrl-C while they load exits at once (entry())

@@ -8,7 +8,7 @@ import master.cli as cli
 
 def test_late_interrupts_are_ignored_once_the_exit_code_is_decided(monkeypatch):
     before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    monkeypatch.setattr(cli, "main", lambda argv=None: 0)
+    monkeypatch.setattr(cli, "main", lambda argv=None, **options: 0)
     try:
         assert cli.entry() == 0
         assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN

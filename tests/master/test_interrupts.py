@@ -123,7 +123,8 @@ def test_an_interrupt_while_the_program_starts_is_one_line(tmp_path, test_fmus, 
 
     import master
     from master.ssp.writer import SspBuilder
-    b = SspBuilder("long", stop=40.0, step=1e-4)
+    # long enough to be running at the last delay on any machine: a faster start-up finished 40 s in under 0.8 s
+    b = SspBuilder("long", stop=1000.0, step=1e-4)
     b.add_component("I1", test_fmus["c2:Integrator"], params={"a": 0.0, "x0": 1.0})
     b.add_component("I2", test_fmus["c2:Integrator"], params={"a": -0.01, "x0": 0.0})
     b.connect("I1", "y", "I2", "u")
