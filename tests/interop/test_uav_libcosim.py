@@ -48,12 +48,11 @@ import yaml
 
 import master
 from uavstudy.build import build_scenario, default_fmu_dir
-from uavsim.geodesy import geodetic_from_enu
+from uav_places import BASE, latlon
 
 TESTS = Path(__file__).resolve().parents[1]
 FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu"]
 ATOL = 1e-9
-BASE = (-7.275, -35.965, 540.0)
 STOP = 100.0        # s: the mission (5 s preflight, 3 targets 40-57 m away, landing) ends at ~75 s
 
 VARS = [("uav1_dyn", "x"), ("uav1_dyn", "y"), ("uav1_dyn", "z"), ("uav1_bat", "soc"), ("uav1_strat", "cmd"),
@@ -102,10 +101,6 @@ def _assert_same_values(ours: pd.DataFrame, theirs: pd.DataFrame, variables=VARS
 @pytest.fixture(scope="module")
 def one_uav_ssp(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("libcosim_uav")
-
-    def latlon(e, n):
-        lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-        return [round(float(lat), 8), round(float(lon), 8)]
 
     scenario = {"name": "libcosim_one_uav", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 1,
                 "strategy": "B", "targets": [latlon(0, 40), latlon(40, 40), latlon(40, 0)],

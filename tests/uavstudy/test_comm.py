@@ -9,20 +9,14 @@ import yaml
 from lxml import etree
 from master.errors import ScenarioError
 from master.runner import run
-from uavsim.geodesy import geodetic_from_enu
 from uavstudy.build import CHANNEL, build_scenario, default_fmu_dir
 from uavstudy.comm_monitor import COMM_TYPE
 from uavstudy.scenario import load_scenario_yaml
+from uav_places import BASE, latlon
 
-BASE = (-7.275, -35.965, 540.0)
 FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu", "UavChannel.fmu"]
 pytestmark = pytest.mark.skipif(not all((default_fmu_dir() / f).is_file() for f in FMUS),
                                 reason="UAV FMUs not built (python fmu_sources/build_fmus.py)")
-
-
-def latlon(e, n):
-    lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-    return [round(float(lat), 8), round(float(lon), 8)]
 
 
 def write_yaml(path: Path, **over) -> Path:

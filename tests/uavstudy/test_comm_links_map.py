@@ -9,20 +9,14 @@ import pandas as pd
 import pytest
 import yaml
 from master.execution import Execution
-from uavsim.geodesy import geodetic_from_enu
 from uavstudy.build import build_scenario, default_fmu_dir
 from uavstudy.comm_monitor import COMM_TYPE
 from uavstudy.names import MONITOR_TYPE
 from uavstudy.outputs import link_segments, map_figure, total_summary, uav_summaries
+from uav_places import BASE, latlon
 
-BASE = (-7.275, -35.965, 540.0)
 FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu", "UavChannel.fmu"]
 RANGE, T = 300.0, 40.0
-
-
-def latlon(e, n):
-    lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-    return [round(float(lat), 8), round(float(lon), 8)]
 
 
 def test_segments_of_hand_made_links():

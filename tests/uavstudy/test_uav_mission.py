@@ -13,19 +13,13 @@ from master.cli import main
 from master.runner import run
 from master.ssp import xsd
 from uavstudy.build import build_from_paper_config, build_scenario, default_fmu_dir, pad_positions
-from uavsim.geodesy import geodetic_from_enu
+from uav_places import BASE, latlon
 
 ROOT = Path(__file__).resolve().parents[2]
-BASE = (-7.275, -35.965, 540.0)
 FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu"]
 
 pytestmark = pytest.mark.skipif(not all((default_fmu_dir() / f).is_file() for f in FMUS),
                                 reason="UAV FMUs not built (python fmu_sources/build_fmus.py)")
-
-
-def latlon(e, n):
-    lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-    return [round(float(lat), 8), round(float(lon), 8)]
 
 
 def write_yaml(path, **over):

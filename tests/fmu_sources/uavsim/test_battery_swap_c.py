@@ -52,7 +52,7 @@ from fmu_factory import fmi_headers_dir
 from uavstudy.build import build_scenario, default_fmu_dir
 from uavsim import params as P
 from uavsim.battery import Battery, BatteryParams, PowerParams
-from uavsim.geodesy import geodetic_from_enu
+from uav_places import BASE, latlon
 
 HERE = Path(__file__).resolve().parent
 C_SOURCE = HERE / "c_battery" / "UavBatteryC.c"
@@ -302,7 +302,6 @@ def test_c_battery_steps_like_the_python_model(c_fmu, case, record_property, tmp
 
 
 # ------------------------------------------------------------------------------------------ mission level
-BASE = (-7.275, -35.965, 540.0)
 # UAV i gets targets 2i, 2i+1 (equal assignment), near its pad on the 5.66 m ring
 TARGETS_ENU = [(-15, 45), (15, 45), (45, 15), (45, -15), (15, -45), (-15, -45), (-45, -15), (-45, 15)]
 #: the same parameter overrides for both runs: every branch of the battery in one mission
@@ -347,10 +346,6 @@ def _swap_battery(ssp: Path, c_fmu: Path, out: Path) -> Path:
 @pytest.fixture(scope="module")
 def mission_ssp(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("swap_mission")
-
-    def latlon(e, n):
-        lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-        return [round(float(lat), 8), round(float(lon), 8)]
 
     scenario = {"name": "battery_swap", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 4,
                 "strategy": "B", "assignment": "equal", "targets": [latlon(e, n) for e, n in TARGETS_ENU],

@@ -13,20 +13,19 @@ import pytest
 import yaml
 
 from uavsim.dynamics import FLY, Dynamics, DynamicsParams
-from uavsim.geodesy import geodetic_from_enu
 from uavsim.wind import Wind, WindParams
 from uavstudy.build import build_ssp
 from uavstudy.scenario import RULE_SETS, load_scenario_yaml, scenario_from_dict
 
 import master
+from uav_places import BASE
+from uav_places import latlon as latlon8
 
-BASE = (-7.275, -35.965, 540.0)
 ROOT = Path(__file__).resolve().parents[3]
 
 
 def latlon(x, y):
-    lat, lon, _ = geodetic_from_enu(x, y, 0.0, *BASE)
-    return [round(float(lat), 9), round(float(lon), 9)]
+    return latlon8(x, y, digits=9)
 
 
 def one_leg_scenario(**kw):

@@ -19,18 +19,11 @@ import pytest
 from cli_in_process import run_cli
 from master.errors import CosimError
 from master.runner import run
+from loopback import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
 SSP = ROOT / "ssp" / "paper_zones_4uav_B.ssp"
 CLI = [sys.executable, "-m", "master.cli", "run", str(SSP)]
-
-
-def free_port(kind=socket.SOCK_DGRAM) -> int:
-    s = socket.socket(socket.AF_INET, kind)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def cli(*args):

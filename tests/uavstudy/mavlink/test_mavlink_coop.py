@@ -6,7 +6,6 @@ The scenario is the takeover of tests/uavstudy/test_comm_events.py: uav2 flies i
 it, takes over its target 1 about 5 s later."""
 from __future__ import annotations
 
-import socket
 import time
 
 import pandas as pd
@@ -18,26 +17,13 @@ from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as m  # noqa: E402
 
 from master.execution import Execution  # noqa: E402
-from uavsim.geodesy import geodetic_from_enu  # noqa: E402
 from uavstudy.build import build_scenario, default_fmu_dir  # noqa: E402
+from uav_places import BASE, latlon  # noqa: E402
+from loopback import free_port  # noqa: E402
 
-BASE = (-7.275, -35.965, 540.0)
 FMUS = ["UavDynamics.fmu", "UavBattery.fmu", "UavStrategy.fmu", "UavWind.fmu", "UavChannel.fmu"]
 pytestmark = pytest.mark.skipif(not all((default_fmu_dir() / f).is_file() for f in FMUS),
                                 reason="UAV FMUs not built (python fmu_sources/build_fmus.py)")
-
-
-def latlon(e, n):
-    lat, lon, _ = geodetic_from_enu(e, n, 0.0, *BASE)
-    return [round(float(lat), 8), round(float(lon), 8)]
-
-
-def free_port() -> int:
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def test_takeover_and_give_way_reach_the_ground_station_as_status_text(tmp_path):

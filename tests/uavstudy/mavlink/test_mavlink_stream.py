@@ -8,7 +8,6 @@ must agree with), and from the MAVLink protocol (mavlink.io: mission protocol, c
 """
 from __future__ import annotations
 
-import socket
 import time
 from pathlib import Path
 
@@ -21,20 +20,13 @@ from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as m  # noqa: E402
 
 from master.execution import Execution  # noqa: E402
+from loopback import free_port  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[3]
 SSP = ROOT / "ssp" / "paper_zones_4uav_B.ssp"
 YAML = ROOT / "ssp" / "scenarios" / "paper_area_zones.yaml"
 STOP = 150.0
 RTL_AT = 60.0          # uav2 is flying to its targets then (it takes off at 5 s)
-
-
-def free_port() -> int:
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 class Gcs:
