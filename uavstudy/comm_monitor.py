@@ -64,14 +64,16 @@ DEFAULT_PERIOD = ChannelParams.period   # s, its broadcast period when the SSD g
 __all__ = ["CommMonitor", "comm_annotation", "links_of", "COMM_TYPE", "COMM_FILE", "EVENT_TYPE"]
 
 #: the comm monitor of each running system, by its observer context: map.png (drawn by the UAV monitor) asks it
-#: for the links; weak, so that a finished run's monitor goes with its context
+#: for the links. Weak both ways: the monitor holds its context, so a monitor kept as the value would keep its key
+#: alive and every finished run (its buffers, plan and outputs) with it (a campaign worker grew by ~8 MB a run)
 _BY_CONTEXT: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def links_of(ctx) -> dict | None:
     """The links the comm monitor of the run with this observer context kept (``CommMonitor.links``), None when
     the run has no comm monitor or no moment came."""
-    mon = _BY_CONTEXT.get(ctx) if ctx is not None else None
+    ref = _BY_CONTEXT.get(ctx) if ctx is not None else None
+    mon = ref() if ref is not None else None
     return mon.links() if mon is not None else None
 
 
@@ -171,7 +173,7 @@ class CommMonitor(Monitor):
     def attach(self, ctx, start: float) -> None:
         self.ctx = ctx
         self._where = {v: ctx.position(v) for v in self.required_variables()}
-        _BY_CONTEXT[ctx] = self
+        _BY_CONTEXT[ctx] = weakref.ref(self)
         n = len(self.names)
         strategies = list(self.uavs.values())
         # the watched values and the senders of the message slots are FMI Integers: ONE take per step reads them
