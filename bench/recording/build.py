@@ -11,8 +11,11 @@ import subprocess
 import sys
 import tempfile
 import uuid
-import zipfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))     # run as a script too: the repository's bench
+# the chain benchmark's builder already packs a one-file C FMU: its header folder and its zip are used here too
+from bench.chain.build import _zip_dir, fmi_headers_dir  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 NSEG = 26
@@ -61,7 +64,6 @@ def _model_description(guid: str) -> str:
 
 def build_fmu(out_dir) -> Path:
     """``out_dir/ControlledTemperature.fmu``, rebuilt on every call (it takes a second)."""
-    import fmpy
     if sys.platform != "linux":
         raise RuntimeError("the benchmark's C FMU is built for Linux x86_64 only")
     out_dir = Path(out_dir)
@@ -73,19 +75,15 @@ def build_fmu(out_dir) -> Path:
         bindir = root / "binaries" / "linux64"
         bindir.mkdir(parents=True)
         (root / "sources").mkdir()
-        headers = Path(fmpy.__file__).parent / "c-code"
         cmd = [os.environ.get("CC", "cc"), "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra",
-               "-ffp-contract=off", f"-I{headers}", str(src), "-lm", "-o", str(bindir / "ControlledTemperature.so")]
+               "-ffp-contract=off", f"-I{fmi_headers_dir()}", str(src), "-lm", "-o", str(bindir / "ControlledTemperature.so")]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"the C compiler failed:\n{' '.join(cmd)}\n{proc.stderr}")
         shutil.copy2(src, root / "sources" / src.name)
         (root / "modelDescription.xml").write_text(_model_description(guid), encoding="utf-8")
         fmu = out_dir / "ControlledTemperature.fmu"
-        with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zf:
-            for f in sorted(root.rglob("*")):
-                if f.is_file():
-                    zf.write(f, f.relative_to(root).as_posix())
+        _zip_dir(root, fmu)
     return fmu
 
 
