@@ -87,15 +87,42 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _parser() -> argparse.ArgumentParser:
+class _CommandParser(_OneLineParser):
+    """One command's parser. Only the command given is built whole: the others' ~100 arguments (a tenth of a short
+    run's start-up) are taken as read; each keeps its help line for ``cosim-master --help``."""
+    def __init__(self, *args, built: bool = True, **kwargs):
+        self.built = True           # its -h
+        super().__init__(*args, **kwargs)
+        self.built = built
+
+    def add_argument(self, *args, **kwargs):
+        return super().add_argument(*args, **kwargs) if self.built else None
+
+
+def _command_in(argv) -> str | None:
+    """The command ``argv`` names (its first word not an option: the program's own options take no value), or
+    None: then every command is built, so that a misspelt one is told the choices as before."""
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    return words[0] if words and words[0] in COMMANDS else None
+
+
+#: every command of the program, in the order --help lists them
+COMMANDS = ("run", "inspect", "campaign", "report", "study", "stability", "build-scenario", "replay")
+
+
+def _parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The program's parser; ``command``: only that command's arguments are built (None: all)."""
     # imported here, not with the module: they import NumPy, and entry() must be able to take a Ctrl-C first
     from .algorithms import ALGORITHMS
     from .fmi.ode_solvers import SOLVERS
     p = _OneLineParser(prog="cosim-master", description="FMI/SSP fixed-step co-simulation master")
     p.add_argument("--version", action="version", version=f"cosim-master {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_CommandParser)
 
-    r = sub.add_parser("run", help="run a scenario (.ssp, SSP folder, .ssd or a bare .fmu)",
+    def add(name: str, **kwargs) -> _CommandParser:
+        return sub.add_parser(name, built=command in (None, name), **kwargs)
+
+    r = add("run", help="run a scenario (.ssp, SSP folder, .ssd or a bare .fmu)",
                        description="Run a scenario from its start to its stop time and write its results (Parquet, "
                                    "CSV, run.json, events and monitor files) into one folder. Settings not given "
                                    "here come from the SSD's settings annotation, then from the FMUs' default "
@@ -169,7 +196,7 @@ def _parser() -> argparse.ArgumentParser:
                         "10: ten times faster); results are the same as unpaced")
     r.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    i = sub.add_parser("inspect", help="describe a scenario and the settings a run would use")
+    i = add("inspect", help="describe a scenario and the settings a run would use")
     i.add_argument("scenario", help="an .ssp archive, an unpacked SSP folder, a SystemStructure.ssd file, or a bare "
                                     ".fmu (shown as an SSP of that one component)")
     i.add_argument("--json", action="store_true", help="print the description as JSON instead of text")
@@ -182,7 +209,7 @@ def _parser() -> argparse.ArgumentParser:
                         "scenario's)")
     i.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    c = sub.add_parser("campaign", help="run a grid or list of scenario runs (resumable)",
+    c = add("campaign", help="run a grid or list of scenario runs (resumable)",
                        description="Run the campaign's missing runs into its folder and rebuild its table. Exit "
                                    "status: 0 when every run has a record and none failed, 1 otherwise, 130 after "
                                    "Ctrl-C and 143 after SIGTERM (complete records kept; the same command "
@@ -203,7 +230,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="no progress bar (default: one when stderr is a terminal)")
     c.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    rp = sub.add_parser("report", help="figures, tables and a markdown report of a finished campaign "
+    rp = add("report", help="figures, tables and a markdown report of a finished campaign "
                                        "(as the scenario kind recorded in its campaign.json writes it)")
     rp.add_argument("campaign_dir", help="the folder of a campaign run by `cosim-master campaign` (holding its "
                                          "campaign.json); report.md and the figures are written into it")
@@ -212,7 +239,7 @@ def _parser() -> argparse.ArgumentParser:
                          "a log)")
     rp.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    st = sub.add_parser("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
+    st = add("study", help="a grid of algorithms, extrapolation orders and steps, measured against a "
                                       "reference: study.csv (errors, observed order, FMU calls) and figures",
                         description="Run every combination of --algorithm, --extrapolation and --step on one "
                                     "scenario (as a resumable campaign), compare each run with the reference at its "
@@ -251,7 +278,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="no progress bar (default: one when stderr is a terminal)")
     st.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    sb = sub.add_parser("stability", help="the spectral radius of the coupled step map per scheme and step, "
+    sb = add("stability", help="the spectral radius of the coupled step map per scheme and step, "
                                           "identified from the FMUs: stability.csv and stability.png",
                         description="Identify the coupled step map of every scheme (--algorithm with each "
                                     "--extrapolation and --gs-interpolation it takes) at every --step from the FMUs "
@@ -271,7 +298,7 @@ def _parser() -> argparse.ArgumentParser:
     sb.add_argument("--output", "-o", required=True, metavar="DIR", help="folder for stability.csv and .png")
     sb.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    b = sub.add_parser("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
+    b = add("build-scenario", help="write the SSP of a scenario described in another format, e.g. a "
                                               "UAV study YAML (the scenario kind that claims the file builds it)")
     b.add_argument("scenario_yaml", help="the scenario description, e.g. a UAV study YAML "
                                          "(ssp/scenarios/paper_area.yaml)")
@@ -279,7 +306,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="the SSP to write: an .ssp archive, or a folder for an unpacked SSP")
     b.add_argument("--debug", action="store_true", help="show Python tracebacks")
 
-    rv = sub.add_parser("replay", help="write replay.html, the run seen again in a browser, into a finished run's "
+    rv = add("replay", help="write replay.html, the run seen again in a browser, into a finished run's "
                                        "folder (as the scenario kind that claims the run writes it, e.g. a UAV run)")
     rv.add_argument("run_dir", help="the folder of a finished run (holding its run.json), e.g. results/paper_zones_4uav_B")
     rv.add_argument("--scenario", default=None, metavar="FILE.ssp",
@@ -311,6 +338,27 @@ def _show_warnings():
     return restore
 
 
+#: the variables with which a user chooses OpenBLAS's threads; with none set, this process's NumPy gets one
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def _numpy_single_threaded() -> None:
+    """NumPy imported with OpenBLAS on one thread, unless the user chose otherwise. OpenBLAS starts a thread per
+    core when it is loaded, and they spin for a while: on a busy two-core machine that was ~20 ms of CPU and
+    ~0.1 s of wall time of a short run, in both processes of a supervised one (the supervisor imports NumPy
+    before it forks). A run does no linear algebra where a second BLAS thread would pay (small matrices at
+    most); dask's nanny makes the same choice for its workers. Only this process: the variable is gone again
+    before anything starts another one (an FMU's own process, a campaign's workers), which chooses for itself."""
+    import os
+    if any(name in os.environ for name in BLAS_THREAD_VARIABLES) or "numpy" in sys.modules:
+        return
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    try:
+        import numpy  # noqa: F401 - OpenBLAS reads the variable when it is loaded, with NumPy
+    finally:
+        del os.environ["OPENBLAS_NUM_THREADS"]
+
+
 def entry() -> int:
     """The program (console script, ``python -m master.cli``): ``main``, then late interrupts ignored."""
     import signal
@@ -324,6 +372,7 @@ def entry() -> int:
     # what the start-up imports create lives as long as the process: the cyclic collector, which went over it again
     # and again while it grew (~20 ms of a short run), is off until the command's modules are in (_import_command)
     gc.disable()
+    _numpy_single_threaded()
     try:
         return main(own_process=True)
     finally:
@@ -336,7 +385,7 @@ def entry() -> int:
 def main(argv=None, *, own_process: bool = False) -> int:
     """The command line ``argv``; ``own_process``: this process is the command's alone (``entry``), see
     ``_import_command``."""
-    args = _parser().parse_args(argv)
+    args = _parser(_command_in(argv)).parse_args(argv)
     restore_logging = _show_warnings()
     try:
         _import_command(args.command, own_process)

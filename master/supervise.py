@@ -385,6 +385,18 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
 
 
 # ----------------------------------------------------------------------------------------------- parent
+def _prepare_sinks() -> None:
+    """Imports what the sinks need when they open (the Parquet writer: pyarrow.parquet with pyarrow.fs, ~20-60 ms)
+    and when they write side by side (a thread pool), while the child starts: it imports and sets up for longer,
+    so a short run's rows no longer wait for these imports at its end (on two cores the two overlap; the child's
+    shared block is made as soon as it asks)."""
+    import concurrent.futures  # noqa: F401
+    try:
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:     # the sink that needs it says so when it opens
+        pass
+
+
 class _Supervisor:
     def __init__(self, scenario, options: Options, timeout: float | None):
         self.scenario, self.options, self.timeout = scenario, options, timeout
@@ -514,6 +526,7 @@ class _Supervisor:
         try:
             proc.start()
             child.close()
+            _prepare_sinks()
             open_conn = True
             while True:
                 ready = mp_wait([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
