@@ -38,8 +38,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from . import execution
 from .errors import CosimError, Terminated
-from .execution import Execution, Options, write_run_files
+from .execution import Execution, Options, platform_name, write_run_files
 from .observers.recording import Recording, block_table
 from .results import claim_output_folder, release_output_folder, settle_output_folder
 from .runtime import PHASE_NAMES, PHASE_STEP
@@ -242,6 +243,9 @@ def _write_orphan_results(out_dir: Path, ex) -> None:
     (out_dir / RESERVE_NAME).unlink(missing_ok=True)
     rec = ex.recording if isinstance(ex.recording, _ChildRecording) else None
     meta = dict(ex.metadata)
+    if meta.get("platform", "") is None:        # left to the parent, which is gone (execution.platform_name)
+        import platform
+        meta["platform"] = platform.platform()
     rows, notes = None, []
     try:
         rows = _orphan_rows(out_dir, rec, notes)
@@ -321,6 +325,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
     stack = open(out_dir / CRASH_FILE, "w", buffering=1)
     faulthandler.enable(file=stack, all_threads=False)
     faulthandler.register(signal.SIGUSR1, file=stack, all_threads=False)
+    execution.PLATFORM_FROM_PARENT = True
     ex = Execution(scenario, **options)
     ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
     _watch_parent(parent_pid, out_dir, ex)
@@ -385,11 +390,47 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
 
 
 # ----------------------------------------------------------------------------------------------- parent
-def _prepare_sinks() -> None:
+SHARED_FOLDER = "/dev/shm"
+BLOCK_PREFIX = "cosim-master-"
+
+
+def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
+    """Removes the shared blocks of supervisors that are gone; returns their names. A block lives under its name only
+    from its making until the child has mapped it, but a run killed with SIGKILL in between (both processes) left
+    it in /dev/shm for good. The name holds the supervisor's process id; a block whose process still runs, or whose
+    name holds none (made before the id was in it), is left alone."""
+    try:
+        names = [n for n in os.listdir(folder) if n.startswith(BLOCK_PREFIX)]
+    except OSError:
+        return []
+    swept = []
+    for name in names:
+        pid = name[len(BLOCK_PREFIX):].split("-", 1)[0]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+            continue                    # alive (its block is in use)
+        except ProcessLookupError:
+            pass
+        except PermissionError:         # alive, another user's
+            continue
+        try:
+            os.unlink(os.path.join(folder, name))
+            swept.append(name)
+        except OSError:                 # another run swept it first, or not ours to remove
+            pass
+    return swept
+
+
+def _prepare_while_the_child_starts() -> None:
     """Imports what the sinks need when they open (the Parquet writer: pyarrow.parquet with pyarrow.fs, ~20-60 ms)
-    and when they write side by side (a thread pool), while the child starts: it imports and sets up for longer,
-    so a short run's rows no longer wait for these imports at its end (on two cores the two overlap; the child's
-    shared block is made as soon as it asks)."""
+    and when they write side by side (a thread pool), and asks the platform's name for run.json, while the child
+    starts: it imports and sets up for longer, so a short run no longer waits for these at its end (on two cores
+    the two overlap; the child's shared block is made as soon as it asks). Shared blocks left behind by killed
+    runs go too."""
+    platform_name()
+    _sweep_left_blocks()
     import concurrent.futures  # noqa: F401
     try:
         import pyarrow.parquet  # noqa: F401
@@ -443,8 +484,9 @@ class _Supervisor:
         elif kind == "schema":
             self.schema = pa.ipc.read_schema(pa.py_buffer(msg[1]))
             rows, cols = msg[2], msg[3]
-            folder = "/dev/shm" if os.path.isdir("/dev/shm") else str(self.out_dir)
-            fd, path = tempfile.mkstemp(prefix="cosim-master-", dir=folder)
+            folder = SHARED_FOLDER if os.path.isdir(SHARED_FOLDER) else str(self.out_dir)
+            # named for this process, so that a later run can tell a block left behind (_sweep_left_blocks)
+            fd, path = tempfile.mkstemp(prefix=f"{BLOCK_PREFIX}{os.getpid()}-", dir=folder)
             try:
                 os.ftruncate(fd, (HEADER + rows * cols) * 8)
                 self.mm = mmap.mmap(fd, 0)
@@ -526,7 +568,7 @@ class _Supervisor:
         try:
             proc.start()
             child.close()
-            _prepare_sinks()
+            _prepare_while_the_child_starts()
             open_conn = True
             while True:
                 ready = mp_wait([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
@@ -639,6 +681,8 @@ class _Supervisor:
                 self.header = self.block = None
                 self.mm.close()
         meta = self.meta or {"scenario": str(self.scenario), "outcome": "error"}
+        if meta.get("platform", "") is None:        # the child left it to this process (execution.platform_name)
+            meta["platform"] = platform_name()
         meta["rows_recorded"] = self.group.rows
         if self.group.notes:
             meta["results_notes"] = self.group.notes

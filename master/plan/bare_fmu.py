@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..ssp.writer import one_fmu_system
-
 
 def is_bare_fmu(scenario) -> bool:
     """A path naming an FMU archive (not an SSP folder that happens to end in .fmu)."""
@@ -19,4 +17,5 @@ def is_bare_fmu(scenario) -> bool:
 
 def bare_fmu_scenario(fmu: Path) -> Path:
     """The in-memory SSP of ``fmu`` as its one component (named as the file's stem): nothing is written to disk."""
+    from ..ssp.writer import one_fmu_system     # here: every run asks is_bare_fmu, few need the SSP writer
     return one_fmu_system(Path(fmu)).in_memory()
