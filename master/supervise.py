@@ -19,7 +19,8 @@ a crash there names the same component and time.
 
 Shared memory layout (float64): [blocks sent, rows in the current block, time of the last row, time reached,
 phase, component index, component in an FMI call of the native loop (-1: none), unused] then the block
-(rows x columns).
+(rows x columns). The child makes it (a file in /dev/shm named for the supervisor's process id) and goes on; the
+parent maps it and removes the name, and sweeps the names that killed runs left (``_sweep_left_blocks``).
 """
 from __future__ import annotations
 
@@ -82,20 +83,19 @@ class _PipeSink(Sink):
 class _ChildRecording(Recording):
     results_read_after = True       # something finishing after the recording reads the result files (_child says)
 
-    def __init__(self, base: Recording, conn):
+    def __init__(self, base: Recording, conn, out_dir: Path):
         super().__init__(base.variables, [], None, every=base.every, steps=base.steps, block_rows=base.block_rows)
         self.conn = conn
+        self.block_folder = out_dir         # where the shared block goes on a system without /dev/shm
 
     def _new_block(self, rows, cols):
-        _send(self.conn, ("schema", self.schema.serialize().to_pybytes(), rows, cols))
-        kind, path = self.conn.recv()
-        fd = os.open(path, os.O_RDWR)
-        try:
-            self._mm = mmap.mmap(fd, 0)
-        finally:
-            os.close(fd)
-        os.unlink(path)           # both processes have it mapped; nothing is left behind whatever happens
+        # made here and named to the parent, which maps it and removes the name: the child goes on at once (it
+        # waited for the parent to make it, a hand-over that a busy parent, or a loaded machine, made long)
+        self._mm, path = _make_shared_block(rows, cols, self.block_folder)
         self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self._mm)
+        self.header[:] = 0.0
+        self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
+        _send(self.conn, ("schema", self.schema.serialize().to_pybytes(), rows, cols, path))
         self.group = SinkGroup([_PipeSink(self.conn, self.header)], None)
         return np.ndarray((rows, cols), dtype=np.float64, buffer=self._mm, offset=HEADER * 8)
 
@@ -146,6 +146,23 @@ class _ChildRecording(Recording):
             _send(self.conn, ("str", self.object_row()))
         self.header[H_LAST_ROW] = t
         self.header[H_FILL] = self.fill
+
+
+def _make_shared_block(rows: int, cols: int, fallback_folder: Path) -> tuple[mmap.mmap, str]:
+    """The shared block (header and rows x cols cells, zeros) mapped here, and its file's path. The name holds the
+    supervisor's process id (this process's parent): if both are killed before the parent has removed the name, a
+    later run sees whose block it was (_sweep_left_blocks). No room for it (a full /dev/shm, a file size limit) is
+    the run's error, as a full disk is: no row is recorded."""
+    folder = SHARED_FOLDER if os.path.isdir(SHARED_FOLDER) else str(fallback_folder)
+    fd, path = tempfile.mkstemp(prefix=f"{BLOCK_PREFIX}{os.getppid()}-", dir=folder)
+    try:
+        os.ftruncate(fd, (HEADER + rows * cols) * 8)
+        return mmap.mmap(fd, 0), path
+    except OSError as exc:
+        os.unlink(path)
+        raise CosimError(write_failure(exc, path), element="results") from None
+    finally:
+        os.close(fd)
 
 
 class _SentEvents(list):
@@ -339,7 +356,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
         return _parent_died or os.getppid() != parent_pid
     try:
         ex.setup()
-        rec = _ChildRecording(ex.recording, conn)
+        rec = _ChildRecording(ex.recording, conn, out_dir)
         ex.observers[ex.observers.index(ex.recording)] = rec
         ex.recording = rec
         ex.events = _SentEvents(conn)
@@ -392,31 +409,41 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
 # ----------------------------------------------------------------------------------------------- parent
 SHARED_FOLDER = "/dev/shm"
 BLOCK_PREFIX = "cosim-master-"
+UNNAMED_BLOCK_AGE_S = 3600.0
 
 
 def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
     """Removes the shared blocks of supervisors that are gone; returns their names. A block lives under its name only
-    from its making until the child has mapped it, but a run killed with SIGKILL in between (both processes) left
-    it in /dev/shm for good. The name holds the supervisor's process id; a block whose process still runs, or whose
-    name holds none (made before the id was in it), is left alone."""
+    from the child's making it until the supervisor has mapped it, but a run killed with SIGKILL in between (both
+    processes) left it in /dev/shm for good. The name holds the supervisor's process id: a block whose process still
+    runs is left alone. One whose name holds none (an earlier version's, named for no one) goes once it is older
+    than ``UNNAMED_BLOCK_AGE_S``: such a block, too, had its name for milliseconds only."""
     try:
         names = [n for n in os.listdir(folder) if n.startswith(BLOCK_PREFIX)]
     except OSError:
         return []
     swept = []
     for name in names:
+        path = os.path.join(folder, name)
         pid = name[len(BLOCK_PREFIX):].split("-", 1)[0]
-        if not pid.isdigit() or int(pid) == os.getpid():
+        if not pid.isdigit():
+            try:
+                if time.time() - os.stat(path).st_mtime < UNNAMED_BLOCK_AGE_S:
+                    continue
+            except OSError:
+                continue
+        elif int(pid) == os.getpid():
             continue
+        else:
+            try:
+                os.kill(int(pid), 0)
+                continue                    # alive (its block is in use)
+            except ProcessLookupError:
+                pass
+            except PermissionError:         # alive, another user's
+                continue
         try:
-            os.kill(int(pid), 0)
-            continue                    # alive (its block is in use)
-        except ProcessLookupError:
-            pass
-        except PermissionError:         # alive, another user's
-            continue
-        try:
-            os.unlink(os.path.join(folder, name))
+            os.unlink(path)
             swept.append(name)
         except OSError:                 # another run swept it first, or not ours to remove
             pass
@@ -483,34 +510,27 @@ class _Supervisor:
             self.events.append(msg[1])
         elif kind == "schema":
             self.schema = pa.ipc.read_schema(pa.py_buffer(msg[1]))
-            rows, cols = msg[2], msg[3]
-            folder = SHARED_FOLDER if os.path.isdir(SHARED_FOLDER) else str(self.out_dir)
-            # named for this process, so that a later run can tell a block left behind (_sweep_left_blocks)
-            fd, path = tempfile.mkstemp(prefix=f"{BLOCK_PREFIX}{os.getpid()}-", dir=folder)
+            rows, cols, path = msg[2], msg[3], msg[4]
             try:
-                os.ftruncate(fd, (HEADER + rows * cols) * 8)
-                self.mm = mmap.mmap(fd, 0)
-            except OSError as exc:      # no room for the block (a full /dev/shm, a file size limit): the child,
-                os.unlink(path)         # waiting for the block's name, is stopped; it never records a row
-                self.write_error = CosimError(write_failure(exc, path), element="results")
+                fd = os.open(path, os.O_RDWR)
+                try:
+                    self.mm = mmap.mmap(fd, 0)
+                finally:
+                    os.close(fd)
+            except OSError as exc:          # not expected: the child made it; the run cannot be kept
+                self.write_error = CosimError(f"cannot map the shared block {path}: {exc}", element="results")
                 self.stop("results could not be written", kill=True)
                 return
             finally:
-                os.close(fd)
+                try:
+                    os.unlink(path)         # both processes have it mapped: nothing is left behind whatever happens
+                except FileNotFoundError:
+                    pass
             self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self.mm)
-            self.header[:] = 0.0
-            self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
             self.block = np.ndarray((rows, cols), dtype=np.float64, buffer=self.mm, offset=HEADER * 8)
-            # the child goes on initializing while the sinks open here (pyarrow.parquet imported, files created): on
-            # two cores neither waits for the other
-            conn.send(("shm", path))
             try:
                 self.group.open(self.schema)
             except CosimError as exc:       # a disk full before the first row: the child is stopped, no row kept
-                try:
-                    os.unlink(path)         # unless the child, which unlinks it once mapped, has already
-                except FileNotFoundError:
-                    pass
                 self.write_error = exc
                 self.stop("results could not be written", kill=True)
         elif kind == "close":
