@@ -2,6 +2,7 @@
 
     python bench/bench_test_suite.py                      # the README's command (python -m pytest -q), whole suite
     python bench/bench_test_suite.py --per-dir            # one pytest per test directory: exact CPU per directory
+    python bench/bench_test_suite.py --per-dir tests/master tests/master/fmi   # only these directories' own files
     python bench/bench_test_suite.py tests/master/fmi     # a part of the suite (paths are given to pytest)
     python bench/bench_test_suite.py --repo /path/to/other/checkout   # e.g. main, to compare before and after
 
@@ -41,7 +42,7 @@ def _children_cpu() -> tuple[float, float]:
     return r.ru_utime, r.ru_stime
 
 
-def run_pytest(repo: Path, python: str, paths: list[str], extra: list[str]) -> dict:
+def run_pytest(repo: Path, python: str, paths: list[str], extra: list[str], keep_cpu: Path | None = None) -> dict:
     """One pytest process over ``paths``: CPU of it and its waited-for descendants, wall, per-file durations."""
     cmd = [python, "-m", "pytest", "-q", "--durations=0", "-p", "no:cacheprovider", "-p", "pytest_cpu_per_test",
            *extra, *paths]
@@ -55,6 +56,9 @@ def run_pytest(repo: Path, python: str, paths: list[str], extra: list[str]) -> d
         wall = time.perf_counter() - t0
         u1, s1 = _children_cpu()
         cpu_lines = cpu_file.read_text().splitlines() if cpu_file.exists() else []
+    if keep_cpu is not None and cpu_lines:
+        with open(keep_cpu, "a", encoding="utf-8") as f:
+            f.writelines(line + "\n" for line in cpu_lines)
     cpu_per_file: dict[str, float] = defaultdict(float)
     for line in cpu_lines:
         seconds, nodeid = line.split("\t", 1)
@@ -73,10 +77,14 @@ def run_pytest(repo: Path, python: str, paths: list[str], extra: list[str]) -> d
             "per_file": dict(per_file), "cpu_per_file": dict(cpu_per_file), "summary": summary, "tail": proc.stdout.splitlines()[-5:]}
 
 
-def test_directories(repo: Path) -> list[list[str]]:
-    """Every directory holding test files, the files directly in it as one unit (not its sub-directories)."""
+def test_directories(repo: Path, only: list[str] | None = None) -> list[list[str]]:
+    """Every directory holding test files (or those of ``only``), the files directly in it as one unit (not its
+    sub-directories)."""
+    wanted = {(repo / d).resolve() for d in only} if only else None
     units = []
     for d in sorted({p.parent for p in (repo / "tests").rglob("test_*.py")}):
+        if wanted is not None and d.resolve() not in wanted:
+            continue
         files = sorted(str(p.relative_to(repo)) for p in d.glob("test_*.py"))
         if files:
             units.append(files)
@@ -89,24 +97,28 @@ def _label(paths: list[str]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("paths", nargs="*", help="what pytest runs (default: the README's command, every test)")
+    ap.add_argument("paths", nargs="*", help="what pytest runs (default: the README's command, every test); with "
+                    "--per-dir, the directories to measure (each one's own files)")
     ap.add_argument("--repo", type=Path, default=ROOT, help="the checkout to measure (default: this one)")
     ap.add_argument("--python", default=None, help="interpreter (default: the checkout's .venv, else this one)")
     ap.add_argument("--per-dir", action="store_true", help="one pytest process per test directory")
     ap.add_argument("--top", type=int, default=20, help="files in the per-file table")
     ap.add_argument("--pytest-args", default="", help="more pytest options, one string (e.g. '-x')")
+    ap.add_argument("--cpu-per-test", type=Path, default=None,
+                    help="append every test's CPU (CPU_S<TAB>nodeid) to this file, for bench/pytest_cpu_per_test.py's "
+                         "comparisons")
     args = ap.parse_args(argv)
 
     repo = args.repo.resolve()
     python = args.python or (str(repo / ".venv" / "bin" / "python") if (repo / ".venv" / "bin" / "python").exists()
                              else sys.executable)
     extra = args.pytest_args.split()
-    units = test_directories(repo) if args.per_dir else [args.paths]
+    units = test_directories(repo, args.paths) if args.per_dir else [args.paths]
 
     load0 = os.getloadavg()
     results = []
     for paths in units:
-        r = run_pytest(repo, python, paths, extra)
+        r = run_pytest(repo, python, paths, extra, args.cpu_per_test)
         results.append(r)
         if args.per_dir:
             print(f"  {_label(paths):45s} {r['user']:7.1f} user {r['sys']:6.1f} sys {r['wall']:7.1f} wall"
@@ -117,7 +129,7 @@ def main(argv=None) -> int:
     sys_ = sum(r["sys"] for r in results)
     wall = sum(r["wall"] for r in results)
     print(f"\nrepo {repo}")
-    print(f"command: {python} -m pytest -q {' '.join(args.paths)}"
+    print(f"command: {python} -m pytest -q {'' if args.per_dir else ' '.join(args.paths)}"
           + (" (one process per directory)" if args.per_dir else ""))
     print(f"load average before {load0[0]:.1f}, after {load1[0]:.1f} (1 min)\n")
     print("| user CPU s | system CPU s | user+system s | wall s | exit |")

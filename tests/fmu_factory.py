@@ -606,12 +606,18 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
         platform_dir = "x86_64-linux"
     if sys.platform != "linux":
         raise RuntimeError("the C test FMUs are only built for Linux (x86_64)")
+    header = _c_header(spec, variables, guid, kind)
+    fmu = out_dir / f"{model}.fmu"
+    cached = _cached_fmu(model, fmi_version, kind, spec, md, header)
+    if cached is not None and cached.is_file():
+        _copy_atomically(cached, fmu)
+        return fmu
 
     with tempfile.TemporaryDirectory(prefix=f"fmu_{model}_") as tmp:
         tmp = Path(tmp)
         inc = tmp / "include"
         inc.mkdir()
-        (inc / "model_vars.h").write_text(_c_header(spec, variables, guid, kind))
+        (inc / "model_vars.h").write_text(header)
         root = tmp / "fmu"
         bin_dir = root / "binaries" / platform_dir
         bin_dir.mkdir(parents=True)
@@ -648,9 +654,55 @@ def build_c_fmu(model: str, out_dir: Path, fmi_version: int = 2, kind: str = "cs
         for hdr in C_DIR.glob("*.h"):
             shutil.copy2(hdr, root / "sources" / hdr.name)
         shutil.copy2(inc / "model_vars.h", root / "sources" / "model_vars.h")
-        fmu = out_dir / f"{model}.fmu"
         _zip_dir(root, fmu)
+    if cached is not None:
+        try:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            _copy_atomically(fmu, cached)
+        except OSError:
+            pass        # a cache that cannot be written only costs the next session a build
     return fmu
+
+
+# Built C test FMUs are kept between test sessions in a per-user cache, as the master keeps its own C builds
+# (master/native_build.py): a gcc run per FMU and session (0.3 s each) was a visible share of the suite's CPU. The
+# file name carries a hash of everything the FMU is made of: the model description and the generated header (the
+# variables, their start values and the GUID, itself a hash of the C sources), the C sources and headers, the
+# compiler flags and exports, the compiler, fmpy's FMI headers, and this file. An edit to any of them builds anew.
+# COSIM_TEST_FMU_CACHE: the cache folder; "0" builds every FMU in every session.
+def _fmu_cache_dir() -> Optional[Path]:
+    env = os.environ.get("COSIM_TEST_FMU_CACHE")
+    if env == "0":
+        return None
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "cosim-master-tests" / "fmus"
+
+
+def _cached_fmu(model: str, fmi_version: int, kind: str, spec: CModel, md: str, header: str) -> Optional[Path]:
+    folder = _fmu_cache_dir()
+    if folder is None:
+        return None
+    import fmpy
+    cc = os.environ.get("CC", "gcc")
+    cc_path = shutil.which(cc)
+    cc_stat = os.stat(cc_path) if cc_path else None
+    h = hashlib.sha256()
+    for part in (model, str(fmi_version), kind, md, header, cc, str(cc_path),
+                 f"{cc_stat.st_size}:{cc_stat.st_mtime_ns}" if cc_stat else "", fmpy.__version__,
+                 str(fmi_headers_dir()), repr(sorted(spec.hidden_functions)), repr(sorted(spec.renamed_functions.items())),
+                 repr((spec.saves_state, spec.event_mode))):
+        h.update(part.encode() + b"\0")
+    for src in (Path(__file__), C_DIR / f"fmi{fmi_version}_framework.c", spec.c_source, *sorted(C_DIR.glob("*.h"))):
+        h.update(src.read_bytes() + b"\0")
+    return folder / f"{model}-fmi{fmi_version}{kind}-{h.hexdigest()[:20]}.fmu"
+
+
+def _copy_atomically(src: Path, dst: Path) -> None:
+    tmp = dst.with_name(dst.name + f".tmp{os.getpid()}")
+    shutil.copyfile(src, tmp)
+    os.replace(tmp, dst)
 
 
 def _patch_python_model_description(xml_text: str, deps: dict[str, list[str]]) -> str:

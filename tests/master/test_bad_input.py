@@ -185,7 +185,7 @@ def test_fmu_failing_a_step_keeps_results(tmp_path, test_fmus, kind, mode, statu
 def test_cli_error_is_one_line_without_traceback(tmp_path, test_fmus):
     folder = write_folder(tmp_path / "s", _faulty_ssd(1), {"Faulty.fmu": test_fmus["c2:Faulty"],
                                                             "Gain.fmu": test_fmus["c2:Gain"]})
-    res = _cli_process(["run", str(folder), "--output", str(tmp_path / "out")], tmp_path)
+    res = _cli(["run", str(folder), "--output", str(tmp_path / "out")], tmp_path)     # the message: in-process
     assert res.returncode == 1
     lines = res.stderr.strip().splitlines()
     # the FMU's own log line (shown per component at the default level) comes first, then the error

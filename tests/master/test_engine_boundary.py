@@ -45,6 +45,7 @@ modules by computed names; a built-in plugin registers itself in a registry belo
 plugins do.
 """
 import ast
+import functools
 import subprocess
 import sys
 from pathlib import Path
@@ -164,6 +165,7 @@ def imports_of(module: str, source: str | None = None) -> list[tuple[int, str]]:
     return sorted({(line, target) for line, target in found if target != module})
 
 
+@functools.cache         # read once for the tests that walk it (none changes it)
 def import_graph() -> dict[str, dict[str, int]]:
     """module -> {imported module: first line that imports it}."""
     graph = {}

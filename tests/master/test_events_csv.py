@@ -37,11 +37,16 @@ def _events(rng):
     return events
 
 
-def _pandas_bytes(tmp_path, events):
+def _pandas_bytes(tmp_path, events, to_file=True):
+    """What pandas writes for ``events``: into a file (the call the twin stands in for), or (``to_file=False``) as
+    the text ``to_csv`` returns, encoded as the file would be (UTF-8, no newline translation): the same bytes at
+    about half the cost of pandas' file handling, and the test checks that they are the same on a sample."""
     path = tmp_path / "pandas.csv"
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            if not to_file:
+                return pd.DataFrame(events).to_csv(index=False).encode("utf-8")
             pd.DataFrame(events).to_csv(path, index=False)
     except (TypeError, ValueError, OverflowError):
         return None
@@ -51,11 +56,13 @@ def _pandas_bytes(tmp_path, events):
 def test_events_csv_is_what_pandas_writes(tmp_path):
     rng = random.Random(20261127)
     written = 0
-    for _ in range(1500):
+    for i in range(1500):
         events = _events(rng)
         twin = tmp_path / "twin.csv"
         twin.unlink(missing_ok=True)
-        expected = _pandas_bytes(tmp_path, events)
+        expected = _pandas_bytes(tmp_path, events, to_file=False)
+        if i % 25 == 0:         # pandas' text is its file's bytes (60 of the lists)
+            assert _pandas_bytes(tmp_path, events) == expected, events
         if write_events_csv(events, twin):
             assert twin.read_bytes() == expected, events
             written += 1

@@ -16,7 +16,8 @@ KW = dict(stop_time=40.0, step=0.5, record=["*"], record_interval=0.5)
 
 
 def _run(ssp, folder, **kw):
-    return master.run(ssp, output=folder, **{**KW, **kw}).frame
+    # a campaign worker's run: into a folder, its mission's summary files only (products="summary")
+    return master.run(ssp, output=folder, products="summary", **{**KW, **kw}).frame
 
 
 def _variable_values(obj) -> dict:

@@ -16,9 +16,12 @@ SSP = Path(__file__).resolve().parents[3] / "ssp" / "paper_zones_4uav_B.ssp"
 KW = dict(stop_time=30.0, step=0.5, record=["*"], record_interval=0.5)
 
 
-def _run(tmp_path, name, **kw):
-    res = master.run(SSP, output=tmp_path / name, **{**KW, **kw})
-    return res.frame, json.loads((tmp_path / name / "run.json").read_text())["fmu_calls"]
+def _run(**kw):
+    """The rows and doStep counts of a run kept in memory: the same table and the same ``fmu_calls`` that a run
+    with an output folder writes to results.parquet and run.json, without the mission's map and files (most of a
+    run's CPU here), which are not what differs between an in-process FMU and its binary."""
+    res = master.run(SSP, output=None, **{**KW, **kw})
+    return res.frame, res.metadata["fmu_calls"]
 
 
 # Jacobi without step multiples (the SSD's own algorithm) is the same pair of runs as
@@ -26,9 +29,9 @@ def _run(tmp_path, name, **kw):
 # asserts all three of these checks on it
 @pytest.mark.parametrize("algorithm, multiples", [("jacobi", {"uav2_strat": 2, "wind": 3}),
                                                   ("gauss-seidel", None), ("gauss-seidel", {"uav1_bat": 2})])
-def test_inline_step_equals_the_binaries(tmp_path, algorithm, multiples):
-    a, calls_a = _run(tmp_path, "a", algorithm=algorithm, step_multiples=multiples, inprocess=True)
-    b, calls_b = _run(tmp_path, "b", algorithm=algorithm, step_multiples=multiples, inprocess=False)
+def test_inline_step_equals_the_binaries(algorithm, multiples):
+    a, calls_a = _run(algorithm=algorithm, step_multiples=multiples, inprocess=True)
+    b, calls_b = _run(algorithm=algorithm, step_multiples=multiples, inprocess=False)
     assert a.equals(b)
     assert calls_a == calls_b
     assert a["uav1_dyn.z"].max() > 5.0          # the vehicles flew: the inputs really reached them
@@ -45,10 +48,10 @@ def _dict_read_fails(monkeypatch, component):
     monkeypatch.setattr(PythonFmuSlave, "_from_dict", from_dict)
 
 
-def test_an_output_read_that_raises_is_read_through_the_fmi_call(tmp_path, monkeypatch):
-    b, calls_b = _run(tmp_path, "b")
+def test_an_output_read_that_raises_is_read_through_the_fmi_call(monkeypatch):
+    b, calls_b = _run()
     _dict_read_fails(monkeypatch, "uav3_dyn")
-    a, calls_a = _run(tmp_path, "a")
+    a, calls_a = _run()
     assert a.equals(b) and calls_a == calls_b
 
 
@@ -58,7 +61,7 @@ def test_an_output_read_that_fails_is_reported_as_getting_outputs(tmp_path, monk
     def refuse(vrs):
         raise RuntimeError("output unavailable")
     with pytest.raises(CosimError) as err:
-        with Execution(SSP, output=tmp_path / "a", **KW) as ex:
+        with Execution(SSP, output=tmp_path / "a", products="summary", **KW) as ex:
             ex.initialize()
             obj = ex.rt.slaves[ex.rt.index["uav3_dyn"]].obj
             monkeypatch.setattr(obj, "get_real", refuse)
@@ -87,7 +90,7 @@ def test_a_do_step_that_raises_is_reported_and_counted(tmp_path, monkeypatch):
             self.obj.do_step = do_step
     monkeypatch.setattr(PythonFmuSlave, "instantiate", instantiate)
     with pytest.raises(CosimError) as err:
-        master.run(SSP, output=tmp_path / "a", **KW)
+        master.run(SSP, output=tmp_path / "a", products="summary", **KW)      # run.json and fmu.log, no map
     assert "uav2_bat" in str(err.value) and "doStep" in str(err.value)
     meta = json.loads((tmp_path / "a" / "run.json").read_text())
     assert meta["steps_done"] == 4 and meta["failed_at"] == 2.0
