@@ -62,9 +62,9 @@ _RUN_OMS = textwrap.dedent("""
 """)
 
 
-def _oms(name: str, tmp_path: Path, stop: float | None = None, keep: str = "last") -> pd.DataFrame:
-    """OMSimulator's results of the test-suite SSP ``name``: one row per time (``keep``: the last, after the next
-    inputs are set, or the first, right after the step), columns without the system's name."""
+def _oms_run(name: str, tmp_path: Path, stop: float | None = None) -> pd.DataFrame:
+    """OMSimulator's results file of the test-suite SSP ``name`` as it wrote it (a time twice where inputs
+    changed after a step), columns without the system's name."""
     out = tmp_path / f"{name}_oms.csv"
     env = {**os.environ, "PYTHONPATH": str(OMS / "lib")}
     res = subprocess.run([sys.executable, "-c", _RUN_OMS, str(SUITE / f"{name}.ssp"), str(out),
@@ -75,7 +75,26 @@ def _oms(name: str, tmp_path: Path, stop: float | None = None, keep: str = "last
     df.columns = [c.strip().strip('"') for c in df.columns]
     system = df.columns[1].split(".")[0]
     df.columns = ["time"] + [c[len(system) + 1:] for c in df.columns[1:]]
+    return df
+
+
+def _one_row_per_time(df: pd.DataFrame, keep: str = "last") -> pd.DataFrame:
+    """``keep``: the last row of a time, after the next inputs are set, or the first, right after the step."""
     return df.drop_duplicates("time", keep=keep).reset_index(drop=True)
+
+
+def _oms(name: str, tmp_path: Path, stop: float | None = None, keep: str = "last") -> pd.DataFrame:
+    """OMSimulator's results of the test-suite SSP ``name``: one row per time, columns without the system's name."""
+    return _one_row_per_time(_oms_run(name, tmp_path, stop), keep)
+
+
+EMBRACE_STOP = 0.05
+
+
+@pytest.fixture(scope="module")
+def embrace_oms(tmp_path_factory) -> pd.DataFrame:
+    """OMSimulator's run of embrace to 0.05 s, both rows of each time (two tests read it, each its own row)."""
+    return _oms_run("embrace", tmp_path_factory.mktemp("embrace_oms"), stop=EMBRACE_STOP)
 
 
 def _ours(name: str, **kw) -> pd.DataFrame:
@@ -145,16 +164,16 @@ def test_import_export_parameters1_values_through_system_connectors(tmp_path):
 #: sequence, see the module's docstring and the next test)
 EMBRACE_SPREAD = {0.5: 1e-9, 0.75: 5e-3}
 
-def test_embrace_parameter_set_with_values_the_mapping_does_not_cover(tmp_path, caplog):
+def test_embrace_parameter_set_with_values_the_mapping_does_not_cover(embrace_oms, caplog):
     with caplog.at_level(logging.WARNING, logger="cosim_master"):
-        ours = _ours("embrace", lenient=True, stop_time=0.05)
+        ours = _ours("embrace", lenient=True, stop_time=EMBRACE_STOP)
     ignored = [r.getMessage() for r in caplog.records if "ignoring" in r.getMessage()]
     assert len(ignored) == 1 and "RAPID_Systems_2021-03-29_Test_1.ssv: ignoring 164 parameter values" in ignored[0]
     # one source, parameter_pipeLength = 0.976535328081166 "[m]", mapped to both pipeA.L and pipeB.L
     length = _start_values("embrace", ["ECS_HW.pipeA.L", "ECS_HW.pipeB.L", "ECS_HW.pipeC.L"], lenient=True)
     assert length == {"ECS_HW.pipeA.L": 0.976535328081166, "ECS_HW.pipeB.L": 0.976535328081166,
                       "ECS_HW.pipeC.L": 1.0}      # pipeC.L: its mapping entry has no source (its own start value)
-    oms = _oms("embrace", tmp_path, stop=0.05)
+    oms = _one_row_per_time(embrace_oms, "last")
     o, u, cols = _common(oms, ours)
     assert len(cols) > 1000 and len(o) == 51
     np.testing.assert_allclose(u[0], o[0], rtol=1e-9, atol=1e-12)
@@ -175,16 +194,16 @@ def _fmpy_jacobi(name: str, tmp_path: Path, stop: float, step: float, values: di
     return pd.read_csv(out)
 
 
-def test_embrace_parts_from_omsimulator_by_its_calling_sequence(tmp_path):
+def test_embrace_parts_from_omsimulator_by_its_calling_sequence(tmp_path, embrace_oms):
     # the same five FMUs driven by fmpy: with the calls FMI 2.0 allows, as cosim-master makes them, and with
     # OMSimulator's (a read of every variable after the inputs are set, before fmi2DoStep; a summed clock)
     length = 0.976535328081166                 # the .ssv's parameter_pipeLength, mapped to pipeA.L and pipeB.L
     values = {"ECS_HW.pipeA.L": length, "ECS_HW.pipeB.L": length}
-    stop = 0.05
+    stop = EMBRACE_STOP
     ours = _ours("embrace", lenient=True, stop_time=stop)
     plain = _fmpy_jacobi("embrace", tmp_path, stop, 0.001, values)
     like_oms = _fmpy_jacobi("embrace", tmp_path, stop, 0.001, values, "--like-omsimulator")
-    oms = _oms("embrace", tmp_path, stop=stop, keep="first")       # its row right after each step
+    oms = _one_row_per_time(embrace_oms, "first")        # its row right after each step
     assert len(ours) == len(plain) == len(like_oms) == len(oms) == 51
     np.testing.assert_allclose(oms["time"], plain["time"], rtol=1e-12)
     # compared: every Real variable but the connected inputs (each is its source's output; cosim-master records

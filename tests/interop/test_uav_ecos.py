@@ -54,29 +54,39 @@ _ECOS_SCRIPT = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
 from peers.ecos_runner import run_ecos
-ssp, step, n, out, variables, pset = sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6], sys.argv[7]
-run_ecos(ssp, step, n, [tuple(v) for v in json.loads(variables)], pset).to_parquet(out)
+step, pset = float(sys.argv[2]), sys.argv[3]
+for ssp, n, out, variables in json.loads(sys.argv[4]):
+    run_ecos(ssp, step, n, [tuple(v) for v in variables], pset).to_parquet(out)
 """
 
 
-def _run_ecos_child(n_steps: int, out: Path, ssp: Path = SSP, variables=VARIABLES) -> pd.DataFrame:
-    """Ecos in a child process: it runs the pythonfmu binaries, which re-enter the interpreter, and a failure
-    there must not take the test session with it."""
-    proc = subprocess.run([sys.executable, "-c", _ECOS_SCRIPT, str(TESTS), str(ssp), repr(STEP), str(n_steps),
-                           str(out), json.dumps(variables), PARAMETER_SET],
-                          capture_output=True, text=True, timeout=600)
+def _run_ecos_jobs(jobs) -> list[pd.DataFrame]:
+    """Ecos runs of (ssp, steps, out parquet, variables), all in one child process: it runs the pythonfmu
+    binaries, which re-enter the interpreter, and a failure there must not take the test session with it."""
+    spec = [[str(ssp), n, str(out), [list(v) for v in variables]] for ssp, n, out, variables in jobs]
+    proc = subprocess.run([sys.executable, "-c", _ECOS_SCRIPT, str(TESTS), repr(STEP), PARAMETER_SET,
+                           json.dumps(spec)], capture_output=True, text=True, timeout=600)
     if proc.returncode != 0 and "libtbb" in proc.stderr:
         pytest.skip("ecospy cannot load libtbb.so.12 (pip install tbb)")
     assert proc.returncode == 0, f"Ecos run failed ({proc.returncode}):\n{proc.stderr[-3000:]}"
-    return pd.read_parquet(out)
+    return [pd.read_parquet(out) for _, _, out, _ in jobs]
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    ours = master.run(SSP, output=None, algorithm="jacobi", step=STEP, record_interval=STEP,
-                      record=[f"{c}.{v}" for c, v, _ in VARIABLES]).frame
-    theirs = _run_ecos_child(len(ours) - 1, tmp_path_factory.mktemp("ecos") / "ecos.parquet")
-    return ours, theirs
+    """Ours and Ecos's runs of both missions (Ecos's in one child): {name: (ours, theirs)}."""
+    ours = {"free_1uav": master.run(SSP, output=None, algorithm="jacobi", step=STEP, record_interval=STEP,
+                                    record=[f"{c}.{v}" for c, v, _ in VARIABLES]).frame}
+    jobs = {"free_1uav": (SSP, len(ours["free_1uav"]) - 1, VARIABLES)}
+    if ZONES_4UAV.is_file():
+        ours["zones_4uav"] = master.run(ZONES_4UAV, output=None, algorithm="jacobi", step=STEP,
+                                        stop_time=ZONES_STOP, record_interval=STEP,
+                                        record=[f"{c}.{v}" for c, v, _ in ZONES_VARIABLES]).frame
+        jobs["zones_4uav"] = (ZONES_4UAV, len(ours["zones_4uav"]) - 1, ZONES_VARIABLES)
+    folder = tmp_path_factory.mktemp("ecos")
+    theirs = _run_ecos_jobs([(ssp, n, folder / f"{name}.parquet", variables)
+                             for name, (ssp, n, variables) in jobs.items()])
+    return {name: (ours[name], t) for name, t in zip(jobs, theirs)}
 
 
 def _photo_order(frame: pd.DataFrame) -> list[int]:
@@ -86,7 +96,7 @@ def _photo_order(frame: pd.DataFrame) -> list[int]:
 
 
 def test_paper_free_1uav_B_same_mission_in_ecos(runs, record_property):
-    ours, theirs = runs
+    ours, theirs = runs["free_1uav"]
     assert len(theirs) == len(ours)
     np.testing.assert_allclose(theirs["time"], ours["time"], rtol=0, atol=1e-9)     # Ecos's summed clock
     diff = {k: float(np.max(np.abs(ours[k].to_numpy() - theirs[k].to_numpy()))) for k in REALS}
@@ -115,10 +125,8 @@ ZONES_VARIABLES = [(_uav(c, k), v, t) for k in UAVS for c, v, t in VARIABLES] + 
 
 
 @pytest.mark.skipif(not ZONES_4UAV.is_file(), reason=f"{ZONES_4UAV.name} not built (python ssp/build_all.py)")
-def test_paper_zones_4uav_B_same_mission_in_ecos(tmp_path, record_property):
-    ours = master.run(ZONES_4UAV, output=None, algorithm="jacobi", step=STEP, stop_time=ZONES_STOP,
-                      record_interval=STEP, record=[f"{c}.{v}" for c, v, _ in ZONES_VARIABLES]).frame
-    theirs = _run_ecos_child(len(ours) - 1, tmp_path / "ecos.parquet", ZONES_4UAV, ZONES_VARIABLES)
+def test_paper_zones_4uav_B_same_mission_in_ecos(runs, record_property):
+    ours, theirs = runs["zones_4uav"]
     assert len(theirs) == len(ours) == int(round(ZONES_STOP / STEP)) + 1
     np.testing.assert_allclose(theirs["time"], ours["time"], rtol=0, atol=1e-9)
     # Ecos applied the zones (the shared parameter set): each strategy has the SSP's four

@@ -35,6 +35,7 @@ in a child process a failure cannot take the test session with it.
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import subprocess
@@ -71,16 +72,23 @@ _LIBCOSIM_SCRIPT = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
 from peers.libcosim_runner import run_libcosim
-ssp, step, stop, out, variables = sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5], sys.argv[6]
-run_libcosim(ssp, step, stop, [tuple(v) for v in json.loads(variables)]).to_parquet(out)
+for ssp, step, stop, out, variables in json.loads(sys.argv[2]):
+    run_libcosim(ssp, step, stop, [tuple(v) for v in variables]).to_parquet(out)
 """
 
 
-def _run_libcosim_child(ssp: Path, step: float, stop: float, out: Path, variables=VARS) -> pd.DataFrame:
-    proc = subprocess.run([sys.executable, "-c", _LIBCOSIM_SCRIPT, str(TESTS), str(ssp), repr(step), repr(stop),
-                           str(out), json.dumps(variables)], capture_output=True, text=True, timeout=300)
+def _run_libcosim_jobs(jobs) -> list[pd.DataFrame]:
+    """libcosim runs of (ssp, step, stop, out parquet, variables), all in one child process (one interpreter and
+    one libcosim load for all): one DataFrame per job."""
+    spec = [[str(ssp), step, stop, str(out), [list(v) for v in variables]] for ssp, step, stop, out, variables in jobs]
+    proc = subprocess.run([sys.executable, "-c", _LIBCOSIM_SCRIPT, str(TESTS), json.dumps(spec)],
+                          capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, f"libcosim run failed ({proc.returncode}):\n{proc.stderr[-3000:]}"
-    return pd.read_parquet(out)
+    return [pd.read_parquet(out) for _, _, _, out, _ in jobs]
+
+
+def _run_libcosim_child(ssp: Path, step: float, stop: float, out: Path, variables=VARS) -> pd.DataFrame:
+    return _run_libcosim_jobs([(ssp, step, stop, out, variables)])[0]
 
 
 def _assert_same_values(ours: pd.DataFrame, theirs: pd.DataFrame, variables=VARS,
@@ -112,10 +120,47 @@ def one_uav_ssp(tmp_path_factory) -> Path:
     return build_scenario(y, tmp / "one_uav.ssp")
 
 
+SHIPPED = TESTS.parent / "ssp" / "paper_free_1uav_B.ssp"
+ZONES_4UAV = TESTS.parent / "ssp" / "paper_zones_4uav_B.ssp"
+ZONES_STOP = 150.0
+
+
+def _uav(name: str, k: int) -> str:
+    """uav1's name for UAV k."""
+    return name.replace("uav1_", f"uav{k}_")
+
+
+ZONES_VARIABLES = [(_uav(c, k), v) for k in range(1, 5) for c, v in VARS if c != "wind"] + \
+                  [(f"uav{k}_strat", "n_zones") for k in range(1, 5)]
+ZONES_INTEGERS = {_uav(key, k) for k in range(1, 5) for key in INTEGERS} | \
+                 {f"uav{k}_strat.n_zones" for k in range(1, 5)}
+
+
+@functools.lru_cache(maxsize=None)
+def _ours_shipped() -> pd.DataFrame:
+    """Our run of the shipped mission; it ends when the UAV has landed, and its length is libcosim's stop."""
+    return master.run(SHIPPED, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
+                      record=[f"{c}.{v}" for c, v in VARS]).frame
+
+
+@pytest.fixture(scope="module")
+def libcosim_runs(one_uav_ssp, tmp_path_factory) -> dict:
+    """Every libcosim run of this module, in one child process: {key: DataFrame}."""
+    folder = tmp_path_factory.mktemp("libcosim_runs")
+    jobs = {("one_uav", 0.5): (one_uav_ssp, 0.5, STOP, VARS), ("one_uav", 0.1): (one_uav_ssp, 0.1, STOP, VARS)}
+    if SHIPPED.is_file():
+        jobs["shipped"] = (SHIPPED, 0.1, (len(_ours_shipped()) - 1) * 0.1, VARS)
+    if ZONES_4UAV.is_file():
+        jobs["zones_4uav"] = (ZONES_4UAV, 0.1, ZONES_STOP, ZONES_VARIABLES)
+    frames = _run_libcosim_jobs([(ssp, step, stop, folder / f"{i}.parquet", variables)
+                                 for i, (ssp, step, stop, variables) in enumerate(jobs.values())])
+    return dict(zip(jobs, frames))
+
+
 @pytest.mark.parametrize("step", [0.5, 0.1])
-def test_one_uav_mission_same_trajectory_in_libcosim(one_uav_ssp, tmp_path, step, record_property):
+def test_one_uav_mission_same_trajectory_in_libcosim(libcosim_runs, one_uav_ssp, step, record_property):
     n = int(round(STOP / step))
-    theirs = _run_libcosim_child(one_uav_ssp, step, STOP, tmp_path / "libcosim.parquet")
+    theirs = libcosim_runs[("one_uav", step)]
     ours = master.run(one_uav_ssp, output=None, algorithm="jacobi", step=step, record_interval=step,
                       record=[f"{c}.{v}" for c, v in VARS]).frame
     assert len(ours) == len(theirs) == n + 1
@@ -133,52 +178,34 @@ def test_one_uav_mission_same_trajectory_in_libcosim(one_uav_ssp, tmp_path, step
     assert (theirs["wind.wind_level"] > 0).any() and theirs["wind.wind_x"].abs().max() > 1.0
 
 
-SHIPPED = TESTS.parent / "ssp" / "paper_free_1uav_B.ssp"
-
-
 @pytest.mark.skipif(not SHIPPED.is_file(), reason=f"{SHIPPED.name} not built (python ssp/build_all.py)")
-def test_shipped_mission_same_in_libcosim(tmp_path, record_property):
+def test_shipped_mission_same_in_libcosim(libcosim_runs, record_property):
     """ssp/paper_free_1uav_B.ssp (24 targets, its 0.1 s step, Jacobi) in libcosim, unchanged, until our run
     ends (the UAV has landed): same photos and states, positions equal to rounding (libcosim's 0.1 s steps
     differ from ours by ulps, see the module docstring; measured 2026-11-23 over the 825 s mission: 5.6e-11 m
     in x, 5.5e-11 m in y, 3.9e-13 m in z, 7e-15 in soc; integers identical)."""
-    step = 0.1
-    ours = master.run(SHIPPED, output=None, algorithm="jacobi", step=step, record_interval=step,
-                      record=[f"{c}.{v}" for c, v in VARS]).frame
-    stop = (len(ours) - 1) * step
-    theirs = _run_libcosim_child(SHIPPED, step, stop, tmp_path / "libcosim.parquet")
+    ours = _ours_shipped()
+    theirs = libcosim_runs["shipped"]
     assert len(theirs) == len(ours)
     record_property("max_abs_diff", json.dumps(_assert_same_values(ours, theirs)))
     last = theirs.iloc[-1]
     assert last["uav1_strat.photo_count"] == 24 and last["uav1_strat.mission_state"] == 7     # landed at base
 
 
-ZONES_4UAV = TESTS.parent / "ssp" / "paper_zones_4uav_B.ssp"
-ZONES_STOP = 150.0
-
-
-def _uav(name: str, k: int) -> str:
-    """uav1's name for UAV k."""
-    return name.replace("uav1_", f"uav{k}_")
-
-
 @pytest.mark.skipif(not ZONES_4UAV.is_file(), reason=f"{ZONES_4UAV.name} not built (python ssp/build_all.py)")
-def test_shipped_4uav_zones_mission_same_in_libcosim(tmp_path, record_property):
+def test_shipped_4uav_zones_mission_same_in_libcosim(libcosim_runs, record_property):
     """ssp/paper_zones_4uav_B.ssp (four UAVs, 24 targets, four no-fly zones as indexed Real parameters, its 0.1 s
     step, Jacobi, no wind) in libcosim, unchanged, over its first 150 s (kept short for the suite: takeoff,
     transit around the zones, which bend every path from t = 16.1 s, and the first photos). Integers identical;
     positions to rounding, from libcosim's 0.1 s steps (module docstring; measured 2026-11-23 over the 150 s:
     <= 1.0e-11 m in position, 2.2e-16 in soc), within ATOL."""
     step = 0.1
-    variables = [(_uav(c, k), v) for k in range(1, 5) for c, v in VARS if c != "wind"] + \
-                [(f"uav{k}_strat", "n_zones") for k in range(1, 5)]
-    integers = {_uav(key, k) for k in range(1, 5) for key in INTEGERS} | \
-               {f"uav{k}_strat.n_zones" for k in range(1, 5)}
     ours = master.run(ZONES_4UAV, output=None, algorithm="jacobi", step=step, stop_time=ZONES_STOP,
-                      record_interval=step, record=[f"{c}.{v}" for c, v in variables]).frame
-    theirs = _run_libcosim_child(ZONES_4UAV, step, ZONES_STOP, tmp_path / "libcosim.parquet", variables)
+                      record_interval=step, record=[f"{c}.{v}" for c, v in ZONES_VARIABLES]).frame
+    theirs = libcosim_runs["zones_4uav"]
     assert len(theirs) == len(ours) == int(round(ZONES_STOP / step)) + 1
-    record_property("max_abs_diff", json.dumps(_assert_same_values(ours, theirs, variables, integers)))
+    record_property("max_abs_diff",
+                    json.dumps(_assert_same_values(ours, theirs, ZONES_VARIABLES, ZONES_INTEGERS)))
     # libcosim applied the zones: each strategy has the SSP's four; and the fleet flew to its first photos
     for k in range(1, 5):
         assert set(theirs[f"uav{k}_strat.n_zones"]) == {4}

@@ -35,31 +35,49 @@ _CHILD = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[2])
 from OMSimulator import SSP, Capi
-model = SSP(sys.argv[3]).instantiate()
-model.setResultFile("")
-out = {"strategy": Capi.getString("model.root.uav1_strat.strategy")[0],
-       "assignment": Capi.getString("model.root.uav1_strat.assignment")[0],
-       "n_targets": Capi.getInteger("model.root.uav1_strat.n_targets")[0]}
-if sys.argv[4] == "initialize":
-    model.initialize()
-if sys.argv[4] == "simulate":
-    model.setFixedStepSize(0.1); model.setStopTime(10.0)
-    model.initialize(); model.simulate()
-    out["time"] = model.getTime(); out["z"] = Capi.getReal("model.root.uav1_dyn.z")[0]
-    model.terminate()
-model.delete()
-print(json.dumps(out))
+for ssp, what in json.loads(sys.argv[3]):
+    model = SSP(ssp).instantiate()
+    model.setResultFile("")
+    out = {"strategy": Capi.getString("model.root.uav1_strat.strategy")[0],
+           "assignment": Capi.getString("model.root.uav1_strat.assignment")[0],
+           "n_targets": Capi.getInteger("model.root.uav1_strat.n_targets")[0]}
+    if what == "initialize":
+        model.initialize()
+    if what == "simulate":
+        model.setFixedStepSize(0.1); model.setStopTime(10.0)
+        model.initialize(); model.simulate()
+        out["time"] = model.getTime(); out["z"] = Capi.getReal("model.root.uav1_dyn.z")[0]
+        model.terminate()
+    model.delete()
+    print(json.dumps(out), flush=True)
 """
 
 
-def _child(what, tmp_path, ssp=SSP, check=True):
-    proc = subprocess.run([sys.executable, "-c", _CHILD, str(TESTS), str(oms_lib()), str(ssp), what],
+def _children(items, tmp_path, check=True):
+    """OMSimulator on each (ssp, what) in turn, in one child process: what it read of each model (a dict per item),
+    or with check=False the CompletedProcess."""
+    proc = subprocess.run([sys.executable, "-c", _CHILD, str(TESTS), str(oms_lib()),
+                           json.dumps([[str(ssp), what] for ssp, what in items])],
                           capture_output=True, text=True, timeout=300, cwd=tmp_path,
                           env={**os.environ, "TMPDIR": str(tmp_path)})
     if not check:
         return proc
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    got = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert len(got) == len(items), proc.stdout[-3000:]
+    return got
+
+
+def _child(what, tmp_path, ssp=SSP, check=True):
+    got = _children([(ssp, what)], tmp_path, check)
+    return got if not check else got[0]
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """What OMSimulator read of the shipped SSP after instantiation, and its state after simulating 10 s (one
+    child process for both tests that look at them)."""
+    return _child("simulate", tmp_path_factory.mktemp("oms_simulate"))
 
 
 _INLINE_STRATEGY = '<ssv:Parameter name="strategy">\n                    <ssv:String value="B"/>\n                  </ssv:Parameter>'
@@ -115,23 +133,24 @@ def test_no_form_of_the_ssp_gets_a_string_through(tmp_path):
     transfers no Strings). cosim-master takes "B" from each."""
     ssv = _strategy_elsewhere(tmp_path, "ssv")
     assert _ours_before_start(ssv, "uav1_strat.strategy") == "B"
-    assert _child("values", tmp_path, ssv)["strategy"] == "A"
     system = _strategy_elsewhere(tmp_path, "system")
     assert _ours_before_start(system, "uav1_strat.strategy") == "B"
-    assert _child("values", tmp_path, system)["strategy"] == "A"
+    in_ssv, in_system = _children([(ssv, "values"), (system, "values")], tmp_path)
+    assert in_ssv["strategy"] == "A"
+    assert in_system["strategy"] == "A"
     proc = _child("initialize", tmp_path, system, check=False)
     assert proc.returncode != 0 and "[updateInputs] internal error" in proc.stdout + proc.stderr
 
 
-def test_it_drops_string_parameters(tmp_path):
+def test_it_drops_string_parameters(simulated):
     """The SSD gives strategy "B" (and assignment "equal", the default) as Strings, n_targets 24 as an Integer:
     after instantiation OMSimulator's FMU has the Integer and the FMU's default strategy "A"."""
-    got = _child("values", tmp_path)
+    got = {k: simulated[k] for k in ("strategy", "assignment", "n_targets")}     # read before initialisation
     assert got == {"strategy": "A", "assignment": "equal", "n_targets": 24}
 
 
-def test_simulate_to_the_stop_time(tmp_path):
-    got = _child("simulate", tmp_path)
+def test_simulate_to_the_stop_time(simulated):
+    got = simulated
     assert got["time"] == 10.0
     ours = master.run(SSP, output=None, stop_time=10.0, record=["uav1_dyn.z"]).frame
     assert got["z"] == pytest.approx(float(ours["uav1_dyn.z"].iloc[-1]), abs=1e-9)     # climbing since 5 s

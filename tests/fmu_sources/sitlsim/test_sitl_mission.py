@@ -99,30 +99,29 @@ def test_a_far_set_point_is_held_to_centimetres(tmp_path):
 
 @needs_sitl
 @pytest.mark.parametrize("coupling", ["lockstep", "paced"])
-def test_run_json_carries_each_sitl_vehicles_clock(tmp_path, monkeypatch, coupling):
-    import master
-    from uavstudy.build import build_ssp
-    from uavstudy.scenario import SitlOptions, UavScenario
-    monkeypatch.setenv("ARDUPILOT_SITL", BINARY)
-    fr = EnuFrame(*BASE)
-    scn = UavScenario(name="clock", base=BASE, n_uavs=2, strategy="B", takeoff_altitude=5.0, stop_time=3.0,
-                      targets=[fr.to_geodetic(x, y, 0.0)[:2] for x, y in ((40.0, 0.0), (-40.0, 0.0))],
-                      vehicle=["sitl", "point_mass"], sitl=SitlOptions(coupling=coupling))
-    res = master.run(build_ssp(scn, tmp_path / "clock.ssp"), output=tmp_path / "out", raise_on_error=False,
-                     write_csv=False)
+def test_run_json_carries_each_sitl_vehicles_clock(request, coupling):
+    """On the runs shared with test_sitl_vehicle.py (conftest.py): lock-step, four SITL UAVs and a point-mass
+    one stepped by two threads; paced, the one-UAV short mission."""
+    shared = request.getfixturevalue("sitl_fleet" if coupling == "lockstep" else "paced_mission")
+    res = shared.result
     assert res.metadata["outcome"] == "completed", res.metadata.get("error")
-    clock = json.loads((tmp_path / "out" / "run.json").read_text())["monitors"]["org.cosim-master.sitl-clock"]
+    clock = json.loads((shared.out / "run.json").read_text())["monitors"]["org.cosim-master.sitl-clock"]
     info = clock["vehicles"]
-    assert list(info) == ["uav1_dyn"]                      # the point-mass UAV has no clock of its own
-    assert info["uav1_dyn"]["coupling"] == coupling and info["uav1_dyn"]["steps"] == 30   # 3 s / 0.1 s
-    if coupling == "lockstep":
-        assert info["uav1_dyn"]["max_slip_s"] == 0.0       # 0.1 s = 120 whole frames
-    else:
-        # the monitor's view of every step agrees with the FMU's own running maximum; the vehicle clock is
-        # never behind a communication point (the step waits for it)
-        assert info["uav1_dyn"]["max_slip_s"] == res.frame["uav1_dyn.max_slip"].iloc[-1]
-        assert (res.frame["uav1_dyn.slip"] >= 0.0).all()
-        u = info["uav1_dyn"]
-        assert 0.0 <= u["mean_slip_s"] <= u["max_slip_s"] and 0.0 <= u["p95_slip_s"] <= u["max_slip_s"]
-    # the firmware is ready once its EKF uses GPS (~41.6 s after boot, ../shared/sitl/README.md)
-    assert 35.0 < info["uav1_dyn"]["ready_time_s"] < 60.0
+    sitl = [f"uav{k}_dyn" for k in range(1, 5)] if coupling == "lockstep" else ["uav1_dyn"]
+    assert list(info) == sitl                          # the point-mass UAV (uav5) has no clock of its own
+    # every step of the run: to the stop time (lock-step fleet), to the landing (paced mission)
+    steps = round(res.frame["time"].iloc[-1] / 0.1)
+    assert coupling == "paced" or steps == round(shared.stop / 0.1)
+    for name in sitl:
+        u = info[name]
+        assert u["coupling"] == coupling and u["steps"] == steps
+        if coupling == "lockstep":
+            assert u["max_slip_s"] == 0.0                  # 0.1 s = 120 whole frames
+        else:
+            # the monitor's view of every step agrees with the FMU's own running maximum; the vehicle clock is
+            # never behind a communication point (the step waits for it)
+            assert u["max_slip_s"] == res.frame[f"{name}.max_slip"].iloc[-1]
+            assert (res.frame[f"{name}.slip"] >= 0.0).all()
+            assert 0.0 <= u["mean_slip_s"] <= u["max_slip_s"] and 0.0 <= u["p95_slip_s"] <= u["max_slip_s"]
+        # the firmware is ready once its EKF uses GPS (~41.6 s after boot, ../shared/sitl/README.md)
+        assert 35.0 < u["ready_time_s"] < 60.0

@@ -192,21 +192,21 @@ def test_lockstep_mission_is_flown_and_bit_identical_when_repeated(tmp_path, sit
 
 
 @needs_sitl
-def test_paced_mission_is_flown_and_reports_its_slip(tmp_path, sitl_env):
-    res = run(scenario(tmp_path, coupling="paced"), tmp_path / "p")
+def test_paced_mission_is_flown_and_reports_its_slip(paced_mission):
+    res = paced_mission.result          # shared with test_sitl_mission.py (conftest.py)
     assert res.metadata["outcome"] == "completed", error_of(res)
     f = res.frame
-    _check_short_mission(tmp_path / "p", f)
+    _check_short_mission(paced_mission.out, f)
     slip = f["uav1_dyn.slip"]
     # the vehicle clock is at or past each communication point; by how much depends on the machine's load
     assert (slip >= 0.0).all() and slip.median() < 0.5
 
 
 @needs_sitl
-def test_four_sitl_uavs_in_one_process_on_distinct_instances(tmp_path, sitl_env):
-    ssp = scenario(tmp_path, n_uavs=4, targets=((40.0, 0.0), (0.0, 40.0), (-40.0, 0.0), (0.0, -40.0)), stop=8.0,
-                   name="four")
-    res = run(ssp, tmp_path / "four")
+def test_four_sitl_uavs_in_one_process_on_distinct_instances(sitl_fleet):
+    """Four SITL UAVs (and a point-mass one) in one run: the run shared with test_sitl_parallel.py and
+    test_sitl_mission.py (conftest.py, ``sitl_fleet``)."""
+    res = sitl_fleet.result
     assert res.metadata["outcome"] == "completed", error_of(res)
     f = res.frame
     vehicles = res.metadata["monitors"]["org.cosim-master.sitl-clock"]["vehicles"]
@@ -214,8 +214,8 @@ def test_four_sitl_uavs_in_one_process_on_distinct_instances(tmp_path, sitl_env)
     assert len(instances) == 4 and min(instances) >= 0      # four SITLs, four port sets
     for k in range(1, 5):
         assert f[f"uav{k}_dyn.z"].max() > 2.0, f"uav{k} did not take off"
-        assert (tmp_path / "four" / "sitl" / f"uav{k}_dyn" / "eeprom.bin").is_file()
-    assert sitl_pids(tmp_path) == []
+        assert (sitl_fleet.out / "sitl" / f"uav{k}_dyn" / "eeprom.bin").is_file()
+    assert sitl_pids(sitl_fleet.under) == []
 
 
 class KillSitlAt(Observer):

@@ -465,18 +465,26 @@ def test_fmu_state_round_trip_flies_on_the_same():
     assert again != first and shell.mission_state in (LAND_BASE, LANDED_BASE, 9)
 
 
-def test_a_shipped_mission_is_the_same_with_and_without_the_compiled_steps(tmp_path):
-    # a whole mission (zone detours included) run with the FMUs' compiled steps and with COSIM_MASTER_PURE_PYTHON=1
+def test_a_shipped_mission_is_the_same_with_and_without_the_compiled_steps(tmp_path, capsys, monkeypatch):
+    # a whole mission (zone detours included) run with the FMUs' compiled steps (in this process, where they are
+    # loaded) and with COSIM_MASTER_PURE_PYTHON=1 (in a new process, so that nothing compiled can be left loaded)
+    import importlib.util
     import os
     import subprocess
     import sys
 
     from build_script import SRC
+    from cli_in_process import run_cli
     root = SRC.parent
-    for out, pure in (("fast", ""), ("pure", "1")):
-        env = dict(os.environ, COSIM_MASTER_PURE_PYTHON=pure)
-        subprocess.run([sys.executable, "-m", "master.cli", "run", str(root / "ssp" / "paper_zones_1uav_B.ssp"),
-                        "-o", str(tmp_path / out)], check=True, env=env, cwd=root, capture_output=True, text=True)
-    r = subprocess.run([sys.executable, str(root / "bench" / "compare_runs.py"), str(tmp_path / "pure"),
-                        str(tmp_path / "fast")], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout + r.stderr
+    ssp = root / "ssp" / "paper_zones_1uav_B.ssp"
+    monkeypatch.setenv("COSIM_MASTER_PURE_PYTHON", "")
+    fast = run_cli(["run", ssp, "-o", tmp_path / "fast"], cwd=root)
+    assert fast.returncode == 0, fast.stderr
+    env = dict(os.environ, COSIM_MASTER_PURE_PYTHON="1")
+    subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(tmp_path / "pure")],
+                   check=True, env=env, cwd=root, capture_output=True, text=True)
+    spec = importlib.util.spec_from_file_location("compare_runs", root / "bench" / "compare_runs.py")
+    compare_runs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(compare_runs)
+    code = compare_runs.main([str(tmp_path / "pure"), str(tmp_path / "fast")])
+    assert code == 0, capsys.readouterr().out
