@@ -168,9 +168,9 @@ class _ChildRecording(Recording):
         return info
 
     def sample(self, t):
-        super().sample(t)
-        if self.str_:
+        if self.str_:       # before the row: the row that fills a block sends the block, whose table needs it
             _send(self.conn, ("str", self.object_row()))
+        super().sample(t)
         self.header[H_LAST_ROW] = t
         self.header[H_FILL] = self.fill
 
@@ -448,13 +448,15 @@ class _Supervisor:
             rows = self.block[:msg[1]]
             if min(rows.shape) < 2:     # one row or one column: its transpose is a view of the shared block
                 rows = rows.copy()
-            table = block_table(self.schema, rows, self.pending_str[:len(rows)])
+            try:
+                table = block_table(self.schema, rows, self.pending_str[:len(rows)])
+            finally:        # the child waits for this word, also when the table could not be built
+                try:
+                    conn.send(("taken",))
+                except OSError:         # the child has died: the block is still written
+                    pass
             self.blocks_received += 1
             self.pending_str = []
-            try:
-                conn.send(("taken",))
-            except OSError:         # the child has died: the block is still written
-                pass
             if self.write_error is None:
                 try:
                     self.group.write(table)
