@@ -110,9 +110,11 @@ def parts(out: Path) -> list[str]:
         c0 = cpu()
         fn()
         return cpu() - c0
-    blocks = []
-    took = {"block tables (the supervisor's copy out of the shared block)":
-            timed(lambda: blocks.extend(block_table(table.schema, rows[a:b], []) for a, b in spans))}
+    def each_block_once():          # as the supervisor does: a block's table lives until the next one comes
+        for a, b in spans:
+            block_table(table.schema, rows[a:b], [])
+    took = {"block tables (the supervisor's copy out of the shared block)": timed(each_block_once)}
+    blocks = [block_table(table.schema, rows[a:b], []) for a, b in spans]
     if formatter() is not None:
         scratch = Scratch()
         took["CSV text (C formatter)"] = timed(lambda: [len(c) for blk in blocks for c in native_chunks(blk, scratch)])
@@ -137,6 +139,9 @@ def main(argv=None) -> int:
     ap.add_argument("--pure", action="store_true", help="also run the pure-Python CSV writer (once a round)")
     ap.add_argument("--before", metavar="CLI", help="another checkout's cosim-master, run in the same rounds")
     ap.add_argument("--parts", action="store_true", help="also measure each part of the recording in this process")
+    ap.add_argument("--environment-bytecode", action="store_true",
+                    help="keep the environment's bytecode setting (default: every checkout runs from compiled "
+                         "bytecode kept in the bench's folder, as an installed package does)")
     a = ap.parse_args(argv)
     from bench.recording.build import build_fmu
     configs = {name: (args, env, None) for name, (args, env) in {**CONFIGS, **(PURE if a.pure else {})}.items()}
@@ -144,6 +149,11 @@ def main(argv=None) -> int:
         configs.update({f"before: {name}": (args, env, [a.before]) for name, (args, env) in CONFIGS.items()})
     with tempfile.TemporaryDirectory(prefix="bench_recording_") as tmp:
         tmp = Path(tmp)
+        if not a.environment_bytecode:
+            # a checkout with __pycache__ folders and one without (PYTHONDONTWRITEBYTECODE=1 on this machine) start
+            # ~0.1 s apart: every command gets its bytecode compiled once into one place and read from there
+            os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+            os.environ["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
         fmu = build_fmu(tmp)
         for _, _, cli in configs.values():      # builds and caches (native loop, formatter, FMU unpacked)
             run_once(fmu, tmp / "warm", CONFIGS["one variable"][0], {}, 1000, not a.no_supervise, cli)
@@ -163,6 +173,8 @@ def main(argv=None) -> int:
     mode = "--no-supervise" if a.no_supervise else "supervised (the default)"
     print(f"ControlledTemperature stand-in (120 Reals), {a.steps} steps of 1e-4 s, `cosim-master run`, {mode}; "
           f"{a.rounds} rounds alternating, medians")
+    print("bytecode: " + ("the environment's" if a.environment_bytecode else "compiled once per checkout into the "
+                                                                            "bench's folder (PYTHONPYCACHEPREFIX)"))
     print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, after {load1[0]:.2f} {load1[1]:.2f} "
           f"{load1[2]:.2f} (2 cores)\n")
     print("| recording | wall s | x one variable | CPU s | x one variable | walls |")

@@ -305,12 +305,14 @@ static inline char *put_signed(int64_t v, char *o)
 /* the column kinds (csv_native.KINDS) */
 enum { K_F64 = 1, K_F32, K_I8, K_I16, K_I32, K_I64, K_U8, K_U16, K_U32, K_U64, K_BOOL };
 
-/* a column's last double and its text: a value that repeats the one above it (a parameter, a state at rest)
- * is copied, not formatted again */
+/* a column's last double and where its text is in the output: a value that repeats the one above it (a
+ * parameter, a state at rest) is copied from the row above, not formatted again. Only where the text is: a copy of
+ * each text as it was written read bytes just stored by narrower stores, which waits for them (no store
+ * forwarding) at every value; the row above was written long enough ago. */
 typedef struct {
     uint64_t bits;
-    uint32_t len;               /* 0: nothing yet */
-    char text[28];
+    const char *text;           /* NULL: nothing yet */
+    uint32_t len;
 } Last;
 
 /* repr(x) at o through the column's Last (a copy of 24 bytes, like put_double's; see ROOM) */
@@ -318,14 +320,16 @@ static inline char *put_double_cached(double x, char *o, Last *last)
 {
     uint64_t bits;
     memcpy(&bits, &x, sizeof bits);
-    if (last->len && last->bits == bits) {
-        memcpy(o, last->text, 24);
+    if (last->text && last->bits == bits) {
+        const char *from = last->text;
+        memmove(o, from, 24);      /* one column: the row above ends just before o */
+        last->text = o;
         return o + last->len;
     }
     char *end = put_double(x, o);
     last->bits = bits;
+    last->text = o;
     last->len = (uint32_t)(end - o);
-    memcpy(last->text, o, 24);
     return end;
 }
 
