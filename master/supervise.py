@@ -3,9 +3,10 @@
 An FMU is foreign code in the master's address space: it can abort, segfault or never return. So the
 ``cosim-master run`` command runs the simulation (``Execution``) in a forked child and keeps the outputs here:
 
-* the child sends every full block of recorded rows through a pipe (Arrow IPC) and this process writes it to
-  the sinks (Parquet, CSV); the rows of the block being filled live in shared memory, so the rows recorded
-  before a crash are all kept, whatever kills the child;
+* the child records its rows into a block in shared memory; a full block is handed over there (the child says
+  through the pipe how many rows it holds and waits until this process has copied them out) and this process
+  writes it to the sinks (Parquet, CSV); the rows of the block being filled are in shared memory too, so the
+  rows recorded before a crash are all kept, whatever kills the child;
 * events are sent as they happen; the child's run.json facts come at its end;
 * a crash (signal), ``--timeout`` (wall clock) or Ctrl-C/SIGTERM that the child does not answer within
   ``GRACE_S`` ends with the child killed, its rows written, run.json saying what happened, and the component
