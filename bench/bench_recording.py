@@ -5,9 +5,11 @@ all variables without CSV, and all variables with CSV (the default outputs), as 
 the median wall time and CPU time (user + system of the command and its child), and each against the
 one-variable run, with the load average before and after.
 
-    python bench/bench_recording.py [--rounds 5] [--steps 200000] [--no-supervise] [--pure] [--before CLI]
+    python bench/bench_recording.py [--rounds 5] [--steps 200000] [--no-supervise] [--pure] [--parts]
+                                    [--before CLI]
 
-``--pure`` adds the all-variables run with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the
+``--parts`` measures each part of the recording (block tables, CSV text, CSV sink, Parquet sink) on the last
+run's table in this process. ``--pure`` adds the all-variables run with ``COSIM_MASTER_PURE_PYTHON=1`` (the Python CSV writer, the
 reference); ``--before CLI`` adds every configuration run by another checkout's ``cosim-master`` (e.g.
 ``/work/main/.venv/bin/cosim-master``), in the same rounds.
 After the runs it checks what the issue asks: results.csv holds the same bytes as the Python reference
@@ -85,6 +87,50 @@ def check_csv(out: Path) -> list[str]:
     return lines
 
 
+def parts(out: Path) -> list[str]:
+    """What the all-variables run spends on each part of the recording, measured here in one process on the run's
+    own table, a block (4096 rows) at a time as the supervisor gets them: CPU seconds (user + system) each."""
+    import numpy as np
+    import pyarrow.parquet as pq
+
+    from master.observers.recording import block_rows_for, block_table
+    from master.sinks.csv import CsvSink
+    from master.sinks.csv_native import Scratch, formatter, native_chunks
+    from master.sinks.parquet import ParquetSink
+    table = pq.read_table(out / "results.parquet").combine_chunks()
+    rows = np.stack([c.to_numpy() for c in table.columns], axis=1)     # the shared block's layout: row-major
+    step = block_rows_for(table.num_columns)
+    spans = [(a, min(a + step, table.num_rows)) for a in range(0, table.num_rows, step)]
+
+    def cpu():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    def timed(fn):
+        c0 = cpu()
+        fn()
+        return cpu() - c0
+    def each_block_once():          # as the supervisor does: a block's table lives until the next one comes
+        for a, b in spans:
+            block_table(table.schema, rows[a:b], [])
+    took = {"block tables (the supervisor's copy out of the shared block)": timed(each_block_once)}
+    blocks = [block_table(table.schema, rows[a:b], []) for a, b in spans]
+    if formatter() is not None:
+        scratch = Scratch()
+        took["CSV text (C formatter)"] = timed(lambda: [len(c) for blk in blocks for c in native_chunks(blk, scratch)])
+    with tempfile.TemporaryDirectory(prefix="bench_recording_parts_") as tmp:
+        for name, sink in (("CSV text and its write (the CSV sink)", CsvSink()), ("Parquet sink", ParquetSink())):
+            def write(sink=sink):
+                sink.open(Path(tmp), table.schema)
+                for blk in blocks:
+                    sink.write(blk)
+                sink.close()
+            took[name] = timed(write)
+    cells = table.num_rows * table.num_columns
+    return [f"{name}: {s:.2f} s CPU" + (f" ({s / cells * 1e9:.0f} ns a value)" if "C formatter" in name else "")
+            for name, s in took.items()]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
@@ -92,6 +138,10 @@ def main(argv=None) -> int:
     ap.add_argument("--no-supervise", action="store_true")
     ap.add_argument("--pure", action="store_true", help="also run the pure-Python CSV writer (once a round)")
     ap.add_argument("--before", metavar="CLI", help="another checkout's cosim-master, run in the same rounds")
+    ap.add_argument("--parts", action="store_true", help="also measure each part of the recording in this process")
+    ap.add_argument("--environment-bytecode", action="store_true",
+                    help="keep the environment's bytecode setting (default: every checkout runs from compiled "
+                         "bytecode kept in the bench's folder, as an installed package does)")
     a = ap.parse_args(argv)
     from bench.recording.build import build_fmu
     configs = {name: (args, env, None) for name, (args, env) in {**CONFIGS, **(PURE if a.pure else {})}.items()}
@@ -99,6 +149,11 @@ def main(argv=None) -> int:
         configs.update({f"before: {name}": (args, env, [a.before]) for name, (args, env) in CONFIGS.items()})
     with tempfile.TemporaryDirectory(prefix="bench_recording_") as tmp:
         tmp = Path(tmp)
+        if not a.environment_bytecode:
+            # a checkout with __pycache__ folders and one without (PYTHONDONTWRITEBYTECODE=1 on this machine) start
+            # ~0.1 s apart: every command gets its bytecode compiled once into one place and read from there
+            os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+            os.environ["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
         fmu = build_fmu(tmp)
         for _, _, cli in configs.values():      # builds and caches (native loop, formatter, FMU unpacked)
             run_once(fmu, tmp / "warm", CONFIGS["one variable"][0], {}, 1000, not a.no_supervise, cli)
@@ -112,10 +167,14 @@ def main(argv=None) -> int:
         load1 = os.getloadavg()
         run_once(fmu, tmp / "out", configs["all, CSV"][0], {}, a.steps, not a.no_supervise)
         checks = check_csv(tmp / "out")
+        if a.parts:
+            checks += parts(tmp / "out")
     base = {"": "one variable", "before: ": "before: one variable"}
     mode = "--no-supervise" if a.no_supervise else "supervised (the default)"
     print(f"ControlledTemperature stand-in (120 Reals), {a.steps} steps of 1e-4 s, `cosim-master run`, {mode}; "
           f"{a.rounds} rounds alternating, medians")
+    print("bytecode: " + ("the environment's" if a.environment_bytecode else "compiled once per checkout into the "
+                                                                            "bench's folder (PYTHONPYCACHEPREFIX)"))
     print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, after {load1[0]:.2f} {load1[1]:.2f} "
           f"{load1[2]:.2f} (2 cores)\n")
     print("| recording | wall s | x one variable | CPU s | x one variable | walls |")

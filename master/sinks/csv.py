@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from . import SINKS
 from .base import Sink
-from .csv_native import formatter, native_chunks
+from .csv_native import Scratch, formatter, native_chunks
 from .csv_text import csv_quote, format_rows
 
 
@@ -41,7 +41,9 @@ class CsvSink(Sink):
             data = data[self._fh.write(data):]
 
     def write(self, block):
-        chunks = native_chunks(block)
+        if getattr(self, "_scratch", None) is None:
+            self._scratch = Scratch()
+        chunks = native_chunks(block, self._scratch)
         if chunks is not None:
             for data in chunks:
                 self._put_bytes(data)
@@ -63,6 +65,7 @@ class CsvSink(Sink):
         if self._fh is not None:
             self._fh.close()
             self._fh = None
+        self._scratch = None
 
     def files(self):
         return [self.path]

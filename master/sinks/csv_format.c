@@ -173,21 +173,41 @@ static const char PAIRS[201] =
     "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
     "8081828384858687888990919293949596979899";
 
+/* exactly eight digits of n < 10^8 (leading zeros included) at p, all in one 64-bit word (two halves of four
+ * digits, four lanes of two, eight bytes of one): taking two digits at a time off a 17-digit value was a chain of
+ * eight dependent divisions, half of a double's time */
+static inline void put8(char *p, uint32_t n)
+{
+    const uint64_t halves = (uint64_t)(n / 10000) | ((uint64_t)(n % 10000) << 32);
+    const uint64_t hundreds = ((halves * 10486) >> 20) & 0x0000007F0000007Full;      /* each half / 100 */
+    const uint64_t pairs = ((halves - 100 * hundreds) << 16) | hundreds;              /* 16-bit lanes, < 100 */
+    const uint64_t tens = ((pairs * 103) >> 10) & 0x000F000F000F000Full;              /* each lane / 10 */
+    const uint64_t digits = (((pairs - 10 * tens) << 8) | tens) + 0x3030303030303030ull;
+    memcpy(p, &digits, 8);      /* little-endian: the lowest byte is the first digit */
+}
+
 /* the decimal digits of v at the end of buf[0..24): returns where they start */
 static inline char *udigits(uint64_t v, char *end)
 {
     char *p = end;
-    while (v >= 100) {
-        const uint64_t r = v % 100;
-        v /= 100;
+    while (v >= 100000000) {
+        const uint64_t q = v / 100000000;
+        p -= 8;
+        put8(p, (uint32_t)(v - q * 100000000));
+        v = q;
+    }
+    uint32_t w = (uint32_t)v;
+    while (w >= 100) {
+        const uint32_t r = w % 100;
+        w /= 100;
         p -= 2;
         memcpy(p, PAIRS + 2 * r, 2);
     }
-    if (v >= 10) {
+    if (w >= 10) {
         p -= 2;
-        memcpy(p, PAIRS + 2 * v, 2);
+        memcpy(p, PAIRS + 2 * w, 2);
     } else {
-        *--p = (char)('0' + v);
+        *--p = (char)('0' + w);
     }
     return p;
 }
@@ -219,16 +239,21 @@ static char *put_double(double x, char *o)
     uint64_t digits;
     int32_t e10;
     shortest(mantissa, exponent, &digits, &e10);
-    char buf[24];
-    char *d = udigits(digits, buf + sizeof buf);
-    const int32_t n = (int32_t)(buf + sizeof buf - d);
+    /* the digits end at buf + 24; the 24 bytes after them are room for the fixed-size copies below, which move
+     * the digits and whatever follows them in one go (a copy of a variable length was a call each) and leave the
+     * bytes past the text to be overwritten by the next cell (see ROOM) */
+    char buf[48];
+    char *d = udigits(digits, buf + 24);
+    const int32_t n = (int32_t)(buf + 24 - d);
     const int32_t point = n + e10;          /* the value is 0.<digits> * 10^point */
     if (point <= -4 || point > 16) {
-        *o++ = d[0];
+        *o = d[0];
         if (n > 1) {
-            *o++ = '.';
-            memcpy(o, d + 1, (size_t)(n - 1));
-            o += n - 1;
+            o[1] = '.';
+            memcpy(o + 2, d + 1, 24);
+            o += n + 1;
+        } else {
+            o += 1;
         }
         int32_t e = point - 1;
         *o++ = 'e';
@@ -242,27 +267,21 @@ static char *put_double(double x, char *o)
         memcpy(o, PAIRS + 2 * e, 2);
         return o + 2;
     }
-    if (point <= 0) {
-        memcpy(o, "0.", 2);
-        o += 2;
-        memset(o, '0', (size_t)(-point));
-        o += -point;
-        memcpy(o, d, (size_t)n);
-        return o + n;
+    if (point <= 0) {                       /* 0.<up to three zeros><digits> */
+        memcpy(o, "0.000", 5);
+        memcpy(o + 2 - point, d, 24);
+        return o + 2 - point + n;
     }
-    if (point >= n) {
-        memcpy(o, d, (size_t)n);
-        o += n;
-        memset(o, '0', (size_t)(point - n));
-        o += point - n;
-        memcpy(o, ".0", 2);
-        return o + 2;
+    if (point >= n) {                       /* <digits><zeros>.0 */
+        memcpy(o, d, 24);
+        memset(o + n, '0', 16);
+        memcpy(o + point, ".0", 2);
+        return o + point + 2;
     }
-    memcpy(o, d, (size_t)point);
-    o += point;
-    *o++ = '.';
-    memcpy(o, d + point, (size_t)(n - point));
-    return o + (n - point);
+    memcpy(o, d, 24);                       /* <digits before the point>.<the others> */
+    memcpy(o + point + 1, d + point, 24);
+    o[point] = '.';
+    return o + n + 1;
 }
 
 static inline char *put_unsigned(uint64_t v, char *o)
@@ -286,34 +305,39 @@ static inline char *put_signed(int64_t v, char *o)
 /* the column kinds (csv_native.KINDS) */
 enum { K_F64 = 1, K_F32, K_I8, K_I16, K_I32, K_I64, K_U8, K_U16, K_U32, K_U64, K_BOOL };
 
-/* a column's last double and its text: a value that repeats the one above it (a parameter, a state at rest)
- * is copied, not formatted again */
+/* a column's last double and where its text is in the output: a value that repeats the one above it (a
+ * parameter, a state at rest) is copied from the row above, not formatted again. Only where the text is: a copy of
+ * each text as it was written read bytes just stored by narrower stores, which waits for them (no store
+ * forwarding) at every value; the row above was written long enough ago. */
 typedef struct {
     uint64_t bits;
-    uint32_t len;               /* 0: nothing yet */
-    char text[28];
+    const char *text;           /* NULL: nothing yet */
+    uint32_t len;
 } Last;
 
-/* repr(x) at o through the column's Last; o has at least 24 bytes of room past the text (every cell reserves
- * 25 bytes, see cm_csv_rows), so the 24-byte copies stay inside the buffer */
+/* repr(x) at o through the column's Last (a copy of 24 bytes, like put_double's; see ROOM) */
 static inline char *put_double_cached(double x, char *o, Last *last)
 {
     uint64_t bits;
     memcpy(&bits, &x, sizeof bits);
-    if (last->len && last->bits == bits) {
-        memcpy(o, last->text, 24);
+    if (last->text && last->bits == bits) {
+        const char *from = last->text;
+        memmove(o, from, 24);      /* one column: the row above ends just before o */
+        last->text = o;
         return o + last->len;
     }
     char *end = put_double(x, o);
     last->bits = bits;
+    last->text = o;
     last->len = (uint32_t)(end - o);
-    memcpy(last->text, o, 24);
     return end;
 }
 
 /* Rows row0 .. row0+nrows-1 of ncols columns (cols[c]: the column's values, of kinds[c]) as CSV lines at out,
- * which holds at least nrows * (25 * ncols + 1) bytes; returns the bytes written, or -1 without tables (or
- * memory). */
+ * which holds at least nrows * (25 * ncols + 1) + ROOM bytes: a cell's text is at most 24 characters and its
+ * separator, and a double's fixed-size copies write up to 42 bytes past where its cell starts (bytes that the
+ * next cell overwrites; ROOM, csv_native.ROOM_BYTES = 48, covers them after the last). Returns the bytes
+ * written, or -1 without tables (or memory). */
 int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols, int64_t row0, int64_t nrows,
                     char *out)
 {

@@ -31,7 +31,10 @@ FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fPIC", "-shared", "-std
 KINDS = {pa.float64(): 1, pa.float32(): 2, pa.int8(): 3, pa.int16(): 4, pa.int32(): 5, pa.int64(): 6,
          pa.uint8(): 7, pa.uint16(): 8, pa.uint32(): 9, pa.uint64(): 10, pa.bool_(): 11}
 CELL_BYTES = 25             # the longest cell ("-2.2250738585072014e-308", a 64-bit integer) and its separator
-CHUNK_CELLS = 1 << 18       # cells written at a time: a reused buffer of ~6.5 MB
+ROOM_BYTES = 48             # past the last cell: a double's text is moved by fixed-size copies (csv_format.c)
+# cells formatted and written at a time: ~1.1 MB of text for doubles, which the write copies into the page cache
+# while it is still in the core's cache (chunks of ~4.5 MB cost the kernel's copy 2-4 times the system time)
+CHUNK_CELLS = 1 << 16
 
 
 def _pow5_tables() -> tuple[np.ndarray, np.ndarray]:
@@ -91,24 +94,37 @@ def _columns(block: pa.Table):
     return kinds, arrays
 
 
-def rows_in_chunks(lib, block: pa.Table):
-    """The CSV text of ``block``'s rows as byte chunks (views of one reused buffer: write each before taking the
-    next), or None when the table has a column C does not write."""
+class Scratch:
+    """The formatter's output buffer, kept from block to block: a fresh one of ~8 MB for each block was a few
+    thousand page faults each time (the kernel clearing every page before the formatter wrote it)."""
+
+    def __init__(self):
+        self._buf = np.empty(0, dtype=np.uint8)
+
+    def get(self, size: int) -> np.ndarray:
+        if self._buf.size < size:
+            self._buf = np.empty(size, dtype=np.uint8)
+        return self._buf
+
+
+def rows_in_chunks(lib, block: pa.Table, scratch: Scratch | None = None):
+    """The CSV text of ``block``'s rows as byte chunks (views of one reused buffer, ``scratch``'s when given:
+    write each before taking the next), or None when the table has a column C does not write."""
     found = _columns(block)
     if found is None:
         return None
     kinds, arrays = found
     ncols, nrows = len(kinds), block.num_rows
-    return _chunks(lib, kinds, arrays, ncols, nrows)
+    return _chunks(lib, kinds, arrays, ncols, nrows, scratch or Scratch())
 
 
-def _chunks(lib, kinds, arrays, ncols, nrows):
+def _chunks(lib, kinds, arrays, ncols, nrows, scratch):
     if nrows == 0 or ncols == 0:
         return
     kind_arr = np.array(kinds, dtype=np.int32)
     addresses = np.array([a.ctypes.data for a in arrays], dtype=np.uintp)
     rows = max(1, CHUNK_CELLS // ncols)
-    buf = np.empty(min(rows, nrows) * (CELL_BYTES * ncols + 1), dtype=np.uint8)
+    buf = scratch.get(min(rows, nrows) * (CELL_BYTES * ncols + 1) + ROOM_BYTES)
     view = memoryview(buf)
     for row0 in range(0, nrows, rows):
         n = min(rows, nrows - row0)
@@ -118,10 +134,10 @@ def _chunks(lib, kinds, arrays, ncols, nrows):
         yield view[:written]
 
 
-def native_chunks(block: pa.Table):
+def native_chunks(block: pa.Table, scratch: Scratch | None = None):
     """What CsvSink writes for ``block`` through C (byte chunks), or None: the reference writes it."""
     lib = formatter()
-    return rows_in_chunks(lib, block) if lib is not None else None
+    return rows_in_chunks(lib, block, scratch) if lib is not None else None
 
 
 class CsvFormat:

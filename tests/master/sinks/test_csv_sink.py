@@ -100,3 +100,53 @@ def test_many_rows_in_chunks_read_back_bit_for_bit(tmp_path, writer, monkeypatch
         column_types={f.name: f.type for f in table.schema}))
     for name in cols:
         assert back.column(name).to_numpy().view(np.uint64).tolist() == cols[name].view(np.uint64).tolist()
+
+
+# the longest text of each of repr's layouts: exponent with 17 digits, 0.000<17 digits>, <16 digits>.0, the point
+# after 16 of 17 digits; each negative too
+LAYOUTS = [-1.2345678901234567e-300, -0.00012345678901234567, -1234567890123456.0, -1234567890123456.8,
+           -1e+300, -0.0001, -1e+15]
+
+
+@pytest.mark.parametrize("ncols", [1, 2, 5])
+def test_the_formatter_writes_nothing_past_its_room(ncols):
+    """The C formatter moves a double's text with fixed-size copies that write past the text (the next cell
+    overwrites them): they must stay inside rows * (CELL_BYTES * columns + 1) + ROOM_BYTES, which is what the
+    sink gives it. Bytes past that are filled with a mark that must survive, for every layout in the last cell."""
+    import master.sinks.csv_native as native
+    lib = formatter()
+    if lib is None:
+        pytest.skip("the C formatter cannot be built here")
+
+    class Guarded(native.Scratch):
+        def get(self, size):
+            self.size = size
+            self.whole = np.full(size + 256, 0xA5, dtype=np.uint8)
+            return self.whole[:size]
+
+    for last in LAYOUTS:
+        values = [LAYOUTS[(k + 3) % len(LAYOUTS)] for k in range(ncols - 1)] + [last]
+        table = pa.table({f"c{k}": pa.array([v], pa.float64()) for k, v in enumerate(values)})
+        scratch = Guarded()
+        text = b"".join(bytes(c) for c in native.rows_in_chunks(lib, table, scratch))
+        assert text.decode() == ",".join(repr(v) for v in values) + "\n"
+        assert scratch.size == ncols * native.CELL_BYTES + 1 + native.ROOM_BYTES
+        assert (scratch.whole[scratch.size:] == 0xA5).all(), last
+
+
+def test_blocks_written_one_after_another_through_the_kept_buffer(tmp_path, writer):
+    """The sink keeps its output buffer from block to block: a block of short texts after one of long texts must
+    not carry any of the earlier bytes."""
+    long = pa.table({"a": pa.array([-1.2345678901234567e-300] * 50), "b": pa.array([1234567890123456.8] * 50)})
+    short = pa.table({"a": pa.array([1.0, 2.5, 0.0]), "b": pa.array([3.0, -0.0, 1e-05])})
+    sink = CsvSink()
+    sink.open(tmp_path, long.schema)
+    sink.write(long)
+    sink.write(short)
+    sink.write(long.slice(0, 2))
+    sink.close()
+    lines = (tmp_path / "results.csv").read_text().splitlines()
+    assert lines[0] == "a,b"
+    long_line = f"{-1.2345678901234567e-300!r},{1234567890123456.8!r}"
+    assert long_line == "-1.2345678901234568e-300,1234567890123456.8"
+    assert lines[1:] == [long_line] * 50 + ["1.0,3.0", "2.5,-0.0", "0.0,1e-05"] + [long_line] * 2
