@@ -70,7 +70,7 @@ def test_a_killed_campaign_leaves_no_worker_behind(tmp_path, chain_fmus):
         pytest.skip("reads /proc")
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path, SLOW.replace("[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "[1]")
-                          .replace("stop_time: 3.0", "stop_time: 3600.0"))
+                          .replace("stop_time: 0.5", "stop_time: 3600.0"))
     out = tmp_path / "out"
     p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
                           "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)),
