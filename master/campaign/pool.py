@@ -114,16 +114,37 @@ _server_owner: int | None = None
 
 def _stop_fork_server():
     """At exit, stop the fork server and wait for it (left alone it exits only after this process, unreaped: its
-    CPU and its workers' would be missing from this process's children's time)."""
+    CPU and its workers' would be missing from this process's children's time).  The end of its "alive" pipe asks
+    it to exit; a child forked from this process may hold a copy of that pipe, so after 2 s it is killed."""
     if _server_owner != os.getpid():       # a forked copy of this process
         return
     from multiprocessing import forkserver
-    stop = getattr(forkserver._forkserver, "_stop", None)     # private, stable since Python 3.8
+    fs = forkserver._forkserver        # private (the stdlib has no public stop), the same since Python 3.4
+    pid, fd = getattr(fs, "_forkserver_pid", None), getattr(fs, "_forkserver_alive_fd", None)
+    if pid is None:
+        return
     try:
-        if stop is not None:
-            stop()
-    except OSError:
+        os.close(fd)
+    except (OSError, TypeError):
         pass
+    fs._forkserver_alive_fd = fs._forkserver_pid = None
+    deadline = time.monotonic() + 2.0
+    try:
+        while not os.waitpid(pid, os.WNOHANG)[0]:
+            if time.monotonic() > deadline:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                break
+            time.sleep(0.01)
+    except (ChildProcessError, ProcessLookupError):
+        pass
+    address = getattr(fs, "_forkserver_address", None)
+    if isinstance(address, str) and not address.startswith("\0"):
+        try:
+            os.unlink(address)
+        except OSError:
+            pass
+    fs._forkserver_address = None
 
 
 def _leave_fork_server():
