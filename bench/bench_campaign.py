@@ -17,6 +17,9 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
 
+Measured on 2026-11-28, evening (workers forked from a fork server; a worker's memory over many runs,
+``--memory``): see bench/results/campaign_2026-11-28b.md.
+
 Measured on 2026-11-27, afternoon (structure parsed and planned once per worker, init shortcuts, the wind's step
 in C, the pool's dispatch): 336 runs in 18.4-19.9 s against 22.1-24.0 s before, alternating; see
 bench/results/campaign_2026-11-27b.md.
