@@ -6,6 +6,8 @@ The figures measured before 2026-11-28 are of its 3-layout form, 336 runs: ``--f
     python bench/bench_campaign.py --profile-only       # just the cProfile of one run
     python bench/bench_campaign.py --phases 48          # CPU per phase of 48 runs in one warm process
     python bench/bench_campaign.py --phases 48 --stop-time 1    # the same, fixed part alone
+    python bench/bench_campaign.py --memory 100         # a worker's resident memory after run 1, 10, ..., 100
+    python bench/bench_campaign.py --memory 60 --campaign ssp/campaigns/cooperative.yaml    # strategy C
 
 Prints the wall time, runs per minute and per core, the mean run wall time by fleet size, the
 extrapolation to the full 336 runs, and the top entries of a cProfile of one warm run (4 UAVs by
@@ -14,6 +16,9 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
+
+Measured on 2026-11-28, evening (workers forked from a fork server; a worker's memory over many runs,
+``--memory``): see bench/results/campaign_2026-11-28b.md.
 
 Measured on 2026-11-27, afternoon (structure parsed and planned once per worker, init shortcuts, the wind's step
 in C, the pool's dispatch): 336 runs in 18.4-19.9 s against 22.1-24.0 s before, alternating; see
@@ -210,6 +215,52 @@ def phase_breakdown(n_runs: int, stop_time: float | None = None) -> None:
           f"{spent['loop'] / max(1, steps) * 1e6:.0f} us CPU per master step")
 
 
+def _rss_mb() -> tuple[float, float]:
+    """(resident, peak resident) of this process in MB, from /proc/self/status (VmRSS, VmHWM)."""
+    got = {}
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(("VmRSS:", "VmHWM:")):
+            key, value = line.split(":", 1)
+            got[key] = int(value.split()[0]) / 1024
+    return got.get("VmRSS", float("nan")), got.get("VmHWM", float("nan"))
+
+
+def memory_growth(n_runs: int, campaign: Path, report_at=(1, 10, 25, 50, 100, 200, 400)) -> None:
+    """A worker's memory over ``n_runs`` runs of ``campaign`` (every k-th run, so that every fleet size and
+    variant comes), run one after another in this process as a pool worker runs them (``execute_run``), with the
+    garbage collected before each reading: a leak shows as growth per run after the first ten (the FMU cache, the
+    structures kept per SSD and the first imports fill the first runs).  Strategy C's comm monitor kept every
+    finished run alive (~8 MB a run in the 4160-run cooperative campaign until the kernel killed the worker):
+    ``--memory 60 --campaign ssp/campaigns/cooperative.yaml`` shows such growth."""
+    import gc
+    camp = load_campaign(campaign)
+    every = max(1, len(camp.runs) // n_runs)
+    runs = [camp.runs[(i * every) % len(camp.runs)] for i in range(n_runs)]
+    tmp = Path(tempfile.mkdtemp(prefix="bench-campaign-memory-"))
+    rows = []
+    try:
+        rss0, _ = _rss_mb()
+        for k, r in enumerate(runs, 1):
+            rec = execute_run(make_task(camp, r, tmp))
+            if rec["outcome"] != "completed":
+                print(f"run {r.run_id} {rec['outcome']}: {rec.get('error')}")
+            if k in report_at or k == n_runs:
+                gc.collect()
+                rows.append((k, *_rss_mb()))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"\n== a worker's memory over {n_runs} runs of {camp.name} (every {every}th run, in one process); "
+          f"load average {os.getloadavg()[0]:.2f}")
+    print(f"before the first run: {rss0:.0f} MB resident")
+    print(f"{'after run':>10} {'resident MB':>12} {'peak MB':>9}")
+    for k, rss, peak in rows:
+        print(f"{k:>10} {rss:>12.1f} {peak:>9.1f}")
+    tenth = next(((k, rss) for k, rss, _ in rows if k == 10), None)
+    if tenth and n_runs > 10:
+        growth = (rows[-1][1] - tenth[1]) / (n_runs - 10)
+        print(f"growth from run 10 to run {n_runs}: {growth * 1024:.0f} kB per run")
+
+
 def run_bench(fraction: float, workers: int | None, output: Path | None, keep_output: bool) -> None:
     camp = load_campaign(PAPER)
     every = max(1, round(1 / fraction))
@@ -259,12 +310,18 @@ def main():
                          "process, then exit")
     ap.add_argument("--stop-time", type=float, default=None, help="with --phases: stop each run then (1: the fixed "
                     "part alone)")
+    ap.add_argument("--memory", type=int, default=0, metavar="N",
+                    help="a worker's resident memory after run 1, 10, ..., N of --campaign in one process, then exit")
+    ap.add_argument("--campaign", type=Path, default=PAPER, help="with --memory: the campaign file (default paper)")
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--profile-run", default="4,B,free,0.15",
                     help="n_uavs,strategy,variant,wind of the profiled run (default 4,B,free,0.15)")
     args = ap.parse_args()
     if args.phases:
         phase_breakdown(args.phases, args.stop_time)
+        return
+    if args.memory:
+        memory_growth(args.memory, args.campaign)
         return
     if not args.profile_only:
         run_bench(args.fraction, args.workers, args.output, args.keep_output)

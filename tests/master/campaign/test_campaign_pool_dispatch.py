@@ -58,35 +58,37 @@ def test_the_next_task_is_sent_before_the_record_is_booked(tasks, monkeypatch):
     assert sent == [t["run_id"] for t in tasks]        # in the campaign's order
 
 
+# early workers are spawned ones: a fork server imports the master from the pool's creation on instead
+
 def test_early_workers_run_the_tasks_and_the_spare_ones_stop(tasks):
-    p = WorkerPool(3)
+    p = WorkerPool(2, start_method="spawn")     # one more worker than tasks: a spare
     p.start()
     early = list(p._ready)
-    assert len(early) == 3 and all(w.proc.is_alive() for w in early)
+    assert len(early) == 2 and all(w.proc.is_alive() for w in early)
     got = []
-    p.run(tasks[:2], got.append)
-    assert sorted(r["run_id"] for r in got) == sorted(t["run_id"] for t in tasks[:2])
+    p.run(tasks[:1], got.append)
+    assert sorted(r["run_id"] for r in got) == sorted(t["run_id"] for t in tasks[:1])
     assert all(r["outcome"] == "completed" for r in got)
-    assert p.started_workers == 3           # the early ones did the work: nobody else was started
+    assert p.started_workers == 2           # the early one did the work: nobody else was started
     assert not p._ready and not any(w.proc.is_alive() for w in early)
     assert not mp.active_children()
 
 
 def test_an_early_worker_that_died_is_replaced_without_blaming_a_task(tasks):
-    p = WorkerPool(2)
+    p = WorkerPool(1, start_method="spawn")
     p.start()
     dead = p._ready[0]
     dead.proc.kill()
     dead.proc.join(5)
     got = []
-    p.run(tasks[:3], got.append)
-    assert sorted(r["run_id"] for r in got) == sorted(t["run_id"] for t in tasks[:3])
+    p.run(tasks[:2], got.append)
+    assert sorted(r["run_id"] for r in got) == sorted(t["run_id"] for t in tasks[:2])
     assert all(r["outcome"] == "completed" for r in got), [r.get("error") for r in got]
-    assert p.crashes == 0 and p.started_workers == 3
+    assert p.crashes == 0 and p.started_workers == 2
 
 
 def test_close_stops_early_workers_no_run_took():
-    p = WorkerPool(2)
+    p = WorkerPool(2, start_method="spawn")
     p.start()
     procs = [w.proc for w in p._ready]
     p.close()
@@ -110,4 +112,20 @@ def test_a_worker_without_more_work_is_let_go_before_the_last_record(tasks, monk
     assert len(procs) == 2
     p.close()
     assert not p._leaving and not any(proc.is_alive() for proc in procs)
+    assert not mp.active_children()
+
+
+def test_forked_workers_run_with_the_environment_of_their_start(tasks, tmp_path, monkeypatch):
+    """Workers are forked from a fork server started once per process (with the environment of that moment); each
+    worker takes the caller's environment as it is when the worker starts, as a spawned one would: here the FMU
+    cache folder set after the server started is the one the run unpacks its FMUs into."""
+    first = WorkerPool(1)
+    assert first.ctx.get_start_method() == "forkserver"
+    got = []
+    first.run(tasks[:1], got.append)            # the server runs from here on
+    cache = tmp_path / "fmu-cache"
+    monkeypatch.setenv("COSIM_MASTER_CACHE", str(cache))
+    WorkerPool(1).run(tasks[1:2], got.append)
+    assert [r["outcome"] for r in got] == ["completed", "completed"], [r.get("error") for r in got]
+    assert cache.is_dir() and any(cache.rglob("modelDescription.xml"))
     assert not mp.active_children()

@@ -133,13 +133,16 @@ repetitions: 1
 scenario: chain.ssp
 grid:
   param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
+  param:src.mode: 6
+  param:src.fail_time: 0.0
 run:
-  stop_time: 3.0
-  step: 0.0001
+  stop_time: 0.5
+  step: 0.02
   csv: false
 """
-# 30000 steps a run: long enough (~0.5 s) that the campaign cannot finish its remaining runs between the second
-# record and the interrupt, even on a fast master
+# 25 steps a run, each of which sleeps 20 ms in the FMU (Faulty's mode 6): long enough (0.5 s) that the campaign
+# cannot finish its remaining runs between the second record and the interrupt, on any master, and asleep rather
+# than busy (the 30000 steps of 0.1 ms it had burnt ~0.5 s of CPU a run)
 
 
 def _default_sigint():
@@ -213,7 +216,7 @@ def test_another_campaign_is_not_written_into_a_campaign_folder(tmp_path, chain_
     campaign.yaml, table and report; the same campaign still resumes there."""
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     first = write_campaign(tmp_path, SLOW.replace("[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "[1, 2]")
-                           .replace("step: 0.0001", "step: 0.1"))
+                           .replace("step: 0.02", "step: 0.1"))
     out = tmp_path / "out"
     assert run_campaign(first, output=out, workers=1, progress=False).ok
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
@@ -285,8 +288,7 @@ def test_dask_runs_are_killed_at_their_timeout(tmp_path, chain_fmus):
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = tmp_path / "slow.yaml"
     camp.write_text(SLOW.replace("param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "param:gain.k: [1, 2]")
-                    .replace("step: 0.0001", "step: 0.0005\n  timeout: 0.5").replace("stop_time: 3.0",
-                                                                                   "stop_time: 600.0"))
+                    .replace("step: 0.02", "step: 0.02\n  timeout: 0.5").replace("stop_time: 0.5", "stop_time: 600.0"))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
         t0 = time.monotonic()
@@ -294,7 +296,7 @@ def test_dask_runs_are_killed_at_their_timeout(tmp_path, chain_fmus):
         took = time.monotonic() - t0
     assert (s.total, s.failed) == (2, 2)
     assert table(tmp_path / "out")["error"].str.fullmatch(r"timed out after 0\.5 s \(worker killed\)").all()
-    assert took < 60          # 600 s of simulated time at 0.5 ms steps would take far longer
+    assert took < 60          # 600 s of simulated time, asleep 20 ms a 20 ms step, would take 600 s
 
 
 def test_an_input_changed_while_the_campaign_runs_is_detected(tmp_path, chain_fmus):
