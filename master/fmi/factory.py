@@ -1,7 +1,7 @@
 """Which slave class runs a component: the one place that decides."""
 from __future__ import annotations
 
-from .cache import LoadedFmu
+from .cache import CSV_KIND, LoadedFmu
 from .logsink import LogSink
 from .slave import Slave
 
@@ -33,8 +33,8 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
     """The class for the kind chosen by :func:`choose_kind` (``implementation`` None: the kind the plan chose
     for the component, ``fmu.kind``); pythonfmu FMUs run in process (their slave class called directly,
     bit-identical to their binary) unless ``inprocess`` is false. An input table (no FMU) is a CSV source."""
-    from .table import CSV_KIND, CsvSourceSlave
     if fmu.kind == CSV_KIND:
+        from .table import CsvSourceSlave       # (with the csv module: a run without input tables needs neither)
         return CsvSourceSlave
     if choose_kind(fmu, implementation or fmu.kind or "any") == "ModelExchange":
         if fmu.fmi_version.startswith("3"):
