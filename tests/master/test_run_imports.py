@@ -1,10 +1,10 @@
 """What a run of a plain one-FMU SSP imports, in the supervising process and in its forked simulation process: not
 pandas nor pyarrow.compute (~0.3 s in each process, for nothing a run needs), not importlib.metadata (the installed
 packages' entry points: the SSD names no monitor) nor the UAV study, none of the algorithms it does not run, not the
-SSP writer (bare FMUs only). And what the simulation process, whose start is the run's, does not do: ask the
-platform's name (``uname -p`` in a subprocess), which its parent does for run.json while the child starts, nor
-import pyarrow (~40 ms): it records into shared memory and names its columns as plain data; its parent, which
-writes the files, imports pyarrow and the sinks while the child starts."""
+SSP writer (bare FMUs only), the input tables' reader nor the in-process pythonfmu slave. And what the simulation
+process, whose start is the run's, does not do: ask the platform's name (``uname -p`` in a subprocess), which its
+parent does for run.json while the child starts, nor import pyarrow (~40 ms): it records into shared memory and
+names its columns as plain data; its parent, which writes the files, imports pyarrow and the sinks meanwhile."""
 import json
 import platform
 import subprocess
@@ -41,6 +41,7 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     imported = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines() if line.startswith("import time")}
     assert {"master.execution", "pyarrow.parquet", "master.algorithms.jacobi"} <= imported
     assert not {"pandas", "pyarrow.compute", "importlib.metadata", "uavstudy", "master.ssp.writer"} & imported
+    assert not {"master.fmi.table", "master.fmi.inprocess"} & imported
     # (gauss_seidel comes with the native step driver, which runs Jacobi and Gauss-Seidel)
     assert not {"master.algorithms.adaptive", "master.algorithms.ecco", "master.algorithms.iterative"} & imported
     assert (tmp_path / "out" / "results.csv").read_text() == (tmp_path / "out--no-supervise" / "results.csv").read_text()
