@@ -34,6 +34,7 @@ import argparse
 import csv
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -110,6 +111,13 @@ def main() -> None:
     commands["fmpy simulate"] = ([*_fmpy(), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
                                   f"{STEP:g}", "--output-file", str(tmp / "fmpy.csv")], env)
     names = list(commands)
+    try:
+        _measure(names, commands, tmp, args.rounds, args.environment_bytecode)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)      # the runs' outputs and the compiled bytecode (~9 MB)
+
+
+def _measure(names: list[str], commands: dict, tmp: Path, rounds: int, environment_bytecode: bool) -> None:
     load_before = os.getloadavg()
     for name in names:                               # warm-up, not counted
         _timed(*commands[name], tmp)
@@ -121,7 +129,7 @@ def main() -> None:
 
     wall: dict[str, list[float]] = {n: [] for n in names}
     cpu: dict[str, list[float]] = {n: [] for n in names}
-    for r in range(args.rounds):
+    for r in range(rounds):
         for name in names[r % len(names):] + names[:r % len(names)]:
             w, c = _timed(*commands[name], tmp)
             wall[name].append(w)
@@ -129,10 +137,10 @@ def main() -> None:
     load_after = os.getloadavg()
     ref = wall["fmpy simulate"]
 
-    print(f"Dahlquist (FMI 2.0), {int(round(STOP / STEP))} steps of {STEP:g} s; {args.rounds} alternating rounds; "
+    print(f"Dahlquist (FMI 2.0), {int(round(STOP / STEP))} steps of {STEP:g} s; {rounds} alternating rounds; "
           f"load average {' '.join(f'{x:.2f}' for x in load_before)} before, "
           f"{' '.join(f'{x:.2f}' for x in load_after)} after; bytecode: "
-          + ("the environment's" if args.environment_bytecode else "compiled once into the bench's folder"))
+          + ("the environment's" if environment_bytecode else "compiled once into the bench's folder"))
     print()
     print("| command | wall median (s) | wall best (s) | CPU median (s) | wall / fmpy's (median of rounds) |")
     print("|---|---|---|---|---|")
