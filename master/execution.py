@@ -205,6 +205,7 @@ class Execution:
         self._driver, self._driver_asked = None, False    # the step driver (master/drivers/), asked once
         self.closed = False
         self.write_run_json = True       # a supervised child leaves run.json to its parent
+        self.sinks_elsewhere = False     # ... and its recorded rows: it makes no sinks (nor imports pyarrow)
         self._set_up = self._initialized = self._claimed = False
         self._current: set | None = None  # names whose buffer slot is read every step (see "values by name")
         self._ports: dict = {}            # name -> (slave, port, buffer) of a variable read from its FMU
@@ -274,7 +275,7 @@ class Execution:
             raise CosimError(f"no variable matches the record patterns {record}", element="--record")
         sink_names = o.sinks or ((["parquet"] + (["csv"] if o.write_csv else [])) if self.out_dir is not None
                                  else ["memory"])
-        self.sinks = [SINKS.get(name, element="sinks")() for name in sink_names]
+        self.sinks = [] if self.sinks_elsewhere else [SINKS.get(name, element="sinks")() for name in sink_names]
         self.recording = Recording(recorded, self.sinks, self.out_dir, every=st.record_every, steps=st.steps)
         live = open_streams(o, self.monitors, plan, st) if requested(o) else None
         pacer = [Pacer(o.realtime)] if o.realtime is not None else []

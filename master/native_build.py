@@ -25,9 +25,12 @@ def cache_dir(name: str) -> Path:
 
 
 def compile_cached(source: Path, stem: str, folder: str, flags: list, *, suffix: str = ".so",
-                   key_text: bytes | None = None, what: str = "") -> tuple[Path | None, str | None]:
+                   key_text: bytes | None = None, what: str = "",
+                   build_flags=None) -> tuple[Path | None, str | None]:
     """``source`` compiled with ``flags`` into the cache folder ``folder`` as ``<stem>-<hash><suffix>``:
-    (path, None), or (None, why not).  ``key_text``: what the build depends on (default: the source)."""
+    (path, None), or (None, why not).  ``key_text``: what the build depends on (default: the source).
+    ``build_flags``: a function giving more flags, or raising ``NoBuild``, called only for a build (what they
+    depend on must be in ``key_text``)."""
     key_text = source.read_bytes() if key_text is None else key_text
     key = hashlib.sha256(key_text + " ".join(flags).encode() + sys.platform.encode()).hexdigest()[:16]
     target = cache_dir(folder) / f"{stem}-{key}{suffix}"
@@ -36,6 +39,11 @@ def compile_cached(source: Path, stem: str, folder: str, flags: list, *, suffix:
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if not cc:
         return None, "no C compiler found ($CC, cc, gcc)"
+    if build_flags is not None:
+        try:
+            flags = [*flags, *build_flags()]
+        except NoBuild as exc:
+            return None, str(exc)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(suffix=suffix, dir=target.parent)
@@ -51,17 +59,27 @@ def compile_cached(source: Path, stem: str, folder: str, flags: list, *, suffix:
     return target, None
 
 
-def compile_extension(source: Path, module: str, folder: str, flags: list, *, depends: bytes = b""):
-    """``source`` built as a CPython extension module ``module`` for this interpreter and imported:
-    (module, None), or (None, why not).  ``depends``: the content of files it includes."""
+class NoBuild(Exception):
+    """Why a build cannot be made here (``compile_cached``'s ``build_flags``)."""
+
+
+def _python_headers() -> list[str]:
     import sysconfig
     include = sysconfig.get_paths().get("include", "")
     if not os.path.isfile(os.path.join(include, "Python.h")):
-        return None, f"no Python.h in {include!r}"
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    path, why = compile_cached(source, module.lstrip("_"), folder,
-                               [*flags, f"-I{include}", f"-I{source.parent}"], suffix=suffix,
-                               key_text=depends + source.read_bytes() + suffix.encode() + include.encode())
+        raise NoBuild(f"no Python.h in {include!r}")
+    return [f"-I{include}"]
+
+
+def compile_extension(source: Path, module: str, folder: str, flags: list, *, depends: bytes = b""):
+    """``source`` built as a CPython extension module ``module`` for this interpreter and imported:
+    (module, None), or (None, why not).  ``depends``: the content of files it includes."""
+    # the interpreter is named in the key by its ABI (the extension suffix) and its installation (whose include
+    # folder holds the headers), so that sysconfig (~1.5 ms, on every run's path) is asked only for a build
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    path, why = compile_cached(source, module.lstrip("_"), folder, [*flags, f"-I{source.parent}"], suffix=suffix,
+                               key_text=depends + source.read_bytes() + suffix.encode() + sys.base_prefix.encode()
+                               + sys.version.encode(), build_flags=_python_headers)
     if path is None:
         return None, why
     try:

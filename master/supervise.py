@@ -38,15 +38,14 @@ from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
 
 from . import execution
 from .errors import CosimError, Terminated
 from .execution import Execution, Options, platform_name, write_run_files
-from .observers.recording import Recording, block_table
+from .observers.recording import Recording, block_table, schema_of
 from .results import claim_output_folder, release_output_folder, settle_output_folder
 from .runtime import PHASE_NAMES, PHASE_STEP
-from .sinks import SINKS
+from .sinks import BUILTIN_SINKS, SINKS
 from .sinks.base import Sink
 from .sinks.group import SinkGroup, write_failure
 
@@ -121,9 +120,12 @@ class _ChildRecording(Recording):
         self.header = np.ndarray((HEADER,), dtype=np.float64, buffer=self._mm)
         self.header[:] = 0.0
         self.header[H_COMPONENT] = self.header[H_NATIVE] = -1
-        _send(self.conn, ("schema", self.schema.serialize().to_pybytes(), rows, cols, path))
+        _send(self.conn, ("schema", self.columns, rows, cols, path))   # as plain data
         self.group = SinkGroup([_PipeSink(self.conn, self.header)], None)
         return np.ndarray((rows, cols), dtype=np.float64, buffer=self._mm, offset=HEADER * 8)
+
+    def _open_sinks(self):
+        self.group.open(None)       # the pipe needs no schema: the parent makes its own from the columns
 
     def attach(self, ctx, start):
         super().attach(ctx, start)
@@ -374,6 +376,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
     execution.PLATFORM_FROM_PARENT = True
     ex = Execution(scenario, **options)
     ex.write_run_json = False        # this process's parent writes run.json (and has claimed the folder)
+    ex.sinks_elsewhere = True        # ... and the results (this process needs no pyarrow)
     _watch_parent(parent_pid, out_dir, ex)
     status = 1
     # a forked child starts with the parent's handlers, which only note the signal there: the child's own
@@ -498,8 +501,11 @@ class _Supervisor:
     def __init__(self, scenario, options: Options, timeout: float | None):
         self.scenario, self.options, self.timeout = scenario, options, timeout
         self.out_dir = Path(options.output)
-        names = options.sinks or (["parquet"] + (["csv"] if options.write_csv else []))
-        self.group = SinkGroup([SINKS.get(n, element="sinks")() for n in names], self.out_dir)
+        self.sink_names = options.sinks or (["parquet"] + (["csv"] if options.write_csv else []))
+        for name in self.sink_names:        # an unknown sink is the caller's error before any process starts
+            if name not in BUILTIN_SINKS:
+                SINKS.get(name, element="sinks")
+        self.group: SinkGroup | None = None         # made once the child has started (_open_sinks)
         self.schema = None
         self.mm = None
         self.header = None
@@ -549,7 +555,7 @@ class _Supervisor:
         elif kind == "event":
             self.events.append(msg[1])
         elif kind == "schema":
-            self.schema = pa.ipc.read_schema(pa.py_buffer(msg[1]))
+            self.schema = schema_of(msg[1])
             rows, cols, path = msg[2], msg[3], msg[4]
             try:
                 fd = os.open(path, os.O_RDWR)
@@ -628,6 +634,7 @@ class _Supervisor:
         try:
             proc.start()
             child.close()
+            self._open_sinks(proc)
             _prepare_while_the_child_starts()
             open_conn = True
             while True:
@@ -670,6 +677,17 @@ class _Supervisor:
                 signal.signal(s, h)
             parent.close()
         return self._finish(proc.exitcode, killed)
+
+    def _open_sinks(self, proc):
+        """The sinks, made while the child starts: importing them imports pyarrow (~30-40 ms), which the child
+        does not need (it names its columns as plain data, ``_ChildRecording._new_block``)."""
+        try:
+            self.group = SinkGroup([SINKS.get(n, element="sinks")() for n in self.sink_names], self.out_dir)
+        except BaseException:       # a sink that cannot be made: no run, as when it was made before the child
+            proc.kill()
+            proc.join()
+            (self.out_dir / CRASH_FILE).unlink(missing_ok=True)
+            raise
 
     def _dump_stack(self, proc):
         """SIGUSR1 makes the child's faulthandler write where it is, even inside a C call that never returns."""
@@ -717,6 +735,7 @@ class _Supervisor:
         n = int(self.header[H_FILL])
         if n <= 0:
             return 0
+        import pyarrow as pa
         str_rows = self.pending_str[:n]
         if len(str_rows) < n and any(f.type in (pa.string(), pa.binary()) for f in self.schema):
             n = len(str_rows)      # a row whose strings never arrived is incomplete

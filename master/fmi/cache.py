@@ -16,6 +16,9 @@ from pathlib import Path
 from ..cache_paths import cache_root, file_sha256
 from ..errors import FmuError
 
+#: the kind of a table component (fmi/table.py), in place of an FMU's "CoSimulation" / "ModelExchange"
+CSV_KIND = "CsvSource"
+
 
 @dataclass
 class LoadedFmu:

@@ -1,7 +1,9 @@
 """Which slave class runs a component: the one place that decides."""
 from __future__ import annotations
 
-from .cache import LoadedFmu
+import sys
+
+from .cache import CSV_KIND, LoadedFmu
 from .logsink import LogSink
 from .slave import Slave
 
@@ -33,8 +35,8 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
     """The class for the kind chosen by :func:`choose_kind` (``implementation`` None: the kind the plan chose
     for the component, ``fmu.kind``); pythonfmu FMUs run in process (their slave class called directly,
     bit-identical to their binary) unless ``inprocess`` is false. An input table (no FMU) is a CSV source."""
-    from .table import CSV_KIND, CsvSourceSlave
     if fmu.kind == CSV_KIND:
+        from .table import CsvSourceSlave       # (with the csv module: a run without input tables needs neither)
         return CsvSourceSlave
     if choose_kind(fmu, implementation or fmu.kind or "any") == "ModelExchange":
         if fmu.fmi_version.startswith("3"):
@@ -49,8 +51,9 @@ def slave_class(fmu: LoadedFmu, inprocess: bool = True, implementation: str | No
         from .fmi1 import Fmi1Slave
         return Fmi1Slave
     if inprocess:
-        from .inprocess import PythonFmuSlave, is_pythonfmu
+        from .inprocess_import import is_pythonfmu
         if is_pythonfmu(fmu):
+            from .inprocess import PythonFmuSlave       # (its life cycle: only a pythonfmu FMU's run imports it)
             return PythonFmuSlave
     from .fmi2 import Fmi2Slave
     return Fmi2Slave
@@ -60,8 +63,8 @@ def make_slave(name: str, fmu: LoadedFmu, log: LogSink, shown_as: str, *, loggin
                inprocess: bool = True, implementation: str | None = None, solver=None) -> Slave:
     """``solver``: an ode_solvers.SolverChoice for a model-exchange component (None: the default)."""
     cls = slave_class(fmu, inprocess, implementation)
-    from .inprocess import PythonFmuSlave
-    if cls is PythonFmuSlave:
+    inprocess_module = sys.modules.get(f"{__package__}.inprocess")       # imported if cls is its slave
+    if inprocess_module is not None and cls is inprocess_module.PythonFmuSlave:
         return cls(name, fmu, log, shown_as)
     if cls.kind == "ModelExchange":
         return cls(name, fmu, log, shown_as, logging_on, solver=solver)

@@ -20,11 +20,9 @@ import numpy as np
 
 from ..cache_paths import file_sha256
 from ..errors import ScenarioError
-from .cache import LoadedFmu
+from .cache import CSV_KIND, LoadedFmu  # noqa: F401 - CSV_KIND: the kind of the slaves made here
 from .slave import ERROR, OK, Port, Slave
 
-#: the kind of a table component, in place of an FMU's "CoSimulation" / "ModelExchange"
-CSV_KIND = "CsvSource"
 # the master's time is start + n*h; a product that lands a rounding error short of a row's time still reaches it
 _AT_ROW = 1e-12
 

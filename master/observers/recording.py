@@ -10,25 +10,63 @@ import fnmatch
 import functools
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pyarrow as pa
 
-from ..arrow_numpy import from_numpy, from_objects
 from ..fmi.slave import OBJECT_FILL
 from ..plan import Var
 from ..sinks.group import SinkGroup
 from .base import Observer
 
-ARROW_TYPES = {"Real": pa.float64(), "Integer": pa.int32(), "Int64": pa.int64(), "UInt64": pa.uint64(),
-               "Boolean": pa.bool_(), "String": pa.string(), "Binary": pa.binary()}
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+# pyarrow is imported where a table or a schema is made, not with this module: a supervised run's simulation
+# process records into shared memory and names its columns to the supervisor as plain data (``columns``); the
+# supervisor, which writes the files, makes the schema (``schema_of``) and imports pyarrow while the child starts
+RECORDABLE_TYPES = ("Real", "Integer", "Int64", "UInt64", "Boolean", "String", "Binary")
 # FMI 3.0 integers get a column of their own width (FMI 2.0 Integer and enumerations stay int32)
-FMI3_INT_ARROW = {"Int8": pa.int8(), "UInt8": pa.uint8(), "Int16": pa.int16(), "UInt16": pa.uint16(),
-                  "Int32": pa.int32(), "UInt32": pa.uint32(), "Int64": pa.int64(), "UInt64": pa.uint64()}
+FMI3_INTEGERS = ("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
+
+
+@functools.cache
+def _arrow_tables() -> dict:
+    """The Arrow type of each column type (``column_type``) and the buffer type (``NUMERIC_ORDER``, ``OBJECT_FILL``)
+    that holds each Arrow type's values in a block."""
+    import pyarrow as pa
+    arrow_types = {"Real": pa.float64(), "Integer": pa.int32(), "Int64": pa.int64(), "UInt64": pa.uint64(),
+                   "Boolean": pa.bool_(), "String": pa.string(), "Binary": pa.binary()}
+    fmi3_int_arrow = {"Int8": pa.int8(), "UInt8": pa.uint8(), "Int16": pa.int16(), "UInt16": pa.uint16(),
+                      "Int32": pa.int32(), "UInt32": pa.uint32(), "Int64": pa.int64(), "UInt64": pa.uint64()}
+    base_of = {pa.float64(): "Real", pa.int8(): "Integer", pa.uint8(): "Integer", pa.int16(): "Integer",
+               pa.uint16(): "Integer", pa.int32(): "Integer", pa.uint32(): "Int64", pa.int64(): "Int64",
+               pa.uint64(): "UInt64", pa.bool_(): "Boolean", pa.string(): "String", pa.binary(): "Binary"}
+    return {"ARROW_TYPES": arrow_types, "FMI3_INT_ARROW": fmi3_int_arrow, "_BASE_OF": base_of,
+            "by_column_type": {**arrow_types, **fmi3_int_arrow}}
+
+
+def __getattr__(name: str):
+    # the tables of Arrow types as module attributes, made (and pyarrow imported) when first asked for
+    if name in ("ARROW_TYPES", "FMI3_INT_ARROW", "_BASE_OF"):
+        return _arrow_tables()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def column_type(v: Var) -> str:
+    """The name of a recorded variable's column type: its FMI 3.0 integer type or its base type."""
+    return v.fmi_type if v.fmi_type in FMI3_INTEGERS else v.type
 
 
 def arrow_type(v: Var) -> pa.DataType:
-    return FMI3_INT_ARROW.get(v.fmi_type) or ARROW_TYPES[v.type]
+    return _arrow_tables()["by_column_type"][column_type(v)]
+
+
+def schema_of(columns: list[tuple[str, str]]) -> pa.Schema:
+    """The results' schema: time, then each (name, column type) of ``columns``."""
+    import pyarrow as pa
+    types = _arrow_tables()["by_column_type"]
+    return pa.schema([pa.field("time", pa.float64())] + [pa.field(name, types[typ]) for name, typ in columns])
 
 
 def select_variables(plan, patterns: list[str] | None, connected_outputs: list[Var]) -> list[Var]:
@@ -76,7 +114,7 @@ def _matching_names(match, comp: str, vars_) -> list[str]:
             continue
         v = vars_[name] if described is None else described[name]
         # an array is recorded as its elements, one column each (m.y[1], m.y[2], ...)
-        if v.type not in ARROW_TYPES or v.is_array:
+        if v.type not in RECORDABLE_TYPES or v.is_array:
             continue
         names.append(name)
     if described is not None:
@@ -91,17 +129,18 @@ def _matching_names(match, comp: str, vars_) -> list[str]:
 # cell as int64/uint64, never a conversion to double, which would lose every value above 2**53).
 NUMERIC_ORDER = ("Real", "Integer", "Int64", "UInt64", "Boolean")
 BIT_STORED = ("Int64", "UInt64")
-_BASE_OF = {pa.float64(): "Real", pa.int8(): "Integer", pa.uint8(): "Integer", pa.int16(): "Integer",
-            pa.uint16(): "Integer", pa.int32(): "Integer", pa.uint32(): "Int64", pa.int64(): "Int64",
-            pa.uint64(): "UInt64", pa.bool_(): "Boolean", pa.string(): "String", pa.binary(): "Binary"}
 
 
 def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> pa.Table:
     """A block of rows as a table: ``block`` holds time then the numeric columns grouped by buffer type
     (``NUMERIC_ORDER``, each in schema order), ``str_rows`` the object (String and Binary) columns of each row,
     in schema order."""
+    import pyarrow as pa
+
+    from ..arrow_numpy import from_numpy, from_objects
     fields = list(schema)[1:]
-    kinds = [_BASE_OF[f.type] for f in fields]
+    base_of = _arrow_tables()["_BASE_OF"]
+    kinds = [base_of[f.type] for f in fields]
     numeric = sorted((k for k, kind in enumerate(kinds) if kind not in OBJECT_FILL),
                      key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
@@ -195,8 +234,11 @@ class Recording(Observer):
         self.steps = steps
         self.block_rows = block_rows or block_rows_for(1 + len(variables))
         self.group = SinkGroup(sinks, self.out_dir)
-        self.schema = pa.schema([pa.field("time", pa.float64())] +
-                                [pa.field(v.qualified, arrow_type(v)) for v in variables])
+        self.columns = [(v.qualified, column_type(v)) for v in variables]
+
+    @functools.cached_property
+    def schema(self) -> pa.Schema:
+        return schema_of(self.columns)
 
     @property
     def rows_written(self) -> int:
@@ -227,8 +269,11 @@ class Recording(Observer):
                 col += len(pos)
         self.str_pos = [(rt.out[v.type], rt.out_pos[v.qualified]) for _, v in self.str_]
         self._fills = [_filler(out, pos, a, b) for out, pos, a, b in self.gather]
-        self.group.open(self.schema)
+        self._open_sinks()
         self.sample(start)
+
+    def _open_sinks(self) -> None:
+        self.group.open(self.schema)
 
     def _new_block(self, rows: int, cols: int) -> np.ndarray:
         return np.empty((rows, cols), dtype=np.float64)

@@ -6,7 +6,6 @@ import logging
 from pathlib import Path
 
 from ..errors import ScenarioError
-from ..fmi.table import TableColumn, column_values, csv_source, read_csv_table
 from ..ssp.model import CSV_SOURCE_TYPE, Component, Connection, Connector, SystemModel
 from .checks import check_connector
 from .model import Var, shown_source
@@ -21,6 +20,7 @@ def add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: st
     of the same names. A column that names no input is a typo until the user says otherwise: ``lenient`` (``run
     --lenient``) ignores such columns with a warning naming them (the Reference FMUs ship one ``Feedthrough_in.csv``
     for FMI 2.0 and 3.0, whose FMI 2.0 model lacks the FMI 3.0 types)."""
+    from ..fmi.table import read_csv_table       # (with the csv module: only a scenario with input tables reads one)
     targets = [name for name, comp in model.components.items() if comp.type != CSV_SOURCE_TYPE]
     if len(targets) != 1:
         raise ScenarioError(f"--input drives the inputs of a scenario with one FMU; this one has {len(targets)} "
@@ -58,6 +58,7 @@ def _unknown_columns(unknown: list[str], target: str, inputs: list[str]) -> str:
 def csv_component(name: str, comp: Component, model: SystemModel, variables: dict, shown_as: str):
     """An input table's stand-in for an FMU and its variables: one per connected column, typed as the input it
     drives and interpolated as that input's variability asks (linear for a continuous Real, else hold)."""
+    from ..fmi.table import TableColumn, column_values, csv_source, read_csv_table
     # the --input file is named as the user gave it, not as a member of the scenario
     shown = comp.source if name == INPUT_FILE_COMPONENT else shown_source(shown_as, comp.source)
     table = read_csv_table(comp.fmu_path, shown)

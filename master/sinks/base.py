@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pyarrow as pa
+if TYPE_CHECKING:       # a supervised run's simulation process has sinks of its own but no pyarrow
+    import pyarrow as pa
 
 
 class Sink:

@@ -1,8 +1,10 @@
 """What a run of a plain one-FMU SSP imports, in the supervising process and in its forked simulation process: not
 pandas nor pyarrow.compute (~0.3 s in each process, for nothing a run needs), not importlib.metadata (the installed
 packages' entry points: the SSD names no monitor) nor the UAV study, none of the algorithms it does not run, not the
-SSP writer (bare FMUs only). And what the simulation process, whose start is the run's, does not do: ask the
-platform's name (``uname -p`` in a subprocess), which its parent does for run.json while the child starts."""
+SSP writer (bare FMUs only), the input tables' reader nor the in-process pythonfmu slave. And what the simulation
+process, whose start is the run's, does not do: ask the platform's name (``uname -p`` in a subprocess), which its
+parent does for run.json while the child starts, nor import pyarrow (~40 ms): it records into shared memory and
+names its columns as plain data; its parent, which writes the files, imports pyarrow and the sinks meanwhile."""
 import json
 import platform
 import subprocess
@@ -14,10 +16,12 @@ RUN = """
 import os, sys
 parent = os.getpid()
 
-def note_subprocesses(event, args):
+def note_subprocesses_and_imports(event, args):
     if event == "subprocess.Popen":
         print(f"spawned {{'parent' if os.getpid() == parent else 'child'}} {{args[0]}}", file=sys.stderr, flush=True)
-sys.addaudithook(note_subprocesses)
+    elif event == "import" and os.getpid() != parent:
+        os.write(2, f"child imports {{args[0]}} {{'pyarrow' in sys.modules}}\\n".encode())   # one line, whole
+sys.addaudithook(note_subprocesses_and_imports)
 from master.cli import main
 for extra in ([], ["--no-supervise"]):
     code = main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
@@ -37,11 +41,16 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     imported = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines() if line.startswith("import time")}
     assert {"master.execution", "pyarrow.parquet", "master.algorithms.jacobi"} <= imported
     assert not {"pandas", "pyarrow.compute", "importlib.metadata", "uavstudy", "master.ssp.writer"} & imported
+    assert not {"master.fmi.table", "master.fmi.inprocess"} & imported
     # (gauss_seidel comes with the native step driver, which runs Jacobi and Gauss-Seidel)
     assert not {"master.algorithms.adaptive", "master.algorithms.ecco", "master.algorithms.iterative"} & imported
     assert (tmp_path / "out" / "results.csv").read_text() == (tmp_path / "out--no-supervise" / "results.csv").read_text()
     spawned = [line.split()[1:] for line in proc.stderr.splitlines() if line.startswith("spawned ")]
     assert ["parent", "uname"] in spawned          # the platform's name is asked, by the supervising process
     assert not [who for who, program in spawned if who == "child" and program == "uname"]
+    # (module imported, whether pyarrow is loaded then: inherited from the parent or imported by the child)
+    child_imports = [line.split()[2:] for line in proc.stderr.splitlines() if line.startswith("child imports ")]
+    assert ["fmpy", "False"] in child_imports       # fmpy is the child's own import (not made before the fork)
+    assert not [m for m, loaded in child_imports if loaded == "True" or m.startswith("master.sinks.")]
     for out in ("out", "out--no-supervise"):
         assert json.loads((tmp_path / out / "run.json").read_text())["platform"] == platform.platform()
