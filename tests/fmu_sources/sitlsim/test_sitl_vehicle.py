@@ -250,6 +250,10 @@ def test_a_killed_sitl_is_reported_cleanly_and_the_results_are_kept(tmp_path, si
     assert sitl_pids(tmp_path) == []
 
 
+def _dataflash_bytes(out: Path) -> int:
+    return sum(f.stat().st_size for f in (out / "sitl").glob("*/logs/*.BIN"))
+
+
 @needs_sitl
 def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_env):
     import subprocess
@@ -262,7 +266,11 @@ def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_e
         while not sitl_pids(out) and time.monotonic() < end and cli.poll() is None:
             time.sleep(0.1)
         assert sitl_pids(out), "SITL did not start"
-        time.sleep(3.0)                           # into get-ready or the mission
+        # into the get-ready: the firmware's DataFlash log (open from boot, LOG_DISARMED 1) grows only while
+        # lock-step frames are answered, so its size shows the exchange under way whatever the machine's load
+        while _dataflash_bytes(out) < 64 * 1024 and time.monotonic() < end and cli.poll() is None:
+            time.sleep(0.05)
+        assert _dataflash_bytes(out) >= 64 * 1024, "no lock-step frames answered"
         cli.send_signal(signal.SIGINT)
         err = cli.communicate(timeout=60)[1]
     finally:
