@@ -27,7 +27,7 @@ def bits(v):
     if hasattr(v, "bit_generator"):
         return "rng", bits(v.bit_generator.state)
     if hasattr(v, "__slots__"):
-        return type(v).__name__, tuple((n, bits(getattr(v, n, None))) for n in v.__slots__)
+        return t.__name__, tuple([(n, bits(getattr(v, n, None))) for n in v.__slots__])
     if hasattr(v, "__dataclass_fields__"):
-        return type(v).__name__, bits(vars(v))
-    return type(v).__name__, v
+        return t.__name__, bits(vars(v))
+    return t.__name__, v
