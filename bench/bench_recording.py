@@ -23,11 +23,11 @@ import os
 import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from timed_process import run_timed  # bench/ is the script's folder, first on sys.path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -50,14 +50,9 @@ def run_once(fmu: Path, out: Path, args: list[str], env: dict, steps: int, super
     shutil.rmtree(out, ignore_errors=True)
     cmd = (cli or _cli()) + ["run", str(fmu), "--stop-time", repr(steps * 1e-4), "--step", "1e-4", "-o", str(out),
                     "--no-progress"] + args + ([] if supervise else ["--no-supervise"])
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **env})
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc, wall, cpu = run_timed(cmd, env={**os.environ, **env})
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr}")
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu
 
 

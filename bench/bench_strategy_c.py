@@ -28,13 +28,13 @@ import argparse
 import json
 import math
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from timed_process import run_timed  # bench/ is the script's folder, first on sys.path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -82,18 +82,15 @@ def child(args) -> None:
 
 def measure(strategy: str, fleet: int = 0, stop: float = 0.0) -> dict:
     with tempfile.TemporaryDirectory(prefix="bench_c_") as tmp:
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        w0 = time.perf_counter()
         cmd = [sys.executable, __file__, "--child", "--strategy", strategy, "--out", tmp]
         if fleet:
             cmd += ["--fleet", str(fleet), "--stop", str(stop)]
-        done = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        done, wall, cpu = run_timed(cmd, env={**os.environ, "PYTHONPATH": str(ROOT)})
         if done.returncode:
             raise SystemExit(done.stderr[-2000:])
         out = json.loads(done.stdout.strip().splitlines()[-1])
-        out["process_cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-        out["process_wall_s"] = time.perf_counter() - w0
+        out["process_cpu_s"] = cpu
+        out["process_wall_s"] = wall
         return out
 
 
