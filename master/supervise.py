@@ -30,6 +30,7 @@ import mmap
 import multiprocessing as mp
 import os
 import re
+import shutil
 import signal
 import tempfile
 import threading
@@ -48,6 +49,7 @@ from .runtime import PHASE_NAMES, PHASE_STEP
 from .sinks import BUILTIN_SINKS, SINKS
 from .sinks.base import Sink
 from .sinks.group import SinkGroup, write_failure
+from .ssp import archive
 
 HEADER = 8
 H_BLOCKS, H_FILL, H_LAST_ROW, H_TIME, H_PHASE, H_COMPONENT, H_NATIVE = range(7)
@@ -365,10 +367,14 @@ def _cut_to_whole_lines(path: Path) -> int:
     return max(0, lines - 1)
 
 
-def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
+def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: str):
     # the parent's end of the pipe, held here too, kept the pipe open after the parent died: every send then
     # blocked for ever on a pipe nobody read
     parent_end.close()
+    # the unpacked SSP goes into a folder the supervisor removes when this process is gone: a child that crashes,
+    # or is killed after its grace, cannot remove its own (only that: other temporary files, such as the SITL
+    # instance locks every process must see, stay where they are)
+    archive.UNPACK_DIR = scratch
     out_dir = Path(options["output"])
     stack = open(out_dir / CRASH_FILE, "w", buffering=1)
     faulthandler.enable(file=stack, all_threads=False)
@@ -442,6 +448,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict):
 SHARED_FOLDER = "/dev/shm"
 BLOCK_PREFIX = "cosim-master-"
 UNNAMED_BLOCK_AGE_S = 3600.0
+SCRATCH_PREFIX = "cosim-master-run-"     # + the supervisor's process id: the child's unpacked SSP
 
 
 def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
@@ -450,17 +457,29 @@ def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
     processes) left it in /dev/shm for good. The name holds the supervisor's process id: a block whose process still
     runs is left alone. One whose name holds none (an earlier version's, named for no one) goes once it is older
     than ``UNNAMED_BLOCK_AGE_S``: such a block, too, had its name for milliseconds only."""
+    return _sweep_left(folder, BLOCK_PREFIX, UNNAMED_BLOCK_AGE_S)
+
+
+def _sweep_left_scratch(folder: str | None = None) -> list[str]:
+    """Removes the scratch folders (the child's unpacked SSP) of supervisors that are gone: a supervisor killed with
+    SIGKILL cannot remove its own. Only folders named for a process id: the temporary folder is everyone's."""
+    return _sweep_left(folder or tempfile.gettempdir(), SCRATCH_PREFIX, None)
+
+
+def _sweep_left(folder: str, prefix: str, unnamed_age_s: float | None) -> list[str]:
+    """Removes ``folder``'s entries named ``prefix<pid>-...`` whose process is gone, and (``unnamed_age_s``) those
+    named for no process once they are that old; returns their names."""
     try:
-        names = [n for n in os.listdir(folder) if n.startswith(BLOCK_PREFIX)]
+        names = [n for n in os.listdir(folder) if n.startswith(prefix)]
     except OSError:
         return []
     swept = []
     for name in names:
         path = os.path.join(folder, name)
-        pid = name[len(BLOCK_PREFIX):].split("-", 1)[0]
+        pid = name[len(prefix):].split("-", 1)[0]
         if not pid.isdigit():
             try:
-                if time.time() - os.stat(path).st_mtime < UNNAMED_BLOCK_AGE_S:
+                if unnamed_age_s is None or time.time() - os.stat(path).st_mtime < unnamed_age_s:
                     continue
             except OSError:
                 continue
@@ -475,7 +494,10 @@ def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
             except PermissionError:         # alive, another user's
                 continue
         try:
-            os.unlink(path)
+            if os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path)
+            else:
+                os.unlink(path)
             swept.append(name)
         except OSError:                 # another run swept it first, or not ours to remove
             pass
@@ -490,6 +512,7 @@ def _prepare_while_the_child_starts() -> None:
     runs go too."""
     platform_name()
     _sweep_left_blocks()
+    _sweep_left_scratch()
     import concurrent.futures  # noqa: F401
     try:
         import pyarrow.parquet  # noqa: F401
@@ -614,7 +637,8 @@ class _Supervisor:
         ctx = mp.get_context("fork")
         parent, child = ctx.Pipe()
         options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
-        proc = ctx.Process(target=_child, args=(child, parent, os.getpid(), self.scenario, options),
+        scratch = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+        proc = ctx.Process(target=_child, args=(child, parent, os.getpid(), self.scenario, options, scratch),
                            name="cosim-master-run")
         previous = {}
 
@@ -676,6 +700,8 @@ class _Supervisor:
             for s, h in previous.items():
                 signal.signal(s, h)
             parent.close()
+            if proc.exitcode is not None or proc.pid is None:      # the child is gone (or never started)
+                shutil.rmtree(scratch, ignore_errors=True)
         return self._finish(proc.exitcode, killed)
 
     def _open_sinks(self, proc):

@@ -24,6 +24,11 @@ class MemoryArchive:
     shape: int | None = None    # SSDs the writer wrote with the same number have the same structure (None: unknown)
 
 
+#: the folder archives are unpacked in (None: the temporary folder); a supervised run's simulation process
+#: unpacks into one its supervisor removes when the process is gone, dead or alive (master.supervise)
+UNPACK_DIR: str | None = None
+
+
 @dataclass
 class ScenarioSource:
     path: Path          # what the user named
@@ -56,7 +61,7 @@ def _extract_ssp(path: Path, seen: dict | None = None) -> Path:
         names = zf.namelist()
         if SSD_NAME not in names:
             raise ScenarioError(f"archive has no {SSD_NAME} at its top level", file=path)
-        tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-"))
+        tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-", dir=UNPACK_DIR))
         for name in names:
             target = (tmp / name).resolve()
             if not str(target).startswith(str(tmp.resolve()) + os.sep) and target != tmp.resolve():
@@ -234,7 +239,7 @@ def schema_checked(ssd_path: Path) -> bool:
 
 def _unpack_written(w: _Written) -> Path:
     """The folder that unpacking the archive ``w`` gives (as ``_extract_ssp``), from the members as written."""
-    tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-"))
+    tmp = Path(tempfile.mkdtemp(prefix="cosim-ssp-", dir=UNPACK_DIR))
     try:
         for name, data in w.files.items():
             target = tmp / name
