@@ -41,25 +41,25 @@ def _binary_or_skip() -> str:
     return binary
 
 
-@pytest.fixture(scope="session")
-def sitl_fleet(tmp_path_factory):
+def _shared_run(tmp_path_factory, folder: str, out: str, stop: float, run_options: dict | None = None,
+                **scenario) -> SharedRun:
+    """One real-SITL run of ``test_sitl_vehicle.scenario(**scenario)`` (``run_options`` to master.run), for every
+    test that asserts on it."""
     binary = _binary_or_skip()
-    from test_sitl_vehicle import run, scenario
-    under = tmp_path_factory.mktemp("sitl_fleet")
+    from test_sitl_vehicle import run, scenario as build
+    under = tmp_path_factory.mktemp(folder)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("ARDUPILOT_SITL", binary)
-        ssp = scenario(under, n_uavs=len(FLEET_VEHICLES), targets=FLEET_TARGETS, stop=FLEET_STOP, name="fleet",
-                       vehicle=FLEET_VEHICLES)
-        result = run(ssp, under / "fleet", threads=2)
-    return SharedRun(under / "fleet", under, result, FLEET_STOP)
+        result = run(build(under, stop=stop, **scenario), under / out, **(run_options or {}))
+    return SharedRun(under / out, under, result, stop)
+
+
+@pytest.fixture(scope="session")
+def sitl_fleet(tmp_path_factory):
+    return _shared_run(tmp_path_factory, "sitl_fleet", "fleet", FLEET_STOP, {"threads": 2}, n_uavs=len(FLEET_VEHICLES),
+                       targets=FLEET_TARGETS, name="fleet", vehicle=FLEET_VEHICLES)
 
 
 @pytest.fixture(scope="session")
 def paced_mission(tmp_path_factory):
-    binary = _binary_or_skip()
-    from test_sitl_vehicle import run, scenario
-    under = tmp_path_factory.mktemp("sitl_paced")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("ARDUPILOT_SITL", binary)
-        result = run(scenario(under, coupling="paced", stop=PACED_STOP), under / "p")
-    return SharedRun(under / "p", under, result, PACED_STOP)
+    return _shared_run(tmp_path_factory, "sitl_paced", "p", PACED_STOP, coupling="paced")
