@@ -45,7 +45,11 @@ _STR_PARAMS = [
     ("workdir", "", "SITL's working folder; empty: $COSIM_MASTER_OUTPUT/sitl/<instance name>"),
 ]
 _INT_PARAMS = [("instance", -1, "SITL instance -I N (ports 5760+10N, 9002+10N); -1: the first free one"),
-               ("sysid", 1, "MAVLink system id of the vehicle")]
+               ("sysid", 1, "MAVLink system id of the vehicle"),
+               ("frame_rate", 0, "physics frames per second (SITL --rate; the firmware needs its gyro rate at least "
+                                 "1.8 x SCHED_LOOP_RATE); 0: the firmware's own, 1200")]
+_BOOL_PARAMS = [("gcs_port", True, "SITL serves ground stations on SERIAL1 and SERIAL2 (TCP 5762/5763+10N; "
+                                   "cosim-master --mavlink forwards SERIAL1); false: headless, only this FMU's link")]
 _GEODETIC = ("lat", "lon", "alt")
 _OUT_REAL = [
     ("x", "m", "east position"), ("y", "m", "north position"), ("z", "m", "height above origin (up)"),
@@ -103,6 +107,9 @@ class UavSitl(UnitsMixin, Fmi2Slave):
         for name, default, desc in _INT_PARAMS:
             setattr(self, name, default)
             self.par_int(name, desc)
+        for name, default, desc in _BOOL_PARAMS:
+            setattr(self, name, default)
+            self.par_bool(name, desc)
         self.cmd = 0
         self.in_int("cmd", "0 idle/hold, 1 takeoff, 2 goto setpoint, 3 land")
         for name, unit, desc in [("sp_x", "m", "setpoint east"), ("sp_y", "m", "setpoint north"),
@@ -153,7 +160,8 @@ class UavSitl(UnitsMixin, Fmi2Slave):
                              preflight_time=self.preflight_time,
                              params=_parse_params(self.params), wall_timeout=self.wall_timeout,
                              heartbeat_timeout=self.heartbeat_timeout, ready_timeout=self.ready_timeout,
-                             arm_timeout=self.arm_timeout, name=self.instance_name)
+                             arm_timeout=self.arm_timeout, name=self.instance_name,
+                             frame_rate=int(self.frame_rate), gcs_port=bool(self.gcs_port))
             self._vehicle = SitlVehicle(cfg, (self.home_x, self.home_y))
             self._vehicle.start()
         except SitlFault as exc:

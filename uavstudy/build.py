@@ -262,6 +262,10 @@ def _sitl_parameters(scn: UavScenario, i: int) -> dict:
         out["sitl_binary"] = o.binary
     if o.defaults:
         out["defaults"] = o.defaults
+    if o.frame_rate:
+        out["frame_rate"] = int(o.frame_rate)
+    if not o.gcs_port:
+        out["gcs_port"] = False
     return out
 
 

@@ -103,6 +103,9 @@ class SitlOptions:
     (SITL's own physics at SIM_SPEEDUP: not deterministic).  ``frame``: motor layout x or +.  ``speedup``:
     paced mode's largest SIM_SPEEDUP.  ``params``: extra firmware parameters.  ``binary``/``defaults``: the
     arducopter executable and its defaults file (default: $ARDUPILOT_SITL and the copter.parm next to it).
+    ``frame_rate``: physics frames per second (0: the firmware's 1200; a lower rate needs SCHED_LOOP_RATE at
+    most rate / 1.8 in ``params`` and flies a different flight).  ``gcs_port``: false for a headless fleet (no
+    SERIAL1/SERIAL2 ground-station ports; ``--mavlink`` then cannot forward the firmware's stream).
     """
     coupling: str = "lockstep"
     frame: str = "x"
@@ -110,6 +113,8 @@ class SitlOptions:
     params: dict[str, float] = field(default_factory=dict)
     binary: str = ""
     defaults: str = ""
+    frame_rate: int = 0
+    gcs_port: bool = True
 
 
 COMM_MODES = ("radio", "perfect", "none")
@@ -476,6 +481,10 @@ def scenario_from_dict(data: Any, path) -> UavScenario:
                 if not isinstance(so[k], str):
                     v.fail(f"sitl.{k}", f"expected a path, got {so[k]!r}")
                 sk[k] = so[k].strip()
+        if "frame_rate" in so:
+            sk["frame_rate"] = v.integer("sitl.frame_rate", so["frame_rate"], lo=0)
+        if "gcs_port" in so:
+            sk["gcs_port"] = v.boolean("sitl.gcs_port", so["gcs_port"])
         kw["sitl"] = SitlOptions(**sk)
     if "comm" in data:
         kw["comm"] = _comm(v, data["comm"])
@@ -581,7 +590,9 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "battery_capacity": scn.battery_capacity,
         "vehicle": list(scn.vehicle) if isinstance(scn.vehicle, list) else scn.vehicle,
         "sitl": {"coupling": scn.sitl.coupling, "frame": scn.sitl.frame, "speedup": scn.sitl.speedup,
-                 "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults},
+                 "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults,
+                 **({"frame_rate": scn.sitl.frame_rate} if scn.sitl.frame_rate else {}),
+                 **({} if scn.sitl.gcs_port else {"gcs_port": False})},
         "comm": {f.name: getattr(scn.comm, f.name) for f in fields(CommConfig)
                  if getattr(scn.comm, f.name) is not None},
     }

@@ -16,6 +16,8 @@ from .fleet import _param
 from .forward import Forwarded, register_source
 
 INSTANCE_OUTPUT = "sitl_instance"
+#: UavSitl's Boolean parameter: false starts SITL without SERIAL1 (a headless fleet, scenario ``sitl.gcs_port``)
+GCS_PORT_PARAMETER = "gcs_port"
 SYSID_PARAMETER, SYSID_DEFAULT = "sysid", 1
 #: SITL instance N serves SERIAL1 on this port + 10 N (fmu_sources/sitlsim/process.py: ports)
 SERIAL1_BASE = 5762
@@ -40,5 +42,8 @@ def sitl_vehicles(monitor, plan) -> list[Forwarded]:
         if INSTANCE_OUTPUT in variables.get(dyn, {}):
             var = f"{dyn}.{INSTANCE_OUTPUT}"
             sysid = int(_param(plan, f"{dyn}.{SYSID_PARAMETER}", SYSID_DEFAULT))
+            if not _param(plan, f"{dyn}.{GCS_PORT_PARAMETER}", 1.0):
+                raise CosimError(f"{u.name}: its SITL runs without a ground-station port ({dyn}.{GCS_PORT_PARAMETER} "
+                                 f"false, scenario sitl.gcs_port), so its stream cannot be forwarded", element="--mavlink")
             out.append(Forwarded(u.name, _serial1(u.name, var), sysid, (var,)))
     return out

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import json
 import math
+import socket
 
 import pytest
-from sitlveh_helpers import real_binary
+from sitlveh_helpers import lean_sitl, real_binary
 
 from sitlsim import ap_location as A
+from sitlsim.process import ports
 from sitlsim.vehicle import FLY, SitlConfig, SitlVehicle
 from uavsim.geodesy import WGS84_A, WGS84_E2, EnuFrame
 
@@ -74,11 +76,16 @@ def test_set_points_reach_the_firmware_as_metres_from_its_home(home_enu):
 @needs_sitl
 def test_a_far_set_point_is_held_to_centimetres(tmp_path):
     cfg = SitlConfig(binary=BINARY, workdir=str(tmp_path / "sitl"), home=(*BASE, 0.0), takeoff_altitude=5.0,
-                     params={"WPNAV_SPEED": 1500.0})
+                     **lean_sitl(WPNAV_SPEED=1500.0))
     v = SitlVehicle(cfg, (0.0, 0.0))
     sp = (-300.0, -400.0, 5.0)           # 500 m out: WGS84 targets were 2.6 m off here
     try:
         v.start()
+        # the test rates reached the firmware: its servo frames say 400 a second, and it opened no ground-station
+        # port (SERIAL1, TCP 5762+10N)
+        assert v.physics.sitl_frame_rate == 400
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection(("127.0.0.1", ports(v.instance)["serial1"]), timeout=5).close()
         t, h = 0.0, 0.5
         while v.phase != FLY:
             v.step(t, h, 1, sp, (0.0, 0.0, 0.0))
@@ -92,7 +99,7 @@ def test_a_far_set_point_is_held_to_centimetres(tmp_path):
             still = still + 1 if near and math.hypot(v.vel[0], v.vel[1]) < 0.05 else 0
             assert t < 120.0, f"not settled by t={t}: at {v.pos}"
         assert math.hypot(v.pos[0] - sp[0], v.pos[1] - sp[1]) < 0.3
-        assert v.max_slip == 0.0         # 0.5 s = 600 whole frames: the clocks agree
+        assert v.max_slip == 0.0         # 0.5 s = 200 whole frames: the clocks agree
     finally:
         v.close()
 
@@ -116,7 +123,7 @@ def test_run_json_carries_each_sitl_vehicles_clock(request, coupling):
         u = info[name]
         assert u["coupling"] == coupling and u["steps"] == steps
         if coupling == "lockstep":
-            assert u["max_slip_s"] == 0.0                  # 0.1 s = 120 whole frames
+            assert u["max_slip_s"] == 0.0                  # 0.1 s = 40 whole frames (at the test rate, 400)
         else:
             # the monitor's view of every step agrees with the FMU's own running maximum; the vehicle clock is
             # never behind a communication point (the step waits for it)

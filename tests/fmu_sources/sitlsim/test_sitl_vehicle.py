@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 import pytest
-from sitlveh_helpers import real_binary
+from sitlveh_helpers import lean_sitl, real_binary
 
 import master
 from master.observers import Observer
@@ -36,12 +36,15 @@ QUICK_LANDING = {"LAND_SPEED": 200.0}
 
 
 def scenario(tmp_path, *, n_uavs=1, targets=((30.0, 20.0),), coupling="lockstep", stop=120.0, name="s",
-             takeoff=5.0, vehicle="sitl") -> Path:
+             takeoff=5.0, vehicle="sitl", lean=True) -> Path:
+    """The short mission; ``lean``: at the test rates, headless (sitlveh_helpers.lean_sitl: no assertion of these
+    tests depends on the firmware's frame or loop rate), else the shipped FMU's defaults."""
     fr = EnuFrame(*BASE)
     latlon = [fr.to_geodetic(x, y, 0.0)[:2] for x, y in targets]
+    sitl = (SitlOptions(coupling=coupling, speedup=80.0, **lean_sitl(**QUICK_LANDING)) if lean else
+            SitlOptions(coupling=coupling, speedup=80.0, params=QUICK_LANDING))
     scn = UavScenario(name=name, base=BASE, n_uavs=n_uavs, strategy="B", targets=latlon,
-                      takeoff_altitude=takeoff, stop_time=stop, seed=3, vehicle=vehicle,
-                      sitl=SitlOptions(coupling=coupling, speedup=80.0, params=QUICK_LANDING))
+                      takeoff_altitude=takeoff, stop_time=stop, seed=3, vehicle=vehicle, sitl=sitl)
     return build_ssp(scn, tmp_path / f"{name}.ssp")
 
 
@@ -95,6 +98,30 @@ def test_faults_end_the_run_with_one_line_naming_the_uav(tmp_path, fake_binaries
     assert re.search(expected, msg), msg
     assert json.loads((tmp_path / "out" / "run.json").read_text())["outcome"] == "error"
     assert sitl_pids(tmp_path) == []
+
+
+@pytest.mark.parametrize("lean", [False, True])
+def test_the_scenarios_rates_and_ports_reach_the_firmwares_command_line(tmp_path, lean):
+    """scenario -> SSP -> UavSitl -> the firmware's command line and cosim.parm, read by a stand-in firmware
+    that records them: the shipped default asks for no rate and keeps SITL's ground-station ports; the lean test
+    scenario asks for 400 frames a second, SERIAL1 and SERIAL2 off, and its loop rate in the parameter file."""
+    fake = tmp_path / "record_sitl"
+    fake.write_text(f"#!{sys.executable}\nimport json, pathlib, sys\n"
+                    "parm = sys.argv[sys.argv.index('--defaults') + 1].split(',')[-1]\n"
+                    "pathlib.Path('argv.json').write_text(json.dumps([sys.argv[1:], pathlib.Path(parm).read_text()]))\n"
+                    "sys.exit(3)\n")
+    fake.chmod(0o755)
+    res = run(scenario(tmp_path, lean=lean), tmp_path / "out", params={"uav1_dyn.sitl_binary": str(fake)})
+    assert "exited with code 3" in error_of(res)
+    argv, parm = json.loads((tmp_path / "out" / "sitl" / "uav1_dyn" / "argv.json").read_text())
+    pairs = {a: b for a, b in zip(argv, argv[1:]) if a.startswith("--")}
+    if lean:
+        assert (pairs["--rate"], pairs["--serial1"], pairs["--serial2"]) == ("400", "none", "none")
+        assert "SCHED_LOOP_RATE 200" in parm.splitlines()
+    else:
+        assert not {"--rate", "--serial1", "--serial2"} & set(argv)
+        assert "SCHED_LOOP_RATE" not in parm
+    assert "LAND_SPEED 200" in parm.splitlines()
 
 
 def test_no_binary_at_all_says_how_to_provide_one(tmp_path, monkeypatch):

@@ -19,6 +19,7 @@ import pytest
 from pymavlink.dialects.v20 import common as m
 
 import master
+from master.errors import CosimError
 from master.execution import Execution
 from uavsim.geodesy import EnuFrame
 from uavstudy.build import build_ssp
@@ -30,7 +31,7 @@ from test_mavlink_forward import FIRMWARE_SYSID, SSP, firmware  # noqa: F401 - t
 from test_mavlink_stream import Gcs, free_port
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fmu_sources" / "sitlsim"))   # test_sitl_vehicle
-from sitlveh_helpers import real_binary  # noqa: E402
+from sitlveh_helpers import lean_sitl, real_binary  # noqa: E402
 from test_sitl_vehicle import sitl_pids  # noqa: E402
 
 BASE = (-7.275, -35.965, 540.0)
@@ -38,11 +39,14 @@ BINARY, WHY = real_binary()
 COMPANION = m.MAV_COMP_ID_ONBOARD_COMPUTER
 
 
-def sitl_scenario(tmp_path, vehicle, n_uavs, stop=30.0) -> Path:
+def sitl_scenario(tmp_path, vehicle, n_uavs, stop=30.0, gcs_port=True) -> Path:
+    """At the test rates (lean_sitl: nothing asserted here depends on them), SERIAL1 open unless ``gcs_port``
+    is false."""
     fr = EnuFrame(*BASE)
     targets = [fr.to_geodetic(30.0 * (k + 1), 20.0, 0.0)[:2] for k in range(n_uavs)]
     scn = UavScenario(name="fwd", base=BASE, n_uavs=n_uavs, strategy="B", targets=targets, takeoff_altitude=5.0,
-                      stop_time=stop, seed=3, vehicle=vehicle, sitl=SitlOptions(coupling="lockstep", speedup=80.0))
+                      stop_time=stop, seed=3, vehicle=vehicle,
+                      sitl=SitlOptions(coupling="lockstep", speedup=80.0, **lean_sitl(gcs_port=gcs_port)))
     return build_ssp(scn, tmp_path / "fwd.ssp")
 
 
@@ -65,6 +69,14 @@ def test_the_uavs_flown_by_sitl_are_forwarded_from_serial1_with_their_own_ids(tm
     assert set(fleet.required_variables()) >= {"uav2_dyn.sitl_instance", "uav4_dyn.sitl_instance"}
     assert not any(q.startswith(("uav2_", "uav4_")) and not q.endswith("sitl_instance")
                    for q in fleet.required_variables())                        # no telemetry read for them
+
+
+def test_a_headless_sitl_cannot_be_forwarded_and_says_why(tmp_path):
+    monitor, plan = monitor_and_plan(sitl_scenario(tmp_path, ["point_mass", "sitl"], 2, gcs_port=False))
+    with pytest.raises(CosimError) as err:
+        forwarded_vehicles(monitor, plan)
+    msg = str(err.value)
+    assert "uav2" in msg and "uav2_dyn.gcs_port false" in msg and "sitl.gcs_port" in msg and "\n" not in msg
 
 
 def test_two_firmwares_with_one_system_id_are_refused(tmp_path):
