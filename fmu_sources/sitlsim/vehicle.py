@@ -48,6 +48,8 @@ FIRMWARE_FRAME_RATE = 1200
 #: open serial port in every loop, listening or not; a fleet nobody watches live needs only SERIAL0, our link
 #: (measured: the same flight, ~1.3 of ~10.7 system calls a physics frame fewer; docs/sitl.md)
 HEADLESS_ARGS = ("--serial1", "none", "--serial2", "none")
+#: lock-step: how often (wall s) a wait for the firmware's next frame checks that SITL is still running
+WATCH_INTERVAL = 0.5
 
 
 class SitlFault(RuntimeError):
@@ -133,7 +135,8 @@ class SitlVehicle:
                 from .lockstep import LockstepPhysics
                 self.physics = LockstepPhysics(instance=n, params=IrisParams(frame=c.frame),
                                                frame_rate=c.frame_rate or FIRMWARE_FRAME_RATE,
-                                               wall_timeout=c.wall_timeout, yaw_deg=float(c.home[3]))
+                                               wall_timeout=c.wall_timeout, yaw_deg=float(c.home[3]),
+                                               watch=self._exited, watch_interval=WATCH_INTERVAL)
             self.proc.start()
             self.sock = wait_for_port(self.proc.ports["mavlink"], c.wall_timeout, self.proc)
             self.sock.setblocking(False)
@@ -179,6 +182,12 @@ class SitlVehicle:
             self.proc = None
 
     # ------------------------------------------------------------------ faults
+    def _exited(self) -> str:
+        """Why SITL is gone ("" while it runs): asked while lock-step waits for a frame, so that a crashed or
+        killed firmware ends the step at once instead of after wall_timeout of silence."""
+        p = self.proc
+        return (p.exit_reason() or "") if p is not None and p.proc is not None else ""
+
     def _why(self, exc) -> str:
         """The reason to report: SITL's own death explains a silent socket better than the socket does."""
         died = self.proc.exit_reason() if self.proc is not None and self.proc.proc is not None else None
@@ -239,9 +248,12 @@ class SitlVehicle:
         # SITL has the last answer; once it sends the next frame it has finished the step's loop (and its
         # MAVLink output is in our socket)
         sock = self.physics._sock
-        if not select.select([sock], [], [], self.cfg.wall_timeout)[0]:
-            raise SitlError(self.proc.exit_reason() or
-                            f"SITL sent no servo frame for {self.cfg.wall_timeout:g} s of wall clock")
+        waited = 0.0
+        while not select.select([sock], [], [], WATCH_INTERVAL)[0]:
+            waited += WATCH_INTERVAL
+            if self._exited() or waited >= self.cfg.wall_timeout:
+                raise SitlError(self._exited() or
+                                f"SITL sent no servo frame for {self.cfg.wall_timeout:g} s of wall clock")
         self.vtime = self.physics.time
         t3 = time.perf_counter()
         self._drain()

@@ -261,11 +261,20 @@ class KillSitlAt(Observer):
                 os.kill(pid, signal.SIGKILL)
 
 
+#: the vehicle's wall_timeout in the killed-SITL test: far longer than the whole run takes (get-ready and 3 s of
+#: mission, seconds of wall clock even on a loaded machine), so an error before it comes from the firmware's exit
+KILLED_WALL_TIMEOUT = 90.0
+
+
 @needs_sitl
 def test_a_killed_sitl_is_reported_cleanly_and_the_results_are_kept(tmp_path, sitl_env):
     out = tmp_path / "k"
     killer = KillSitlAt(out, 3.0)
-    res = run(scenario(tmp_path), out, observers=[killer])
+    t0 = time.monotonic()
+    res = run(scenario(tmp_path), out, observers=[killer], params={"uav1_dyn.wall_timeout": KILLED_WALL_TIMEOUT})
+    # the lock-step wait noticed the firmware's death (it asks every 0.5 s) instead of waiting for its frames
+    # until wall_timeout (it did, 30 s of idle wall clock per killed SITL, before)
+    assert time.monotonic() - t0 < KILLED_WALL_TIMEOUT
     assert killer.killed
     msg = error_of(res)
     assert res.metadata["outcome"] == "error"
