@@ -591,8 +591,7 @@ def scenario_to_dict(scn: UavScenario) -> dict:
         "vehicle": list(scn.vehicle) if isinstance(scn.vehicle, list) else scn.vehicle,
         "sitl": {"coupling": scn.sitl.coupling, "frame": scn.sitl.frame, "speedup": scn.sitl.speedup,
                  "params": dict(scn.sitl.params), "binary": scn.sitl.binary, "defaults": scn.sitl.defaults,
-                 **({"frame_rate": scn.sitl.frame_rate} if scn.sitl.frame_rate else {}),
-                 **({} if scn.sitl.gcs_port else {"gcs_port": False})},
+                 "frame_rate": scn.sitl.frame_rate, "gcs_port": scn.sitl.gcs_port},
         "comm": {f.name: getattr(scn.comm, f.name) for f in fields(CommConfig)
                  if getattr(scn.comm, f.name) is not None},
     }

@@ -1,7 +1,8 @@
 """The SITL vehicle FMU (fmus/UavSitl.fmu) in UAV scenarios run by cosim-master.
 
 Without the binary: the faults a user meets first (no binary, a crashing one, one that never answers) end the run
-with a one-line error naming the UAV's component.  With the real ArduCopter SITL ($ARDUPILOT_SITL, else
+with a one-line error naming the UAV's component; the scenario's ``sitl.frame_rate`` and ``sitl.gcs_port`` reach
+the firmware's command line (a stand-in records it) and round-trip through YAML.  With the real ArduCopter SITL ($ARDUPILOT_SITL, else
 ../shared/sitl/arducopter; skipped with the reason when absent): a short mission flown in lock-step and paced,
 two lock-step runs bit-identical, four SITL UAVs in one process on distinct instances, a killed SITL reported
 cleanly; after every run no SITL process is left.  The expected flights follow from the scenario (target
@@ -23,6 +24,7 @@ from sitlveh_helpers import lean_sitl, real_binary
 
 import master
 from master.observers import Observer
+from sitlsim.vehicle import SitlConfig, SitlFault, SitlVehicle
 from uavsim.geodesy import EnuFrame
 from uavstudy.build import build_ssp
 from uavstudy.scenario import SitlOptions, UavScenario
@@ -122,6 +124,37 @@ def test_the_scenarios_rates_and_ports_reach_the_firmwares_command_line(tmp_path
         assert not {"--rate", "--serial1", "--serial2"} & set(argv)
         assert "SCHED_LOOP_RATE" not in parm
     assert "LAND_SPEED 200" in parm.splitlines()
+
+
+def test_the_sitl_rates_and_ports_round_trip_through_yaml_and_bad_values_are_named(tmp_path):
+    from master.errors import ScenarioError
+    from uavstudy.scenario import dump_scenario_yaml, load_scenario_yaml, scenario_to_dict
+    fr = EnuFrame(*BASE)
+    target = [fr.to_geodetic(30.0, 20.0, 0.0)[:2]]
+    lean = UavScenario(name="lean", base=BASE, n_uavs=1, strategy="B", targets=target, vehicle="sitl",
+                       sitl=SitlOptions(**lean_sitl()))
+    shipped = UavScenario(name="shipped", base=BASE, n_uavs=1, strategy="B", targets=target, vehicle="sitl")
+    for scn in (lean, shipped):
+        dump_scenario_yaml(scn, tmp_path / f"{scn.name}.yaml")
+        assert load_scenario_yaml(tmp_path / f"{scn.name}.yaml").sitl == scn.sitl
+    assert [(d["frame_rate"], d["gcs_port"]) for d in (scenario_to_dict(x)["sitl"] for x in (lean, shipped))] == \
+        [(400, False), (0, True)]
+    # ordinary scenario fields: a campaign may sweep them
+    from uavstudy.campaign_kind import _field_paths
+    assert {"sitl.frame_rate", "sitl.gcs_port"} <= set(_field_paths())
+    text = (tmp_path / "lean.yaml").read_text()
+    for bad, msg in [("frame_rate: 400", "frame_rate: -5"), ("gcs_port: false", "gcs_port: 0")]:
+        (tmp_path / "bad.yaml").write_text(text.replace(bad, msg))
+        with pytest.raises(ScenarioError) as err:
+            load_scenario_yaml(tmp_path / "bad.yaml")
+        name = msg.split(":")[0]
+        want = "must be >= 0, got -5" if name == "frame_rate" else "expected true or false, got 0"
+        assert str(err.value) == f"{tmp_path / 'bad.yaml'}: sitl.{name}: {want}"
+
+
+def test_a_negative_frame_rate_is_refused_before_anything_starts():
+    with pytest.raises(SitlFault, match=r"frame_rate must be 0 \(the firmware's own\) or positive, not -400"):
+        SitlVehicle(SitlConfig(frame_rate=-400))
 
 
 def test_no_binary_at_all_says_how_to_provide_one(tmp_path, monkeypatch):
