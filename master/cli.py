@@ -537,7 +537,9 @@ def _dispatch(args) -> int:
         try:
             if args.no_supervise and args.timeout is None:
                 _stop_on_sigterm()
-                result = run(args.scenario, **options)
+                from .supervise import ScratchFolder
+                with ScratchFolder():        # the unpacked SSP of a run killed here is swept by the next run
+                    result = run(args.scenario, **options)
             else:
                 from .supervise import run_supervised
                 if args.no_supervise:

@@ -448,7 +448,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
 SHARED_FOLDER = "/dev/shm"
 BLOCK_PREFIX = "cosim-master-"
 UNNAMED_BLOCK_AGE_S = 3600.0
-SCRATCH_PREFIX = "cosim-master-run-"     # + the supervisor's process id: the child's unpacked SSP
+SCRATCH_PREFIX = "cosim-master-run-"     # + the supervisor's (unsupervised: the run's) process id: the unpacked SSP
 
 
 def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
@@ -464,6 +464,24 @@ def _sweep_left_scratch(folder: str | None = None) -> list[str]:
     """Removes the scratch folders (the child's unpacked SSP) of supervisors that are gone: a supervisor killed with
     SIGKILL cannot remove its own. Only folders named for a process id: the temporary folder is everyone's."""
     return _sweep_left(folder or tempfile.gettempdir(), SCRATCH_PREFIX, None)
+
+
+class ScratchFolder:
+    """``with ScratchFolder():`` an unsupervised run in this process unpacks its SSP into a folder named for this
+    process (``ssp.archive.UNPACK_DIR``, as a supervised run's child does), removed on leaving; a run killed with
+    SIGKILL cannot remove it, and the next run sweeps it (``_sweep_left_scratch``). The sweep lists the temporary
+    folder, which on a busy machine holds thousands of entries (~2 ms): it comes after the run, whose results are
+    then written."""
+    def __enter__(self):
+        self.path = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+        self.previous, archive.UNPACK_DIR = archive.UNPACK_DIR, self.path
+        return self
+
+    def __exit__(self, *exc):
+        archive.UNPACK_DIR = self.previous
+        shutil.rmtree(self.path, ignore_errors=True)
+        _sweep_left_scratch()
+        return False
 
 
 def _sweep_left(folder: str, prefix: str, unnamed_age_s: float | None) -> list[str]:
