@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
@@ -569,6 +568,7 @@ def _dispatch(args) -> int:
         overrides = {k: v for k, v in (("step", args.step), ("stop_time", args.stop_time),
                                        ("algorithm", args.algorithm)) if v is not None}
         info = inspect(args.scenario, **overrides)
+        import json
         print(json.dumps(info, indent=2, default=str) if args.json else format_inspect(info))
         return 0
     if args.command == "campaign":
