@@ -90,10 +90,21 @@ def load_fmu(path: str | os.PathLike, shown_as: str | None = None, lenient: bool
 
 def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
     from fmpy import read_model_description
+    passed = _validation_record(unzip_dir)
+    if passed is not None and passed.is_file():     # these very bytes passed this very validation before
+        return read_model_description(str(unzip_dir), validate=False)
     try:
-        return read_model_description(str(unzip_dir), validate=True)
+        md = read_model_description(str(unzip_dir), validate=True)
     except Exception as exc:  # fmpy raises bare Exceptions with the schema message
         reason = " ".join(str(exc).split())
+    else:
+        if passed is not None:
+            try:
+                passed.parent.mkdir(parents=True, exist_ok=True)
+                passed.touch()
+            except OSError:         # a cache folder we may not write: validated again next time
+                pass
+        return md
     if not lenient:
         raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as)
     _log.warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
@@ -104,6 +115,32 @@ def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
     for problem in _usability_problems(md):
         _log.warning("%s: %s", shown_as, problem)
     return md
+
+
+#: the files fmpy's validation reads in an unpacked FMU (a missing one counts as missing)
+_VALIDATED_FILES = ("modelDescription.xml", "sources/buildDescription.xml")
+
+
+def _validation_record(unzip_dir: Path) -> Path | None:
+    """The file whose presence says that fmpy validated these description files (schema and fmpy's own rules) and
+    found no problem: named by the SHA-256 of their bytes, fmpy's version (its schemas and rules) and libxml2's
+    (which applies the schema). Building fmpy's schema is most of a small FMU's validation (~5 ms a process), paid
+    again by every run. None: the files cannot be read here (then they are validated as before)."""
+    import hashlib
+
+    from fmpy import __version__ as fmpy_version
+    from lxml import etree
+    h = hashlib.sha256(f"fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode())
+    try:
+        for name in _VALIDATED_FILES:
+            try:
+                data = (unzip_dir / name).read_bytes()
+            except FileNotFoundError:
+                data = None
+            h.update(b"\0missing" if data is None else b"\0%d\0" % len(data) + data)
+    except OSError:
+        return None
+    return cache_root() / "validated" / h.hexdigest()
 
 
 def _add_fmi1_outputs(md, unzip_dir: Path) -> None:
