@@ -51,18 +51,13 @@ def read_bytes(path: Path, shown_as: str | None = None) -> bytes:
         raise ScenarioError(f"cannot read: {exc}", file=shown_as or path) from None
 
 
-def _passed_record(kind: str, source: bytes) -> Path:
-    """The file whose presence says that a document of exactly these bytes passed this schema: named by the
-    SHA-256 of the bytes, the kind, fmpy's version (whose files the schemas are) and libxml2's (which applies
-    them)."""
-    import hashlib
-
+def _passed_record(kind: str, source: bytes):
+    """The record that a document of exactly these bytes passed this schema: keyed by the bytes, the kind, fmpy's
+    version (whose files the schemas are) and libxml2's (which applies them)."""
     from fmpy import __version__ as fmpy_version
 
-    from ..cache_paths import cache_root
-    h = hashlib.sha256(f"ssp 1 {kind} fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}\0".encode())
-    h.update(source)
-    return cache_root() / "validated" / h.hexdigest()
+    from ..cache_paths import ValidationRecord
+    return ValidationRecord(f"ssp 1 {kind} fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode(), source)
 
 
 def validate(tree: etree._ElementTree, kind: str, shown_as: str, source: bytes | None = None) -> None:
@@ -74,7 +69,7 @@ def validate(tree: etree._ElementTree, kind: str, shown_as: str, source: bytes |
     if not version.startswith("1."):
         return
     record = _passed_record(kind, source) if source is not None else None
-    if record is not None and record.is_file():
+    if record is not None and record.passed():
         return
     schema = _schema(kind)
     if not schema.validate(tree):
@@ -88,8 +83,4 @@ def validate(tree: etree._ElementTree, kind: str, shown_as: str, source: bytes |
         msg = msg.replace("{http://ssp-standard.org/SSP1/SystemStructureParameterMapping}", "ssm:")
         raise ScenarioError(f"does not conform to the SSP schema: {msg}", file=shown_as, line=err.line)
     if record is not None:
-        try:
-            record.parent.mkdir(parents=True, exist_ok=True)
-            record.touch()
-        except OSError:         # a cache folder we may not write: validated again next time
-            pass
+        record.remember()
