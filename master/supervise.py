@@ -588,14 +588,19 @@ class ScratchFolder:
     folder, which on a busy machine holds thousands of entries (~2 ms): it comes after the run, whose results are
     then written."""
     def __enter__(self):
-        self.path = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+        try:
+            self.path = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+        except OSError:     # no temporary folder to write in: the run unpacks where it can, as it did before
+            self.path = None
+            return self
         self.previous, archive.UNPACK_DIR = archive.UNPACK_DIR, self.path
         return self
 
     def __exit__(self, *exc):
-        archive.UNPACK_DIR = self.previous
-        shutil.rmtree(self.path, ignore_errors=True)
-        _sweep_left_scratch()
+        if self.path is not None:
+            archive.UNPACK_DIR = self.previous
+            shutil.rmtree(self.path, ignore_errors=True)
+            _sweep_left_scratch()
         return False
 
 
