@@ -27,6 +27,12 @@ machine) would start ~0.1 s apart; ``--environment-bytecode`` keeps the environm
 wall time, the median CPU time, and the median over the rounds of each command's wall time divided by fmpy's in
 the same round; the load average is printed before and after.
 Each command's result is checked: cosim-master's last x against fmpy's.
+
+``--instructions`` adds a measure that the machine's load does not change: each command once more under
+valgrind's cachegrind (``--cache-sim=no``, ``PYTHONHASHSEED=0``), the instructions executed by the process that
+runs the FMU, from its start to its exit. A forked process's count includes what its parent executed before the
+fork, so for the supervised run this is the serial path (interpreter, imports, the fork, the simulation), and
+the supervisor's own count is shown beside it. Needs valgrind; the run takes ~15 s a command.
 """
 from __future__ import annotations
 
@@ -76,6 +82,8 @@ def main() -> None:
                     help="the shared folder holding reference-fmus/ (default: ../shared from the checkout)")
     ap.add_argument("--before", type=Path, default=None, metavar="DIR",
                     help="another checkout whose cosim-master is measured too, alternating with this one")
+    ap.add_argument("--instructions", action="store_true",
+                    help="also count each command's instructions once under valgrind (independent of the load)")
     ap.add_argument("--environment-bytecode", action="store_true",
                     help="keep the environment's bytecode setting (default: every command runs from bytecode "
                          "compiled once into the bench's folder)")
@@ -107,6 +115,8 @@ def main() -> None:
     names = list(commands)
     try:
         _measure(names, commands, tmp, args.rounds, args.environment_bytecode)
+        if args.instructions:
+            _instructions(names, commands, tmp)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)      # the runs' outputs and the compiled bytecode (~9 MB)
 
@@ -142,6 +152,44 @@ def _measure(names: list[str], commands: dict, tmp: Path, rounds: int, environme
         ratio = statistics.median(w / f for w, f in zip(wall[name], ref))
         print(f"| {name} | {statistics.median(wall[name]):.3f} | {min(wall[name]):.3f} | "
               f"{statistics.median(cpu[name]):.3f} | {ratio:.2f} |")
+
+
+def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
+    """Each command once under cachegrind: the instructions of every process it forked (a traced process that
+    execs another program, uname or ldconfig, writes no count), as a table."""
+    if shutil.which("valgrind") is None:
+        raise SystemExit("--instructions needs valgrind")
+    print()
+    print("Instructions executed (valgrind cachegrind, one run each; millions):")
+    print()
+    print("| command | the process that runs the FMU | the supervisor | / fmpy's |")
+    print("|---|---|---|---|")
+    counted = {}
+    for name in names:
+        cmd, env = commands[name]
+        folder = Path(tempfile.mkdtemp(prefix="cg-", dir=tmp))
+        proc, _, _ = run_timed(["valgrind", "--tool=cachegrind", "--cache-sim=no",
+                                f"--cachegrind-out-file={folder}/%p", *cmd],
+                               env=dict(env, PYTHONHASHSEED="0"), cwd=tmp)
+        if proc.returncode != 0:
+            raise SystemExit(f"{name} under valgrind failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+        counts = {int(f.name): _summary(f) for f in folder.iterdir()}
+        started = min(counts)           # the process started here (its children's ids come after it)
+        forked = [n for pid, n in counts.items() if pid != started]
+        counted[name] = (max(forked) if forked else counts[started], counts[started] if forked else None)
+    ref = counted["fmpy simulate"][0]
+    for name in names:
+        runs, supervisor = counted[name]
+        print(f"| {name} | {runs / 1e6:.1f} | {'' if supervisor is None else f'{supervisor / 1e6:.1f}'} | "
+              f"{runs / ref:.3f} |")
+
+
+def _summary(path: Path) -> int:
+    """The total of a cachegrind output file (its ``summary:`` line)."""
+    for line in path.read_text().splitlines():
+        if line.startswith("summary:"):
+            return int(line.split()[1])
+    raise SystemExit(f"{path}: no summary line")
 
 
 if __name__ == "__main__":

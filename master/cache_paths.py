@@ -1,8 +1,9 @@
 """Where the per-user cache lives, and the content hash every cache is keyed by.
 
 The FMU cache (unpacked FMUs, ``fmi/cache.py``), the store of FMUs linked out of SSP archives
-(``ssp/archive.py``) and the compiled C sources (``native_build.py``) share one root; each keeps a folder of its
-own under it.  Kept apart from all three so that none of them has to import another for a path or a hash.
+(``ssp/archive.py``), the compiled C sources (``native_build.py``) and the validation records (``ValidationRecord``:
+SSDs, ``ssp/xsd.py``; FMU descriptions, ``fmi/cache.py``) share one root; each keeps a folder of its own under it.
+Kept apart from all of them so that none of them has to import another for a path or a hash.
 """
 from __future__ import annotations
 
@@ -27,3 +28,51 @@ def file_sha256(path: str | os.PathLike) -> str:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+#: validation records kept at most; beyond, the oldest half goes (a run of a scenario not seen before writes one, so
+#: a machine that runs thousands of generated SSPs would otherwise keep a file for each)
+MAX_VALIDATION_RECORDS = 4000
+
+
+class ValidationRecord:
+    """That a document passed a validation, remembered across processes: an empty file under
+    ``<cache>/validated/`` named by the SHA-256 of what decides the outcome (``parts``: the validator's identity and
+    the exact bytes validated, each given with its length). Nothing else is trusted: other bytes or another
+    validator make another name, which is validated as if never seen."""
+    def __init__(self, *parts: bytes):
+        h = hashlib.sha256()
+        for part in parts:
+            h.update(b"%d:" % len(part))
+            h.update(part)
+        self.folder = cache_root() / "validated"
+        self.path = self.folder / h.hexdigest()
+
+    def passed(self) -> bool:
+        return self.path.is_file()
+
+    def remember(self) -> None:
+        """Called once the validation passed. A cache folder that cannot be written is no error: the document is
+        validated again next time."""
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            self.path.touch()
+            names = os.listdir(self.folder)
+            if len(names) > MAX_VALIDATION_RECORDS:
+                _drop_oldest(self.folder, names, len(names) // 2)
+        except OSError:
+            pass
+
+
+def _drop_oldest(folder: Path, names: list[str], count: int) -> None:
+    aged = []
+    for name in names:
+        try:
+            aged.append((os.stat(folder / name).st_mtime_ns, name))
+        except OSError:         # another process dropped it first
+            pass
+    for _, name in sorted(aged)[:count]:
+        try:
+            os.unlink(folder / name)
+        except OSError:
+            pass

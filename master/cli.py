@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
@@ -537,7 +536,9 @@ def _dispatch(args) -> int:
         try:
             if args.no_supervise and args.timeout is None:
                 _stop_on_sigterm()
-                result = run(args.scenario, **options)
+                from .supervise import ScratchFolder
+                with ScratchFolder():        # the unpacked SSP of a run killed here is swept by the next run
+                    result = run(args.scenario, **options)
             else:
                 from .supervise import run_supervised
                 if args.no_supervise:
@@ -567,6 +568,7 @@ def _dispatch(args) -> int:
         overrides = {k: v for k, v in (("step", args.step), ("stop_time", args.stop_time),
                                        ("algorithm", args.algorithm)) if v is not None}
         info = inspect(args.scenario, **overrides)
+        import json
         print(json.dumps(info, indent=2, default=str) if args.json else format_inspect(info))
         return 0
     if args.command == "campaign":

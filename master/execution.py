@@ -17,7 +17,6 @@ was recorded. ``with Execution(...) as ex:`` closes on leaving. Time is counted 
 """
 from __future__ import annotations
 
-import json
 import logging
 import os
 import platform
@@ -829,6 +828,7 @@ def write_run_files(out_dir: Path, meta: dict, events: list) -> None:
                 import pandas as pd
                 pd.DataFrame(events).to_csv(tmp, index=False)
         _replace(out_dir / "events.csv", write_events)
+    import json     # here: a supervised run's simulation process, whose start is the run's, writes no run.json
     meta["products"] = products(out_dir)
     _replace(out_dir / "run.json", lambda tmp: tmp.write_text(json.dumps(meta, indent=2, default=_json_default)))
 

@@ -21,8 +21,6 @@ def claim_output_folder(out_dir) -> None:
     stay there until the new run has results (``settle_output_folder``): a rerun that fails or is interrupted
     before its first row gives the folder back as it was. A non-empty folder that holds no run.json is someone
     else's and is refused; so is a folder another run is writing into."""
-    import json
-
     from .errors import CosimError
     out_dir = Path(out_dir)
 
@@ -45,6 +43,7 @@ def claim_output_folder(out_dir) -> None:
         if not run_json.is_file():
             raise refuse("the output folder is not empty and holds no earlier run (no run.json): choose another "
                          "folder or empty it")
+        import json         # only here: a run into a new folder, whose start is the run's, does not need it
         try:
             products = json.loads(run_json.read_text(encoding="utf-8")).get("products")
         except (OSError, ValueError):

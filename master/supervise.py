@@ -27,15 +27,17 @@ from __future__ import annotations
 
 import faulthandler
 import mmap
-import multiprocessing as mp
 import os
+import pickle
 import re
+import select
 import shutil
 import signal
+import struct
+import sys
 import tempfile
 import threading
 import time
-from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +62,119 @@ FINISH_S = 120.0                 # how long a child that has ended its simulatio
 TURN_S = 0.05                    # the most time the supervisor spends on messages before its stop checks
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
+
+
+# ------------------------------------------------------------------------------------- the two processes
+class _Channel:
+    """One end of the two-way message channel between the supervisor and its child: each message pickled and
+    sent after its length, over two pipes. What multiprocessing's Pipe does over a socket pair, without importing
+    multiprocessing and socket, ~4 ms of CPU before the fork that the run's start-up paid for nothing else.
+    ``recv`` raises EOFError once the other end is closed (also in the middle of a message)."""
+    def __init__(self, read_fd: int, write_fd: int):
+        self.read_fd, self.write_fd = read_fd, write_fd
+
+    def fileno(self) -> int:
+        return self.read_fd
+
+    def send(self, msg) -> None:
+        data = pickle.dumps(msg, pickle.HIGHEST_PROTOCOL)
+        view = memoryview(struct.pack("!Q", len(data)) + data)
+        while view:
+            view = view[os.write(self.write_fd, view):]
+
+    def _read(self, n: int) -> bytes:
+        parts = []
+        while n:
+            part = os.read(self.read_fd, n)
+            if not part:
+                raise EOFError("the other process closed the channel")
+            parts.append(part)
+            n -= len(part)
+        return b"".join(parts)
+
+    def recv(self):
+        return pickle.loads(self._read(struct.unpack("!Q", self._read(8))[0]))
+
+    def poll(self, timeout: float = 0.0) -> bool:
+        return bool(_ready([self], timeout))
+
+    def close(self) -> None:
+        for fd in (self.read_fd, self.write_fd):
+            if fd is not None:
+                os.close(fd)
+        self.read_fd = self.write_fd = None
+
+
+def _channel_pair() -> tuple[_Channel, _Channel]:
+    """The supervisor's end and the child's, each closed in the other process after the fork."""
+    to_parent_r, to_parent_w = os.pipe()
+    to_child_r, to_child_w = os.pipe()
+    return _Channel(to_parent_r, to_child_w), _Channel(to_child_r, to_parent_w)
+
+
+def _ready(objects: list, timeout: float | None) -> list:
+    """Those of ``objects`` (channels, file descriptors) with something to read or whose other end is closed,
+    waiting up to ``timeout`` seconds (None: until one is)."""
+    fds = {(o if isinstance(o, int) else o.fileno()): o for o in objects}
+    poller = select.poll()
+    for fd in fds:
+        poller.register(fd, select.POLLIN)
+    return [fds[fd] for fd, _ in poller.poll(None if timeout is None else timeout * 1000.0)]
+
+
+class _ForkedChild:
+    """The simulation process, forked to run ``target(*args)`` (which ends with ``os._exit``). ``sentinel``: a file
+    descriptor that becomes readable when the process has ended (it holds the pipe's other end until then), as a
+    multiprocessing Process's; ``exitcode`` after ``join``: the exit status, or minus the signal that killed it."""
+    def __init__(self, target, args: tuple):
+        self.target, self.args = target, args
+        self.pid: int | None = None
+        self.sentinel: int | None = None
+        self.exitcode: int | None = None
+
+    def start(self) -> None:
+        for stream in (sys.stdout, sys.stderr):     # else what they hold would be written by both processes
+            try:
+                stream.flush()
+            except (AttributeError, OSError, ValueError):
+                pass
+        sentinel, held = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            try:
+                os.close(sentinel)
+                _stdin_to_devnull()
+                self.target(*self.args)
+            except BaseException:   # noqa: BLE001 - the target did not get to its own exit: say why, as it is
+                import traceback
+                traceback.print_exc()
+            finally:
+                os._exit(1)
+        os.close(held)
+        self.pid, self.sentinel = pid, sentinel
+
+    def kill(self) -> None:
+        if self.exitcode is None:
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+    def join(self) -> None:
+        if self.exitcode is None:
+            _, status = os.waitpid(self.pid, 0)
+            self.exitcode = os.waitstatus_to_exitcode(status)
+            os.close(self.sentinel)
+
+
+def _stdin_to_devnull() -> None:
+    """The child reads nothing from the terminal (as a multiprocessing child): its stdin is /dev/null."""
+    if sys.stdin is not None:
+        try:
+            sys.stdin.close()
+            sys.stdin = open(os.devnull)
+        except (OSError, ValueError):
+            pass
 
 
 # ------------------------------------------------------------------------------------------------ child
@@ -448,7 +563,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
 SHARED_FOLDER = "/dev/shm"
 BLOCK_PREFIX = "cosim-master-"
 UNNAMED_BLOCK_AGE_S = 3600.0
-SCRATCH_PREFIX = "cosim-master-run-"     # + the supervisor's process id: the child's unpacked SSP
+SCRATCH_PREFIX = "cosim-master-run-"     # + the supervisor's (unsupervised: the run's) process id: the unpacked SSP
 
 
 def _sweep_left_blocks(folder: str = SHARED_FOLDER) -> list[str]:
@@ -464,6 +579,29 @@ def _sweep_left_scratch(folder: str | None = None) -> list[str]:
     """Removes the scratch folders (the child's unpacked SSP) of supervisors that are gone: a supervisor killed with
     SIGKILL cannot remove its own. Only folders named for a process id: the temporary folder is everyone's."""
     return _sweep_left(folder or tempfile.gettempdir(), SCRATCH_PREFIX, None)
+
+
+class ScratchFolder:
+    """``with ScratchFolder():`` an unsupervised run in this process unpacks its SSP into a folder named for this
+    process (``ssp.archive.UNPACK_DIR``, as a supervised run's child does), removed on leaving; a run killed with
+    SIGKILL cannot remove it, and the next run sweeps it (``_sweep_left_scratch``). The sweep lists the temporary
+    folder, which on a busy machine holds thousands of entries (~2 ms): it comes after the run, whose results are
+    then written."""
+    def __enter__(self):
+        try:
+            self.path = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+        except OSError:     # no temporary folder to write in: the run unpacks where it can, as it did before
+            self.path = None
+            return self
+        self.previous, archive.UNPACK_DIR = archive.UNPACK_DIR, self.path
+        return self
+
+    def __exit__(self, *exc):
+        if self.path is not None:
+            archive.UNPACK_DIR = self.previous
+            shutil.rmtree(self.path, ignore_errors=True)
+            _sweep_left_scratch()
+        return False
 
 
 def _sweep_left(folder: str, prefix: str, unnamed_age_s: float | None) -> list[str]:
@@ -634,12 +772,10 @@ class _Supervisor:
 
     # the run --------------------------------------------------------------------------------------------
     def run(self) -> dict:
-        ctx = mp.get_context("fork")
-        parent, child = ctx.Pipe()
+        parent, child = _channel_pair()
         options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
         scratch = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
-        proc = ctx.Process(target=_child, args=(child, parent, os.getpid(), self.scenario, options, scratch),
-                           name="cosim-master-run")
+        proc = _ForkedChild(_child, (child, parent, os.getpid(), self.scenario, options, scratch))
         previous = {}
 
         def on_signal(signum, frame):
@@ -662,7 +798,7 @@ class _Supervisor:
             _prepare_while_the_child_starts()
             open_conn = True
             while True:
-                ready = mp_wait([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
+                ready = _ready([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
                 if open_conn and parent in ready:
                     # a bounded turn: a child streaming rows keeps the pipe full, and the stop checks below must
                     # still run (a timeout, an interrupt to pass on, a kill that is due)

@@ -616,14 +616,15 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
     ssd_path = Path(ssd_path)
     reader = _Reader(ssd_path, Path(root), shown_root, memory.members if memory is not None else None)
     shown_as = reader.shown(ssd_path)
-    tree = xsd.parse_xml(ssd_path, shown_as, memory.ssd if memory is not None else None)
+    source = memory.ssd if memory is not None else xsd.read_bytes(ssd_path, shown_as)
+    tree = xsd.parse_xml(ssd_path, shown_as, source)
     top = tree.getroot()
     if _local(top) != "SystemStructureDescription":
         raise ScenarioError(f"root element is {_local(top)!r}, expected ssd:SystemStructureDescription",
                             file=shown_as, line=top.sourceline)
     checked = memory.validated if memory is not None else schema_checked(ssd_path)
     if validate and not checked:
-        xsd.validate(tree, "ssd", shown_as)
+        xsd.validate(tree, "ssd", shown_as, source=source)
     reader.reuse_values = reuse_structure
     key = _structure_key(top, memory) if reuse_structure else None
     known = _STRUCTURES.get(key) if key is not None else None

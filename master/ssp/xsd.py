@@ -42,10 +42,34 @@ def parse_xml(path: Path, shown_as: str | None = None, data: bytes | None = None
         raise ScenarioError(f"invalid XML: {exc.msg}", file=shown_as or path, line=line) from None
 
 
-def validate(tree: etree._ElementTree, kind: str, shown_as: str) -> None:
-    """Validate against the SSP 1.0 schema; documents of SSP 2.0 are parsed without XSD (none is shipped)."""
+def read_bytes(path: Path, shown_as: str | None = None) -> bytes:
+    """The file's bytes, for ``parse_xml(data=...)`` and ``validate(source=...)``; an unreadable file is the same
+    one-line error as in ``parse_xml``."""
+    try:
+        return Path(path).read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"cannot read: {exc}", file=shown_as or path) from None
+
+
+def _passed_record(kind: str, source: bytes):
+    """The record that a document of exactly these bytes passed this schema: keyed by the bytes, the kind, fmpy's
+    version (whose files the schemas are) and libxml2's (which applies them)."""
+    from fmpy import __version__ as fmpy_version
+
+    from ..cache_paths import ValidationRecord
+    return ValidationRecord(f"ssp 1 {kind} fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode(), source)
+
+
+def validate(tree: etree._ElementTree, kind: str, shown_as: str, source: bytes | None = None) -> None:
+    """Validate against the SSP 1.0 schema; documents of SSP 2.0 are parsed without XSD (none is shipped).
+    ``source``: the bytes ``tree`` was parsed from; a document of the same bytes that passed before (in any
+    process: a record in the cache folder) is not validated again. Building the schema is most of the cost of
+    validating a small SSD (~1-2 ms a process, more on a busy machine), paid by every run."""
     version = tree.getroot().get("version", "1.0")
     if not version.startswith("1."):
+        return
+    record = _passed_record(kind, source) if source is not None else None
+    if record is not None and record.passed():
         return
     schema = _schema(kind)
     if not schema.validate(tree):
@@ -58,3 +82,5 @@ def validate(tree: etree._ElementTree, kind: str, shown_as: str) -> None:
         msg = msg.replace("{http://ssp-standard.org/SSP1/SystemStructureParameterValues}", "ssv:")
         msg = msg.replace("{http://ssp-standard.org/SSP1/SystemStructureParameterMapping}", "ssm:")
         raise ScenarioError(f"does not conform to the SSP schema: {msg}", file=shown_as, line=err.line)
+    if record is not None:
+        record.remember()

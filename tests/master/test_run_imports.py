@@ -18,10 +18,11 @@ parent = os.getpid()
 
 def note_subprocesses_and_imports(event, args):
     if event == "subprocess.Popen":
-        print(f"spawned {{'parent' if os.getpid() == parent else 'child'}} {{args[0]}}", file=sys.stderr, flush=True)
+        os.write(2, f"spawned {{'parent' if os.getpid() == parent else 'child'}} {{args[0]}}\\n".encode())  # whole
     elif event == "import" and os.getpid() != parent:
         os.write(2, f"child imports {{args[0]}} {{'pyarrow' in sys.modules}}\\n".encode())   # one line, whole
 sys.addaudithook(note_subprocesses_and_imports)
+os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
 from master.cli import main
 for extra in ([], ["--no-supervise"]):
     code = main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
@@ -42,6 +43,11 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     assert {"master.execution", "pyarrow.parquet", "master.algorithms.jacobi"} <= imported
     assert not {"pandas", "pyarrow.compute", "importlib.metadata", "uavstudy", "master.ssp.writer"} & imported
     assert not {"master.fmi.table", "master.fmi.inprocess"} & imported
+    # the supervisor forks its child and talks to it over pipes itself (~4 ms of multiprocessing and socket before
+    # the fork); json is run.json's, written by the supervisor after the fork
+    assert "multiprocessing" not in imported
+    forks = [line for line in proc.stderr.splitlines() if line.startswith("forks with ")]
+    assert forks[0] == "forks with []", forks
     # (gauss_seidel comes with the native step driver, which runs Jacobi and Gauss-Seidel)
     assert not {"master.algorithms.adaptive", "master.algorithms.ecco", "master.algorithms.iterative"} & imported
     assert (tmp_path / "out" / "results.csv").read_text() == (tmp_path / "out--no-supervise" / "results.csv").read_text()

@@ -54,3 +54,36 @@ def test_scratch_of_a_killed_supervisor_is_swept_by_the_next_run(tmp_path):
     assert _sweep_left_scratch(str(tmp_path)) == [made["gone"].name]
     assert not made["gone"].exists()
     assert made["alive"].is_dir() and made["unnamed"].is_dir() and other.is_dir()
+
+
+def test_unsupervised_run_killed_leaves_its_ssp_for_the_next_run_to_sweep(tmp_path, test_fmus):
+    """A ``--no-supervise`` run killed with SIGKILL (its FMU hangs in doStep) cannot remove its unpacked SSP; it is
+    in a folder named for the run's process, which the next run removes once that process is gone. Before, the
+    killed run's `cosim-ssp-*` folder stayed in the temporary folder for good."""
+    import signal
+    import time
+    b = SspBuilder("hang", stop=1.0, step=0.1)
+    b.add_component("f", test_fmus["c2:Faulty"], params={"mode": 5, "fail_time": 0.5})
+    hang = b.write(tmp_path / "hang.ssp")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]), TMPDIR=str(tmp))
+    proc = subprocess.Popen(CLI + ["run", str(hang), "-o", str(tmp_path / "hung"), "--no-progress", "--no-supervise"],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        # the FMU's log file is made after the SSP is unpacked, and the FMU hangs from t=0.5 on: killed from here
+        # on, the run cannot finish on its own
+        while not (tmp_path / "hung" / "fmu.log").is_file():
+            assert proc.poll() is None and time.monotonic() < deadline, "the run ended before it hung"
+            time.sleep(0.02)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    left = [p.name for p in tmp.rglob("cosim-ssp-*")]
+    assert len(left) == 1, left                     # what the killed run could not remove ...
+    b = SspBuilder("fine", stop=1.0, step=0.1)
+    b.add_component("f", test_fmus["c2:Faulty"], params={"mode": 0})
+    r = _run(b.write(tmp_path / "fine.ssp"), tmp_path / "out", tmp, "--no-supervise")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp.iterdir()) == []      # ... the next run removed, with its own
