@@ -85,7 +85,7 @@ def writer_options(schema: pa.Schema) -> dict:
         # in whole doubles. The 120-double bench table (bench/bench_recording.py): 149 -> 113 MB and ~0.55 ->
         # ~0.35 s CPU (less to compress, and compressible input is compressed faster). The encoding is Parquet
         # format 2.8's (2019): Arrow (pyarrow, pandas) reads it, as do DuckDB since 0.10 and parquet-java; a reader
-        # without it (Spark's vectorized reader before 2026) cannot read these columns
+        # without it (DuckDB before 0.10, Spark's vectorized reader in 2026) cannot read these columns
         use_byte_stream_split=floating,
     )
 
