@@ -337,9 +337,12 @@ static inline char *put_double_cached(double x, char *o, Last *last)
  * which holds at least nrows * (25 * ncols + 1) + ROOM bytes: a cell's text is at most 24 characters and its
  * separator, and a double's fixed-size copies write up to 42 bytes past where its cell starts (bytes that the
  * next cell overwrites; ROOM, csv_native.ROOM_BYTES = 48, covers them after the last). Returns the bytes
- * written, or -1 without tables (or memory). */
-int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols, int64_t row0, int64_t nrows,
-                    char *out)
+ * written, or -1 without tables (or memory). same_as (or NULL) names for each column an earlier one of the same
+ * floating-point kind whose values in these rows are the same bits (an FMU's alias variables: 20-sim's
+ * ControlledTemperature has 99 continuous Reals over 31 value references), or -1: such a column's text is copied
+ * from that column's cell in the same row instead of being formatted again. */
+int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols, const int32_t *same_as,
+                    int64_t row0, int64_t nrows, char *out)
 {
     if (!have_tables)
         return -1;
@@ -350,6 +353,15 @@ int64_t cm_csv_rows(int64_t ncols, const int32_t *kinds, const void *const *cols
     for (int64_t r = row0; r < row0 + nrows; r++) {
         for (int64_t c = 0; c < ncols; c++) {
             const void *col = cols[c];
+            if (same_as && same_as[c] >= 0) {
+                const Last *from = &last[same_as[c]];
+                memmove(o, from->text, 24);         /* its cell ends before o in this row: see ROOM */
+                last[c] = *from;
+                last[c].text = o;
+                o += from->len;
+                *o++ = c + 1 < ncols ? ',' : '\n';
+                continue;
+            }
             switch (kinds[c]) {
             case K_F64: o = put_double_cached(((const double *)col)[r], o, &last[c]); break;
             case K_F32: o = put_double_cached((double)((const float *)col)[r], o, &last[c]); break;

@@ -3,7 +3,8 @@
 The reference turns every cell into a Python string (repr of a double costs ~0.6 us in CPython's own dtoa, plus
 the string and the join), ~5 MB of CSV a second; a table of 120 doubles over 200,000 rows took 40 s. The C
 formatter writes the same bytes (Python's repr of each double: shortest round-trip digits, Ryu's method) at
-a few tens of ns a value, into one reused buffer, and runs without the GIL (ctypes lets go of it), so the
+a few tens of ns a value (a column whose values are another's, an alias variable, copies that column's text),
+into one reused buffer, and runs without the GIL (ctypes lets go of it), so the
 supervisor's other work goes on meanwhile. It takes tables of numbers and Booleans; a table with a String or
 Binary column (a rare, narrow one) keeps the reference. Built on first use by ``master.native_build``;
 ``COSIM_MASTER_PURE_PYTHON=1`` or no C compiler: the reference writes every row. Declared below as
@@ -64,8 +65,8 @@ def library():
     except OSError as exc:
         return None, f"cannot load {path.name}: {exc}"
     lib.cm_csv_rows.restype = ctypes.c_int64
-    lib.cm_csv_rows.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64,
-                                ctypes.c_void_p]
+    lib.cm_csv_rows.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
+                                ctypes.c_int64, ctypes.c_void_p]
     inv, pow5 = _pow5_tables()
     lib.cm_csv_tables(inv.ctypes.data_as(ctypes.c_void_p), pow5.ctypes.data_as(ctypes.c_void_p))
     return lib, None
@@ -118,17 +119,42 @@ def rows_in_chunks(lib, block: pa.Table, scratch: Scratch | None = None):
     return _chunks(lib, kinds, arrays, ncols, nrows, scratch or Scratch())
 
 
+FLOATING = (KINDS[pa.float64()], KINDS[pa.float32()])
+
+
+def same_as(kinds, arrays) -> np.ndarray:
+    """For each column, the first earlier floating-point column of its kind with the same bits in every row (an
+    alias variable: the formatter copies that column's text), or -1. Candidates are found by their first, middle
+    and last values, then compared whole (bits, so 0.0 and -0.0 or two NaNs are told apart)."""
+    found = np.full(len(kinds), -1, dtype=np.int32)
+    first: dict = {}
+    for c, (kind, values) in enumerate(zip(kinds, arrays)):
+        if kind not in FLOATING or values.size == 0:
+            continue
+        bits = values.view(np.uint64 if kind == FLOATING[0] else np.uint32)
+        key = (kind, int(bits[0]), int(bits[bits.size // 2]), int(bits[-1]))
+        for other in first.get(key, ()):
+            if np.array_equal(bits, arrays[other].view(bits.dtype)):
+                found[c] = other
+                break
+        else:
+            first.setdefault(key, []).append(c)
+    return found
+
+
 def _chunks(lib, kinds, arrays, ncols, nrows, scratch):
     if nrows == 0 or ncols == 0:
         return
     kind_arr = np.array(kinds, dtype=np.int32)
     addresses = np.array([a.ctypes.data for a in arrays], dtype=np.uintp)
+    aliases = same_as(kinds, arrays)
     rows = max(1, CHUNK_CELLS // ncols)
     buf = scratch.get(min(rows, nrows) * (CELL_BYTES * ncols + 1) + ROOM_BYTES)
     view = memoryview(buf)
     for row0 in range(0, nrows, rows):
         n = min(rows, nrows - row0)
-        written = lib.cm_csv_rows(ncols, kind_arr.ctypes.data, addresses.ctypes.data, row0, n, buf.ctypes.data)
+        written = lib.cm_csv_rows(ncols, kind_arr.ctypes.data, addresses.ctypes.data, aliases.ctypes.data, row0, n,
+                                  buf.ctypes.data)
         if written < 0:
             raise MemoryError("the CSV formatter has no power tables or no memory")
         yield view[:written]
@@ -161,6 +187,8 @@ class CsvFormat:
             yield self._mixed(rng, rng.randrange(0, 40))
         for _ in range(3):
             yield self._repeating(rng, rng.randrange(1, 400))
+        for rows in (1, 2, rng.randrange(3, 400), 6000):      # 6000 rows: more than one chunk (CHUNK_CELLS)
+            yield self._aliased(rng, rows)
 
     @staticmethod
     def _double(rng) -> float:
@@ -219,6 +247,42 @@ class CsvFormat:
             with np.errstate(over="ignore"):
                 cols[f"r{k}"] = pa.array(np.array(values, dtype=typ.to_pandas_dtype()), typ)
         return pa.table(cols)
+
+    def _aliased(self, rng, rows):
+        """Columns that are other columns' copies (alias variables, whose text is copied) among look-alikes that
+        are not: the same first, middle and last values with one other value changed, 0.0 for -0.0 or a NaN of
+        another payload somewhere, the same values as float32, an integer column with a double column's bits."""
+        bases = {}
+        for k in range(rng.randrange(1, 4)):
+            typ = rng.choice([pa.float64(), pa.float64(), pa.float32()])
+            with np.errstate(over="ignore"):
+                bases[f"a{k}"] = np.array([self._double(rng) for _ in range(rows)], dtype=typ.to_pandas_dtype())
+            if rows > 3:        # a zero where a look-alike has the other one
+                bases[f"a{k}"][1] = rng.choice([0.0, -0.0])
+        cols = dict(bases)
+        for k in range(rng.randrange(4, 12)):
+            name, values = rng.choice(list(bases.items()))
+            values = values.copy()
+            tweak = rng.randrange(0, 6) if rows > 3 else 0
+            i = rng.choice([j for j in range(rows) if j not in (0, rows // 2, rows - 1)] or [0])
+            if tweak == 1:
+                with np.errstate(over="ignore"):
+                    values[i] = self._double(rng)
+            elif tweak == 2:        # the other zero: equal (==), not the same bits
+                values[1] = 0.0 if np.signbit(values[1]) else -0.0
+            elif tweak == 3:
+                bits = values.view(np.uint64 if values.itemsize == 8 else np.uint32)
+                bits[i] = (0x7FF8000000000001 + k) if values.itemsize == 8 else (0x7FC00001 + k)
+            elif tweak == 4:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    values = values.astype(np.float32 if values.itemsize == 8 else np.float64)
+            elif tweak == 5 and values.itemsize == 8:
+                cols[f"i{k}"] = pa.array(values.view(np.int64), pa.int64())
+                continue
+            cols[f"c{k}_{name}"] = values
+        order = list(cols)
+        rng.shuffle(order)
+        return pa.table({n: cols[n] if isinstance(cols[n], pa.Array) else pa.array(cols[n]) for n in order})
 
     def reference(self, case):
         return format_rows(case).encode()
