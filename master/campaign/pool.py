@@ -194,6 +194,7 @@ def _worker_main(conn, parent_pid: int, environ: dict | None = None, scratch_roo
     _warm_up()
     # a run killed with its worker cannot remove its unpacked SSP: it is in this folder, which the pool removes
     archive.UNPACK_DIR = folder = scratch.make(WORKER_SCRATCH_PREFIX, scratch_root)
+    first = True
     try:
         while True:
             try:
@@ -203,12 +204,25 @@ def _worker_main(conn, parent_pid: int, environ: dict | None = None, scratch_roo
             if task is None:
                 return
             rec = execute_run(task)
+            if first:
+                _freeze_what_stays()
+                first = False
             try:
                 conn.send(rec)
             except (BrokenPipeError, OSError):
                 return
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def _freeze_what_stays() -> None:
+    """After a worker's first run, what is alive stays for the worker's life (the imports, the FMU cache, the
+    structures cached per SSD): frozen (``gc.freeze``), the cyclic collector stops going over it again and again
+    in every run's full collections (~3 % of a worker's CPU in the paper campaign). Collected first, so that the
+    first run's own garbage is not kept for good."""
+    import gc
+    gc.collect()
+    gc.freeze()
 
 
 class _Worker:
