@@ -8,6 +8,7 @@ The figures measured before 2026-11-28 are of its 3-layout form, 336 runs: ``--f
     python bench/bench_campaign.py --phases 48 --stop-time 1    # the same, fixed part alone
     python bench/bench_campaign.py --memory 100         # a worker's resident memory after run 1, 10, ..., 100
     python bench/bench_campaign.py --memory 60 --campaign ssp/campaigns/cooperative.yaml    # strategy C
+    python bench/bench_campaign.py --alternate /work/main --rounds 3 --fraction 0.125   # this tree vs another
 
 Prints the wall time, runs per minute and per core, the mean run wall time by fleet size, the
 extrapolation to the full 336 runs, and the top entries of a cProfile of one warm run (4 UAVs by
@@ -16,6 +17,9 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
+
+Measured on 2026-11-29 (workers: scratch folders, the first run's survivors frozen; the compiled step's text
+cached per structure): see bench/results/campaign_2026-11-29.md.
 
 Measured on 2026-11-28, evening (workers forked from a fork server; a worker's memory over many runs,
 ``--memory``): see bench/results/campaign_2026-11-28b.md.
@@ -61,6 +65,7 @@ import io
 import os
 import pstats
 import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -298,6 +303,38 @@ def run_bench(fraction: float, workers: int | None, output: Path | None, keep_ou
         print(f"campaign folder kept: {out}")
 
 
+def alternate(other: Path, rounds: int, fraction: float, workers: int) -> None:
+    """This tree and ``other`` (a checkout of the project) alternating, the order swapped each round: the campaign
+    bench (``--fraction``, ``--workers``, no profile) as a child process of this interpreter with PYTHONPATH set to
+    each tree, timed end to end (interpreter start to exit) with the CPU of the whole process tree (the fork server
+    and the workers are reaped), and the campaign's own wall time as the bench prints it."""
+    import re
+    from timed_process import run_timed
+    trees = {"this": ROOT, "other": other.resolve()}
+    cmd = ["bench/bench_campaign.py", "--fraction", str(fraction), "--workers", str(workers), "--no-profile"]
+    rows = []
+    for r in range(rounds):
+        for side in (("other", "this") if r % 2 == 0 else ("this", "other")):
+            tree = trees[side]
+            env = dict(os.environ, PYTHONPATH=str(tree))
+            load = os.getloadavg()[0]
+            proc, wall, cpu = run_timed([sys.executable, *cmd], cwd=tree, env=env, timeout=1800)
+            if proc.returncode != 0:
+                raise SystemExit(f"{tree}: {' '.join(cmd)} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+            m = re.search(r"^wall ([\d.]+) s", proc.stdout, re.M)
+            rows.append((r + 1, side, load, os.getloadavg()[0], float(m.group(1)) if m else float("nan"), wall, cpu))
+    print(f"\n== the paper campaign, every {round(1 / fraction)}th run, {workers} workers: this tree {trees['this']} "
+          f"against {trees['other']}, alternating ({len(os.sched_getaffinity(0))} cores)")
+    print("| round | tree | load before | load after | campaign wall s | process wall s | CPU s (whole tree) |")
+    print("|---|---|---:|---:|---:|---:|---:|")
+    for r, side, l0, l1, cw, wall, cpu in rows:
+        print(f"| {r} | {side} | {l0:.2f} | {l1:.2f} | {cw:.1f} | {wall:.1f} | {cpu:.1f} |")
+    for what, k in (("campaign wall", 4), ("process wall", 5), ("CPU", 6)):
+        med = {side: statistics.median(row[k] for row in rows if row[1] == side) for side in trees}
+        print(f"median {what}: this {med['this']:.1f} s, other {med['other']:.1f} s, this/other "
+              f"{med['this'] / med['other']:.3f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fraction", type=float, default=1.0, help="run every round(1/F)-th run (default 1: all 2688; 0.125: the 336 runs of the earlier figures)")
@@ -314,9 +351,16 @@ def main():
                     help="a worker's resident memory after run 1, 10, ..., N of --campaign in one process, then exit")
     ap.add_argument("--campaign", type=Path, default=PAPER, help="with --memory: the campaign file (default paper)")
     ap.add_argument("--no-profile", action="store_true")
+    ap.add_argument("--alternate", type=Path, default=None, metavar="TREE",
+                    help="this tree against TREE (another checkout, e.g. /work/main), alternating --rounds times: "
+                         "wall and whole-tree CPU of the bench at --fraction on --workers (default 2), then exit")
+    ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--profile-run", default="4,B,free,0.15",
                     help="n_uavs,strategy,variant,wind of the profiled run (default 4,B,free,0.15)")
     args = ap.parse_args()
+    if args.alternate:
+        alternate(args.alternate, args.rounds, args.fraction, args.workers or 2)
+        return
     if args.phases:
         phase_breakdown(args.phases, args.stop_time)
         return

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import execution
+from . import execution, scratch
 from .errors import CosimError, Terminated
 from .execution import Execution, Options, platform_name, write_run_files
 from .observers.recording import Recording, block_table, schema_of
@@ -589,7 +589,7 @@ class ScratchFolder:
     then written."""
     def __enter__(self):
         try:
-            self.path = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
+            self.path = scratch.make(SCRATCH_PREFIX)
         except OSError:     # no temporary folder to write in: the run unpacks where it can, as it did before
             self.path = None
             return self
@@ -604,42 +604,7 @@ class ScratchFolder:
         return False
 
 
-def _sweep_left(folder: str, prefix: str, unnamed_age_s: float | None) -> list[str]:
-    """Removes ``folder``'s entries named ``prefix<pid>-...`` whose process is gone, and (``unnamed_age_s``) those
-    named for no process once they are that old; returns their names."""
-    try:
-        names = [n for n in os.listdir(folder) if n.startswith(prefix)]
-    except OSError:
-        return []
-    swept = []
-    for name in names:
-        path = os.path.join(folder, name)
-        pid = name[len(prefix):].split("-", 1)[0]
-        if not pid.isdigit():
-            try:
-                if unnamed_age_s is None or time.time() - os.stat(path).st_mtime < unnamed_age_s:
-                    continue
-            except OSError:
-                continue
-        elif int(pid) == os.getpid():
-            continue
-        else:
-            try:
-                os.kill(int(pid), 0)
-                continue                    # alive (its block is in use)
-            except ProcessLookupError:
-                pass
-            except PermissionError:         # alive, another user's
-                continue
-        try:
-            if os.path.isdir(path) and not os.path.islink(path):
-                shutil.rmtree(path)
-            else:
-                os.unlink(path)
-            swept.append(name)
-        except OSError:                 # another run swept it first, or not ours to remove
-            pass
-    return swept
+_sweep_left = scratch.sweep_left      # the sweep a campaign's workers share (master/scratch.py)
 
 
 def _prepare_while_the_child_starts() -> None:

@@ -90,6 +90,9 @@ class UavMonitor(Monitor):
         self.track_t: list[float] = []
         self.track_p: list[np.ndarray] = []
         self.track_phase: list[np.ndarray] = []
+        #: only map.png, trajectory.csv and replay.html read the track: a campaign run (products "summary") writes
+        #: none of them and keeps none (set at attach)
+        self.keeps_track = True
 
     def required_variables(self) -> list[str]:
         out, seen = [], set()
@@ -190,6 +193,7 @@ class UavMonitor(Monitor):
 
     def attach(self, ctx, start: float) -> None:
         self.ctx = ctx
+        self.keeps_track = self.products != "summary"
         self.start = self.last_time = float(start)
         self._roles = {r: self._index(ctx, r) for r in REQUIRED_ROLES + OPTIONAL_ROLES}
         self._partial = {r for r, (typ, _, have) in self._roles.items() if typ is not None and not have.all()}
@@ -222,6 +226,8 @@ class UavMonitor(Monitor):
 
     def add_track_point(self, t, p, ph, force=False):
         """Append to the map track, at most one sample per TRACK_INTERVAL unless ``force`` (a removal)."""
+        if not self.keeps_track:
+            return
         if not force and self.track_t and t - self.track_t[-1] < TRACK_INTERVAL - 1e-9:
             return
         self.track_t.append(float(t))

@@ -125,7 +125,7 @@ class AcceleratedStep:
             if code == MS_DONE:         # a few-UAV step that finds nothing, done in C
                 self.ahead = True
                 mon.last_time = float(t1)
-                if t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+                if mon.keeps_track and t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
                     self.track_positions = native.p0.copy()
                     mon.add_track_point(t1, self.track_positions, mon.fleet.phase, force=True)
                 else:
@@ -137,7 +137,7 @@ class AcceleratedStep:
             if code == MS_IDLE:         # the idle step, done in C (airborne time)
                 self.ahead = True
                 mon.last_time = float(t1)
-                if t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+                if mon.keeps_track and t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
                     if self.track_positions is None:       # idle steps share one array
                         self.track_positions = native.p0.copy()
                     mon.add_track_point(t1, self.track_positions, mon.fleet.phase)
@@ -164,7 +164,7 @@ class AcceleratedStep:
                 else:
                     mon.fleet.flight_time[self.idle_flying] += dt
             mon.last_time = float(t1)
-            if t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+            if mon.keeps_track and t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
                 mon.add_track_point(t1, mon.fleet.position, mon.fleet.phase)
             return
         self.key = key
@@ -307,7 +307,7 @@ class AcceleratedStep:
         fleet.position, fleet.phase = p1, phase1
         st.position, st.phase = rows1, phases1
         mon.last_time = float(t1)
-        if cut or t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9:
+        if mon.keeps_track and (cut or t1 - mon.track_t[-1] >= TRACK_INTERVAL - 1e-9):
             mon.add_track_point(t1, p1, phase1, force=bool(cut))
         # can the next step be idle (_prepare_idle, on the lists)?  without a removal in this step, removed0
         # is current

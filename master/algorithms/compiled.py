@@ -314,33 +314,66 @@ def _part(c: int, lines: list[str], name: str, out: dict):
 
 def _one_function(ns: dict, lines: list[str], name: str, out: dict):
     """``def step(n, t)`` of ``lines`` in one function."""
-    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
-    # changes before the tail, which comes after every input is set)
-    head = []
-    for typ in sorted({m.group(1) for ln in lines for m in _LIST_USE.finditer(ln)}):
-        used = sorted({int(m.group(2)) for ln in lines for m in _LIST_ITEM.finditer(ln) if m.group(1) == typ})
-        unpack = _unpacker(out[typ], used)
-        if unpack is None:
-            head.append(f"V{typ} = _out{typ}.tolist()")
+    uses, comps, src = _one_function_text(lines, out)
+    for typ, used in uses:
+        if used is None:
             ns[f"_out{typ}"] = out[typ]
-            continue
-        # only the values the step uses, as a tuple in the order of their positions
-        head.append(f"V{typ} = _unpack{typ}(_mem{typ})")
-        ns[f"_unpack{typ}"], ns[f"_mem{typ}"] = unpack
-        lines = _renumbered([lines], typ, {p: k for k, p in enumerate(used)})[0]
-    lines = list(lines)
-    comps = _deferred(lines)
+        else:
+            ns[f"_unpack{typ}"], ns[f"_mem{typ}"] = _unpacker(out[typ], used)
     if comps:
         _fold_counts(ns, {0: comps})
-        src = _function("step", _counting(0, head + lines, True) + ["_ran[0] += 1"])
-    else:
-        src = _function("step", head + lines)
     exec(_code(src, name), ns)
     fn = ns["step"]
     fn.source = src
     if comps:
         fn.fold = ns["_fold"]
     return fn
+
+
+#: ``_one_function``'s text by its lines and the kinds of the output buffers: the runs of one structure give the
+#: same lines (what differs between them is bound in the run's namespace), and reading the lists they use out of
+#: them again was most of a small system's step build. Bounded: emptied when full.
+_TEXT_CACHE: dict = {}
+
+
+def _one_function_text(lines: list[str], out: dict) -> tuple[list, list[int], str]:
+    """(per list the step reads: its type and the positions read, or None for the whole list; the components whose
+    doStep counts it defers; its source)."""
+    key = (tuple(lines), tuple((typ, _buffer_kind(buf)) for typ, buf in out.items()))
+    text = _TEXT_CACHE.get(key)
+    if text is None:
+        if len(_TEXT_CACHE) >= CODE_CACHE_SIZE:
+            _TEXT_CACHE.clear()
+        text = _TEXT_CACHE[key] = _make_one_function_text(lines, out)
+    return text
+
+
+def _buffer_kind(buf) -> tuple:
+    """What of an output buffer ``_unpacker`` decides by, apart from the positions."""
+    return buf.dtype.kind, buf.dtype.itemsize, buf.dtype.isnative, buf.flags.c_contiguous, buf.ndim
+
+
+def _make_one_function_text(lines: list[str], out: dict) -> tuple[list, list[int], str]:
+    # the lists of the output values the step's inputs are taken from, made once at its start (Jacobi: no output
+    # changes before the tail, which comes after every input is set)
+    head, uses = [], []
+    for typ in sorted({m.group(1) for ln in lines for m in _LIST_USE.finditer(ln)}):
+        used = sorted({int(m.group(2)) for ln in lines for m in _LIST_ITEM.finditer(ln) if m.group(1) == typ})
+        if _unpacker(out[typ], used) is None:
+            head.append(f"V{typ} = _out{typ}.tolist()")
+            uses.append((typ, None))
+            continue
+        # only the values the step uses, as a tuple in the order of their positions
+        head.append(f"V{typ} = _unpack{typ}(_mem{typ})")
+        uses.append((typ, used))
+        lines = _renumbered([lines], typ, {p: k for k, p in enumerate(used)})[0]
+    lines = list(lines)
+    comps = _deferred(lines)
+    if comps:
+        src = _function("step", _counting(0, head + lines, True) + ["_ran[0] += 1"])
+    else:
+        src = _function("step", head + lines)
+    return uses, comps, src
 
 
 _COUNT = re.compile(r"_calls\[(\d+)\] \+= 1")

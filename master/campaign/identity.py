@@ -49,20 +49,41 @@ def canonical(v: Any) -> Any:
 
 
 def canonical_json(obj: Any) -> str:
-    return json.dumps(canonical(obj), sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    return _json_of_canonical(canonical(obj))
+
+
+def _json_of_canonical(c: Any) -> str:
+    return json.dumps(c, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
 
 
 def digest(obj: Any) -> str:
     """SHA-256 (hex) of the canonical JSON of ``obj``."""
-    return hashlib.sha256(canonical_json(obj).encode("ascii")).hexdigest()
+    return _digest_of_canonical(canonical(obj))
+
+
+def _digest_of_canonical(c: Any) -> str:
+    """``digest`` of a value already in canonical form (``canonical(c) == c``, as every value ``canonical`` returns
+    is): the same, without walking it again."""
+    return hashlib.sha256(_json_of_canonical(c).encode("ascii")).hexdigest()
 
 
 def run_id_for(params: dict, rep: int) -> str:
-    return digest({"params": params, "rep": int(rep)})[:12]
+    return run_id_of_canonical(canonical(params), rep)
+
+
+def run_id_of_canonical(cparams: dict, rep: int) -> str:
+    """``run_id_for`` of ``canonical(params)``: a campaign's repetitions of one parameter set canonicalise it once."""
+    return _digest_of_canonical({"params": cparams, "rep": int(rep)})[:12]
 
 
 def seed_for(campaign_seed: int, params: dict, rep: int) -> int:
-    return int(digest({"campaign_seed": int(campaign_seed), "params": params, "rep": int(rep)})[:8], 16) & SEED_MASK
+    return seed_of_canonical(campaign_seed, canonical(params), rep)
+
+
+def seed_of_canonical(campaign_seed: int, cparams: dict, rep: int) -> int:
+    """``seed_for`` of ``canonical(params)``."""
+    c = {"campaign_seed": int(campaign_seed), "params": cparams, "rep": int(rep)}
+    return int(_digest_of_canonical(c)[:8], 16) & SEED_MASK
 
 
 def scenario_sha256(path: Path) -> str:

@@ -21,7 +21,7 @@ from ..errors import CosimError, ScenarioError
 from ..scenario_kinds import SCENARIO_KINDS, ScenarioKind, kind_for_file
 from .design import DESIGN_KEYS, design_points, design_roles, grid_points
 from .identity import (REPORT_ONLY, SEED_MASK, canonical, canonical_json, code_sha256, digest, file_sha256,
-                       run_id_for, scenario_sha256, seed_for)
+                       run_id_for, run_id_of_canonical, scenario_sha256, seed_for, seed_of_canonical)
 from .options import ALGORITHM_RUN_OPTIONS, RESULT_OPTIONS, RUN_OPTIONS, SCENARIO_OPTIONS, check_options
 
 __all__ = ["Campaign", "RunSpec", "load_campaign", "is_campaign_document", "canonical", "canonical_json",
@@ -328,14 +328,16 @@ def _expand_runs(scenarios: _Scenarios, param_sets: list, set_options: list, rep
         variant = params.get("variant")
         label = scenarios.labels[variant]
         overrides = kind.overrides(_scenario_params(params), opts)
+        # what the repetitions share, canonical once (the paper campaign: 24 repetitions of each set)
+        cparams, cseeded = canonical(params), canonical({k: v for k, v in params.items() if k not in paired})
+        shared = canonical({"scenario": label, "scenario_sha256": scenario_hash[variant], "fmus": fmu_hash[variant],
+                            "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts}, "overrides": overrides,
+                            "code_sha256": code})
         for rep in range(repetitions):
-            run_seed = seed_for(seed, {k: v for k, v in params.items() if k not in paired}, rep)
-            inputs = {"scenario": label, "scenario_sha256": scenario_hash[variant],
-                      "fmus": fmu_hash[variant],
-                      "options": {k: opts[k] for k in RESULT_OPTIONS if k in opts},
-                      "overrides": overrides, "seed": run_seed, "code_sha256": code}
-            runs.append(RunSpec(len(runs), run_id_for(params, rep), params, rep, run_seed,
-                                scenarios.files[variant], label, opts, overrides, canonical(inputs)))
+            run_seed = seed_of_canonical(seed, cseeded, rep)
+            inputs = dict(sorted({**shared, "seed": canonical(run_seed)}.items()))
+            runs.append(RunSpec(len(runs), run_id_of_canonical(cparams, rep), params, rep, run_seed,
+                                scenarios.files[variant], label, opts, overrides, inputs))
     return runs
 
 

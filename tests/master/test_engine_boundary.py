@@ -189,6 +189,7 @@ LAYERS = {
     "master.interrupts": 0, "master._version": 0, "master.cache_paths": 0, "master.accel": 0,
     "master.algorithm_options": 0,
     "master.arrow_numpy": 0,
+    "master.scratch": 0,
     # L1 reading the scenario | loading the FMUs
     "master.ssp": 1, "master.fmi": 1, "master.native_build": 1,
     # L2 the plan; SSP authoring
