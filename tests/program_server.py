@@ -166,7 +166,8 @@ class ServedProcess(subprocess.Popen):
             elif msg[:1] == b"E":
                 error = pickle.loads(msg[1:])
             elif msg[:1] == b"S":       # the child is gone (its set-up failed)
-                self._served_status, *self.cpu = struct.unpack("idd", msg[1:])
+                self._served_status = struct.unpack("i", msg[1:5])[0]
+                self._reaped()
         self.pid = pid
         self._child_created = True
         self._close_pipe_fds(p2cread, p2cwrite, c2pread, c2pwrite, errread, errwrite)
@@ -183,9 +184,20 @@ class ServedProcess(subprocess.Popen):
             msg = self._status.recv(_MSG)
             if not msg:
                 raise RuntimeError(f"program_server: the server ended before process {pid}")
-            self._served_status, *self.cpu = struct.unpack("idd", msg[1:])
-            self._status.close()
+            self._served_status = struct.unpack("i", msg[1:5])[0]
+            self._reaped()
         return pid, self._served_status
+
+    def _reaped(self):
+        """The server reaps the process (its pid is free from now on, as after waitpid) and tells its CPU time."""
+        try:
+            self._status.send(b"W")
+            msg = self._status.recv(_MSG)
+        except OSError:         # a server that has stopped reaped its children itself
+            msg = b""
+        if msg[:1] == b"U":
+            self.cpu = list(struct.unpack("dd", msg[1:]))
+        self._status.close()
 
     def _internal_poll(self, _deadstate=None, **_):
         return super()._internal_poll(_deadstate, _waitpid=self._served_waitpid)
@@ -218,7 +230,8 @@ class _Server:
     def stop(self):
         self.sock.close()
         self.process.wait()
-        self.log.unlink(missing_ok=True)
+        if self.process.returncode == 0:
+            self.log.unlink(missing_ok=True)
 
 
 _servers: dict[tuple, _Server] = {}
@@ -270,36 +283,55 @@ def _preload():
 
 
 def serve(control_fd: int):
-    """The server's loop; returns only in a forked child: the program to run."""
+    """The server's loop; returns only in a forked child: the program to run. A child that has ended stays a zombie
+    (its pid and process group taken) until the test waits for it, as a child of the test would."""
     control = socket.socket(fileno=control_fd)
     _preload()
     control.send(b"ready")
-    children: dict[int, tuple[int, int]] = {}      # pidfd -> (pid, status socket)
+    running: dict[int, tuple[int, int]] = {}       # pidfd -> (pid, status socket)
+    ended: dict[int, int] = {}                      # status socket -> pid, until the test waits for it
     while True:
-        ready, _, _ = select.select([control_fd, *children], [], [])
+        ready, _, _ = select.select([control_fd, *running, *ended], [], [])
         for fd in ready:
-            if fd != control_fd:
-                pid, status = children.pop(fd)
-                _, sts, usage = os.wait4(pid, 0)
-                _send(status, b"S" + struct.pack("idd", sts, usage.ru_utime, usage.ru_stime))
-                os.close(status)
+            if fd in running:               # ended: the test is told its wait status; its poll or wait reaps it
+                pid, status = running.pop(fd)
                 os.close(fd)
-                continue
-            msg, fds, _, _ = socket.recv_fds(control, _MSG, 4)
-            if not msg:         # the test process is gone or done: so is every command it started
-                for pid, status in children.values():
-                    _kill(pid)
-                    _, sts, usage = os.wait4(pid, 0)
-                    _send(status, b"S" + struct.pack("idd", sts, usage.ru_utime, usage.ru_stime))
-                os._exit(0)
-            request = pickle.loads(msg)
-            pid = os.fork()
-            if pid == 0:
-                return _become(request, fds, control, list(children))
-            for fd_ in fds[:3]:
-                os.close(fd_)
-            children[os.pidfd_open(pid)] = (pid, fds[3])
-            _send(fds[3], b"P" + struct.pack("q", pid))
+                _send(status, b"S" + struct.pack("i", _wait_status(os.waitid(os.P_PID, pid,
+                                                                               os.WEXITED | os.WNOWAIT))))
+                ended[status] = pid
+            elif fd in ended:               # the test waited (or dropped its handle)
+                os.read(fd, 1)              # (a socket closed with its word unread would lose the answer)
+                _reap(ended.pop(fd), fd)
+            else:
+                msg, fds, _, _ = socket.recv_fds(control, _MSG, 4)
+                if not msg:         # the test process is gone or done: so is every command it started
+                    for pid, status in running.values():
+                        _kill(pid)
+                        _send(status, b"S" + struct.pack("i", os.waitpid(pid, 0)[1]))
+                    for status, pid in ended.items():
+                        _reap(pid, status)
+                    os._exit(0)
+                request = pickle.loads(msg)
+                pid = os.fork()
+                if pid == 0:
+                    return _become(request, fds, control)
+                for fd_ in fds[:3]:
+                    os.close(fd_)
+                running[os.pidfd_open(pid)] = (pid, fds[3])
+                _send(fds[3], b"P" + struct.pack("q", pid))
+
+
+def _wait_status(info) -> int:
+    """waitid's answer as the status word waitpid gives."""
+    if info.si_code == os.CLD_EXITED:
+        return (info.si_status & 0xFF) << 8
+    return info.si_status | (0x80 if info.si_code == os.CLD_DUMPED else 0)
+
+
+def _reap(pid: int, status: int):
+    _, _, usage = os.wait4(pid, 0)
+    _send(status, b"U" + struct.pack("dd", usage.ru_utime, usage.ru_stime))
+    os.close(status)
 
 
 def _send(fd: int, data: bytes):
@@ -316,7 +348,7 @@ def _kill(pid: int):
         pass
 
 
-def _become(request: dict, fds: list[int], control: socket.socket, pidfds: list[int]):
+def _become(request: dict, fds: list[int], control: socket.socket):
     """In the forked child: the process as exec would have started the program; returns the program to run."""
     status = fds[3]
     try:

@@ -17,6 +17,12 @@ import program_server
 REPO = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(REPO))
 
+
+@pytest.fixture(autouse=True)
+def served(monkeypatch):
+    """The server is the subject here, also where COSIM_TEST_PROGRAM_SERVER=0 starts the other tests' commands anew."""
+    monkeypatch.setenv("COSIM_TEST_PROGRAM_SERVER", "1")
+
 # what a process can see of how it was started
 SELF = r"""
 import json, os, resource, signal, sys, tempfile
@@ -147,3 +153,19 @@ def test_a_server_stops_with_its_caller_and_takes_its_commands_along():
     while Path(f"/proc/{p.pid}").exists() and time.monotonic() < deadline:
         time.sleep(0.01)
     assert not Path(f"/proc/{p.pid}").exists()
+
+
+def test_an_ended_process_keeps_its_pid_and_group_until_it_is_waited_for():
+    for mod in (program_server, subprocess):
+        p = mod.Popen([sys.executable, "-c", "print('bye')"], env=ENV, stdout=subprocess.PIPE, text=True,
+                      start_new_session=True)
+        assert p.stdout.read() == "bye\n"
+        p.stdout.close()
+        deadline = time.monotonic() + 60
+        while Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+            assert time.monotonic() < deadline, mod
+            time.sleep(0.01)
+        os.killpg(p.pid, 0)             # a zombie: its process group is still there, a signal to it no error
+        assert p.wait(timeout=60) == 0
+        with pytest.raises(ProcessLookupError):
+            os.killpg(p.pid, 0)
