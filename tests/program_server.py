@@ -53,8 +53,8 @@ TimeoutExpired, CalledProcessError, CompletedProcess = (subprocess.TimeoutExpire
                                                         subprocess.CompletedProcess)
 REPO = Path(__file__).resolve().parents[1]
 #: read when the interpreter starts (or NumPy loads): a server serves only commands with its own values
-START_PREFIXES = ("PYTHON", "NPY_", "NUMPY_")
-START_NAMES = ("LANG", "LC_ALL", "LC_CTYPE")
+START_PREFIXES = ("PYTHON", "NPY_", "NUMPY_", "MPL", "MATPLOTLIB")
+START_NAMES = ("LANG", "LC_ALL", "LC_CTYPE", "HOME", "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
 #: read by OpenBLAS/OpenMP when NumPy loads, which the server has done with one thread: such a command must start anew
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS")
 _MSG = 1 << 20
@@ -265,7 +265,8 @@ _BOOT = ("import importlib.util as u, sys; s = u.spec_from_file_location('progra
 
 
 def _preload():
-    """What a ``cosim-master`` command imports before it runs (pyarrow aside: it starts a thread when it loads)."""
+    """What a ``cosim-master`` command imports before it runs (pyarrow aside: it starts a thread when it loads), and
+    the plotting library, which no plug-in registers anything with."""
     import gc
     import importlib
 
@@ -275,6 +276,10 @@ def _preload():
         for name in cli.COMMAND_MODULES.get(command, ()):
             importlib.import_module(name)
     import fmpy.fmi2  # noqa: F401 - what a run loads its FMUs with
+    # what a UAV run's map is drawn with (a Figure on the Agg canvas, uavstudy/outputs.py: no backend chosen); it
+    # reads its configuration and font cache when it loads (the MPL*/HOME/XDG_* variables of START_*)
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
     threads = len(os.listdir("/proc/self/task"))
     if threads != 1:
         raise RuntimeError(f"the program server has {threads} threads after its imports; a fork would copy one")
