@@ -210,7 +210,9 @@ class _Server:
     """One program server: its process, and the socket commands are sent on (its end of file stops the server)."""
 
     def __init__(self, env: dict):
-        self.log = Path(tempfile.mkstemp(prefix="program-server-", suffix=".log")[1])
+        fd, name = tempfile.mkstemp(prefix="program-server-", suffix=".log")      # what the server says if it fails
+        os.close(fd)
+        self.log = Path(name)
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         with open(self.log, "wb") as log:
             self.process = subprocess.Popen([sys.executable, "-c", _BOOT, __file__, str(theirs.fileno())], env=env,
@@ -221,7 +223,9 @@ class _Server:
         self.lock = threading.Lock()
         if ours.recv(_MSG) != b"ready":
             self.process.wait()
-            raise RuntimeError(f"program_server: the server did not start: {self.log.read_text()[-2000:]}")
+            said = self.log.read_text()[-2000:]
+            self.log.unlink()
+            raise RuntimeError(f"program_server: the server did not start: {said}")
 
     def send(self, request: dict, fds: list[int]):
         with self.lock:
