@@ -9,9 +9,11 @@ crashes, hangs, file-size limits), without each process compiling and importing 
 ``Popen`` is ``subprocess.Popen`` (pipes, text mode, ``communicate``, ``poll``, ``wait`` with a timeout, ``send_signal``,
 ``returncode`` negative for a death by a signal); only the start differs. The server is one clean process per set of
 start-up variables (below), started by the first test that needs it and stopped and reaped at the session's end (so
-its children's CPU is counted with pytest's). It has no threads: NumPy is loaded as the CLI loads it (OpenBLAS on one
-thread); pyarrow, which starts a thread when it loads, is left to the program. For each command it forks a child
-that becomes the program as ``exec`` would have made it from the test process:
+its children's CPU is counted with pytest's). It has imported the CLI with its run, campaign and report modules,
+NumPy as the CLI loads it (OpenBLAS on one thread), fmpy and matplotlib's Figure and Agg canvas, and it has no
+threads (checked: a fork copies only the thread that calls it); pyarrow, which starts a thread when it loads, is left
+to the program. For each command it forks a child that becomes the program as ``exec`` would have made it from the
+test process:
 
 - stdin, stdout and stderr are the test's (pipes, files, or the test process's own), passed with ``send_fds``; no
   other descriptor is open; the environment, working directory and umask are the test's; ``start_new_session`` and
@@ -24,13 +26,14 @@ that becomes the program as ``exec`` would have made it from the test process:
   runs it (``runpy``), so its exit is the program's: ``sys.exit`` and its status, a traceback and 1 for an uncaught
   error, death by SIGINT for an uncaught KeyboardInterrupt, ``atexit`` handlers, the interpreter's teardown, or the
   program's own ``os._exit``;
-- the server waits for it (``wait4``) and sends the wait status back; the test's handle reads it as its own wait.
+- the server tells the test its wait status when it ends and leaves it a zombie (its pid and process group taken)
+  until the test polls or waits, then reaps it (``wait4``) and tells its CPU time (``ServedProcess.cpu``).
 
 What a forked program cannot show, a real start must (those tests keep ``subprocess``): what is imported and in which
 order (everything above is imported before the program starts: import audits, Ctrl-C during the imports), variables
-read when the interpreter or a library starts (``PYTHON*``, the locale, OpenBLAS/OpenMP thread counts: a command
-asking for other values of the ``PYTHON*``/locale ones gets a server of its own, and one setting a BLAS thread count is
-refused), the entry-point script, the hash seed (shared by the server's children), the process's command line
+read when the interpreter or a library starts (``PYTHON*``, the locale, matplotlib's, OpenBLAS/OpenMP thread counts:
+a command asking for other values of the ``START_*`` ones gets a server of its own, and one setting a BLAS thread count
+is refused), the entry-point script, the hash seed (shared by the server's children), the process's command line
 (``/proc/PID/cmdline`` is the server's) and its parent (the server). ``COSIM_TEST_PROGRAM_SERVER=0`` starts every
 command as a real subprocess instead, to check that a test passes both ways.
 """
