@@ -32,8 +32,8 @@ test process:
 What a forked program cannot show, a real start must (those tests keep ``subprocess``): what is imported and in which
 order (everything above is imported before the program starts: import audits, Ctrl-C during the imports), variables
 read when the interpreter or a library starts (``PYTHON*``, the locale, matplotlib's, OpenBLAS/OpenMP thread counts:
-a command asking for other values of the ``START_*`` ones gets a server of its own, and one setting a BLAS thread count
-is refused), the entry-point script, the hash seed (shared by the server's children), the process's command line
+a command asking for other values of the ``START_*`` ones gets a server of its own, and one asking for more than one
+BLAS thread is refused), the entry-point script, the hash seed (shared by the server's children), the process's command line
 (``/proc/PID/cmdline`` is the server's) and its parent (the server). ``COSIM_TEST_PROGRAM_SERVER=0`` starts every
 command as a real subprocess instead, to check that a test passes both ways.
 """
@@ -58,7 +58,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: read when the interpreter starts (or NumPy loads): a server serves only commands with its own values
 START_PREFIXES = ("PYTHON", "NPY_", "NUMPY_", "MPL", "MATPLOTLIB")
 START_NAMES = ("LANG", "LC_ALL", "LC_CTYPE", "HOME", "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
-#: read by OpenBLAS/OpenMP when NumPy loads, which the server has done with one thread: such a command must start anew
+#: read by OpenBLAS/OpenMP when NumPy loads, which the server has done with one thread: a command asking for more
+#: must start anew (one asking for 1, as dask's workers do, gets what it asks for)
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS")
 _MSG = 1 << 20
 
@@ -132,10 +133,10 @@ class ServedProcess(subprocess.Popen):
         if len(args) < 3 or args[0] != sys.executable or args[1] not in ("-m", "-c"):
             raise TypeError(f"program_server serves [sys.executable, '-m'/'-c', ...] only, not {args[:2]}")
         env = dict(os.environ) if env is None else {os.fsdecode(k): os.fsdecode(v) for k, v in env.items()}
-        blas = [name for name in BLAS_THREAD_VARIABLES if name in env]
+        blas = [name for name in BLAS_THREAD_VARIABLES if env.get(name, "1") != "1"]
         if blas:
             raise ValueError(f"program_server: {', '.join(blas)} is read when NumPy loads, which the server has "
-                             "done; use subprocess")
+                             "done with one thread; use subprocess")
         if umask < 0:
             umask = os.umask(0)
             os.umask(umask)

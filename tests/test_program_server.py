@@ -52,8 +52,8 @@ def _seen(result):
 
 
 def test_the_process_is_started_as_a_real_one(tmp_path):
-    served, real = _both(["-c", SELF, "3", "x y"], env=dict(ENV, TMPDIR=str(tmp_path), ONLY_HERE="1"),
-                         cwd=tmp_path)
+    served, real = _both(["-c", SELF, "3", "x y"], env=dict(ENV, TMPDIR=str(tmp_path), ONLY_HERE="1",
+                                                        OPENBLAS_NUM_THREADS="1"), cwd=tmp_path)
     assert served.returncode == real.returncode == 3, (served.stderr, real.stderr)
     assert _seen(served) == _seen(real)
     assert _seen(served)["env"]["ONLY_HERE"] == "1" and _seen(served)["tmp"] == str(tmp_path)
