@@ -52,6 +52,8 @@ _keep_fmu_libraries_loaded()
 # (xdist workers report before they exit; they are left alone.)
 def pytest_sessionfinish(session, exitstatus):
     session.config._cosim_exitstatus = int(exitstatus)
+    if "program_server" in sys.modules:         # its servers waited for: their children's CPU is counted with ours
+        sys.modules["program_server"].stop_servers()
 
 
 @pytest.hookimpl(trylast=True)

@@ -2,7 +2,6 @@
 recorded before a failure is lost; the command exits non-zero without a traceback."""
 import json
 import os
-import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -14,6 +13,7 @@ import pytest
 import master
 from master.errors import CosimError, FmuError, ScenarioError
 
+import program_server
 from cli_in_process import run_cli
 from ssd_text import component, connection, connector, experiment, inline_params, settings, ssd, write_folder, zip_folder
 
@@ -40,8 +40,10 @@ def _two(tmp_path, test_fmus, src_conn=None, dst_conn=None, conns=None):
 
 
 def _cli_process(args, cwd):
+    """The command as a process of its own (forked by tests/program_server.py): what reaches its stderr when an
+    error is not caught."""
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    return subprocess.run(CLI + args, capture_output=True, text=True, cwd=cwd, env=env, timeout=120)
+    return program_server.run(CLI + args, capture_output=True, text=True, cwd=cwd, env=env, timeout=120)
 
 
 def _cli(args, cwd):

@@ -17,6 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
+import program_server
 from cli_in_process import run_cli
 from master.errors import CosimError
 from master.ssp.writer import SspBuilder
@@ -70,7 +71,7 @@ def _one_line(stderr: str) -> str:
 @pytest.mark.parametrize("mode,sig", [(3, "SIGABRT"), (4, "SIGSEGV")])
 def test_a_crashing_fmu_leaves_every_row_and_names_the_component(tmp_path, test_fmus, mode, sig):
     out = tmp_path / "out"
-    r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, mode)), "-o", str(out), "--record", "*.y"],
+    r = program_server.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, mode)), "-o", str(out), "--record", "*.y"],
                        capture_output=True, text=True, env=_env(), timeout=120)
     assert r.returncode == 1
     line = _one_line(r.stderr)
@@ -88,7 +89,7 @@ def test_rows_of_sent_blocks_and_of_the_unfinished_block_are_all_kept(tmp_path, 
     # 5001 rows before the crash: one full block of 4096 went through the pipe, 905 were in shared memory
     out = tmp_path / "out"
     ssp = _faulty(tmp_path, test_fmus, 3, fail_time=5.0, step=0.001, stop=10.0)
-    r = subprocess.run(CLI + ["run", str(ssp), "-o", str(out)], capture_output=True, text=True, env=_env(),
+    r = program_server.run(CLI + ["run", str(ssp), "-o", str(out)], capture_output=True, text=True, env=_env(),
                        timeout=120)
     assert r.returncode == 1 and "SIGABRT" in r.stderr
     df = _consistent(out, 0.001)
@@ -98,7 +99,7 @@ def test_rows_of_sent_blocks_and_of_the_unfinished_block_are_all_kept(tmp_path, 
 def test_a_hanging_fmu_is_stopped_by_the_timeout(tmp_path, test_fmus):
     out = tmp_path / "out"
     t0 = time.monotonic()
-    r = subprocess.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out), "--timeout", "2"],
+    r = program_server.run(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out), "--timeout", "2"],
                        capture_output=True, text=True, env=_env(), timeout=120)
     assert time.monotonic() - t0 < 30
     assert r.returncode == 1
@@ -109,7 +110,7 @@ def test_a_hanging_fmu_is_stopped_by_the_timeout(tmp_path, test_fmus):
 
 def test_ctrl_c_ends_a_hanging_fmu_with_exit_130(tmp_path, test_fmus):
     out = tmp_path / "out"
-    p = subprocess.Popen(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out)], env=_env(),
+    p = program_server.Popen(CLI + ["run", str(_faulty(tmp_path, test_fmus, 5)), "-o", str(out)], env=_env(),
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
     # well into the hang (it starts at t = 0.5 of a few-ms run): the results file is opened once the child has
     # initialized; a fixed delay alone met a busy machine's start-up (imports, unpacking) as often as the hang
@@ -133,7 +134,7 @@ def test_interrupts_at_random_points_leave_consistent_results(tmp_path, test_fmu
     for k in range(3):
         out = tmp_path / f"out{k}"
         args = CLI + ["run", str(ssp), "-o", str(out)] + (["--no-supervise"] if how.startswith("in-process") else [])
-        p = subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True, start_new_session=True)
+        p = program_server.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True, start_new_session=True)
         # the random point is counted from the moment the results file is opened (after initialization): on a
         # loaded machine the start-up (imports, unpacking, instantiation) alone can take longer than the delay,
         # and an interrupt then finds nothing to keep
@@ -213,13 +214,6 @@ def test_a_disk_full_from_the_start_is_one_line(tmp_path, test_fmus, small_disk,
 LIMIT = 150_000     # bytes; above the supervisor's shared block of 4096 rows x 3 columns (98 KB)
 
 
-def _limited(limit):
-    def pre():
-        import resource
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-    return pre
-
-
 @pytest.mark.parametrize("stop", [40.0, 200.0], ids=["last-block-at-the-end", "mid-run"])
 @pytest.mark.parametrize("supervised", [True, False], ids=["supervised", "no-supervise"])
 def test_a_file_size_limit_keeps_every_row_that_fitted(tmp_path, test_fmus, stop, supervised):
@@ -232,8 +226,9 @@ def test_a_file_size_limit_keeps_every_row_that_fitted(tmp_path, test_fmus, stop
     fit = ref_csv[:LIMIT].count(b"\n") - 1             # whole lines within the limit, the header aside
     out = tmp_path / "out"
     args = CLI + ["run", str(ssp), "-o", str(out)] + ([] if supervised else ["--no-supervise"])
-    r = subprocess.run(args, capture_output=True, text=True, env=dict(_env(), PYTHONDONTWRITEBYTECODE="1"),
-                       timeout=120, preexec_fn=_limited(LIMIT))
+    import resource
+    r = program_server.run(args, capture_output=True, text=True, env=dict(_env(), PYTHONDONTWRITEBYTECODE="1"),
+                           timeout=120, rlimits={resource.RLIMIT_FSIZE: (LIMIT, LIMIT)})
     assert r.returncode == 1, r.stderr
     line = _one_line(r.stderr)
     assert "file size limit reached while writing" in line and "component" not in line, line

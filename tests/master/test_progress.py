@@ -12,11 +12,12 @@ from pathlib import Path
 import pytest
 
 import master
+import program_server
 from cli_in_process import run_cli
 
 
 def _run(args, cwd, stderr_tty: bool) -> tuple[int, str]:
-    """The CLI run with its stderr a pseudo-terminal (in a subprocess; of 24 x 100 characters: a fresh pty has no
+    """The CLI run with its stderr a pseudo-terminal (in a process of its own, tests/program_server.py; of 24 x 100 characters: a fresh pty has no
     size, and a bar fits in none) or not a terminal (in this process, its stderr a file: what the command asks,
     isatty(), is false for a pipe and a log file alike); returns the exit code and what reached stderr."""
     if not stderr_tty:
@@ -27,7 +28,8 @@ def _run(args, cwd, stderr_tty: bool) -> tuple[int, str]:
     env.pop("COLUMNS", None)
     parent, child = pty.openpty()
     fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
-    p = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=child)
+    p = program_server.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                             stderr=child)
     os.close(child)
     out = b""
     while True:

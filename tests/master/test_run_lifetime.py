@@ -1,8 +1,9 @@
 """A supervised run's whole life, with the signals sent where they come from in practice: ``kill -9`` of the
 ``cosim-master run`` parent leaves no process behind and a readable, consistent folder; a ``--timeout`` and
 SIGTERM (to the supervisor alone, and to its process group as ``timeout``/systemd send it) end a run whose
-rows stream fast, with a readable Parquet file and run.json. Real runs of the CLI in a subprocess; every wait
-is on a condition with a generous deadline, no duration is asserted."""
+rows stream fast, with a readable Parquet file and run.json. Real processes of the CLI (forked by
+tests/program_server.py, as a new interpreter would start them); every wait is on a condition with a generous
+deadline, no duration is asserted."""
 import json
 import os
 import signal
@@ -16,6 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
+import program_server
 from cli_in_process import run_cli
 
 CLI = [sys.executable, "-m", "master.cli"]
@@ -66,7 +68,7 @@ def _wait_for(cond, what: str, p=None):
 
 
 def _start(out: Path, *extra) -> subprocess.Popen:
-    return subprocess.Popen(CLI + ["run", str(OSCILLATOR), "-o", str(out), *extra], env=_env(),
+    return program_server.Popen(CLI + ["run", str(OSCILLATOR), "-o", str(out), *extra], env=_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 
@@ -174,7 +176,7 @@ PRODUCTS = ("summary.json", "map.png", "summary.csv", "photos.csv", "trajectory.
 
 def _uav_run(tmp_path, *extra):
     out, marker = tmp_path / "out", tmp_path / "finishing"
-    p = subprocess.Popen([sys.executable, "-c", SLOW_FINISH, str(marker), "run", str(UAV), "-o", str(out), *extra],
+    p = program_server.Popen([sys.executable, "-c", SLOW_FINISH, str(marker), "run", str(UAV), "-o", str(out), *extra],
                          env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          start_new_session=True)
     _wait_for(lambda: marker.exists() or p.poll() is not None, "the run's finishing phase", p)
@@ -303,7 +305,7 @@ def test_a_read_only_output_folder_is_one_line(read_only_folder):
 @pytest.mark.parametrize("to", ["parent", "group"])
 def test_sigterm_stops_a_campaign_with_its_summary(tmp_path, to):
     out = tmp_path / "camp"
-    p = subprocess.Popen(CLI + ["campaign", str(REPO / "ssp" / "campaigns" / "smoke.yaml"), "-o", str(out),
+    p = program_server.Popen(CLI + ["campaign", str(REPO / "ssp" / "campaigns" / "smoke.yaml"), "-o", str(out),
                                 "--no-progress", "--workers", "2"], env=_env(), stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
     _wait_for(lambda: (out / "campaign.json").exists() or p.poll() is not None, "the campaign started", p)

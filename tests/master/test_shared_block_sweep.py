@@ -14,6 +14,7 @@ from cli_in_process import run_cli
 
 from master.ssp.writer import SspBuilder
 import master
+import program_server
 from master.supervise import BLOCK_PREFIX, SHARED_FOLDER, UNNAMED_BLOCK_AGE_S, run_supervised
 
 pytestmark = pytest.mark.skipif(not os.path.isdir(SHARED_FOLDER), reason="no /dev/shm here")
@@ -59,7 +60,7 @@ sys.exit(entry())
 def test_a_block_left_by_a_run_killed_with_sigkill_goes_at_the_next_run(tmp_path, reference_fmus):
     ssp = _dahlquist(tmp_path, reference_fmus)
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]))
-    p = subprocess.Popen([sys.executable, "-c", STOPPED_AT_THE_BLOCK, "run", str(ssp), "-o", str(tmp_path / "killed"),
+    p = program_server.Popen([sys.executable, "-c", STOPPED_AT_THE_BLOCK, "run", str(ssp), "-o", str(tmp_path / "killed"),
                           "--stop-time", "1e6", "--step", "0.1"], env=env, start_new_session=True,
                          stderr=subprocess.DEVNULL)
     left = lambda: list(Path(SHARED_FOLDER).glob(f"{BLOCK_PREFIX}{p.pid}-*"))    # noqa: E731
@@ -89,9 +90,10 @@ def _state(pid: int) -> str:
 
 
 def test_the_next_run_removes_the_blocks_of_supervisors_that_are_gone(tmp_path, reference_fmus):
-    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
-    gone_pid = int(ended.stdout)
-    running = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    ended = subprocess.Popen(["true"])
+    ended.wait()                    # reaped: its pid names no process (until the kernel reuses it)
+    gone_pid = ended.pid
+    running = subprocess.Popen(["sleep", "60"])
     tag = f"test{os.getpid()}"
     gone, kept = _block(gone_pid, tag), _block(running.pid, tag)
     # as blocks were named before: no owner known; one as old as those left on a machine goes, a recent one stays

@@ -10,15 +10,17 @@ from pathlib import Path
 import pytest
 
 import master
+import program_server
 from master.ssp.writer import SspBuilder
 
 CLI = [sys.executable, "-m", "master.cli"]
 
 
 def _run(ssp: Path, out: Path, tmp: Path, *flags) -> subprocess.CompletedProcess:
+    """The command as its own process (forked by tests/program_server.py: its TMPDIR read when first used)."""
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]), TMPDIR=str(tmp))
-    return subprocess.run(CLI + ["run", str(ssp), "-o", str(out), "--no-progress", *flags], capture_output=True,
-                          text=True, env=env, timeout=180)
+    return program_server.run(CLI + ["run", str(ssp), "-o", str(out), "--no-progress", *flags],
+                              capture_output=True, text=True, env=env, timeout=180)
 
 
 @pytest.mark.parametrize("mode,ends", [(0, 0), (3, 1)], ids=["completed", "abort in doStep"])
@@ -41,7 +43,7 @@ def test_scratch_of_a_killed_supervisor_is_swept_by_the_next_run(tmp_path):
     the folders named for a process that is gone, and no other: a live supervisor's, and anything in the shared
     temporary folder not named for a process, stay."""
     from master.supervise import SCRATCH_PREFIX, _sweep_left_scratch
-    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone = subprocess.Popen(["true"])
     gone.wait()                                 # reaped: its pid names no process (until the kernel reuses it)
     made = {}
     for key, pid in (("gone", gone.pid), ("alive", os.getppid()), ("unnamed", "x")):

@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master
+import program_server
 from master import accel
 from master.drivers.native import library
 from master.ssp.writer import SspBuilder
@@ -40,7 +41,7 @@ def _faulty(tmp_path, test_fmus, mode, fail_time=0.5, step=0.1, stop=1.0):
 
 
 def _run(ssp, out, *flags):
-    r = subprocess.run(CLI + ["run", str(ssp), "-o", str(out), *flags], capture_output=True, text=True,
+    r = program_server.run(CLI + ["run", str(ssp), "-o", str(out), *flags], capture_output=True, text=True,
                        env=_env(), timeout=180)
     lines = [ln for ln in r.stderr.strip().splitlines() if ln.startswith("cosim-master:")]
     assert "Traceback" not in r.stderr, r.stderr
@@ -148,7 +149,7 @@ def test_an_interrupt_with_slow_fmus_closes_the_run_in_order(tmp_path, test_fmus
     import time
     ssp = _faulty(tmp_path, test_fmus, 6, fail_time=0.0, step=0.1, stop=100.0)
     out = tmp_path / "out"
-    p = subprocess.Popen(CLI + ["run", str(ssp), "-o", str(out), "--log-level", log, *flags], env=_env(),
+    p = program_server.Popen(CLI + ["run", str(ssp), "-o", str(out), "--log-level", log, *flags], env=_env(),
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 60
     while not (out / "results.parquet").exists() and p.poll() is None and time.monotonic() < deadline:

@@ -16,6 +16,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
+import program_server
 from cli_in_process import run_cli
 from master.errors import CosimError
 from master.runner import run
@@ -102,9 +103,9 @@ def test_a_ground_station_that_goes_away_is_a_warning_and_the_run_goes_on(tmp_pa
     the ground station needs its first 2000 bytes and a close within that. Every wait on the run is for an
     event (listening, bytes, the end), each with a deadline far beyond a loaded machine's delays."""
     port = free_port(socket.SOCK_STREAM)
-    proc = subprocess.Popen([*CLI, "--mavlink", f"tcpin:127.0.0.1:{port}", "--realtime", "5", "--stop-time", "20",
-                             "-o", str(tmp_path / "out")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=tmp_path)
+    proc = program_server.Popen([*CLI, "--mavlink", f"tcpin:127.0.0.1:{port}", "--realtime", "5", "--stop-time",
+                                 "20", "-o", str(tmp_path / "out")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, cwd=tmp_path, env=dict(os.environ, PYTHONPATH=str(ROOT)))
     try:
         deadline = time.monotonic() + 120
         while True:
