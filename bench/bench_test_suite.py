@@ -74,7 +74,9 @@ def run_pytest(repo: Path, python: str, paths: list[str], extra: list[str], keep
         if m:
             summary = m.group(1)
     return {"paths": paths, "user": u1 - u0, "sys": s1 - s0, "wall": wall, "rc": proc.returncode,
-            "per_file": dict(per_file), "cpu_per_file": dict(cpu_per_file), "summary": summary, "tail": proc.stdout.splitlines()[-5:]}
+            "per_file": dict(per_file), "cpu_per_file": dict(cpu_per_file), "summary": summary, "tail": proc.stdout.splitlines()[-5:],
+            # pytest's short summary: which tests failed, so that a figure taken from a failing suite says why
+            "failures": [line for line in proc.stdout.splitlines() if line.startswith(("FAILED ", "ERROR "))]}
 
 
 def test_directories(repo: Path, only: list[str] | None = None) -> list[list[str]]:
@@ -139,6 +141,8 @@ def main(argv=None) -> int:
     for r in results:
         if not args.per_dir:
             print(f"\npytest: {r['summary'] or ' / '.join(r['tail'])}")
+            for line in r["failures"]:
+                print(f"    {line}")
 
     cpu: dict[str, float] = defaultdict(float)
     walls: dict[str, float] = defaultdict(float)
