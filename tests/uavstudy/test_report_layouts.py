@@ -19,6 +19,8 @@ import pytest
 from master.campaign.report import build_report
 from master.campaign.table import build_table, write_table
 from uavstudy.report import NOT_SHOWN, REVERSED, YES, finding_rows, paper_comparison, table2, uav_frames
+from uavstudy.report import markdown
+from uavstudy.report.markdown import CAPTIONS
 
 scipy_stats = pytest.importorskip("scipy.stats")
 
@@ -164,7 +166,10 @@ def test_no_verdict_says_yes_beside_an_interval_that_includes_the_null(campaign)
         assert significant == (not (float(lo) <= 0.0 <= float(hi))), (est, lo, hi, p)
 
 
-def test_a_campaign_with_one_layout_says_it_is_too_small(tmp_path):
+def test_a_campaign_with_one_layout_says_it_is_too_small(tmp_path, monkeypatch):
+    """Only the text is asserted: the figures are not drawn (drawing a one-layout campaign's figures is checked by
+    tests/master/campaign/test_campaign_report.py; the module fixture above draws a six-layout one's)."""
+    monkeypatch.setattr(markdown, "draw_figures", lambda fd, out, r=None: {k: out / f"{k}.png" for k in CAPTIONS})
     _campaign(tmp_path, layouts=1)
     text = build_report(tmp_path).read_text(encoding="utf-8")
     assert "## Too small to score against the paper" in text

@@ -131,12 +131,29 @@ FLIGHTS = {
 }
 
 
+@pytest.fixture(scope="module")
+def flown(ext):
+    """Each flight with the compiled step, every step also taken on a copy without it (checking a step leaves the
+    flight itself as it is: the copy is stepped, not the UAV), flown once for both tests below: name -> (final
+    states, closest approach, steps the compiled step took, the steps that differed)."""
+    done = {}
+
+    def fly(name):
+        if name not in done:
+            params, channel, t_end = FLIGHTS[name]
+            differ = []
+            ext.reset_stats()
+            with pytest.MonkeyPatch.context() as mp:
+                fast, closest = _fly(mp, ext.step, params, dataclasses.replace(channel), t_end, checked=differ)
+            done[name] = fast, closest, ext.stats()["handled"], differ
+        return done[name]
+    return fly
+
+
 @pytest.mark.parametrize("name", sorted(FLIGHTS))
-def test_c_flies_the_same_with_and_without_the_compiled_step(ext, monkeypatch, name):
+def test_c_flies_the_same_with_and_without_the_compiled_step(ext, flown, monkeypatch, name):
     params, channel, t_end = FLIGHTS[name]
-    ext.reset_stats()
-    fast, closest = _fly(monkeypatch, ext.step, params, dataclasses.replace(channel), t_end)
-    handled = ext.stats()["handled"]
+    fast, closest, handled, _ = flown(name)
     plain, plain_closest = _fly(monkeypatch, None, params, dataclasses.replace(channel), t_end)
     assert handled > 0, "the compiled step took no step: the comparison would be empty"
     assert any(s[10] for s in plain), "no UAV gave way: the flight does not pass through C's avoidance"
@@ -146,9 +163,7 @@ def test_c_flies_the_same_with_and_without_the_compiled_step(ext, monkeypatch, n
 
 
 @pytest.mark.parametrize("name", sorted(FLIGHTS))
-def test_every_step_with_the_compiled_step_equals_the_python_step(ext, monkeypatch, name):
+def test_every_step_with_the_compiled_step_equals_the_python_step(flown, name):
     # step by step: also what leaves no trace in the final state (a pass watched without a hold, then dropped)
-    params, channel, t_end = FLIGHTS[name]
-    differ = []
-    _fly(monkeypatch, ext.step, params, dataclasses.replace(channel), t_end, checked=differ)
+    differ = flown(name)[3]
     assert differ == [], f"{name}: the shell's step with the compiled step differs at (t, UAV) {differ[:5]}"
