@@ -17,7 +17,7 @@ import master
 from master.plan import reuse as plan_mod
 from master.errors import ScenarioError
 from master.execution import prepare
-from master.ssp import parser, writer
+from master.ssp import archive, parser, writer
 from master.ssp.writer import SspBuilder
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -69,9 +69,12 @@ def _views(scenario, **kw):
 
 @pytest.fixture(autouse=True)
 def _empty_caches():
-    """Each test starts with a fresh worker's caches (and leaves none behind)."""
+    """Each test starts with a fresh worker's caches (and leaves none behind), the archives this process wrote or
+    opened included: that store keeps 8 and empties itself when full, so an archive a test wrote could drop out
+    between its two readings, depending on how many earlier tests wrote (it failed one full-suite run in eight)."""
     def clear():
-        for cache in (parser._STRUCTURES, parser._PARAMETER_SETS, plan_mod._PLANS, writer._TREES):
+        for cache in (parser._STRUCTURES, parser._PARAMETER_SETS, plan_mod._PLANS, writer._TREES,
+                      archive._WRITTEN, archive._OPENED, archive._VALIDATED):
             cache.clear()
     clear()
     yield
