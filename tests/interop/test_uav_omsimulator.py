@@ -17,6 +17,7 @@
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
@@ -24,7 +25,7 @@ import sys
 
 import numpy as np
 import pytest
-from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib, run_jobs
+from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib
 
 import master
 
@@ -157,14 +158,30 @@ def test_simulate_to_the_stop_time(simulated):
     assert got["z"] > 1.0
 
 
-def test_the_whole_mission_with_its_strings_set(tmp_path, record_property):
-    variables = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dyn", "z", "Real"],
+WHOLE_MISSION = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dyn", "z", "Real"],
                  ["uav1_bat", "soc", "Real"], ["uav1_strat", "photo_count", "Integer"],
                  ["uav1_strat", "last_photo_target", "Integer"], ["uav1_strat", "mission_state", "Integer"]]
-    ours = master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
-                      record=[f"{c}.{v}" for c, v, _ in variables]).frame
-    n = len(ours) - 1                                   # our run ends when the UAV has landed (825.1 s)
-    theirs, = run_jobs("omsimulator", [Job(str(SSP), 0.1, n, variables, set_strings=True)], tmp_path)
+
+
+@functools.lru_cache(maxsize=None)
+def _ours_whole_mission():
+    return master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
+                      record=[f"{c}.{v}" for c, v, _ in WHOLE_MISSION]).frame
+
+
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's OMSimulator run of the whole mission, as long as ours (which ends when the UAV has landed,
+    825.1 s), run in the session's OMSimulator child with the other modules' (conftest.py)."""
+    if peer != "omsimulator":
+        return {}
+    n = len(_ours_whole_mission()) - 1
+    return {"whole_mission": Job(str(SSP), 0.1, n, WHOLE_MISSION, set_strings=True)}
+
+
+def test_the_whole_mission_with_its_strings_set(request, uav_peer_runs, record_property):
+    variables = WHOLE_MISSION
+    ours = _ours_whole_mission()
+    theirs = uav_peer_runs("omsimulator", request.module)["whole_mission"]
     assert len(theirs) == len(ours)
     np.testing.assert_allclose(theirs["time"], ours["time"], rtol=0, atol=1e-9)
     diff = {}
