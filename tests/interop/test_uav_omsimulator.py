@@ -75,10 +75,20 @@ def _child(what, tmp_path, ssp=SSP, check=True):
 
 
 @pytest.fixture(scope="module")
-def simulated(tmp_path_factory):
-    """What OMSimulator read of the shipped SSP after instantiation, and its state after simulating 10 s (one
-    child process for both tests that look at them)."""
-    return _child("simulate", tmp_path_factory.mktemp("oms_simulate"))
+def read_by_omsimulator(tmp_path_factory):
+    """One child process for the tests that look at what OMSimulator read: of the shipped SSP after instantiation
+    and its state after simulating 10 s ("simulated"), and of the SSP with the strategy given in a .ssv file ("ssv")
+    or as a system-level value ("system"), whose SSPs are under "ssp"."""
+    tmp = tmp_path_factory.mktemp("oms_read")
+    variants = {form: _strategy_elsewhere(tmp, form) for form in ("ssv", "system")}
+    simulated, in_ssv, in_system = _children([(SSP, "simulate"), (variants["ssv"], "values"),
+                                              (variants["system"], "values")], tmp)
+    return {"simulated": simulated, "ssv": in_ssv, "system": in_system, "ssp": variants}
+
+
+@pytest.fixture(scope="module")
+def simulated(read_by_omsimulator):
+    return read_by_omsimulator["simulated"]
 
 
 _INLINE_STRATEGY = '<ssv:Parameter name="strategy">\n                    <ssv:String value="B"/>\n                  </ssv:Parameter>'
@@ -128,15 +138,14 @@ def _ours_before_start(ssp, name):
         ex.close()
 
 
-def test_no_form_of_the_ssp_gets_a_string_through(tmp_path):
+def test_no_form_of_the_ssp_gets_a_string_through(read_by_omsimulator, tmp_path):
     """A .ssv file and a system-level value are dropped like an inline one (all go through oms_setString before
     instantiation); a connected String parameter connector of the system breaks its initialisation (oms_ma
     transfers no Strings). cosim-master takes "B" from each."""
-    ssv = _strategy_elsewhere(tmp_path, "ssv")
+    ssv, system = read_by_omsimulator["ssp"]["ssv"], read_by_omsimulator["ssp"]["system"]
     assert _ours_before_start(ssv, "uav1_strat.strategy") == "B"
-    system = _strategy_elsewhere(tmp_path, "system")
     assert _ours_before_start(system, "uav1_strat.strategy") == "B"
-    in_ssv, in_system = _children([(ssv, "values"), (system, "values")], tmp_path)
+    in_ssv, in_system = read_by_omsimulator["ssv"], read_by_omsimulator["system"]
     assert in_ssv["strategy"] == "A"
     assert in_system["strategy"] == "A"
     proc = _child("initialize", tmp_path, system, check=False)
