@@ -22,15 +22,16 @@ max difference 0 over 1501 communication points for every position, state of cha
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+
+from peer_runs import Job
 
 import master
 from uavstudy.build import PARAMETER_SET
@@ -50,43 +51,35 @@ pytestmark = [
     pytest.mark.skipif(not SSP.is_file(), reason=f"{SSP.name} not built (python ssp/build_all.py)"),
 ]
 
-_ECOS_SCRIPT = r"""
-import json, sys
-sys.path.insert(0, sys.argv[1])
-from peers.ecos_runner import run_ecos
-step, pset = float(sys.argv[2]), sys.argv[3]
-for ssp, n, out, variables in json.loads(sys.argv[4]):
-    run_ecos(ssp, step, n, [tuple(v) for v in variables], pset).to_parquet(out)
-"""
-
-
-def _run_ecos_jobs(jobs) -> list[pd.DataFrame]:
-    """Ecos runs of (ssp, steps, out parquet, variables), all in one child process: it runs the pythonfmu
-    binaries, which re-enter the interpreter, and a failure there must not take the test session with it."""
-    spec = [[str(ssp), n, str(out), [list(v) for v in variables]] for ssp, n, out, variables in jobs]
-    proc = subprocess.run([sys.executable, "-c", _ECOS_SCRIPT, str(TESTS), repr(STEP), PARAMETER_SET,
-                           json.dumps(spec)], capture_output=True, text=True, timeout=600)
-    if proc.returncode != 0 and "libtbb" in proc.stderr:
-        pytest.skip("ecospy cannot load libtbb.so.12 (pip install tbb)")
-    assert proc.returncode == 0, f"Ecos run failed ({proc.returncode}):\n{proc.stderr[-3000:]}"
-    return [pd.read_parquet(out) for _, _, out, _ in jobs]
-
-
-@pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    """Ours and Ecos's runs of both missions (Ecos's in one child): {name: (ours, theirs)}."""
+@functools.lru_cache(maxsize=None)
+def _ours() -> dict:
+    """Our runs of both missions: {name: frame}."""
     ours = {"free_1uav": master.run(SSP, output=None, algorithm="jacobi", step=STEP, record_interval=STEP,
                                     record=[f"{c}.{v}" for c, v, _ in VARIABLES]).frame}
-    jobs = {"free_1uav": (SSP, len(ours["free_1uav"]) - 1, VARIABLES)}
     if ZONES_4UAV.is_file():
         ours["zones_4uav"] = master.run(ZONES_4UAV, output=None, algorithm="jacobi", step=STEP,
                                         stop_time=ZONES_STOP, record_interval=STEP,
                                         record=[f"{c}.{v}" for c, v, _ in ZONES_VARIABLES]).frame
-        jobs["zones_4uav"] = (ZONES_4UAV, len(ours["zones_4uav"]) - 1, ZONES_VARIABLES)
-    folder = tmp_path_factory.mktemp("ecos")
-    theirs = _run_ecos_jobs([(ssp, n, folder / f"{name}.parquet", variables)
-                             for name, (ssp, n, variables) in jobs.items()])
-    return {name: (ours[name], t) for name, t in zip(jobs, theirs)}
+    return ours
+
+
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's Ecos runs, as long as ours ({name: Job}), run in the session's Ecos child with the other
+    modules' (conftest.py): it runs the pythonfmu binaries, which re-enter the interpreter, and a failure there
+    must not take the test session with it."""
+    if peer != "ecos":
+        return {}
+    variables = {"free_1uav": VARIABLES, "zones_4uav": ZONES_VARIABLES}
+    return {name: Job(str({"free_1uav": SSP, "zones_4uav": ZONES_4UAV}[name]), STEP, len(frame) - 1,
+                      [list(v) for v in variables[name]], options={"parameter_set": PARAMETER_SET})
+            for name, frame in _ours().items()}
+
+
+@pytest.fixture(scope="module")
+def runs(request, uav_peer_runs):
+    """Ours and Ecos's runs of both missions: {name: (ours, theirs)}."""
+    theirs = uav_peer_runs("ecos", request.module)
+    return {name: (ours, theirs[name]) for name, ours in _ours().items()}
 
 
 def _photo_order(frame: pd.DataFrame) -> list[int]:

@@ -46,6 +46,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from peer_runs import Job
 
 import master
 from uavstudy.build import build_scenario, default_fmu_dir
@@ -106,8 +107,13 @@ def _assert_same_values(ours: pd.DataFrame, theirs: pd.DataFrame, variables=VARS
     return worst
 
 
-@pytest.fixture(scope="module")
-def one_uav_ssp(tmp_path_factory) -> Path:
+_BUILT: dict = {}
+
+
+def _one_uav_ssp(tmp_path_factory) -> Path:
+    """The one-UAV scenario's SSP, built once per session."""
+    if "one_uav" in _BUILT:
+        return _BUILT["one_uav"]
     tmp = tmp_path_factory.mktemp("libcosim_uav")
 
     scenario = {"name": "libcosim_one_uav", "base": {"lat": BASE[0], "lon": BASE[1], "alt": BASE[2]}, "n_uavs": 1,
@@ -117,7 +123,13 @@ def one_uav_ssp(tmp_path_factory) -> Path:
                 "end_when_all_landed": False}     # libcosim runs to the stop time: so must ours
     y = tmp / "one_uav.yaml"
     y.write_text(yaml.safe_dump(scenario, sort_keys=False))
-    return build_scenario(y, tmp / "one_uav.ssp")
+    _BUILT["one_uav"] = build_scenario(y, tmp / "one_uav.ssp")
+    return _BUILT["one_uav"]
+
+
+@pytest.fixture(scope="module")
+def one_uav_ssp(tmp_path_factory) -> Path:
+    return _one_uav_ssp(tmp_path_factory)
 
 
 SHIPPED = TESTS.parent / "ssp" / "paper_free_1uav_B.ssp"
@@ -143,18 +155,31 @@ def _ours_shipped() -> pd.DataFrame:
                       record=[f"{c}.{v}" for c, v in VARS]).frame
 
 
-@pytest.fixture(scope="module")
-def libcosim_runs(one_uav_ssp, tmp_path_factory) -> dict:
-    """Every libcosim run of this module, in one child process: {key: DataFrame}."""
-    folder = tmp_path_factory.mktemp("libcosim_runs")
-    jobs = {("one_uav", 0.5): (one_uav_ssp, 0.5, STOP, VARS), ("one_uav", 0.1): (one_uav_ssp, 0.1, STOP, VARS)}
+def _job(ssp: Path, step: float, stop: float, variables, integers=INTEGERS) -> Job:
+    """libcosim steps until n * step = ``stop`` (tests/interop/peer_runs.py)."""
+    n = int(round(stop / step))
+    assert n * step == stop, (stop, step)
+    return Job(str(ssp), step, n, [[c, v, "Integer" if f"{c}.{v}" in integers else "Real"] for c, v in variables])
+
+
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's libcosim runs ({key: Job}), run in the session's libcosim child with the other modules'
+    (conftest.py)."""
+    if peer != "libcosim":
+        return {}
+    one_uav = _one_uav_ssp(tmp_path_factory)
+    jobs = {("one_uav", 0.5): _job(one_uav, 0.5, STOP, VARS), ("one_uav", 0.1): _job(one_uav, 0.1, STOP, VARS)}
     if SHIPPED.is_file():
-        jobs["shipped"] = (SHIPPED, 0.1, (len(_ours_shipped()) - 1) * 0.1, VARS)
+        jobs["shipped"] = _job(SHIPPED, 0.1, (len(_ours_shipped()) - 1) * 0.1, VARS)
     if ZONES_4UAV.is_file():
-        jobs["zones_4uav"] = (ZONES_4UAV, 0.1, ZONES_STOP, ZONES_VARIABLES)
-    frames = _run_libcosim_jobs([(ssp, step, stop, folder / f"{i}.parquet", variables)
-                                 for i, (ssp, step, stop, variables) in enumerate(jobs.values())])
-    return dict(zip(jobs, frames))
+        jobs["zones_4uav"] = _job(ZONES_4UAV, 0.1, ZONES_STOP, ZONES_VARIABLES, ZONES_INTEGERS)
+    return jobs
+
+
+@pytest.fixture(scope="module")
+def libcosim_runs(request, uav_peer_runs) -> dict:
+    """Every libcosim run of this module, in the session's libcosim child: {key: DataFrame}."""
+    return uav_peer_runs("libcosim", request.module)
 
 
 @pytest.mark.parametrize("step", [0.5, 0.1])

@@ -17,6 +17,7 @@
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
@@ -24,7 +25,7 @@ import sys
 
 import numpy as np
 import pytest
-from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib, run_jobs
+from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib
 
 import master
 
@@ -74,10 +75,20 @@ def _child(what, tmp_path, ssp=SSP, check=True):
 
 
 @pytest.fixture(scope="module")
-def simulated(tmp_path_factory):
-    """What OMSimulator read of the shipped SSP after instantiation, and its state after simulating 10 s (one
-    child process for both tests that look at them)."""
-    return _child("simulate", tmp_path_factory.mktemp("oms_simulate"))
+def read_by_omsimulator(tmp_path_factory):
+    """One child process for the tests that look at what OMSimulator read: of the shipped SSP after instantiation
+    and its state after simulating 10 s ("simulated"), and of the SSP with the strategy given in a .ssv file ("ssv")
+    or as a system-level value ("system"), whose SSPs are under "ssp"."""
+    tmp = tmp_path_factory.mktemp("oms_read")
+    variants = {form: _strategy_elsewhere(tmp, form) for form in ("ssv", "system")}
+    simulated, in_ssv, in_system = _children([(SSP, "simulate"), (variants["ssv"], "values"),
+                                              (variants["system"], "values")], tmp)
+    return {"simulated": simulated, "ssv": in_ssv, "system": in_system, "ssp": variants}
+
+
+@pytest.fixture(scope="module")
+def simulated(read_by_omsimulator):
+    return read_by_omsimulator["simulated"]
 
 
 _INLINE_STRATEGY = '<ssv:Parameter name="strategy">\n                    <ssv:String value="B"/>\n                  </ssv:Parameter>'
@@ -127,15 +138,14 @@ def _ours_before_start(ssp, name):
         ex.close()
 
 
-def test_no_form_of_the_ssp_gets_a_string_through(tmp_path):
+def test_no_form_of_the_ssp_gets_a_string_through(read_by_omsimulator, tmp_path):
     """A .ssv file and a system-level value are dropped like an inline one (all go through oms_setString before
     instantiation); a connected String parameter connector of the system breaks its initialisation (oms_ma
     transfers no Strings). cosim-master takes "B" from each."""
-    ssv = _strategy_elsewhere(tmp_path, "ssv")
+    ssv, system = read_by_omsimulator["ssp"]["ssv"], read_by_omsimulator["ssp"]["system"]
     assert _ours_before_start(ssv, "uav1_strat.strategy") == "B"
-    system = _strategy_elsewhere(tmp_path, "system")
     assert _ours_before_start(system, "uav1_strat.strategy") == "B"
-    in_ssv, in_system = _children([(ssv, "values"), (system, "values")], tmp_path)
+    in_ssv, in_system = read_by_omsimulator["ssv"], read_by_omsimulator["system"]
     assert in_ssv["strategy"] == "A"
     assert in_system["strategy"] == "A"
     proc = _child("initialize", tmp_path, system, check=False)
@@ -157,14 +167,30 @@ def test_simulate_to_the_stop_time(simulated):
     assert got["z"] > 1.0
 
 
-def test_the_whole_mission_with_its_strings_set(tmp_path, record_property):
-    variables = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dyn", "z", "Real"],
+WHOLE_MISSION = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dyn", "z", "Real"],
                  ["uav1_bat", "soc", "Real"], ["uav1_strat", "photo_count", "Integer"],
                  ["uav1_strat", "last_photo_target", "Integer"], ["uav1_strat", "mission_state", "Integer"]]
-    ours = master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
-                      record=[f"{c}.{v}" for c, v, _ in variables]).frame
-    n = len(ours) - 1                                   # our run ends when the UAV has landed (825.1 s)
-    theirs, = run_jobs("omsimulator", [Job(str(SSP), 0.1, n, variables, set_strings=True)], tmp_path)
+
+
+@functools.lru_cache(maxsize=None)
+def _ours_whole_mission():
+    return master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
+                      record=[f"{c}.{v}" for c, v, _ in WHOLE_MISSION]).frame
+
+
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's OMSimulator run of the whole mission, as long as ours (which ends when the UAV has landed,
+    825.1 s), run in the session's OMSimulator child with the other modules' (conftest.py)."""
+    if peer != "omsimulator":
+        return {}
+    n = len(_ours_whole_mission()) - 1
+    return {"whole_mission": Job(str(SSP), 0.1, n, WHOLE_MISSION, set_strings=True)}
+
+
+def test_the_whole_mission_with_its_strings_set(request, uav_peer_runs, record_property):
+    variables = WHOLE_MISSION
+    ours = _ours_whole_mission()
+    theirs = uav_peer_runs("omsimulator", request.module)["whole_mission"]
     assert len(theirs) == len(ours)
     np.testing.assert_allclose(theirs["time"], ours["time"], rtol=0, atol=1e-9)
     diff = {}

@@ -27,7 +27,7 @@ import functools
 
 import numpy as np
 import pytest
-from peer_runs import SSP_DIR, Job, absent, run_jobs
+from peer_runs import SSP_DIR, Job, absent
 
 import master
 from uavstudy.build import PARAMETER_SET
@@ -70,21 +70,24 @@ def _our_run(name, params):
     return frame[frame["time"] < min(hits) + STEP] if hits else frame
 
 
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's jobs for ``peer`` ({(scenario, strings set): Job}), run in the session's child of that peer
+    with the other modules' (conftest.py)."""
+    jobs = {(n, False): Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n),
+                            options={"parameter_set": PARAMETER_SET}) for n in SSPS}
+    if peer == "omsimulator":        # the B scenarios once more, with the String values it drops set by hand
+        jobs.update({(n, True): Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n), set_strings=True)
+                     for n in SSPS if _strategy_b(n)})
+    return jobs
+
+
 @pytest.fixture(scope="module", params=["omsimulator", "ecos", "libcosim"])
-def peer_runs(request, tmp_path_factory):
+def peer_runs(request, uav_peer_runs):
     peer = request.param
     why = absent(peer)
     if why:
         pytest.skip(why)
-    jobs = [Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n), options={"parameter_set": PARAMETER_SET})
-            for n in SSPS]
-    if peer == "omsimulator":        # the B scenarios once more, with the String values it drops set by hand
-        jobs += [Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n), set_strings=True)
-                 for n in SSPS if _strategy_b(n)]
-    frames = run_jobs(peer, jobs, tmp_path_factory.mktemp(peer))
-    runs = {(n, False): f for n, f in zip(SSPS, frames)}
-    runs.update({(n, True): f for n, f in zip([n for n in SSPS if _strategy_b(n)], frames[len(SSPS):])})
-    return peer, runs
+    return peer, uav_peer_runs(peer, request.module)
 
 
 def _compare(ours, theirs, name) -> float:
