@@ -5,8 +5,9 @@ from __future__ import annotations
 import struct
 
 
-#: values that stand for themselves: answered before the attribute probes below, which none of them passes (the
-#: accelerator harness calls ``bits`` on every one of a state's hundreds of ints, flags and names)
+#: values that stand for themselves: answered before the attribute probes below, which none of them passes (where
+#: the accelerator harness's pickles of two states differ, it calls ``bits`` on every one of their hundreds of ints,
+#: flags and names)
 _PLAIN = frozenset((int, bool, str, type(None)))
 _pack = struct.Struct("<d").pack
 
