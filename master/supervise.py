@@ -347,8 +347,15 @@ def _send(conn, msg):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
 
 
-def _terminated(signum, frame):
-    raise Terminated()
+def _stop_run(signum, frame):
+    """The child's first Ctrl-C or SIGTERM ends its run in order; from this moment on both are ignored, as the
+    close must finish. SIGTERM to the process group reaches the child twice (directly, and forwarded by its
+    supervisor): a second one that came after the first was raised but before the handling clause ignored further
+    ones raised again there, past it, and the child ended with status 1 and no run.json of its own (one run in
+    several hundred under load)."""
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 class ParentGone(KeyboardInterrupt):
@@ -502,8 +509,8 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
     status = 1
     # a forked child starts with the parent's handlers, which only note the signal there: the child's own
     # interrupts end its run in order (its run.json, every row), as in an unsupervised run
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.signal(signal.SIGTERM, _terminated)
+    signal.signal(signal.SIGINT, _stop_run)
+    signal.signal(signal.SIGTERM, _stop_run)
 
     def orphaned():
         return _parent_died or os.getppid() != parent_pid
