@@ -746,8 +746,8 @@ class _Supervisor:
     def run(self) -> dict:
         parent, child = _channel_pair()
         options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
-        scratch = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
-        proc = _ForkedChild(_child, (child, parent, os.getpid(), self.scenario, options, scratch))
+        unpack_dir = scratch.make(SCRATCH_PREFIX)
+        proc = _ForkedChild(_child, (child, parent, os.getpid(), self.scenario, options, unpack_dir))
         previous = {}
 
         def on_signal(signum, frame):
@@ -809,7 +809,7 @@ class _Supervisor:
                 signal.signal(s, h)
             parent.close()
             if proc.exitcode is not None or proc.pid is None:      # the child is gone (or never started)
-                shutil.rmtree(scratch, ignore_errors=True)
+                shutil.rmtree(unpack_dir, ignore_errors=True)
         return self._finish(proc.exitcode, killed)
 
     def _open_sinks(self, proc):
