@@ -35,6 +35,16 @@ def file_sha256(path: str | os.PathLike) -> str:
 MAX_VALIDATION_RECORDS = 4000
 
 
+def fmpy_validator() -> bytes:
+    """The identity of a validation made with fmpy's files, for a ``ValidationRecord``: fmpy's version (its
+    schemas and rules) and libxml2's (which applies the schemas), as ``fmpy <version> libxml2 <version>``. One
+    definition for both records (FMU descriptions, ``fmi/cache.py``; SSDs, ``ssp/xsd.py``). Imported when asked,
+    by a validation, which has loaded fmpy and lxml by then: loading this module (every run does) loads neither."""
+    from fmpy import __version__ as fmpy_version
+    from lxml import etree
+    return f"fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode()
+
+
 class ValidationRecord:
     """That a document passed a validation, remembered across processes: an empty file under
     ``<cache>/validated/`` named by the SHA-256 of what decides the outcome (``parts``: the validator's identity and

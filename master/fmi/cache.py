@@ -13,7 +13,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..cache_paths import ValidationRecord, cache_root, file_sha256
+from ..cache_paths import ValidationRecord, cache_root, file_sha256, fmpy_validator
 from ..errors import FmuError
 
 #: the kind of a table component (fmi/table.py), in place of an FMU's "CoSimulation" / "ModelExchange"
@@ -122,9 +122,7 @@ def _validation_record(unzip_dir: Path) -> ValidationRecord | None:
     bytes, fmpy's version (its schemas and rules) and libxml2's (which applies the schema). Building fmpy's schema
     is most of a small FMU's validation (~5 ms a process), paid again by every run. None: the files cannot be read
     here (then they are validated as before)."""
-    from fmpy import __version__ as fmpy_version
-    from lxml import etree
-    parts = [f"fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode()]
+    parts = [fmpy_validator()]
     try:
         for name in _VALIDATED_FILES:
             try:

@@ -54,10 +54,8 @@ def read_bytes(path: Path, shown_as: str | None = None) -> bytes:
 def _passed_record(kind: str, source: bytes):
     """The record that a document of exactly these bytes passed this schema: keyed by the bytes, the kind, fmpy's
     version (whose files the schemas are) and libxml2's (which applies them)."""
-    from fmpy import __version__ as fmpy_version
-
-    from ..cache_paths import ValidationRecord
-    return ValidationRecord(f"ssp 1 {kind} fmpy {fmpy_version} libxml2 {etree.LIBXML_VERSION}".encode(), source)
+    from ..cache_paths import ValidationRecord, fmpy_validator
+    return ValidationRecord(f"ssp 1 {kind} ".encode() + fmpy_validator(), source)
 
 
 def validate(tree: etree._ElementTree, kind: str, shown_as: str, source: bytes | None = None) -> None:

@@ -1,8 +1,11 @@
 """fmpy's validation of a modelDescription.xml (its schema, built anew in every process, and its own rules) is
 remembered across processes by the SHA-256 of the description's bytes, fmpy's version and libxml2's: the same
 bytes under the same validator are not validated again; any other bytes or validator are."""
+import hashlib
+
 import fmpy
 import pytest
+from lxml import etree
 
 from master.errors import FmuError
 from master.fmi import cache
@@ -63,6 +66,32 @@ def test_another_validator_validates_again(fresh, test_fmus, monkeypatch):
     monkeypatch.setattr(fmpy, "__version__", fmpy.__version__ + ".other")
     load(test_fmus["c2:Gain"])
     assert calls == [True]
+
+
+def test_another_libxml2_validates_again(fresh, test_fmus, monkeypatch):
+    """libxml2 applies fmpy's schema, so its version is part of the validator too."""
+    load, calls = fresh
+    load(test_fmus["c2:Gain"])
+    monkeypatch.setattr(etree, "LIBXML_VERSION", (0, 0, 1))
+    load(test_fmus["c2:Gain"])
+    assert calls == [True]
+
+
+def test_the_record_keeps_its_name(fresh, test_fmus, tmp_path):
+    """The record of an FMU description is named as before the validator's identity moved to
+    ``cache_paths.fmpy_validator`` (a record written then still counts): the SHA-256 of each part with its length,
+    the identity "fmpy <version> libxml2 <version>", then each validated file (present with its bytes, or
+    missing). Computed here from that description, not through the code under test."""
+    load, _ = fresh
+    unzip_dir = load(test_fmus["c2:Gain"]).unzip_dir
+    build_description = unzip_dir / "sources" / "buildDescription.xml"
+    parts = [f"fmpy {fmpy.__version__} libxml2 {etree.LIBXML_VERSION}".encode(),
+             b"present" + (unzip_dir / "modelDescription.xml").read_bytes(),
+             b"present" + build_description.read_bytes() if build_description.is_file() else b"missing"]
+    h = hashlib.sha256()
+    for part in parts:
+        h.update(b"%d:" % len(part) + part)
+    assert [p.name for p in (tmp_path / "cache" / "validated").iterdir()] == [h.hexdigest()]
 
 
 def test_a_cache_that_cannot_be_written_still_validates(fresh, test_fmus, tmp_path):
