@@ -16,7 +16,9 @@ reflects the input set before that step (see docs/architecture.md): with hold th
 as a sample for extrapolation it is half a step off. So after each step the components with a coupled
 feedthrough output get their inputs from the new outputs and are read again (one pass in Gauss-Seidel
 order: enough for feedthrough chains, not solving algebraic loops), which makes the samples consistent.
-The step's inputs are then set from the extrapolated values as usual.
+The step's inputs are then set from the extrapolated values as usual. That read-after-set is outside FMI's
+co-simulation calling sequence (see ``InputExtrapolation.refresh``): it gives consistent samples only with FMUs
+whose getters evaluate their outputs from the inputs last set.
 
 Outputs of components on a step multiple (k > 1) and of components taken out are held, as without
 extrapolation. The first steps use the samples there are (order 0, then 1, ...).
@@ -292,7 +294,24 @@ class InputExtrapolation:
         return deps is None or len(deps) > 0        # None: no declaration, so it depends on every input
 
     def refresh(self, t: float) -> None:
-        """Inputs of the feedthrough components from the new outputs, and their outputs read again."""
+        """Inputs of the feedthrough components from the new outputs, and their outputs read again.
+
+        This sets inputs and gets outputs with no doStep between them, which FMI's co-simulation calling
+        sequence does not allow: FMI 2.0 (4.2.4, state slaveInitialized) forbids fmi2GetXXX after fmi2SetXXX
+        without an fmi2DoStep in between, because a co-simulation FMU computes in fmi2DoStep and not in its
+        getters, and FMI 3.0 keeps that rule in Step Mode. The ModelStructure's dependencies, which decide
+        which components are refreshed, say what an output depends on, not that a getter re-evaluates it.
+        What the second read gives depends on the FMU:
+        - getters that evaluate the outputs from the inputs last set (this project's C and Python FMUs): the
+          consistent sample the extrapolation needs (docs/coupling.md, "Consistent samples": order 2 with K = 1
+          on the two-mass oscillator instead of 1);
+        - outputs fixed by the last doStep: the same values again, so the samples are those of a run without
+          the refresh, at the price of one set and one get per refreshed component and step;
+        - an FMU that enforces the rule: an error status, which ends the run with one line naming it.
+        Only runs that ask for it pay this (extrapolation K > 0, per-output orders, input derivatives, and the
+        adaptive and iterative algorithms that use the same refresh); plain fixed-step runs, every shipped SSP
+        among them, never call it. Kept because without it a feedthrough output's sample is half a step off
+        and the extrapolation's order drops to 1."""
         for i, (transfers, setters, _, getters, _) in self.refreshed:
             for x in transfers:
                 x()
