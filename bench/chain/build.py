@@ -1,7 +1,9 @@
 """Build the chain benchmark's FMUs and SSPs.
 
 * ``build_c_fmu(out_dir)``: bench/chain/lag.c compiled with gcc against the FMI 2.0 headers shipped with
-  fmpy (``<fmpy>/c-code``) into ``out_dir/Lag.fmu`` (FMI 2.0 Co-Simulation, binaries/linux64/Lag.so).
+  fmpy (``<fmpy>/c-code``) and bench/recording/fmi2_common.h (the stubs it shares with the recording
+  benchmark's FMUs) into ``out_dir/Lag.fmu`` (FMI 2.0 Co-Simulation, binaries/linux64/Lag.so; both sources
+  in sources/).
 * ``build_python_fmu(out_dir)``: bench/chain/Lag.py through ``pythonfmu build``; its modelDescription.xml is
   patched to declare the same ModelStructure as the C twin (``y`` has no direct feedthrough, and is an
   initial unknown), which pythonfmu 0.7 does not write.
@@ -23,6 +25,8 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 HERE = Path(__file__).resolve().parent
+# the FMI 2.0 life cycle and unsupported-function stubs lag.c shares with the recording benchmark's FMUs
+COMMON_HEADER = HERE.parent / "recording" / "fmi2_common.h"
 
 # name, causality, variability, initial, start, description -- value reference = position (see lag.c)
 VARIABLES = [
@@ -88,19 +92,22 @@ def build_c_fmu(out_dir) -> Path:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     src = HERE / "lag.c"
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "cosim-master-bench-chain/" + src.read_text())) + "}"
+    common = COMMON_HEADER
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "cosim-master-bench-chain/" + src.read_text()
+                                + common.read_text())) + "}"
     with tempfile.TemporaryDirectory(prefix="chain_c_") as tmp:
         root = Path(tmp) / "fmu"
         bindir = root / "binaries" / "linux64"
         bindir.mkdir(parents=True)
         (root / "sources").mkdir()
         cmd = [os.environ.get("CC", "gcc"), "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra",
-               "-ffp-contract=off", "-fvisibility=default", f"-I{fmi_headers_dir()}", str(src),
+               "-ffp-contract=off", "-fvisibility=default", f"-I{fmi_headers_dir()}", f"-I{common.parent}", str(src),
                "-o", str(bindir / "Lag.so")]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"gcc failed:\n{' '.join(cmd)}\n{proc.stderr}")
-        shutil.copy2(src, root / "sources" / "lag.c")
+        for f in (src, common):
+            shutil.copy2(f, root / "sources" / f.name)
         (root / "modelDescription.xml").write_text(_model_description(guid), encoding="utf-8")
         fmu = out_dir / "Lag.fmu"
         _zip_dir(root, fmu)
