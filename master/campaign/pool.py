@@ -51,9 +51,11 @@ def sweep_left_worker_scratch(folder: str | None = None) -> list[str]:
 
 #: what the fork server imports once for all the workers it forks: the main module (as spawn would import it
 #: in each worker) and the run path of a campaign run, with what a worker's first run imports of the engine and
-#: fmpy (~60 ms of a first run's CPU); a name that does not import is skipped
+#: fmpy (~60 ms of a first run's CPU), and what the installed scenario kinds' runs import (worker_preload); a name
+#: that does not import is skipped
 PRELOAD = ["__main__", "master.runner", "master.campaign.execute", "fmpy", "master.fmi.inprocess",
-           "master.algorithms.fixed_step", "master.algorithms.compiled", "master.sinks.parquet", "master.sinks.memory"]
+           "master.algorithms.fixed_step", "master.algorithms.compiled", "master.sinks.parquet", "master.sinks.memory",
+           "master.campaign.worker_preload"]
 
 
 def describe_exit(exitcode: int | None) -> str:
