@@ -10,6 +10,12 @@ itself, before its FMUs load (the kind's own choice of modules)."""
 from __future__ import annotations
 
 import importlib
+import os
+
+#: set (to "1") in the environment the fork server starts with (``pool._fork_server_started``), and only there: this
+#: module imports the kinds' modules when the server imports it, and is inert anywhere else (importing every engine
+#: module, tests/master/test_engine_boundary.py, imports no study module)
+SERVER_FLAG = "COSIM_MASTER_CAMPAIGN_FORK_SERVER"
 
 
 def import_worker_modules() -> list[str]:
@@ -30,4 +36,4 @@ def import_worker_modules() -> list[str]:
     return done
 
 
-IMPORTED = import_worker_modules()
+IMPORTED = import_worker_modules() if os.environ.get(SERVER_FLAG) == "1" else []
