@@ -18,6 +18,10 @@ step loop, the UAV monitor, the mission outputs incl. map.png, scenario build).
 The campaign always runs in a fresh folder (nothing skipped).  The machine's load average is printed
 before and after: other processes on the same cores make every number here slower.
 
+Measured on 2026-11-29, second pass (the wind FMUs of removed UAVs step on: 7.6 % of the doStep calls, 5-12 % of a
+run's CPU, not changed; the fixed per-run costs; the fork server imports the scenario kind's modules): see
+bench/results/campaign_2026-11-29b.md.
+
 Measured on 2026-11-29 (workers: scratch folders, the first run's survivors frozen; the compiled step's text
 cached per structure): see bench/results/campaign_2026-11-29.md.
 

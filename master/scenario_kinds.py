@@ -50,6 +50,10 @@ class ScenarioKind:
     report_only: tuple[str, ...] = ()
     #: files of a run folder that ``keep: summary`` keeps besides the engine's (run.json, summary.json, ...)
     summary_files: tuple[str, ...] = ()
+    #: modules a campaign worker's runs of this kind import (its build, its monitors): the campaign's fork server
+    #: imports them once for every worker it forks (master/campaign/worker_preload.py), instead of each worker in
+    #: its first run
+    worker_modules: tuple[str, ...] = ()
 
     def claims(self, path: Path) -> bool:
         """Is ``path`` a scenario of this kind?"""

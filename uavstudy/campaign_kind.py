@@ -202,6 +202,9 @@ class UavKind(ScenarioKind):
     #: every module of the report package (a new one is covered without being listed)
     report_only = tuple(f"uavstudy/report/{f.name}" for f in sorted((Path(__file__).parent / "report").glob("*.py")))
     summary_files = ("photos.csv", "scenario.yaml")
+    # what a run imports before its FMUs load (prepare_run: the build and its scenario; the monitor); ~1 s of a
+    # worker's first run at load 5, paid once in the fork server instead (the FMU shells import pythonfmu)
+    worker_modules = ("uavstudy.build", "uavstudy.scenario", "uavstudy.monitor", "pythonfmu")
 
     def claims(self, path: Path) -> bool:
         return path.suffix.lower() in SUFFIXES

@@ -37,6 +37,7 @@ from typing import Callable, Iterable
 
 from .. import scratch
 from ..ssp import archive
+from . import worker_preload
 from .execute import execute_run, failure_record
 
 __all__ = ["WorkerPool", "describe_exit", "PRELOAD", "WORKER_SCRATCH_PREFIX", "sweep_left_worker_scratch"]
@@ -51,9 +52,11 @@ def sweep_left_worker_scratch(folder: str | None = None) -> list[str]:
 
 #: what the fork server imports once for all the workers it forks: the main module (as spawn would import it
 #: in each worker) and the run path of a campaign run, with what a worker's first run imports of the engine and
-#: fmpy (~60 ms of a first run's CPU); a name that does not import is skipped
+#: fmpy (~60 ms of a first run's CPU), and what the installed scenario kinds' runs import (worker_preload); a name
+#: that does not import is skipped
 PRELOAD = ["__main__", "master.runner", "master.campaign.execute", "fmpy", "master.fmi.inprocess",
-           "master.algorithms.fixed_step", "master.algorithms.compiled", "master.sinks.parquet", "master.sinks.memory"]
+           "master.algorithms.fixed_step", "master.algorithms.compiled", "master.sinks.parquet", "master.sinks.memory",
+           "master.campaign.worker_preload"]
 
 
 def describe_exit(exitcode: int | None) -> str:
@@ -104,6 +107,20 @@ def _fork_server_started() -> bool:
     from multiprocessing import forkserver
     import threading
     forkserver.set_forkserver_preload(PRELOAD)     # read only when the server starts
+    # the server starts with this environment (a worker gets the caller's own, without it): worker_preload acts there
+    os.environ[worker_preload.SERVER_FLAG] = "1"
+    try:
+        _ensure_server_running(forkserver, threading)
+    finally:
+        os.environ.pop(worker_preload.SERVER_FLAG, None)
+    global _server_owner
+    if _server_owner is None:
+        _server_owner = os.getpid()
+        atexit.register(_stop_fork_server)
+    return True
+
+
+def _ensure_server_running(forkserver, threading) -> None:
     if threading.current_thread() is not threading.main_thread():
         forkserver.ensure_running()
     else:
@@ -117,11 +134,6 @@ def _fork_server_started() -> bool:
         finally:
             signal.signal(signal.SIGTERM, previous)
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
-    global _server_owner
-    if _server_owner is None:
-        _server_owner = os.getpid()
-        atexit.register(_stop_fork_server)
-    return True
 
 
 _server_owner: int | None = None
