@@ -4,15 +4,10 @@
  * exponents from -4 to 16 and in Python's exponent notation (e+16, e-05) outside; repr through the C API costs
  * ~0.6 us a value, which made a wide CSV the slowest part of a run.
  *
- * The shortest digits are found as in Raffaello Giulietti's Schubfach (2020): the double c * 2^q is scaled by
- * 10^-k, where k is chosen so that the interval of reals that round to the double is between 1 and 10 units of
- * 10^k wide; then at most one multiple of 10 lies in it (the shortest decimal, when it has fewer digits than the
- * scaled value), and otherwise the shortest decimals are the integers of the interval, of which the one nearest
- * the value is s or s + 1. The scaled value and the interval's two ends are each one product of a 126-bit
- * power of ten by a 64-bit number, rounded to odd, which keeps every comparison with an integer exact: three
- * products and a few comparisons, no loop (Ryu, used before, took digits off one at a time while its interval
- * held a shorter decimal: ~15 of the ~31 ns a value of a full-precision table). The powers of ten are computed
- * exactly by Python (csv_native.py) and handed over once with cm_csv_tables.
+ * The shortest digits are found as in Ulf Adams' Ryu (PLDI 2018): the value and the two ends of the interval of
+ * decimals that round to it are scaled by a power of ten with 128-bit fixed-point powers of five, and digits
+ * are taken off while the interval still holds a shorter decimal.  The power tables are computed exactly by
+ * Python (csv_native.py) and handed over once with cm_csv_tables.
  *
  * Plain C without Python's API: called through ctypes, which lets other threads run meanwhile. */
 #include <stdint.h>
@@ -23,113 +18,154 @@ typedef unsigned __int128 u128;
 
 #define MANTISSA_BITS 52
 #define EXPONENT_BITS 11
-#define K_MIN (-324)                /* the scaling exponents k of doubles (csv_native.K_MIN, K_MAX) */
-#define K_MAX 292
+#define BIAS 1023
+#define POW5_INV_BITCOUNT 125
+#define POW5_BITCOUNT 125
+#define POW5_INV_ENTRIES 342
+#define POW5_ENTRIES 326
 
-/* g(k), by k - K_MIN: low, high 64 bits of floor(10^-k * 2^(125 - floor(log2(10^-k)))) + 1, a 126-bit number */
-static uint64_t G[K_MAX - K_MIN + 1][2];
+static uint64_t POW5_INV[POW5_INV_ENTRIES][2];     /* low, high 64 bits of floor(2^(bits(5^i)-1+125) / 5^i) + 1 */
+static uint64_t POW5[POW5_ENTRIES][2];             /* low, high 64 bits of 5^i scaled to exactly 125 bits */
 static int have_tables;
 
-void cm_csv_tables(const uint64_t *g)
+void cm_csv_tables(const uint64_t *inv, const uint64_t *pow5)
 {
-    memcpy(G, g, sizeof G);
+    memcpy(POW5_INV, inv, sizeof POW5_INV);
+    memcpy(POW5, pow5, sizeof POW5);
     have_tables = 1;
 }
 
-/* floor(q log10(2)), floor(q log10(2) - log10(4/3)) and floor(e log2(10)) for the exponents of doubles (each
- * checked against exact integer arithmetic over its whole range: tests/master/sinks/test_csv_shortest.py) */
-static inline int32_t flog10pow2(int32_t q) { return (q * 315653) >> 20; }
-static inline int32_t flog10_three_quarters_pow2(int32_t q) { return (q * 315653 - 131009) >> 20; }
-static inline int32_t flog2pow10(int32_t e) { return (e * 1741647) >> 19; }
+/* bit length of 5^e (e >= 1; 1 for e = 0) */
+static inline int32_t pow5bits(int32_t e) { return (int32_t)(((uint32_t)e * 1217359) >> 19) + 1; }
+/* floor(log10(2^e)) and floor(log10(5^e)) for the exponents a double can have */
+static inline uint32_t log10pow2(int32_t e) { return ((uint32_t)e * 78913) >> 18; }
+static inline uint32_t log10pow5(int32_t e) { return ((uint32_t)e * 732923) >> 20; }
 
-/* g * cp / 2^128 rounded to odd (its floor, with the lowest bit set when its fraction is not 0), with the
- * lowest 64 bits of the product left out: g is above the exact power of ten by less than 1, so the product is above
- * the exact one by less than cp < 2^62, which stays in those bits (unless it carries), and an exact scaled value
- * (an integer, or a tie between two decimals) reads as exact. As in Schubfach, comparisons of the result with
- * even integers are then those of the exact scaled value (tests/master/sinks/test_csv_shortest.py checks them
- * against repr on millions of doubles, bench/recording/check_shortest.py on many more). */
-static inline uint64_t round_to_odd(const uint64_t *g, uint64_t cp)
+static inline int multiple_of_pow5(uint64_t v, uint32_t p)
 {
-    const u128 high = (u128)g[1] * cp + (uint64_t)(((u128)g[0] * cp) >> 64);
-    return (uint64_t)(high >> 64) | ((uint64_t)high != 0);
+    uint32_t count = 0;
+    while (v % 5 == 0) {
+        v /= 5;
+        count++;
+    }
+    return count >= p;
 }
 
-/* the decimal d * 10^e with the zeros at the end of d (d > 0, a multiple of 10) taken off */
-static inline void without_zeros(uint64_t d, int32_t e, uint64_t *digits, int32_t *exp10)
+static inline int multiple_of_pow2(uint64_t v, uint32_t p) { return (v & ((1ull << p) - 1)) == 0; }
+
+/* (m * mul) >> j for a 128-bit mul and j >= 64 */
+static inline uint64_t mul_shift(uint64_t m, const uint64_t *mul, int32_t j)
 {
-    d /= 10;
-    e++;
-    while (d % 100000000 == 0 && d != 0) {      /* (d is never 0: no loop forever if it were) */
-        d /= 100000000;
-        e += 8;
-    }
-    if (d % 10000 == 0) {
-        d /= 10000;
-        e += 4;
-    }
-    if (d % 100 == 0) {
-        d /= 100;
-        e += 2;
-    }
-    if (d % 10 == 0) {
-        d /= 10;
-        e++;
-    }
-    *digits = d;
-    *exp10 = e;
+    u128 low = (u128)m * mul[0];
+    u128 high = (u128)m * mul[1];
+    return (uint64_t)(((low >> 64) + high) >> (j - 64));
 }
 
-/* the shortest decimal of a finite nonzero double given by its fields, digits * 10^exp10; of several, the
- * nearest, and of two as near, the one with an even last digit (Python's repr) */
+/* the shortest decimal of a finite nonzero double given by its fields: digits * 10^exp10 */
 static void shortest(uint64_t ieee_mantissa, uint32_t ieee_exponent, uint64_t *digits, int32_t *exp10)
 {
-    uint64_t c;
-    int32_t q;
-    int irregular;          /* a power of two above the smallest normal: the interval below is half as wide */
+    int32_t e2;
+    uint64_t m2;
     if (ieee_exponent == 0) {
-        c = ieee_mantissa;
-        q = 1 - 1075;
-        irregular = 0;
+        e2 = 1 - BIAS - MANTISSA_BITS - 2;
+        m2 = ieee_mantissa;
     } else {
-        c = (1ull << MANTISSA_BITS) | ieee_mantissa;
-        q = (int32_t)ieee_exponent - 1075;
-        irregular = ieee_mantissa == 0 && ieee_exponent > 1;
+        e2 = (int32_t)ieee_exponent - BIAS - MANTISSA_BITS - 2;
+        m2 = (1ull << MANTISSA_BITS) | ieee_mantissa;
     }
-    /* in quarter units of 2^q: the value cb and the ends of its interval, cbl and cbr, each end included when c
-     * is even (a tie between two doubles reads as the even one), excluded when odd (``out``) */
-    const uint64_t out = c & 1;
-    const uint64_t cb = c << 2;
-    const uint64_t cbr = cb + 2;
-    const uint64_t cbl = irregular ? cb - 1 : cb - 2;
-    /* 10^k <= the interval's width < 10^(k+1), so the scaled interval is 1 to 10 units wide */
-    const int32_t k = irregular ? flog10_three_quarters_pow2(q) : flog10pow2(q);
-    const int32_t h = q + flog2pow10(-k) + 3;      /* 3..6: cbr << h stays below 2^62 */
-    const uint64_t *g = G[k - K_MIN];
-    const uint64_t vb = round_to_odd(g, cb << h);
-    const uint64_t vbl = round_to_odd(g, cbl << h);
-    const uint64_t vbr = round_to_odd(g, cbr << h);
-    /* the scaled value lies in [s, s + 1); a multiple of 10 in the interval (there is at most one) is the
-     * shortest decimal */
-    const uint64_t s = vb >> 2;
-    const uint64_t sp10 = s / 10 * 10;
-    const uint64_t tp10 = sp10 + 10;
-    const int upin = vbl + out <= sp10 << 2;
-    const int wpin = (tp10 << 2) + out <= vbr;
-    if (upin != wpin) {
-        without_zeros(upin ? sp10 : tp10, k, digits, exp10);
-        return;
+    const int accept_bounds = (m2 & 1) == 0;     /* an even mantissa: a decimal on the interval's end reads back */
+    const uint64_t mv = 4 * m2;
+    /* the interval below is half as wide at a power of two (but not below the smallest normal) */
+    const uint32_t mm_shift = ieee_mantissa != 0 || ieee_exponent <= 1;
+
+    uint64_t vr, vp, vm;
+    int32_t e10;
+    int vm_trailing_zeros = 0, vr_trailing_zeros = 0;
+    if (e2 >= 0) {
+        const uint32_t q = log10pow2(e2) - (e2 > 3);
+        e10 = (int32_t)q;
+        const int32_t k = POW5_INV_BITCOUNT + pow5bits((int32_t)q) - 1;
+        const int32_t i = -e2 + (int32_t)q + k;
+        vr = mul_shift(mv, POW5_INV[q], i);
+        vp = mul_shift(mv + 2, POW5_INV[q], i);
+        vm = mul_shift(mv - 1 - mm_shift, POW5_INV[q], i);
+        if (q <= 21) {
+            /* only here can the scaled values be exact (multiples of 5^q) */
+            if (mv % 5 == 0)
+                vr_trailing_zeros = multiple_of_pow5(mv, q);
+            else if (accept_bounds)
+                vm_trailing_zeros = multiple_of_pow5(mv - 1 - mm_shift, q);
+            else
+                vp -= multiple_of_pow5(mv + 2, q);
+        }
+    } else {
+        const uint32_t q = log10pow5(-e2) - (-e2 > 1);
+        e10 = (int32_t)q + e2;
+        const int32_t i = -e2 - (int32_t)q;
+        const int32_t k = pow5bits(i) - POW5_BITCOUNT;
+        const int32_t j = (int32_t)q - k;
+        vr = mul_shift(mv, POW5[i], j);
+        vp = mul_shift(mv + 2, POW5[i], j);
+        vm = mul_shift(mv - 1 - mm_shift, POW5[i], j);
+        if (q <= 1) {
+            /* mv has at least q trailing zero bits: the scaled values are exact */
+            vr_trailing_zeros = 1;
+            if (accept_bounds)
+                vm_trailing_zeros = mm_shift == 1;
+            else
+                --vp;
+        } else if (q < 63) {
+            vr_trailing_zeros = multiple_of_pow2(mv, q);
+        }
     }
-    /* else every integer of the interval has as many digits: the one nearest the value, s or s + 1 */
-    const uint64_t t = s + 1;
-    const int uin = vbl + out <= s << 2;
-    const int win = (t << 2) + out <= vbr;
-    *exp10 = k;
-    if (uin != win) {
-        *digits = uin ? s : t;
-        return;
+
+    int32_t removed = 0;
+    uint8_t last_removed = 0;
+    uint64_t out;
+    if (vm_trailing_zeros || vr_trailing_zeros) {
+        /* the rare exact cases: the lower end may be a decimal that reads back, and a tie rounds to even */
+        while (vp / 10 > vm / 10) {
+            vm_trailing_zeros &= vm % 10 == 0;
+            vr_trailing_zeros &= last_removed == 0;
+            last_removed = (uint8_t)(vr % 10);
+            vr /= 10;
+            vp /= 10;
+            vm /= 10;
+            removed++;
+        }
+        if (vm_trailing_zeros) {
+            while (vm % 10 == 0) {
+                vr_trailing_zeros &= last_removed == 0;
+                last_removed = (uint8_t)(vr % 10);
+                vr /= 10;
+                vp /= 10;
+                vm /= 10;
+                removed++;
+            }
+        }
+        if (vr_trailing_zeros && last_removed == 5 && vr % 2 == 0)
+            last_removed = 4;
+        out = vr + ((vr == vm && (!accept_bounds || !vm_trailing_zeros)) || last_removed >= 5);
+    } else {
+        int round_up = 0;
+        if (vp / 100 > vm / 100) {
+            round_up = vr % 100 >= 50;
+            vr /= 100;
+            vp /= 100;
+            vm /= 100;
+            removed += 2;
+        }
+        while (vp / 10 > vm / 10) {
+            round_up = vr % 10 >= 5;
+            vr /= 10;
+            vp /= 10;
+            vm /= 10;
+            removed++;
+        }
+        out = vr + (vr == vm || round_up);
     }
-    const int64_t above_mid = (int64_t)(vb - ((s + t) << 1));     /* the value against s + 1/2, in quarters */
-    *digits = above_mid < 0 || (above_mid == 0 && (s & 1) == 0) ? s : t;
+    *digits = out;
+    *exp10 = e10 + removed;
 }
 
 static const char PAIRS[201] =

@@ -2,7 +2,7 @@
 
 The reference turns every cell into a Python string (repr of a double costs ~0.6 us in CPython's own dtoa, plus
 the string and the join), ~5 MB of CSV a second; a table of 120 doubles over 200,000 rows took 40 s. The C
-formatter writes the same bytes (Python's repr of each double: shortest round-trip digits, Schubfach's method) at
+formatter writes the same bytes (Python's repr of each double: shortest round-trip digits, Ryu's method) at
 a few tens of ns a value (a column whose values are another's, an alias variable, copies that column's text),
 into one reused buffer, and runs without the GIL (ctypes lets go of it), so the
 supervisor's other work goes on meanwhile. It takes tables of numbers and Booleans; a table with a String or
@@ -38,30 +38,20 @@ ROOM_BYTES = 48             # past the last cell: a double's text is moved by fi
 CHUNK_CELLS = 1 << 16
 
 
-#: the scaling exponents k of doubles (csv_format.c's K_MIN, K_MAX): floor(q log10(2)) and, for the powers of
-#: two, floor(q log10(2) - log10(4/3)), over the binary exponents q of doubles (-1074 .. 971)
-K_MIN, K_MAX = -324, 292
-
-
-def _floor_log2_pow10(e: int) -> int:
-    """floor(log2(10^e)), exactly: 10^e is a power of two only for e = 0."""
-    return (10 ** e).bit_length() - 1 if e >= 0 else -(10 ** -e).bit_length()
-
-
-def power_of_ten_table() -> np.ndarray:
-    """Schubfach's g(k) for k = K_MIN .. K_MAX, exact (Python's integers): 10^-k scaled by a power of two into
-    [2^125, 2^126), rounded down, plus 1, as (low, high) 64-bit halves."""
+def _pow5_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Ryu's 128-bit powers of five, exact (Python's integers): 5^-i scaled up and rounded up to 125 bits past
+    its leading bit, and 5^i scaled to 125 bits, as (low, high) 64-bit halves."""
+    inv, pow5 = [], []
+    for i in range(342):
+        p = 5 ** i
+        inv.append((1 << (p.bit_length() - 1 + 125)) // p + 1)
+    for i in range(326):
+        p = 5 ** i
+        shift = p.bit_length() - 125
+        pow5.append(p >> shift if shift > 0 else p << -shift)
     mask = (1 << 64) - 1
-    out = np.empty((K_MAX - K_MIN + 1, 2), dtype=np.uint64)
-    for i, k in enumerate(range(K_MIN, K_MAX + 1)):
-        e = -k
-        shift = 125 - _floor_log2_pow10(e)          # 10^e * 2^shift is in [2^125, 2^126)
-        if e >= 0:
-            g = (10 ** e << shift if shift >= 0 else 10 ** e >> -shift) + 1
-        else:
-            g = (1 << shift) // 10 ** -e + 1
-        out[i] = (g & mask, g >> 64)
-    return out
+    halves = lambda vals: np.array([[v & mask, v >> 64] for v in vals], dtype=np.uint64)     # noqa: E731
+    return halves(inv), halves(pow5)
 
 
 @functools.cache
@@ -77,8 +67,8 @@ def library():
     lib.cm_csv_rows.restype = ctypes.c_int64
     lib.cm_csv_rows.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
                                 ctypes.c_int64, ctypes.c_void_p]
-    g = power_of_ten_table()
-    lib.cm_csv_tables(g.ctypes.data_as(ctypes.c_void_p))
+    inv, pow5 = _pow5_tables()
+    lib.cm_csv_tables(inv.ctypes.data_as(ctypes.c_void_p), pow5.ctypes.data_as(ctypes.c_void_p))
     return lib, None
 
 
