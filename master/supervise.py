@@ -666,8 +666,6 @@ class _Supervisor:
             # the rows are copied out of the shared block (block_table's one transposing copy) before the child is
             # told it may fill the block again; the sinks then write the copy while the child goes on
             rows = self.block[:msg[1]]
-            if min(rows.shape) < 2:     # one row or one column: its transpose is a view of the shared block
-                rows = rows.copy()
             try:
                 table = block_table(self.schema, rows, self.pending_str[:len(rows)])
             finally:        # the child waits for this word, also when the table could not be built

@@ -145,8 +145,10 @@ def block_table(schema: pa.Schema, block: np.ndarray, str_rows: list[list]) -> p
                      key=lambda k: NUMERIC_ORDER.index(kinds[k]))
     column_of = {k: col for col, k in enumerate(numeric, start=1)}
     # one transposing copy, after which each column is contiguous and Arrow wraps it without another: a column
-    # of the row-major block taken alone was a strided copy each (most of a wide table's cost here)
-    columns = np.ascontiguousarray(block.T)
+    # of the row-major block taken alone was a strided copy each (most of a wide table's cost here). Always a
+    # copy: the recording fills its block again, and the transpose of one row or one column is already contiguous
+    # (np.ascontiguousarray gave a view of the block, which a memory sink then kept)
+    columns = block.T.copy()
     arrays = [from_numpy(columns[0])]
     j = 0
     for k, kind in enumerate(kinds):

@@ -166,6 +166,34 @@ def native_chunks(block: pa.Table, scratch: Scratch | None = None):
     return rows_in_chunks(lib, block, scratch) if lib is not None else None
 
 
+def hard_doubles(rng: np.random.Generator, n: int, part: int = 0) -> dict[str, np.ndarray]:
+    """About ``n`` doubles in each of the groups where a shortest-digits method goes wrong if it does (the formatter
+    against repr: tests/master/sinks/test_csv_shortest.py a few million, bench/recording/check_shortest.py as many
+    as asked), by name: random bits (every exponent, subnormals, NaNs and infinities); every binary exponent with
+    mantissas at its ends (the powers of two, whose interval is narrower below); the smallest subnormals (few
+    digits of precision); exact ties (integers and halves up to 2^54 and beyond, where the digits after the last one
+    kept are exactly 5); short decimals at every decimal exponent (the rounded ends of the interval decide); and
+    values a simulation writes. ``part``: the smallest subnormals from the (part * n + 1)-th on."""
+    u64 = np.uint64
+    exps = np.arange(2047, dtype=u64) << u64(52)
+    ends = np.array([0, 1, 2, 3, (1 << 52) - 2, (1 << 52) - 1], dtype=u64)
+    per_exponent = max(1, n // 2047 - len(ends))
+    mids = rng.integers(0, 1 << 52, size=(2047, per_exponent), dtype=u64)
+    halves = rng.integers(1 << 40, 1 << 56, size=n, dtype=np.int64).astype(np.float64) / 2.0 ** rng.integers(0, 3, n)
+    digits = rng.integers(1, 10 ** rng.integers(1, 18, n), dtype=np.int64, endpoint=False)
+    decimals = np.array([float(f"{d}e{e}") for d, e in zip(digits[: n // 4].tolist(),
+                                                            rng.integers(-330, 300, n // 4).tolist())])
+    return {
+        "random bits": rng.integers(0, 2 ** 64, n, dtype=u64, endpoint=False).view(np.float64),
+        "every exponent, mantissas at its ends and between":
+            np.concatenate([(exps[:, None] | ends).ravel(), (exps[:, None] | mids).ravel()]).view(np.float64),
+        "smallest subnormals": np.arange(part * n + 1, (part + 1) * n + 1, dtype=u64).view(np.float64),
+        "integers and halves (ties)": np.concatenate([halves, -halves[: n // 8]]),
+        "short decimals": decimals,
+        "values a simulation writes": rng.uniform(-1e3, 1e3, n) * 10.0 ** rng.integers(-8, 20, n),
+    }
+
+
 class CsvFormat:
     """The C CSV formatter as an accelerator of ``format_rows``: both give the same text for tables of every
     numeric Arrow type, Booleans, and doubles of every kind (random bits, so subnormals, NaNs and infinities;

@@ -66,10 +66,10 @@ class SinkGroup:
     def open(self, schema) -> None:
         self.schema = schema
         self._closed = False
-        self.open_sinks = [s for s in self.sinks if self.out_dir is not None or not s.needs_folder]
+        wanted = [s for s in self.sinks if self.out_dir is not None or not s.needs_folder]
         # the reserve is given back before anything but the sinks writes into the folder: without a sink writing
         # there (a campaign run's rows kept in memory) it would only cost creating and removing a 4 MB file
-        if self.out_dir is not None and any(s.needs_folder for s in self.open_sinks):
+        if self.out_dir is not None and any(s.needs_folder for s in wanted):
             self._reserve = self.out_dir / RESERVE_NAME
             try:
                 with open(self._reserve, "wb") as fh:
@@ -77,21 +77,36 @@ class SinkGroup:
                     os.posix_fallocate(fh.fileno(), 0, RESERVE_BYTES)
             except (OSError, AttributeError):
                 self._release_reserve()     # no room even for the reserve: the first block will tell
-        for k, s in enumerate(self.open_sinks):
+        failed = self._open_each(wanted, schema)
+        if failed is not None and self._reserve is not None and failed[1].errno in NO_ROOM:
+            # the reserve took the room that the files' first bytes need (a disk with a little more than
+            # RESERVE_BYTES free): without it, as when it cannot be had at all, the first block will tell
+            self._release_reserve()
+            failed = self._open_each(wanted, schema)
+        if failed is not None:      # a disk full before the first row: no result file, one line
+            s, exc = failed
+            self._release_reserve()
+            where = exc.filename or ", ".join(str(f) for f in s.files()) or str(self.out_dir)
+            self.failure = write_failure(exc, where)
+            raise CosimError(self.failure, element="results") from None
+
+    def _open_each(self, sinks: list, schema):
+        """Opens every sink of ``sinks`` (then ``open_sinks``); returns None, or (the sink whose open failed, its
+        OSError) with every sink tried closed, its files removed and ``open_sinks`` empty."""
+        self.open_sinks = sinks
+        for k, s in enumerate(sinks):
             try:
                 s.open(self.out_dir, schema)
-            except OSError as exc:      # a disk full before the first row: no result file, one line
-                tried, self.open_sinks = self.open_sinks[:k + 1], []
-                for t in tried:
+            except OSError as exc:
+                self.open_sinks = []
+                for t in sinks[:k + 1]:
                     with contextlib.suppress(Exception):
                         t.close()
                     for f in t.files():
                         with contextlib.suppress(OSError):
                             f.unlink()
-                self._release_reserve()
-                where = exc.filename or ", ".join(str(f) for f in s.files()) or str(self.out_dir)
-                self.failure = write_failure(exc, where)
-                raise CosimError(self.failure, element="results") from None
+                return s, exc
+        return None
 
     @property
     def defers(self) -> bool:

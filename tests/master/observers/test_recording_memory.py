@@ -7,6 +7,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import master.observers.recording as recording
+import master.sinks.parquet as parquet
 from master.observers.recording import BLOCK_BYTES, MAX_BLOCK_ROWS, MIN_BLOCK_ROWS, block_rows_for
 from master.results import read_parquet_frame, read_results
 from master.runner import run
@@ -44,6 +45,7 @@ def test_row_groups_within_the_budget_and_results_unchanged(tmp_path, test_fmus,
     assert len(cols) == 7
     budget = 8 * len(cols) * 40            # 40 rows of 7 doubles
     monkeypatch.setattr(recording, "BLOCK_BYTES", budget)
+    monkeypatch.setattr(parquet, "ROW_GROUP_BYTES", budget)     # the Parquet sink's row groups: the same budget
     go(ssp, output=tmp_path / "small")
     meta = pq.ParquetFile(tmp_path / "small" / "results.parquet").metadata
     sizes = [meta.row_group(g).num_rows for g in range(meta.num_row_groups)]

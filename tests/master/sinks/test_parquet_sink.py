@@ -7,6 +7,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from master.sinks import parquet
 from master.sinks.parquet import ParquetSink
 
 
@@ -25,7 +26,8 @@ def _written(tmp_path, table, cut):
     return tmp_path / "results.parquet"
 
 
-def test_encodings_by_column_type(tmp_path):
+def test_encodings_by_column_type(tmp_path, monkeypatch):
+    monkeypatch.setattr(parquet, "ROW_GROUP_BYTES", 1)        # a row group per block: the encodings of each
     rng = np.random.default_rng(3)
     table = pa.table({"time": np.arange(500) * 0.1, "m.x": rng.standard_normal(500),
                       "m.f": pa.array(rng.standard_normal(500), pa.float32()),
@@ -62,3 +64,60 @@ def test_doubles_read_back_bit_for_bit(tmp_path):
         got = back.column(name).to_numpy()
         assert got.dtype == want.dtype
         assert got.view(f"u{want.itemsize}").tobytes() == want.view(f"u{want.itemsize}").tobytes(), name
+
+
+def _blocks(n, rows=100):
+    """n blocks of ``rows`` rows of two doubles (1600 bytes of cells each at 100 rows), times continuing."""
+    return [pa.table({"time": (np.arange(rows) + k * rows) * 0.5, "m.x": np.sin(np.arange(rows) + k * rows)})
+            for k in range(n)]
+
+
+def _row_groups(path):
+    meta = pq.ParquetFile(path).metadata
+    return [meta.row_group(g).num_rows for g in range(meta.num_row_groups)]
+
+
+def test_row_groups_gather_blocks_while_one_more_fits_the_budget(tmp_path, monkeypatch):
+    blocks = _blocks(10)
+    assert blocks[0].nbytes == 1600
+    for budget, want in ((5000, [300, 300, 300, 100]),     # 3 x 1600 + 1600 > 5000: a group of three blocks
+                         (6400, [400, 400, 200]),           # 4 x 1600 + 1600 > 6400
+                         (3199, [100] * 10)):               # a block of half the budget or more: each alone
+        monkeypatch.setattr(parquet, "ROW_GROUP_BYTES", budget)
+        out = tmp_path / str(budget)
+        out.mkdir()
+        sink = ParquetSink()
+        sink.open(out, blocks[0].schema)
+        for b in blocks:
+            sink.write(b)
+        sink.close()
+        assert _row_groups(out / "results.parquet") == want, budget
+        assert pq.read_table(out / "results.parquet").equals(pa.concat_tables(blocks))
+
+
+def test_a_held_block_rolled_back_is_let_go_and_the_file_stays_whole(tmp_path, monkeypatch):
+    monkeypatch.setattr(parquet, "ROW_GROUP_BYTES", 5000)
+    b = _blocks(4)
+    sink = ParquetSink()
+    sink.open(tmp_path, b[0].schema)
+    sink.write(b[0])
+    mark = sink.mark()
+    sink.write(b[1])            # held, not in the file yet: another sink's write failed, the group rolls back
+    sink.rollback(mark)
+    assert not sink.broken
+    sink.write(b[2])
+    sink.close()
+    assert pq.read_table(tmp_path / "results.parquet").equals(pa.concat_tables([b[0], b[2]]))
+
+
+def test_a_row_group_begun_since_the_mark_cannot_be_rolled_back(tmp_path, monkeypatch):
+    monkeypatch.setattr(parquet, "ROW_GROUP_BYTES", 5000)
+    b = _blocks(3)
+    sink = ParquetSink()
+    sink.open(tmp_path, b[0].schema)
+    sink.write(b[0])
+    sink.write(b[1])
+    mark = sink.mark()
+    sink.write(b[2])            # the third block begins a row group: in the file
+    sink.rollback(mark)
+    assert sink.broken          # SinkGroup rebuilds it from the CSV at close (repair)
