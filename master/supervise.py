@@ -745,7 +745,7 @@ class _Supervisor:
     # the run --------------------------------------------------------------------------------------------
     def run(self) -> dict:
         parent, child = _channel_pair()
-        options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
+        options = self.options.as_dict()
         unpack_dir = scratch.make(SCRATCH_PREFIX)
         proc = _ForkedChild(_child, (child, parent, os.getpid(), self.scenario, options, unpack_dir))
         previous = {}
