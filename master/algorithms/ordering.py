@@ -4,15 +4,20 @@ Everything here is deterministic: ties are broken by the components' order of de
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 from ..plan import Plan
 
 
-@dataclass
 class StepOrder:
-    order: list[int]                              # component indices in stepping order
-    broken: list[tuple[str, str]] = field(default_factory=list)   # connections that read a value of the previous step
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, order: list[int], broken: list[tuple[str, str]] | None = None):
+        self.order = order                                      # component indices in stepping order
+        self.broken = [] if broken is None else broken          # connections that read a value of the previous step
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
+
+    def __eq__(self, other):
+        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
 
 def _sccs(n: int, succ: list[set[int]]) -> list[list[int]]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ScenarioError
@@ -53,15 +53,20 @@ class Link:
     line: int | None = None
 
 
-@dataclass
 class Plan:
-    model: SystemModel
-    shown_as: str
-    fmus: dict[str, LoadedFmu]
-    links: list[Link]
-    params: list[tuple[Var, object, str]]
-    feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
-    variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, model: SystemModel, shown_as: str, fmus: dict[str, LoadedFmu], links: list[Link],
+                 params: list[tuple[Var, object, str]], feedthrough: dict[str, dict[str, set | None]],
+                 variables: dict[str, dict[str, Var]] | None = None):
+        self.model, self.shown_as, self.fmus, self.links, self.params = model, shown_as, fmus, links, params
+        self.feedthrough = feedthrough      # component -> output -> inputs it depends on (None: all)
+        self.variables = {} if variables is None else variables
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
+
+    def __eq__(self, other):
+        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
     def elements(self, v: Var) -> list[Var]:
         """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""

@@ -4,7 +4,7 @@ same system against the same FMUs run after run, with other parameter values.  W
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..errors import CosimError
 from ..fmi.cache import load_fmu
@@ -12,10 +12,10 @@ from ..ssp.model import CSV_SOURCE_TYPE, SystemModel
 from .model import shown_source
 
 
-@dataclass(frozen=True)
-class _PlanStructure:
+class _PlanStructure(NamedTuple):
     """The value-free part of a plan (``build._plan_structure``) kept for later runs of the same structure and FMUs;
-    never handed out itself: each run gets its own links, dependency sets and dictionaries."""
+    never handed out itself: each run gets its own links, dependency sets and dictionaries. A named tuple, not a
+    frozen dataclass (``execution.Options`` says why)."""
     kinds: dict             # component -> the FMI kind it runs as
     variables: dict         # component -> ComponentVariables (read-only mappings of frozen Vars)
     feedthrough: dict
