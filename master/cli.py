@@ -318,9 +318,25 @@ def _show_warnings():
     """The engine's warnings (logger 'cosim_master') as 'cosim-master: warning: ...' lines on stderr, until the
     returned function puts the logger back: ``main`` may be called again in one process (a notebook, a test), and
     a handler left behind would write to the stderr of an earlier call and keep the warnings from the caller's
-    own logging."""
+    own logging. The line format is installed when the logger is first used (``master.log``): a run that warns
+    of nothing does not import logging."""
+    from . import log
+    restores = []
+
+    def install(logger):
+        restores.append(_warning_lines(logger))
+    log.when_first_used(install)
+
+    def restore():
+        log.forget(install)
+        for undo in restores:
+            undo()
+    return restore
+
+
+def _warning_lines(log):
+    """Installs the warning lines on the logger ``log``; returns what puts it back."""
     import logging
-    log = logging.getLogger("cosim_master")
     if log.handlers:        # the caller set up the engine's logging: it stays theirs
         return lambda: None
     handler = logging.StreamHandler(sys.stderr)

@@ -17,7 +17,6 @@ was recorded. ``with Execution(...) as ex:`` closes on leaving. Time is counted 
 """
 from __future__ import annotations
 
-import logging
 import os
 import platform
 import sys
@@ -36,6 +35,7 @@ from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
 from .fmi.ode_solvers import SolverChoice
 from .live import check_options, open_streams, requested
+from .log import warning
 from .monitors import monitors_for
 from .observers.base import ObserverContext
 from .observers.pacing import Pacer
@@ -261,7 +261,7 @@ class Execution:
         self.solver = SolverChoice(o.solver, o.solver_step)
         self.solver.check()
         if st.steps > LONG_RUN_STEPS:
-            logging.getLogger("cosim_master").warning(
+            warning(
                 "%s steps of %g s from %g to %g s: this run may take very long (Ctrl-C keeps what it recorded)",
                 f"{st.steps:,}", st.step, st.start, st.stop)
         meta.update({"algorithm": st.algorithm, "step_size": st.step, "step_size_source": st.step_source,

@@ -5,7 +5,6 @@ extraction; every instance of the same FMU shares it.
 """
 from __future__ import annotations
 
-import logging
 import os
 import shutil
 import tempfile
@@ -15,6 +14,7 @@ from pathlib import Path
 
 from ..cache_paths import ValidationRecord, cache_root, file_sha256
 from ..errors import FmuError
+from ..log import warning
 
 #: the kind of a table component (fmi/table.py), in place of an FMU's "CoSimulation" / "ModelExchange"
 CSV_KIND = "CsvSource"
@@ -35,7 +35,6 @@ class LoadedFmu:
 
 _by_stat: dict[tuple, str] = {}
 _by_hash: dict[tuple[str, bool], LoadedFmu] = {}     # (SHA-256, lenient) -> the FMU read that way
-_log = logging.getLogger("cosim_master")
 
 
 def _extract(path: Path, sha: str, shown_as: str) -> Path:
@@ -103,13 +102,13 @@ def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
         return md
     if not lenient:
         raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as)
-    _log.warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
+    warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
     try:
         md = read_model_description(str(unzip_dir), validate=False)
     except Exception as exc:
         raise FmuError(f"unreadable modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
     for problem in _usability_problems(md):
-        _log.warning("%s: %s", shown_as, problem)
+        warning("%s: %s", shown_as, problem)
     return md
 
 

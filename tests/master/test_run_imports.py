@@ -22,7 +22,7 @@ def note_subprocesses_and_imports(event, args):
     elif event == "import" and os.getpid() != parent:
         os.write(2, f"child imports {{args[0]}} {{'pyarrow' in sys.modules}}\\n".encode())   # one line, whole
 sys.addaudithook(note_subprocesses_and_imports)
-os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
+os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'logging', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
 from master.cli import main
 for extra in ([], ["--no-supervise"]):
     code = main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
@@ -44,7 +44,8 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     assert not {"pandas", "pyarrow.compute", "importlib.metadata", "uavstudy", "master.ssp.writer"} & imported
     assert not {"master.fmi.table", "master.fmi.inprocess"} & imported
     # the supervisor forks its child and talks to it over pipes itself (~4 ms of multiprocessing and socket before
-    # the fork); json is run.json's, written by the supervisor after the fork
+    # the fork); json is run.json's, written by the supervisor after the fork; logging is imported by the first
+    # warning (master.log), and this run has none
     assert "multiprocessing" not in imported
     forks = [line for line in proc.stderr.splitlines() if line.startswith("forks with ")]
     assert forks[0] == "forks with []", forks
@@ -58,6 +59,7 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     child_imports = [line.split()[2:] for line in proc.stderr.splitlines() if line.startswith("child imports ")]
     assert ["fmpy", "False"] in child_imports       # fmpy is the child's own import (not made before the fork)
     assert not [m for m, loaded in child_imports if loaded == "True" or m.startswith("master.sinks.")]
+    assert "logging" not in [m for m, _ in child_imports]
     for out in ("out", "out--no-supervise"):
         assert json.loads((tmp_path / out / "run.json").read_text())["platform"] == platform.platform()
 
