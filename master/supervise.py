@@ -623,7 +623,7 @@ def _prepare_while_the_child_starts() -> None:
     platform_name()
     _sweep_left_blocks()
     _sweep_left_scratch()
-    import concurrent.futures  # noqa: F401
+    import concurrent.futures.thread  # noqa: F401 - the pool's module, imported when the pool is first made
     try:
         import pyarrow.parquet  # noqa: F401
     except ImportError:     # the sink that needs it says so when it opens
