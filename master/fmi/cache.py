@@ -9,7 +9,6 @@ import os
 import shutil
 import tempfile
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..cache_paths import ValidationRecord, cache_root, file_sha256
@@ -20,13 +19,22 @@ from ..log import warning
 CSV_KIND = "CsvSource"
 
 
-@dataclass
 class LoadedFmu:
-    path: Path
-    sha256: str
-    unzip_dir: Path
-    md: object              # fmpy ModelDescription
-    kind: str | None = None  # the FMI kind a component runs it as (set per component by plan.build_plan)
+    """An FMU read and unpacked. A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, path: Path, sha256: str, unzip_dir: Path, md, kind: str | None = None):
+        self.path, self.sha256, self.unzip_dir = path, sha256, unzip_dir
+        self.md = md                # fmpy ModelDescription
+        self.kind = kind            # the FMI kind a component runs it as (set per component by plan.build_plan)
+
+    def as_kind(self, kind: str | None) -> "LoadedFmu":
+        """The same FMU, run as ``kind``."""
+        return LoadedFmu(self.path, self.sha256, self.unzip_dir, self.md, kind)
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
+
+    def __eq__(self, other):
+        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
     @property
     def fmi_version(self) -> str:

@@ -43,14 +43,21 @@ def element_names(name: str, shape: tuple) -> list[str]:
     return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
 
 
-@dataclass
 class Link:
-    src: Var
-    dst: Var
-    factor: float = 1.0
-    offset: float = 0.0
-    mapping: dict | None = None
-    line: int | None = None
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, src: Var, dst: Var, factor: float = 1.0, offset: float = 0.0, mapping: dict | None = None,
+                 line: int | None = None):
+        self.src, self.dst, self.factor, self.offset, self.mapping, self.line = src, dst, factor, offset, mapping, line
+
+    def between(self, src: Var, dst: Var) -> "Link":
+        """The same link (conversion, line) between ``src`` and ``dst``."""
+        return Link(src, dst, self.factor, self.offset, self.mapping, self.line)
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
+
+    def __eq__(self, other):
+        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
 
 class Plan:

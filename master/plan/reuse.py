@@ -3,7 +3,6 @@ same system against the same FMUs run after run, with other parameter values.  W
 (:func:`plan_key`) and how a run gets its own copy of it (:meth:`_PlanStructure.for_run`)."""
 from __future__ import annotations
 
-import dataclasses
 from typing import NamedTuple
 
 from ..errors import CosimError
@@ -24,7 +23,7 @@ class _PlanStructure(NamedTuple):
 
     def for_run(self, model: SystemModel, loaded: dict):
         """The run's own plan parts, with its FMUs (``loaded``: by file, as plan_key loaded them)."""
-        fmus = {name: dataclasses.replace(loaded[comp.fmu_path], kind=self.kinds[name])
+        fmus = {name: loaded[comp.fmu_path].as_kind(self.kinds[name])
                 for name, comp in model.components.items()}
         return fmus, dict(self.variables), _copied_feedthrough(self.feedthrough), dict(self.units), \
             [_clone(ln) for ln in self.links]

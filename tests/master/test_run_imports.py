@@ -65,12 +65,11 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
 
 
 #: the dataclasses a run of one FMU still defines. Python 3.11 compiles each generated method of a dataclass from
-#: source with its own ``exec`` in every process (~2.7 M instructions a class on this run path, ~0.4 % of a short
-#: run's start-up each); the run path's other records are plain classes or named tuples. These remain: Var, Link
-#: and LoadedFmu are rebuilt with ``dataclasses.replace`` where a plan is made and reused; the SSP model's are
-#: master/ssp's own.
+#: source with its own ``exec`` in every process (~3 M instructions a class, ~0.4 % of a short run's start-up
+#: each); the run path's other records are plain classes or named tuples. These remain: Var, frozen and rebuilt
+#: with ``dataclasses.replace`` where a plan is made; the SSP model's are master/ssp's own.
 RUN_PATH_DATACLASSES = {
-    "master.fmi.cache.LoadedFmu", "master.plan.model.Link", "master.plan.model.Var",
+    "master.plan.model.Var",
     "master.ssp.archive.MemoryArchive", "master.ssp.archive.ScenarioSource", "master.ssp.archive._Written",
     "master.ssp.model.Component", "master.ssp.model.Connection", "master.ssp.model.Connector",
     "master.ssp.model.MasterSettings", "master.ssp.model.ParameterValue", "master.ssp.model.SystemModel",
