@@ -1,6 +1,6 @@
 """The engine's warnings, on the logger ``cosim_master``: ``warning(...)`` imports ``logging`` when a warning is
 given. A run that warns of nothing, most runs, never imports it: with the ``string`` and ``traceback`` modules it
-brings that was ~13 M instructions (~2 %) of a short run's start-up, paid in the simulation process.
+brings that was ~12 M instructions (~1.7 %) of a short run's start-up, paid in the simulation process.
 
 ``when_first_used(setup)``: ``setup(logger)`` is called when the logger is first needed in this process, or at once
 if ``logging`` is already imported (its user may have set it up); the command line installs its line format so. Code
