@@ -68,8 +68,8 @@ LONG_RUN_STEPS = 10**8        # beyond this a run is likely a typo (--step 1e-12
 class Options:
     """What a run can be told (the keyword arguments of ``run`` and ``Execution``): the names annotated below, each
     with its default. A plain class, not a dataclass: Python 3.11 compiles a dataclass's methods from source in
-    every process (an ``exec`` each); with the run path's other records made plain this took 38 M instructions
-    (~5 %) off a short run's start-up (bench/results/startup_2026-11-29b.md)."""
+    every process (an ``exec`` each); with the run path's other records made plain this took 43 M instructions
+    (~6 %) off a short run's start-up (bench/results/startup_2026-11-29b.md)."""
     stop_time: float | None = None
     start_time: float | None = None
     step: float | None = None
