@@ -5,21 +5,16 @@ from pathlib import Path
 
 from .errors import CosimError, Terminated
 from .execution import Execution
+from .records import Record
 
 
-class Result:
+class Result(Record):
     """What ``run`` returns: the output folder (None: kept in memory), run.json's facts and the events. A plain
     class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, output_dir: Path | None, metadata: dict, events: list | None = None, _table=None):
         self.output_dir, self.metadata = output_dir, metadata
         self.events = [] if events is None else events
         self._table = _table
-
-    def __repr__(self):
-        return f"Result({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
     @property
     def ok(self) -> bool:

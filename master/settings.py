@@ -9,12 +9,13 @@ import math
 
 from .algorithms import ALGORITHMS
 from .errors import CosimError, ScenarioError
+from .records import Record
 
 #: without any step size given, a run takes this many steps (fmpy's default output interval is the same)
 DEFAULT_STEPS = 500
 
 
-class Settings:
+class Settings(Record):
     """The resolved settings of a run. A plain class, not a dataclass: Python 3.11 compiles a dataclass's methods
     from source in every process, a cost every run's start-up paid (``execution.Options`` says more)."""
     def __init__(self, start: float, stop: float, step: float, steps: int, algorithm: str, record_every: int,
@@ -33,12 +34,6 @@ class Settings:
         #: ``length`` long, so that it ends at the stop time (``final_macro_steps``: only where k h would not end
         #: there)
         self.final_steps = {} if final_steps is None else final_steps
-
-    def __repr__(self):
-        return f"Settings({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
 
 def _fmu_default(fmus, attr: str):

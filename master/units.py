@@ -1,21 +1,17 @@
 """Unit conversion between connectors, from SSD ssc:Unit definitions or the FMUs' UnitDefinitions."""
 from __future__ import annotations
 
+from .records import Record
+
 BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 
 
-class Unit:
+class Unit(Record):
     """A unit as SSP (ssc:Unit) and FMI (UnitDefinitions) define it: SI value = factor * value + offset. A plain
     class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, name: str, factor: float = 1.0, offset: float = 0.0,
                  exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)):     # kg m s A K mol cd rad
         self.name, self.factor, self.offset, self.exponents = name, factor, offset, exponents
-
-    def __repr__(self):
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
 
 def unit_from_fmu(fmu_unit) -> Unit:

@@ -5,19 +5,14 @@ Everything here is deterministic: ties are broken by the components' order of de
 from __future__ import annotations
 
 from ..plan import Plan
+from ..records import Record
 
 
-class StepOrder:
+class StepOrder(Record):
     """A plain class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, order: list[int], broken: list[tuple[str, str]] | None = None):
         self.order = order                                      # component indices in stepping order
         self.broken = [] if broken is None else broken          # connections that read a value of the previous step
-
-    def __repr__(self):
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
 
 def _sccs(n: int, succ: list[set[int]]) -> list[list[int]]:

@@ -14,12 +14,13 @@ from pathlib import Path
 from ..cache_paths import ValidationRecord, cache_root, file_sha256
 from ..errors import FmuError
 from ..log import warning
+from ..records import Record
 
 #: the kind of a table component (fmi/table.py), in place of an FMU's "CoSimulation" / "ModelExchange"
 CSV_KIND = "CsvSource"
 
 
-class LoadedFmu:
+class LoadedFmu(Record):
     """An FMU read and unpacked. A plain class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, path: Path, sha256: str, unzip_dir: Path, md, kind: str | None = None):
         self.path, self.sha256, self.unzip_dir = path, sha256, unzip_dir
@@ -29,12 +30,6 @@ class LoadedFmu:
     def as_kind(self, kind: str | None) -> "LoadedFmu":
         """The same FMU, run as ``kind``."""
         return LoadedFmu(self.path, self.sha256, self.unzip_dir, self.md, kind)
-
-    def __repr__(self):
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
     @property
     def fmi_version(self) -> str:

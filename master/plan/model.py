@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..errors import ScenarioError
 from ..fmi.cache import LoadedFmu
+from ..records import Record
 from ..ssp.model import SystemModel
 
 
@@ -43,7 +44,7 @@ def element_names(name: str, shape: tuple) -> list[str]:
     return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
 
 
-class Link:
+class Link(Record):
     """A plain class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, src: Var, dst: Var, factor: float = 1.0, offset: float = 0.0, mapping: dict | None = None,
                  line: int | None = None):
@@ -53,14 +54,8 @@ class Link:
         """The same link (conversion, line) between ``src`` and ``dst``."""
         return Link(src, dst, self.factor, self.offset, self.mapping, self.line)
 
-    def __repr__(self):
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
 
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
-
-
-class Plan:
+class Plan(Record):
     """A plain class, not a dataclass (``execution.Options`` says why)."""
     def __init__(self, model: SystemModel, shown_as: str, fmus: dict[str, LoadedFmu], links: list[Link],
                  params: list[tuple[Var, object, str]], feedthrough: dict[str, dict[str, set | None]],
@@ -68,12 +63,6 @@ class Plan:
         self.model, self.shown_as, self.fmus, self.links, self.params = model, shown_as, fmus, links, params
         self.feedthrough = feedthrough      # component -> output -> inputs it depends on (None: all)
         self.variables = {} if variables is None else variables
-
-    def __repr__(self):
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in vars(self).items())})"
-
-    def __eq__(self, other):
-        return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
 
     def elements(self, v: Var) -> list[Var]:
         """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""
