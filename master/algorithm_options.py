@@ -11,13 +11,14 @@ came from (``settings_sources``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from .errors import CosimError
 
 
-@dataclass(frozen=True)
-class AlgorithmOption:
+class AlgorithmOption(NamedTuple):
+    """One setting. A named tuple, immutable as the frozen dataclass it was, not a dataclass
+    (``execution.Options`` says why)."""
     name: str                   # Options field, campaign key
     kind: str                   # "int", "float", "choice"
     default: object             # None: derived (see help)

@@ -87,15 +87,13 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 class _CommandParser(_OneLineParser):
-    """One command's parser. Only the command given is built whole: the others' ~100 arguments (a tenth of a short
-    run's start-up) are taken as read; each keeps its help line for ``cosim-master --help``."""
-    def __init__(self, *args, built: bool = True, **kwargs):
-        self.built = True           # its -h
-        super().__init__(*args, **kwargs)
-        self.built = built
+    """One command's parser."""
 
+
+class _NotBuilt:
+    """Stands for the parser of a command not given (``_parser``): its arguments are taken as read."""
     def add_argument(self, *args, **kwargs):
-        return super().add_argument(*args, **kwargs) if self.built else None
+        return None
 
 
 def _command_in(argv) -> str | None:
@@ -105,12 +103,25 @@ def _command_in(argv) -> str | None:
     return words[0] if words and words[0] in COMMANDS else None
 
 
+def _built_for(argv) -> str | None:
+    """The command whose parser alone ``argv`` needs (``_parser``): the one it names, unless the program's own help
+    comes before it (``cosim-master -h run`` lists every command)."""
+    command = _command_in(argv)
+    args = sys.argv[1:] if argv is None else argv
+    if command is not None and {"-h", "--help"} & set(args[:args.index(command)]):
+        return None
+    return command
+
+
 #: every command of the program, in the order --help lists them
 COMMANDS = ("run", "inspect", "campaign", "report", "study", "stability", "build-scenario", "replay")
 
 
 def _parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The program's parser; ``command``: only that command's arguments are built (None: all)."""
+    """The program's parser; ``command``: only that command is built, the others are not there (None: all). The
+    others' parsers and ~100 arguments were ~5 M instructions (~1 %) of a short run's start-up; a command given
+    parses, helps and refuses as with every command built, and the program's own help, which lists them all,
+    builds them all (``_built_for``)."""
     # imported here, not with the module: they import NumPy, and entry() must be able to take a Ctrl-C first
     from .algorithms import ALGORITHMS
     from .fmi.ode_solvers import SOLVERS
@@ -119,7 +130,7 @@ def _parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_CommandParser)
 
     def add(name: str, **kwargs) -> _CommandParser:
-        return sub.add_parser(name, built=command in (None, name), **kwargs)
+        return sub.add_parser(name, **kwargs) if command in (None, name) else _NotBuilt()
 
     r = add("run", help="run a scenario (.ssp, SSP folder, .ssd or a bare .fmu)",
                        description="Run a scenario from its start to its stop time and write its results (Parquet, "
@@ -318,9 +329,25 @@ def _show_warnings():
     """The engine's warnings (logger 'cosim_master') as 'cosim-master: warning: ...' lines on stderr, until the
     returned function puts the logger back: ``main`` may be called again in one process (a notebook, a test), and
     a handler left behind would write to the stderr of an earlier call and keep the warnings from the caller's
-    own logging."""
+    own logging. The line format is installed when the logger is first used (``master.log``): a run that warns
+    of nothing does not import logging."""
+    from . import log
+    restores = []
+
+    def install(logger):
+        restores.append(_warning_lines(logger))
+    log.when_first_used(install)
+
+    def restore():
+        log.forget(install)
+        for undo in restores:
+            undo()
+    return restore
+
+
+def _warning_lines(log):
+    """Installs the warning lines on the logger ``log``; returns what puts it back."""
     import logging
-    log = logging.getLogger("cosim_master")
     if log.handlers:        # the caller set up the engine's logging: it stays theirs
         return lambda: None
     handler = logging.StreamHandler(sys.stderr)
@@ -406,7 +433,7 @@ def _exit_now(code: int) -> None:
 def main(argv=None, *, own_process: bool = False) -> int:
     """The command line ``argv``; ``own_process``: this process is the command's alone (``entry``), see
     ``_import_command``."""
-    args = _parser(_command_in(argv)).parse_args(argv)
+    args = _parser(_built_for(argv)).parse_args(argv)
     restore_logging = _show_warnings()
     try:
         _import_command(args.command, own_process)

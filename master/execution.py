@@ -17,12 +17,10 @@ was recorded. ``with Execution(...) as ex:`` closes on leaving. Time is counted 
 """
 from __future__ import annotations
 
-import logging
 import os
 import platform
 import sys
 import time as _time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +35,7 @@ from .errors import CosimError, ScenarioError
 from .fmi.logsink import LogSink
 from .fmi.ode_solvers import SolverChoice
 from .live import check_options, open_streams, requested
+from .log import warning
 from .monitors import monitors_for
 from .observers.base import ObserverContext
 from .observers.pacing import Pacer
@@ -66,9 +65,11 @@ def platform_name() -> str | None:
 LONG_RUN_STEPS = 10**8        # beyond this a run is likely a typo (--step 1e-12, --stop-time 1e12): say so
 
 
-@dataclass
 class Options:
-    """What a run can be told (the keyword arguments of ``run`` and ``Execution``)."""
+    """What a run can be told (the keyword arguments of ``run`` and ``Execution``): the names annotated below, each
+    with its default. A plain class, not a dataclass: Python 3.11 compiles a dataclass's methods from source in
+    every process (an ``exec`` each); with the run path's other records made plain this took 43 M instructions
+    (~6 %) off a short run's start-up (bench/results/startup_2026-11-29b.md)."""
     stop_time: float | None = None
     start_time: float | None = None
     step: float | None = None
@@ -120,16 +121,33 @@ class Options:
     reuse_structure: bool = False                     # a system this process has read before is read and planned
                                                       # again for its values only (campaign workers)
 
+    def __init__(self, **options):
+        names = Options.__annotations__
+        for name, value in options.items():
+            if name not in names:
+                raise TypeError(f"Options.__init__() got an unexpected keyword argument {name!r}")
+            setattr(self, name, value)
 
-@dataclass
+    def as_dict(self) -> dict:
+        """Every option by name, given or default."""
+        return {name: getattr(self, name) for name in Options.__annotations__}
+
+    def __repr__(self):
+        return f"Options({', '.join(f'{k}={v!r}' for k, v in self.as_dict().items())})"
+
+    def __eq__(self, other):
+        return self.as_dict() == other.as_dict() if other.__class__ is self.__class__ else NotImplemented
+
+
 class Prepared:
     """A scenario resolved against its FMUs and the options, before anything is instantiated (shared by
     ``Execution.setup`` and ``inspect``)."""
-    shown_as: str
-    source: object             # ssp.archive.ScenarioSource (close it when done)
-    model: object              # ssp.model.SystemModel
-    plan: object               # plan.Plan
-    user_params: dict
+    def __init__(self, shown_as: str, source, model, plan, user_params: dict):
+        self.shown_as = shown_as
+        self.source = source            # ssp.archive.ScenarioSource (close it when done)
+        self.model = model              # ssp.model.SystemModel
+        self.plan = plan                # plan.Plan
+        self.user_params = user_params
 
 
 def prepare(scenario, *, params: dict | None = None, seed: int | None = None, allow_nonfinite: bool = False,
@@ -172,11 +190,10 @@ def _seed_params(plan_vars, seed) -> dict:
     return out
 
 
-@dataclass
 class ExecutionState:
     """A saved point of an execution (``save_state``): the steps done, every FMU's state and the buffers."""
-    n: int
-    point: SavedPoint
+    def __init__(self, n: int, point: SavedPoint):
+        self.n, self.point = n, point
 
 
 class Execution:
@@ -245,7 +262,7 @@ class Execution:
         self.solver = SolverChoice(o.solver, o.solver_step)
         self.solver.check()
         if st.steps > LONG_RUN_STEPS:
-            logging.getLogger("cosim_master").warning(
+            warning(
                 "%s steps of %g s from %g to %g s: this run may take very long (Ctrl-C keeps what it recorded)",
                 f"{st.steps:,}", st.step, st.start, st.stop)
         meta.update({"algorithm": st.algorithm, "step_size": st.step, "step_size_source": st.step_source,

@@ -67,6 +67,9 @@ def stream_for(name: str) -> LiveStream:
 
 def open_streams(options, monitors, plan, settings) -> LiveParts:
     observers, manipulators = [], []
+    if requested(options):
+        from .log import logger
+        logger()        # a stream's module logs to the engine's logger itself: set up as asked (master.log)
     for name, urls in requested(options).items():
         parts = stream_for(name).open(urls, monitors=monitors, plan=plan, settings=settings, options=options)
         observers += parts.observers

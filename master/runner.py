@@ -1,19 +1,20 @@
 """``run``: a whole run in one call, a thin function over :class:`master.execution.Execution`."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import CosimError, Terminated
 from .execution import Execution
+from .records import Record
 
 
-@dataclass
-class Result:
-    output_dir: Path | None
-    metadata: dict
-    events: list = field(default_factory=list)
-    _table: object = None
+class Result(Record):
+    """What ``run`` returns: the output folder (None: kept in memory), run.json's facts and the events. A plain
+    class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, output_dir: Path | None, metadata: dict, events: list | None = None, _table=None):
+        self.output_dir, self.metadata = output_dir, metadata
+        self.events = [] if events is None else events
+        self._table = _table
 
     @property
     def ok(self) -> bool:

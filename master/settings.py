@@ -6,31 +6,34 @@ the settings sits above the algorithms (it names one), reading an SSD below them
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 from .algorithms import ALGORITHMS
 from .errors import CosimError, ScenarioError
+from .records import Record
 
 #: without any step size given, a run takes this many steps (fmpy's default output interval is the same)
 DEFAULT_STEPS = 500
 
 
-@dataclass
-class Settings:
-    start: float
-    stop: float
-    step: float
-    steps: int                  # master steps, the last one possibly shorter (``last_step``)
-    algorithm: str
-    record_every: int
-    step_multiples: dict
-    step_source: str
-    last_step: float | None = None       # the length of a shorter final step, when the interval is not whole
-    tolerance: float | None = None       # given to every FMU; None: each FMU's own default experiment tolerance
-    sources: dict = field(default_factory=dict)   # setting -> where it came from
-    #: component on a step multiple -> (n0, length): its last macro step starts at master step n0 and is ``length``
-    #: long, so that it ends at the stop time (``final_macro_steps``: only where k h would not end there)
-    final_steps: dict = field(default_factory=dict)
+class Settings(Record):
+    """The resolved settings of a run. A plain class, not a dataclass: Python 3.11 compiles a dataclass's methods
+    from source in every process, a cost every run's start-up paid (``execution.Options`` says more)."""
+    def __init__(self, start: float, stop: float, step: float, steps: int, algorithm: str, record_every: int,
+                 step_multiples: dict, step_source: str, last_step: float | None = None,
+                 tolerance: float | None = None, sources: dict | None = None, final_steps: dict | None = None):
+        self.start, self.stop, self.step = start, stop, step
+        self.steps = steps                  # master steps, the last one possibly shorter (``last_step``)
+        self.algorithm = algorithm
+        self.record_every = record_every
+        self.step_multiples = step_multiples
+        self.step_source = step_source
+        self.last_step = last_step          # the length of a shorter final step, when the interval is not whole
+        self.tolerance = tolerance          # given to every FMU; None: each FMU's own default experiment tolerance
+        self.sources = {} if sources is None else sources    # setting -> where it came from
+        #: component on a step multiple -> (n0, length): its last macro step starts at master step n0 and is
+        #: ``length`` long, so that it ends at the stop time (``final_macro_steps``: only where k h would not end
+        #: there)
+        self.final_steps = {} if final_steps is None else final_steps
 
 
 def _fmu_default(fmus, attr: str):

@@ -623,7 +623,7 @@ def _prepare_while_the_child_starts() -> None:
     platform_name()
     _sweep_left_blocks()
     _sweep_left_scratch()
-    import concurrent.futures  # noqa: F401
+    import concurrent.futures.thread  # noqa: F401 - the pool's module, imported when the pool is first made
     try:
         import pyarrow.parquet  # noqa: F401
     except ImportError:     # the sink that needs it says so when it opens
@@ -743,7 +743,7 @@ class _Supervisor:
     # the run --------------------------------------------------------------------------------------------
     def run(self) -> dict:
         parent, child = _channel_pair()
-        options = {k: getattr(self.options, k) for k in Options.__dataclass_fields__}
+        options = self.options.as_dict()
         unpack_dir = scratch.make(SCRATCH_PREFIX)
         proc = _ForkedChild(_child, (child, parent, os.getpid(), self.scenario, options, unpack_dir))
         previous = {}

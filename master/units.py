@@ -1,18 +1,17 @@
 """Unit conversion between connectors, from SSD ssc:Unit definitions or the FMUs' UnitDefinitions."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from .records import Record
 
 BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 
 
-@dataclass
-class Unit:
-    """A unit as SSP (ssc:Unit) and FMI (UnitDefinitions) define it: SI value = factor * value + offset."""
-    name: str
-    factor: float = 1.0
-    offset: float = 0.0
-    exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)  # kg m s A K mol cd rad
+class Unit(Record):
+    """A unit as SSP (ssc:Unit) and FMI (UnitDefinitions) define it: SI value = factor * value + offset. A plain
+    class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, name: str, factor: float = 1.0, offset: float = 0.0,
+                 exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)):     # kg m s A K mol cd rad
+        self.name, self.factor, self.offset, self.exponents = name, factor, offset, exponents
 
 
 def unit_from_fmu(fmu_unit) -> Unit:

@@ -4,15 +4,15 @@ Everything here is deterministic: ties are broken by the components' order of de
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 from ..plan import Plan
+from ..records import Record
 
 
-@dataclass
-class StepOrder:
-    order: list[int]                              # component indices in stepping order
-    broken: list[tuple[str, str]] = field(default_factory=list)   # connections that read a value of the previous step
+class StepOrder(Record):
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, order: list[int], broken: list[tuple[str, str]] | None = None):
+        self.order = order                                      # component indices in stepping order
+        self.broken = [] if broken is None else broken          # connections that read a value of the previous step
 
 
 def _sccs(n: int, succ: list[set[int]]) -> list[list[int]]:

@@ -5,28 +5,31 @@ extraction; every instance of the same FMU shares it.
 """
 from __future__ import annotations
 
-import logging
 import os
 import shutil
 import tempfile
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..cache_paths import ValidationRecord, cache_root, file_sha256, fmpy_validator
 from ..errors import FmuError
+from ..log import warning
+from ..records import Record
 
 #: the kind of a table component (fmi/table.py), in place of an FMU's "CoSimulation" / "ModelExchange"
 CSV_KIND = "CsvSource"
 
 
-@dataclass
-class LoadedFmu:
-    path: Path
-    sha256: str
-    unzip_dir: Path
-    md: object              # fmpy ModelDescription
-    kind: str | None = None  # the FMI kind a component runs it as (set per component by plan.build_plan)
+class LoadedFmu(Record):
+    """An FMU read and unpacked. A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, path: Path, sha256: str, unzip_dir: Path, md, kind: str | None = None):
+        self.path, self.sha256, self.unzip_dir = path, sha256, unzip_dir
+        self.md = md                # fmpy ModelDescription
+        self.kind = kind            # the FMI kind a component runs it as (set per component by plan.build_plan)
+
+    def as_kind(self, kind: str | None) -> "LoadedFmu":
+        """The same FMU, run as ``kind``."""
+        return LoadedFmu(self.path, self.sha256, self.unzip_dir, self.md, kind)
 
     @property
     def fmi_version(self) -> str:
@@ -35,7 +38,6 @@ class LoadedFmu:
 
 _by_stat: dict[tuple, str] = {}
 _by_hash: dict[tuple[str, bool], LoadedFmu] = {}     # (SHA-256, lenient) -> the FMU read that way
-_log = logging.getLogger("cosim_master")
 
 
 def _extract(path: Path, sha: str, shown_as: str) -> Path:
@@ -103,13 +105,13 @@ def _read_description(unzip_dir: Path, shown_as: str, lenient: bool):
         return md
     if not lenient:
         raise FmuError(f"invalid modelDescription.xml: {reason}", file=shown_as)
-    _log.warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
+    warning("%s: modelDescription.xml is not valid (%s); read anyway (lenient)", shown_as, reason)
     try:
         md = read_model_description(str(unzip_dir), validate=False)
     except Exception as exc:
         raise FmuError(f"unreadable modelDescription.xml: {' '.join(str(exc).split())}", file=shown_as) from None
     for problem in _usability_problems(md):
-        _log.warning("%s: %s", shown_as, problem)
+        warning("%s: %s", shown_as, problem)
     return md
 
 

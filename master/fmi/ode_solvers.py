@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from ctypes import POINTER, c_double
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -20,10 +20,10 @@ SOLVERS = ("cvode-bdf", "cvode-adams", "euler")
 DEFAULT_RTOL = 1e-10       # when neither the command line nor the FMU's DefaultExperiment gives a tolerance
 
 
-@dataclass(frozen=True)
-class SolverChoice:
+class SolverChoice(NamedTuple):
     """What the run asks of every model-exchange component's integrator (``Options.solver``, ``solver_step``).
-    ``step``: Euler's largest internal step; None takes each communication step whole."""
+    ``step``: Euler's largest internal step; None takes each communication step whole. A named tuple, immutable
+    as the frozen dataclass it was, not a dataclass (``execution.Options`` says why)."""
     name: str = "cvode-bdf"
     step: float | None = None
 

@@ -5,8 +5,6 @@ unit dimension) is reported here, so that no FMU is instantiated for a scenario 
 """
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import replace
 from pathlib import Path
 
 from ..errors import ScenarioError
@@ -101,7 +99,7 @@ def _fmu_component(name: str, comp: Component, implementation: str, shown_as: st
     for u in fmu.md.outputs:
         deps = u.dependencies   # None: the FMU did not say, so it may depend on every input
         outs[u.variable.name] = None if deps is None else {d.name for d in deps if d.causality == "input"}
-    return dataclasses.replace(fmu, kind=kind), variables, element_feedthrough(variables, outs)
+    return fmu.as_kind(kind), variables, element_feedthrough(variables, outs)
 
 
 def _array_links(link: Link, variables, shown_as) -> list[Link]:
@@ -115,7 +113,7 @@ def _array_links(link: Link, variables, shown_as) -> list[Link]:
                             f"{dst.name}[1]); {shapes}", file=shown_as, element=f"Connection {src.qualified} -> "
                             f"{dst.qualified}", line=link.line)
     comp_src, comp_dst = variables[src.component], variables[dst.component]
-    return [replace(link, src=comp_src[a], dst=comp_dst[b])
+    return [link.between(comp_src[a], comp_dst[b])
             for a, b in zip(element_names(src.name, src.shape), element_names(dst.name, dst.shape))]
 
 

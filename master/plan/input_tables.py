@@ -2,10 +2,10 @@
 stands in for an FMU whose outputs are its connected columns, typed as the inputs they drive."""
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 
 from ..errors import ScenarioError
+from ..log import warning
 from ..ssp.model import CSV_SOURCE_TYPE, Component, Connection, Connector, SystemModel
 from .checks import check_connector
 from .model import Var, shown_source
@@ -34,7 +34,7 @@ def add_input_file(model: SystemModel, path: Path, variables: dict, shown_as: st
     if unknown and not lenient:
         raise ScenarioError(_unknown_columns(unknown, target, inputs), file=str(path), element="--input")
     if unknown:
-        logging.getLogger("cosim_master").warning(
+        warning(
             "%s: --input: ignoring column%s %s, which name%s no input of %s (--lenient)", path,
             "s" if len(unknown) > 1 else "", ", ".join(unknown), "" if len(unknown) > 1 else "s", target)
         columns = [c for c in columns if c in inputs]

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ScenarioError
 from ..fmi.cache import LoadedFmu
+from ..records import Record
 from ..ssp.model import SystemModel
 
 
@@ -43,25 +44,25 @@ def element_names(name: str, shape: tuple) -> list[str]:
     return [f"{name}[{','.join(str(i + 1) for i in idx)}]" for idx in itertools.product(*map(range, shape))]
 
 
-@dataclass
-class Link:
-    src: Var
-    dst: Var
-    factor: float = 1.0
-    offset: float = 0.0
-    mapping: dict | None = None
-    line: int | None = None
+class Link(Record):
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, src: Var, dst: Var, factor: float = 1.0, offset: float = 0.0, mapping: dict | None = None,
+                 line: int | None = None):
+        self.src, self.dst, self.factor, self.offset, self.mapping, self.line = src, dst, factor, offset, mapping, line
+
+    def between(self, src: Var, dst: Var) -> "Link":
+        """The same link (conversion, line) between ``src`` and ``dst``."""
+        return Link(src, dst, self.factor, self.offset, self.mapping, self.line)
 
 
-@dataclass
-class Plan:
-    model: SystemModel
-    shown_as: str
-    fmus: dict[str, LoadedFmu]
-    links: list[Link]
-    params: list[tuple[Var, object, str]]
-    feedthrough: dict[str, dict[str, set | None]]   # component -> output -> inputs it depends on (None: all)
-    variables: dict[str, dict[str, Var]] = field(default_factory=dict)
+class Plan(Record):
+    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    def __init__(self, model: SystemModel, shown_as: str, fmus: dict[str, LoadedFmu], links: list[Link],
+                 params: list[tuple[Var, object, str]], feedthrough: dict[str, dict[str, set | None]],
+                 variables: dict[str, dict[str, Var]] | None = None):
+        self.model, self.shown_as, self.fmus, self.links, self.params = model, shown_as, fmus, links, params
+        self.feedthrough = feedthrough      # component -> output -> inputs it depends on (None: all)
+        self.variables = {} if variables is None else variables
 
     def elements(self, v: Var) -> list[Var]:
         """Every element of the array ``v`` is (or belongs to), in FMI 3 order."""

@@ -2,9 +2,8 @@
 types and converted to their units) and then the command line's or the API's, which win."""
 from __future__ import annotations
 
-import logging
-
 from ..errors import ScenarioError
+from ..log import warning
 from ..ssp.model import SystemModel
 from ..units import conversion
 from .model import Plan, Var, element_names
@@ -50,7 +49,7 @@ def _converted(value: float, src_unit: str, unit: str, units: dict, lenient: boo
     for u in (src_unit, unit):
         if units.get(u) is None:
             if lenient:
-                logging.getLogger("cosim_master").warning(
+                warning(
                     "%s: %s: unit %s has no definition in the SSD or the FMU; the value is taken as given in %s "
                     "(lenient)", origin, where, u, unit)
                 return value
@@ -72,7 +71,7 @@ def _warn_ignored(shown: str, names: list[str]) -> None:
     """One line per parameter file: its values that name no connector or variable of the system, which the
     standard says are ignored (SSP 1.0 5.3.3: "... or are ignored if no matching variable is found")."""
     more = f" and {len(names) - SHOWN_IGNORED} more" if len(names) > SHOWN_IGNORED else ""
-    logging.getLogger("cosim_master").warning(
+    warning(
         "%s: ignoring %d parameter value%s that name%s no connector or variable of the system (SSP: ignored): %s%s",
         shown, len(names), "s" if len(names) > 1 else "", "" if len(names) > 1 else "s",
         ", ".join(names[:SHOWN_IGNORED]), more)

@@ -3,8 +3,7 @@ same system against the same FMUs run after run, with other parameter values.  W
 (:func:`plan_key`) and how a run gets its own copy of it (:meth:`_PlanStructure.for_run`)."""
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..errors import CosimError
 from ..fmi.cache import load_fmu
@@ -12,10 +11,10 @@ from ..ssp.model import CSV_SOURCE_TYPE, SystemModel
 from .model import shown_source
 
 
-@dataclass(frozen=True)
-class _PlanStructure:
+class _PlanStructure(NamedTuple):
     """The value-free part of a plan (``build._plan_structure``) kept for later runs of the same structure and FMUs;
-    never handed out itself: each run gets its own links, dependency sets and dictionaries."""
+    never handed out itself: each run gets its own links, dependency sets and dictionaries. A named tuple, not a
+    frozen dataclass (``execution.Options`` says why)."""
     kinds: dict             # component -> the FMI kind it runs as
     variables: dict         # component -> ComponentVariables (read-only mappings of frozen Vars)
     feedthrough: dict
@@ -24,7 +23,7 @@ class _PlanStructure:
 
     def for_run(self, model: SystemModel, loaded: dict):
         """The run's own plan parts, with its FMUs (``loaded``: by file, as plan_key loaded them)."""
-        fmus = {name: dataclasses.replace(loaded[comp.fmu_path], kind=self.kinds[name])
+        fmus = {name: loaded[comp.fmu_path].as_kind(self.kinds[name])
                 for name, comp in model.components.items()}
         return fmus, dict(self.variables), _copied_feedthrough(self.feedthrough), dict(self.units), \
             [_clone(ln) for ln in self.links]

@@ -190,6 +190,7 @@ LAYERS = {
     "master.algorithm_options": 0,
     "master.arrow_numpy": 0,
     "master.scratch": 0,
+    "master.log": 0, "master.records": 0,
     # L1 reading the scenario | loading the FMUs
     "master.ssp": 1, "master.fmi": 1, "master.native_build": 1,
     # L2 the plan; SSP authoring

@@ -22,7 +22,7 @@ def note_subprocesses_and_imports(event, args):
     elif event == "import" and os.getpid() != parent:
         os.write(2, f"child imports {{args[0]}} {{'pyarrow' in sys.modules}}\\n".encode())   # one line, whole
 sys.addaudithook(note_subprocesses_and_imports)
-os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
+os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'logging', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
 from master.cli import main
 for extra in ([], ["--no-supervise"]):
     code = main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
@@ -44,7 +44,8 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     assert not {"pandas", "pyarrow.compute", "importlib.metadata", "uavstudy", "master.ssp.writer"} & imported
     assert not {"master.fmi.table", "master.fmi.inprocess"} & imported
     # the supervisor forks its child and talks to it over pipes itself (~4 ms of multiprocessing and socket before
-    # the fork); json is run.json's, written by the supervisor after the fork
+    # the fork); json is run.json's, written by the supervisor after the fork; logging is imported by the first
+    # warning (master.log), and this run has none
     assert "multiprocessing" not in imported
     forks = [line for line in proc.stderr.splitlines() if line.startswith("forks with ")]
     assert forks[0] == "forks with []", forks
@@ -58,5 +59,40 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     child_imports = [line.split()[2:] for line in proc.stderr.splitlines() if line.startswith("child imports ")]
     assert ["fmpy", "False"] in child_imports       # fmpy is the child's own import (not made before the fork)
     assert not [m for m, loaded in child_imports if loaded == "True" or m.startswith("master.sinks.")]
+    assert "logging" not in [m for m, _ in child_imports]
     for out in ("out", "out--no-supervise"):
         assert json.loads((tmp_path / out / "run.json").read_text())["platform"] == platform.platform()
+
+
+#: the dataclasses a run of one FMU still defines. Python 3.11 compiles each generated method of a dataclass from
+#: source with its own ``exec`` in every process (~3 M instructions a class, ~0.4 % of a short run's start-up
+#: each); the run path's other records are plain classes or named tuples. These remain: Var, frozen and rebuilt
+#: with ``dataclasses.replace`` where a plan is made; the SSP model's are master/ssp's own.
+RUN_PATH_DATACLASSES = {
+    "master.plan.model.Var",
+    "master.ssp.archive.MemoryArchive", "master.ssp.archive.ScenarioSource", "master.ssp.archive._Written",
+    "master.ssp.model.Component", "master.ssp.model.Connection", "master.ssp.model.Connector",
+    "master.ssp.model.MasterSettings", "master.ssp.model.ParameterValue", "master.ssp.model.SystemModel",
+    "master.ssp.model.Transformation", "master.ssp.parser._Structure", "master.ssp.power_bonds.PowerBond",
+}
+
+DATACLASSES = """
+import dataclasses, sys
+from master.cli import main
+assert main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "-o", {out!r}, "--no-supervise"]) == 0
+print(sorted(f"{{m}}.{{n}}" for m, mod in list(sys.modules.items()) if m.startswith("master.")
+             for n, o in vars(mod).items() if isinstance(o, type) and dataclasses.is_dataclass(o) and o.__module__ == m))
+"""
+
+
+def test_a_run_defines_no_dataclass_beyond_the_known_ones(tmp_path, reference_fmus):
+    # a fresh interpreter: what one run imports, the modules of both processes of a supervised run
+    b = SspBuilder("d")
+    b.add_component("d", reference_fmus / "fmi2" / "Dahlquist.fmu")
+    ssp = b.write(tmp_path / "d.ssp")
+    proc = subprocess.run([sys.executable, "-c", DATACLASSES.format(ssp=str(ssp), out=str(tmp_path / "out"))],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    defined = set(eval(proc.stdout.splitlines()[-1]))      # noqa: S307 - a list of names printed above
+    assert "master.execution.Options" not in defined and "master.settings.Settings" not in defined
+    assert defined == RUN_PATH_DATACLASSES
