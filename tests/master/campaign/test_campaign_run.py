@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from campaign_helpers import write_chain_ssp
+from campaign_helpers import local_cluster, write_chain_ssp
 from cli_in_process import run_cli
 from master.campaign.runner import run_campaign
 from master.campaign.spec import load_campaign, seed_for
@@ -264,15 +264,17 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch)
 
 
 def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     import dask
     d, _, _ = reference
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path)
+    environment = dict(os.environ)
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                      dashboard_address=None) as cluster:
+        with local_cluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None) as cluster:
             s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
+    assert dict(os.environ) == environment      # the nannies' variables do not outlive the cluster
     assert (s.total, s.completed, s.failed) == (10, 6, 4)
     assert "Dask scheduler" in s.describe()
     got, ref = table(tmp_path / "out"), table(d / "out")
@@ -284,13 +286,13 @@ def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus
 
 
 def test_dask_runs_are_killed_at_their_timeout(tmp_path, chain_fmus):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = tmp_path / "slow.yaml"
     camp.write_text(SLOW.replace("param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "param:gain.k: [1, 2]")
                     .replace("step: 0.02", "step: 0.02\n  timeout: 0.5").replace("stop_time: 0.5", "stop_time: 600.0"))
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+    with local_cluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
+                       dashboard_address=None) as cluster:
         t0 = time.monotonic()
         s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
         took = time.monotonic() - t0
