@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+import program_server
 from campaign_helpers import local_cluster, write_chain_ssp
 from cli_in_process import run_cli
 from master.campaign.runner import run_campaign
@@ -145,11 +146,10 @@ run:
 # than busy (the 30000 steps of 0.1 ms it had burnt ~0.5 s of CPU a run)
 
 
-def _default_sigint():
-    """The child as a shell would start it: SIGINT neither ignored nor blocked, whatever this test process inherited
-    (a test runner's worker may run with SIGINT ignored, and exec keeps an ignored signal ignored)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+# The commands below start as a shell would start them: SIGINT neither ignored nor blocked, whatever this test
+# process inherited (a test runner's worker may run with SIGINT ignored, and exec keeps an ignored signal ignored).
+# They are forked from the tests' program server (tests/program_server.py), which has imported the CLI already.
+SHELL_SIGNALS = {signal.SIGINT}
 
 
 def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
@@ -159,9 +159,9 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     mine = {k: v for k, v in (line.split(":", 1) for line in Path("/proc/self/status").read_text().splitlines()
                               if line.startswith(("SigIgn", "SigBlk")))} if Path("/proc/self/status").exists() else {}
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=_default_sigint)
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, default_signals=SHELL_SIGNALS)
     t0 = time.monotonic()
     deadline = t0 + 60
     while time.monotonic() < deadline and len(list((out / "runs").glob("*.json"))) < 2:
@@ -194,9 +194,10 @@ def test_a_signal_to_the_process_group_exits_as_run_does(tmp_path, chain_fmus, s
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path, SLOW)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_sigint)
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                             default_signals=SHELL_SIGNALS)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not list((out / "runs").glob("*.json")) and p.poll() is None:
         time.sleep(0.02)
