@@ -21,8 +21,9 @@ test process:
   (there is no ``preexec_fn``: the server cannot run the test's code);
 - signals: every handler default, the signals ignored in the test process ignored (except those ``restore_signals``
   resets), the test thread's signal mask (less the ``default_signals={signal.SIGINT, ...}`` asked for: handled by
-  default and unblocked, as a ``preexec_fn`` resetting them makes them), then what Python's start does (SIGPIPE and SIGXFSZ ignored, SIGINT raising
-  KeyboardInterrupt); ``sys.stdin/stdout/stderr`` made anew as Python makes them at start (line-buffered on a tty);
+  default and unblocked, as a ``preexec_fn`` resetting them makes them), then what Python's start does (SIGPIPE and
+  SIGXFSZ ignored, SIGINT raising KeyboardInterrupt); ``sys.stdin/stdout/stderr`` made anew as Python makes them at
+  start (line-buffered on a tty);
 - ``sys.argv``, ``sys.path[0]`` and ``__main__`` as ``-m``/``-c`` set them, and the program runs as the interpreter
   runs it (``runpy``), so its exit is the program's: ``sys.exit`` and its status, a traceback and 1 for an uncaught
   error, death by SIGINT for an uncaught KeyboardInterrupt, ``atexit`` handlers, the interpreter's teardown, or the
@@ -152,7 +153,8 @@ class ServedProcess(subprocess.Popen):
             ignored -= {getattr(signal, n) for n in ("SIGPIPE", "SIGXFZ", "SIGXFSZ") if hasattr(signal, n)}
         request = {"argv": args[1:], "env": env, "cwd": os.fspath(cwd) if cwd is not None else os.getcwd(),
                    "umask": umask, "new_session": bool(start_new_session), "process_group": process_group,
-                   "ignored": sorted(ignored), "mask": sorted(signal.pthread_sigmask(signal.SIG_BLOCK, []) - self._default_signals),
+                   "ignored": sorted(ignored),
+                   "mask": sorted(signal.pthread_sigmask(signal.SIG_BLOCK, []) - self._default_signals),
                    "rlimits": self._rlimits}
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         stdio = [fd if fd != -1 else k for k, fd in enumerate((p2cread, c2pwrite, errwrite))]
