@@ -20,8 +20,10 @@ test process:
   ``process_group`` as subprocess does them; limits asked for with ``rlimits={resource.RLIMIT_...: (soft, hard)}``
   (there is no ``preexec_fn``: the server cannot run the test's code);
 - signals: every handler default, the signals ignored in the test process ignored (except those ``restore_signals``
-  resets), the test thread's signal mask, then what Python's start does (SIGPIPE and SIGXFSZ ignored, SIGINT raising
-  KeyboardInterrupt); ``sys.stdin/stdout/stderr`` made anew as Python makes them at start (line-buffered on a tty);
+  resets), the test thread's signal mask (less the ``default_signals={signal.SIGINT, ...}`` asked for: handled by
+  default and unblocked, as a ``preexec_fn`` resetting them makes them), then what Python's start does (SIGPIPE and
+  SIGXFSZ ignored, SIGINT raising KeyboardInterrupt); ``sys.stdin/stdout/stderr`` made anew as Python makes them at
+  start (line-buffered on a tty);
 - ``sys.argv``, ``sys.path[0]`` and ``__main__`` as ``-m``/``-c`` set them, and the program runs as the interpreter
   runs it (``runpy``), so its exit is the program's: ``sys.exit`` and its status, a traceback and 1 for an uncaught
   error, death by SIGINT for an uncaught KeyboardInterrupt, ``atexit`` handlers, the interpreter's teardown, or the
@@ -69,14 +71,15 @@ def served() -> bool:
 
 
 # -- the test's side -------------------------------------------------------------------------------------------
-def Popen(args, *, rlimits=None, **kwargs):    # noqa: N802 - it stands for subprocess.Popen
+def Popen(args, *, rlimits=None, default_signals=(), **kwargs):    # noqa: N802 - it stands for subprocess.Popen
     """``subprocess.Popen(args, **kwargs)``, forked from the program server (a real start with
-    ``COSIM_TEST_PROGRAM_SERVER=0``); ``rlimits``: resource limits of the new process."""
+    ``COSIM_TEST_PROGRAM_SERVER=0``); ``rlimits``: resource limits of the new process; ``default_signals``: signals
+    it starts with at their default handling and unblocked, whatever this process does with them (a shell's start)."""
     if not served():
-        if rlimits:
-            kwargs["preexec_fn"] = _set_limits(rlimits)
+        if rlimits or default_signals:
+            kwargs["preexec_fn"] = _set_limits(rlimits or {}, default_signals)
         return subprocess.Popen(args, **kwargs)
-    return ServedProcess(args, rlimits=rlimits, **kwargs)
+    return ServedProcess(args, rlimits=rlimits, default_signals=default_signals, **kwargs)
 
 
 def run(args, *, input=None, capture_output=False, timeout=None, check=False, **kwargs):   # noqa: A002
@@ -101,19 +104,24 @@ def run(args, *, input=None, capture_output=False, timeout=None, check=False, **
     return CompletedProcess(process.args, code, out, err)
 
 
-def _set_limits(rlimits):
+def _set_limits(rlimits, default_signals=()):
     def set_limits():
         import resource
         for which, limit in rlimits.items():
             resource.setrlimit(which, limit)
+        for s in default_signals:
+            signal.signal(s, signal.SIG_DFL)
+        if default_signals:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, set(default_signals))
     return set_limits
 
 
 class ServedProcess(subprocess.Popen):
     """A ``subprocess.Popen`` whose process the program server forks; waiting for it is reading its wait status."""
 
-    def __init__(self, args, *, rlimits=None, **kwargs):
+    def __init__(self, args, *, rlimits=None, default_signals=(), **kwargs):
         self._rlimits = dict(rlimits or {})
+        self._default_signals = {signal.Signals(s) for s in default_signals}
         self._status = None         # the status socket (set in _execute_child)
         self._served_status = None
         self.cpu = None             # user and system CPU seconds of the process and its waited-for descendants
@@ -140,12 +148,13 @@ class ServedProcess(subprocess.Popen):
         if umask < 0:
             umask = os.umask(0)
             os.umask(umask)
-        ignored = {s for s in signal.valid_signals() if signal.getsignal(s) == signal.SIG_IGN}
+        ignored = {s for s in signal.valid_signals() if signal.getsignal(s) == signal.SIG_IGN} - self._default_signals
         if restore_signals:
             ignored -= {getattr(signal, n) for n in ("SIGPIPE", "SIGXFZ", "SIGXFSZ") if hasattr(signal, n)}
         request = {"argv": args[1:], "env": env, "cwd": os.fspath(cwd) if cwd is not None else os.getcwd(),
                    "umask": umask, "new_session": bool(start_new_session), "process_group": process_group,
-                   "ignored": sorted(ignored), "mask": sorted(signal.pthread_sigmask(signal.SIG_BLOCK, [])),
+                   "ignored": sorted(ignored),
+                   "mask": sorted(signal.pthread_sigmask(signal.SIG_BLOCK, []) - self._default_signals),
                    "rlimits": self._rlimits}
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         stdio = [fd if fd != -1 else k for k, fd in enumerate((p2cread, c2pwrite, errwrite))]

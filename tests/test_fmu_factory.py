@@ -16,6 +16,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2LastSuccessfulTime, fmi2Terminated
 from fmpy.validation import validate_fmu
 
 import fmu_factory
+import program_server
 
 ALL_KEYS = fmu_factory.available_keys()
 
@@ -375,8 +376,8 @@ _CRASH_SCRIPT = textwrap.dedent(
 
 @pytest.mark.parametrize("key", ["c2:Faulty", "py:Faulty"])
 def test_faulty_crash_mode_aborts_process(test_fmus, key):
-    proc = subprocess.run([sys.executable, "-c", _CRASH_SCRIPT, str(test_fmus[key])],
-                          capture_output=True, text=True, timeout=120)
+    proc = program_server.run([sys.executable, "-c", _CRASH_SCRIPT, str(test_fmus[key])],
+                              capture_output=True, text=True, timeout=120)
     assert proc.returncode != 0
     assert proc.returncode == -6  # SIGABRT
     assert "survived" not in proc.stdout
@@ -409,8 +410,8 @@ _EXCEPTION_SCRIPT = textwrap.dedent(
 def test_faulty_python_modes(test_fmus):
     # mode 1: an exception in do_step -> pythonfmu reports fmi2Fatal. Run in a child process: pythonfmu 0.7's
     # binary over-releases a Python object on that path and the interpreter crashes later in garbage collection.
-    proc = subprocess.run([sys.executable, "-c", _EXCEPTION_SCRIPT, str(test_fmus["py:Faulty"])],
-                          capture_output=True, text=True, timeout=120)
+    proc = program_server.run([sys.executable, "-c", _EXCEPTION_SCRIPT, str(test_fmus["py:Faulty"])],
+                              capture_output=True, text=True, timeout=120)
     assert "status 4 step 5" in proc.stdout, proc.stdout + proc.stderr
     # mode 2: do_step returns False -> fmi2Discard with Terminated = true
     s, vr = _slave(test_fmus["py:Faulty"], logger=lambda *a: None)

@@ -73,6 +73,32 @@ def test_signals_ignored_or_blocked_in_the_caller_are_as_in_a_real_start():
     assert int(_seen(served)["blocked"], 16) == 1 << (signal.SIGUSR1 - 1)
 
 
+def test_default_signals_start_as_a_preexec_fn_resetting_them_makes_them():
+    """A test runner's worker may run with SIGINT ignored or blocked (exec keeps both): the campaign tests start
+    their command as a shell would, SIGINT and SIGTERM handled by default."""
+    def shell_like():
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+    old = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGHUP)}
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM, signal.SIGUSR1})
+    try:
+        served = program_server.run([sys.executable, "-c", SELF, "0"], capture_output=True, text=True, env=ENV,
+                                    default_signals={signal.SIGINT, signal.SIGTERM})
+        real = subprocess.run([sys.executable, "-c", SELF, "0"], capture_output=True, text=True, env=ENV,
+                              preexec_fn=shell_like)
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM, signal.SIGUSR1})
+        for s, handler in old.items():
+            signal.signal(s, handler)
+    assert _seen(served) == _seen(real)
+    ignored, blocked = int(_seen(served)["ignored"], 16), int(_seen(served)["blocked"], 16)
+    assert not ignored >> (signal.SIGINT - 1) & 1 and ignored >> (signal.SIGHUP - 1) & 1
+    assert blocked == 1 << (signal.SIGUSR1 - 1)
+    assert _seen(served)["sigint"] == repr(signal.default_int_handler)
+
+
 def test_a_new_session_and_a_limit_and_a_umask(tmp_path):
     limit = (123_456, 123_456)
     old = os.umask(0o027)

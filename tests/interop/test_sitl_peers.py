@@ -21,7 +21,7 @@ import os
 
 import numpy as np
 import pytest
-from peer_runs import SSP_DIR, Job, absent, run_jobs, sitl_binary
+from peer_runs import SSP_DIR, Job, absent, sitl_binary
 
 import master
 
@@ -49,13 +49,23 @@ def ours(tmp_path_factory):
                               record=[f"{c}.{v}" for c, v, _ in _variables(n)]).frame for n in SSPS}
 
 
+def uav_peer_jobs(peer, tmp_path_factory) -> dict:
+    """This module's flights in ``peer`` ({name: Job}), run in the session's child of that peer with the other UAV
+    interop modules' (conftest.py): one child start and one import of the peer and pandas fewer per peer."""
+    if sitl_binary() is None:
+        return {}
+    return {n: Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n), set_strings=peer == "omsimulator")
+            for n in SSPS}
+
+
 @pytest.mark.parametrize("peer", ["omsimulator", "ecos", "libcosim"])
-def test_sitl_mission_in_peer(peer, ours, tmp_path, record_property):
+def test_sitl_mission_in_peer(peer, ours, request, uav_peer_runs, record_property):
     why = absent(peer)
     if why:
         pytest.skip(why)
-    jobs = [Job(str(SSP_DIR / f"{n}.ssp"), STEP, N, _variables(n), set_strings=peer == "omsimulator") for n in SSPS]
-    for name, theirs in zip(SSPS, run_jobs(peer, jobs, tmp_path)):
+    runs = uav_peer_runs(peer, request.module)
+    for name in SSPS:
+        theirs = runs[name]
         mine = ours[name]
         assert len(theirs) == len(mine) == N + 1
         np.testing.assert_allclose(theirs["time"], mine["time"], rtol=0, atol=1e-9)

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from our_uav_runs import whole_free_1uav_mission
 from peer_runs import Job
 
 import master
@@ -54,8 +55,7 @@ pytestmark = [
 @functools.lru_cache(maxsize=None)
 def _ours() -> dict:
     """Our runs of both missions: {name: frame}."""
-    ours = {"free_1uav": master.run(SSP, output=None, algorithm="jacobi", step=STEP, record_interval=STEP,
-                                    record=[f"{c}.{v}" for c, v, _ in VARIABLES]).frame}
+    ours = {"free_1uav": whole_free_1uav_mission([f"{c}.{v}" for c, v, _ in VARIABLES])}
     if ZONES_4UAV.is_file():
         ours["zones_4uav"] = master.run(ZONES_4UAV, output=None, algorithm="jacobi", step=STEP,
                                         stop_time=ZONES_STOP, record_interval=STEP,

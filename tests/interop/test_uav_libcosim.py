@@ -46,6 +46,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from our_uav_runs import whole_free_1uav_mission
 from peer_runs import Job
 
 import master
@@ -151,8 +152,7 @@ ZONES_INTEGERS = {_uav(key, k) for k in range(1, 5) for key in INTEGERS} | \
 @functools.lru_cache(maxsize=None)
 def _ours_shipped() -> pd.DataFrame:
     """Our run of the shipped mission; it ends when the UAV has landed, and its length is libcosim's stop."""
-    return master.run(SHIPPED, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
-                      record=[f"{c}.{v}" for c, v in VARS]).frame
+    return whole_free_1uav_mission([f"{c}.{v}" for c, v in VARS])
 
 
 def _job(ssp: Path, step: float, stop: float, variables, integers=INTEGERS) -> Job:

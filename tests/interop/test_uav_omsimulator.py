@@ -25,6 +25,7 @@ import sys
 
 import numpy as np
 import pytest
+from our_uav_runs import whole_free_1uav_mission
 from peer_runs import SSP_DIR, TESTS, Job, absent, oms_lib
 
 import master
@@ -174,8 +175,7 @@ WHOLE_MISSION = [["uav1_dyn", "x", "Real"], ["uav1_dyn", "y", "Real"], ["uav1_dy
 
 @functools.lru_cache(maxsize=None)
 def _ours_whole_mission():
-    return master.run(SSP, output=None, algorithm="jacobi", step=0.1, record_interval=0.1,
-                      record=[f"{c}.{v}" for c, v, _ in WHOLE_MISSION]).frame
+    return whole_free_1uav_mission([f"{c}.{v}" for c, v, _ in WHOLE_MISSION])
 
 
 def uav_peer_jobs(peer, tmp_path_factory) -> dict:

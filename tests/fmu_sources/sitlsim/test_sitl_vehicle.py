@@ -326,10 +326,12 @@ def _dataflash_bytes(out: Path) -> int:
 @needs_sitl
 def test_ctrl_c_on_the_cli_leaves_no_sitl_and_keeps_the_results(tmp_path, sitl_env):
     import subprocess
+
+    import program_server           # the Ctrl-C comes in the firmware's get-ready, long after the CLI's imports
     out = tmp_path / "cc"
     ssp = scenario(tmp_path, stop=300.0)
-    cli = subprocess.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out)],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    cli = program_server.Popen([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(out)],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         end = time.monotonic() + 120
         while not sitl_pids(out) and time.monotonic() < end and cli.poll() is None:

@@ -48,6 +48,7 @@ import yaml
 from lxml import etree
 
 import master
+import program_server
 from fmu_factory import fmi_headers_dir
 from uavstudy.build import build_scenario, default_fmu_dir
 from uavsim import params as P
@@ -87,8 +88,8 @@ print(json.dumps({v.name: repr(getattr(slave, v.name)) for v in slave.vars.value
 def _python_defaults(tmp: Path) -> dict[str, str]:
     with zipfile.ZipFile(PY_FMU) as z:
         z.extractall(tmp / "py_fmu")
-    proc = subprocess.run([sys.executable, "-c", _DEFAULTS_SCRIPT, str(tmp / "py_fmu" / "resources"), "UavBattery"],
-                          capture_output=True, text=True, timeout=60)
+    proc = program_server.run([sys.executable, "-c", _DEFAULTS_SCRIPT, str(tmp / "py_fmu" / "resources"),
+                               "UavBattery"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
 

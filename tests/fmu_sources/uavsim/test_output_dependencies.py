@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -165,9 +164,10 @@ os._exit(0)
 def _probe_in_child(*args) -> dict:
     """``probe`` in a child process: a pythonfmu FMU run here would put its resources (a copy of uavsim, deleted
     afterwards) first on sys.path and into sys.modules, where later tests in this process would find it."""
-    proc = subprocess.run([sys.executable, "-c", _CHILD, __file__, json.dumps([str(a) if isinstance(a, Path) else a
-                                                                              for a in args])],
-                          capture_output=True, text=True, timeout=300)
+    import program_server           # here: the child loads this file, without the tests' folder on its path
+    proc = program_server.run([sys.executable, "-c", _CHILD, __file__,
+                               json.dumps([str(a) if isinstance(a, Path) else a for a in args])],
+                              capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     report = json.loads(proc.stdout.strip().splitlines()[-1])
     return {k: [{o: set(i) for o, i in d.items()} for d in v] if isinstance(v, list) else v for k, v in report.items()}

@@ -3,7 +3,6 @@ shipped fmus/ must be fresh (built from the current fmu_sources/)."""
 import contextlib
 import re
 import shutil
-import subprocess
 import sys
 import textwrap
 import zipfile
@@ -16,6 +15,7 @@ import pythonfmu.builder  # noqa: F401
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
+import program_server
 from build_script import build_fmus_module, load_shell
 
 REPO = Path(__file__).resolve().parents[3]
@@ -214,8 +214,8 @@ def test_fmu_uses_bundled_uavsim(built, tmp_path):
         assert "resources" in f, f
         print("OK", f)
     """)
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
-                         timeout=120)
+    res = program_server.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                             timeout=120)
     assert res.returncode == 0, res.stdout + res.stderr
     assert "OK" in res.stdout
 

@@ -467,11 +467,14 @@ def test_fmu_state_round_trip_flies_on_the_same():
 
 def test_a_shipped_mission_is_the_same_with_and_without_the_compiled_steps(tmp_path, capsys, monkeypatch):
     # a whole mission (zone detours included) run with the FMUs' compiled steps (in this process, where they are
-    # loaded) and with COSIM_MASTER_PURE_PYTHON=1 (in a new process, so that nothing compiled can be left loaded)
+    # loaded) and with COSIM_MASTER_PURE_PYTHON=1 (in a process of its own, so that nothing compiled can be left
+    # loaded: forked by the tests' program server, which has loaded none of the project's compiled code, only
+    # NumPy's, fmpy's and matplotlib's, checked in its /proc/PID/maps)
     import importlib.util
     import os
-    import subprocess
     import sys
+
+    import program_server
 
     from build_script import SRC
     from cli_in_process import run_cli
@@ -481,8 +484,8 @@ def test_a_shipped_mission_is_the_same_with_and_without_the_compiled_steps(tmp_p
     fast = run_cli(["run", ssp, "-o", tmp_path / "fast"], cwd=root)
     assert fast.returncode == 0, fast.stderr
     env = dict(os.environ, COSIM_MASTER_PURE_PYTHON="1")
-    subprocess.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(tmp_path / "pure")],
-                   check=True, env=env, cwd=root, capture_output=True, text=True)
+    program_server.run([sys.executable, "-m", "master.cli", "run", str(ssp), "-o", str(tmp_path / "pure")],
+                       check=True, env=env, cwd=root, capture_output=True, text=True)
     spec = importlib.util.spec_from_file_location("compare_runs", root / "bench" / "compare_runs.py")
     compare_runs = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(compare_runs)

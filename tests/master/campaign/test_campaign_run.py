@@ -11,7 +11,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from campaign_helpers import write_chain_ssp
+import program_server
+from campaign_helpers import local_cluster, write_chain_ssp
 from cli_in_process import run_cli
 from master.campaign.runner import run_campaign
 from master.campaign.spec import load_campaign, seed_for
@@ -145,11 +146,10 @@ run:
 # than busy (the 30000 steps of 0.1 ms it had burnt ~0.5 s of CPU a run)
 
 
-def _default_sigint():
-    """The child as a shell would start it: SIGINT neither ignored nor blocked, whatever this test process inherited
-    (a test runner's worker may run with SIGINT ignored, and exec keeps an ignored signal ignored)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+# The commands below start as a shell would start them: SIGINT neither ignored nor blocked, whatever this test
+# process inherited (a test runner's worker may run with SIGINT ignored, and exec keeps an ignored signal ignored).
+# They are forked from the tests' program server (tests/program_server.py), which has imported the CLI already.
+SHELL_SIGNALS = {signal.SIGINT}
 
 
 def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
@@ -159,9 +159,9 @@ def test_ctrl_c_keeps_only_complete_records_and_resumes(tmp_path, chain_fmus):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     mine = {k: v for k, v in (line.split(":", 1) for line in Path("/proc/self/status").read_text().splitlines()
                               if line.startswith(("SigIgn", "SigBlk")))} if Path("/proc/self/status").exists() else {}
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=_default_sigint)
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, default_signals=SHELL_SIGNALS)
     t0 = time.monotonic()
     deadline = t0 + 60
     while time.monotonic() < deadline and len(list((out / "runs").glob("*.json"))) < 2:
@@ -194,9 +194,10 @@ def test_a_signal_to_the_process_group_exits_as_run_does(tmp_path, chain_fmus, s
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path, SLOW)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_sigint)
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                             default_signals=SHELL_SIGNALS)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not list((out / "runs").glob("*.json")) and p.poll() is None:
         time.sleep(0.02)
@@ -264,15 +265,17 @@ def test_changed_scenario_makes_records_stale(tmp_path, chain_fmus, monkeypatch)
 
 
 def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     import dask
     d, _, _ = reference
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = write_campaign(tmp_path)
+    environment = dict(os.environ)
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                      dashboard_address=None) as cluster:
+        with local_cluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None) as cluster:
             s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
+    assert dict(os.environ) == environment      # the nannies' variables do not outlive the cluster
     assert (s.total, s.completed, s.failed) == (10, 6, 4)
     assert "Dask scheduler" in s.describe()
     got, ref = table(tmp_path / "out"), table(d / "out")
@@ -284,13 +287,13 @@ def test_dask_local_cluster_gives_the_same_table(reference, tmp_path, chain_fmus
 
 
 def test_dask_runs_are_killed_at_their_timeout(tmp_path, chain_fmus):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     write_chain_ssp(tmp_path / "chain.ssp", chain_fmus)
     camp = tmp_path / "slow.yaml"
     camp.write_text(SLOW.replace("param:gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "param:gain.k: [1, 2]")
                     .replace("step: 0.02", "step: 0.02\n  timeout: 0.5").replace("stop_time: 0.5", "stop_time: 600.0"))
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+    with local_cluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
+                       dashboard_address=None) as cluster:
         t0 = time.monotonic()
         s = run_campaign(camp, output=tmp_path / "out", scheduler=cluster.scheduler_address, progress=False)
         took = time.monotonic() - t0

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+import program_server
 from campaign_helpers import write_chain_ssp
 from test_campaign_run import SLOW, write_campaign
 
@@ -22,9 +23,9 @@ def test_sigterm_keeps_only_complete_records_and_says_so(tmp_path, chain_fmus):
     camp = write_campaign(tmp_path, SLOW)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL))
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, default_signals={signal.SIGTERM})
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list((out / "runs").glob("*.json"))) < 2 and p.poll() is None:
         time.sleep(0.05)
@@ -72,9 +73,9 @@ def test_a_killed_campaign_leaves_no_worker_behind(tmp_path, chain_fmus):
     camp = write_campaign(tmp_path, SLOW.replace("[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]", "[1]")
                           .replace("stop_time: 0.5", "stop_time: 3600.0"))
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out), "--workers",
-                          "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    p = program_server.Popen([sys.executable, "-m", "master.cli", "campaign", str(camp), "-o", str(out),
+                              "--workers", "1", "--no-progress"], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and p.poll() is None and not [d for d in (out / "runs").glob("*")

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import master
+import program_server
 from campaign_helpers import write_chain_ssp
 from master.campaign.pool import WORKER_SCRATCH_PREFIX, sweep_left_worker_scratch
 
@@ -29,9 +30,9 @@ def test_a_crashing_run_leaves_the_temporary_folder_empty(tmp_path, chain_fmus):
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     env = dict(os.environ, PYTHONPATH=str(Path(master.__file__).parents[1]), TMPDIR=str(tmp))
-    r = subprocess.run([sys.executable, "-m", "master.cli", "campaign", str(tmp_path / "campaign.yaml"),
-                        "--output", str(tmp_path / "out"), "--workers", "2", "--no-progress"],
-                       capture_output=True, text=True, env=env, timeout=180)
+    r = program_server.run([sys.executable, "-m", "master.cli", "campaign", str(tmp_path / "campaign.yaml"),
+                            "--output", str(tmp_path / "out"), "--workers", "2", "--no-progress"],
+                           capture_output=True, text=True, env=env, timeout=180)
     assert "Traceback" not in r.stderr, r.stderr
     assert "1 completed, 1 failed" in r.stdout + r.stderr, r.stdout + r.stderr
     assert "SIGABRT" in r.stdout + r.stderr        # the worker did die: it could not clean up after itself
