@@ -35,7 +35,7 @@ from collections import deque
 from multiprocessing.connection import wait as mp_wait
 from typing import Callable, Iterable
 
-from .. import scratch
+from .. import interrupts, scratch
 from ..ssp import archive
 from . import worker_preload
 from .execute import execute_run, failure_record
@@ -243,7 +243,11 @@ class _Worker:
         forked = ctx.get_start_method() == "forkserver"
         args = (child, os.getpid(), dict(os.environ) if forked else None, scratch_root)
         self.proc = ctx.Process(target=_worker_main, args=args, name=f"cosim-campaign-worker-{n}", daemon=True)
-        self.proc.start()
+        # a stop signal taken inside start() (after the fork server has forked the worker, before the worker's
+        # preparation data is written to it) left the new worker reading an empty pipe: multiprocessing printed its
+        # EOFError traceback on the campaign's stderr. Held until the worker has what it needs, then taken.
+        with interrupts.deferred():
+            self.proc.start()
         child.close()
         self.conn = parent
         self.task: dict | None = None
