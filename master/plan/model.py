@@ -38,15 +38,18 @@ class Var:
         TypeError)."""
         return Var(**{**self.__dict__, **fields})
 
-    def _fields(self) -> tuple:
-        return (self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
-                self.unit, self.shape, self.index, self.array, self.start)
-
+    # equality and hash as the dataclass made them: the fields in order, spelled out (no call per comparison)
     def __eq__(self, other):
-        return self._fields() == other._fields() if other.__class__ is self.__class__ else NotImplemented
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return ((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
+                 self.unit, self.shape, self.index, self.array, self.start) ==
+                (other.component, other.name, other.vr, other.type, other.fmi_type, other.causality,
+                 other.variability, other.unit, other.shape, other.index, other.array, other.start))
 
     def __hash__(self):
-        return hash(self._fields())
+        return hash((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
+                     self.unit, self.shape, self.index, self.array, self.start))
 
     def __repr__(self):
         d = self.__dict__
