@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ScenarioError
@@ -13,22 +12,56 @@ from ..records import Record
 from ..ssp.model import SystemModel
 
 
-@dataclass(frozen=True)
+_VAR_FIELDS = ("component", "name", "vr", "type", "fmi_type", "causality", "variability", "unit", "shape", "index",
+               "array", "start")
+
+
 class Var:
-    component: str
-    name: str
-    vr: int
-    type: str          # base type: Real, Integer, Boolean, String
-    fmi_type: str      # the FMU's own type name
-    causality: str
-    variability: str
-    unit: str | None
-    # FMI 3.0 arrays: the whole array has a shape and no index; each element is a Var of its own, named
-    # ``y[1]``, ``A[2,1]`` (1-based, row-major as FMI 3 stores them), with its flat 0-based index and its array
-    shape: tuple = ()
-    index: int | None = None
-    array: str | None = None
-    start: object = None            # elements and arrays only: the modelDescription's start value(s)
+    """A variable of a component as the plan moves it.  Immutable and hashable by its fields, as the frozen
+    dataclass it was, but a plain class (``master.records`` says why; its field ``index`` rules out a named
+    tuple, whose ``index`` is a method)."""
+    def __init__(self, component: str, name: str, vr: int, type: str, fmi_type: str, causality: str,
+                 variability: str, unit: str | None, shape: tuple = (), index: int | None = None,
+                 array: str | None = None, start: object = None):
+        d = self.__dict__
+        d["component"], d["name"], d["vr"] = component, name, vr
+        d["type"] = type                # base type: Real, Integer, Boolean, String
+        d["fmi_type"] = fmi_type        # the FMU's own type name
+        d["causality"], d["variability"], d["unit"] = causality, variability, unit
+        # FMI 3.0 arrays: the whole array has a shape and no index; each element is a Var of its own, named
+        # ``y[1]``, ``A[2,1]`` (1-based, row-major as FMI 3 stores them), with its flat 0-based index and its array
+        d["shape"], d["index"], d["array"] = shape, index, array
+        d["start"] = start              # elements and arrays only: the modelDescription's start value(s)
+
+    def changed(self, **fields) -> "Var":
+        """The same variable with ``fields`` changed (what ``dataclasses.replace`` made; an unknown name is the same
+        TypeError)."""
+        return Var(**{**self.__dict__, **fields})
+
+    # equality and hash as the dataclass made them: the fields in order, spelled out (no call per comparison)
+    def __eq__(self, other):
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return ((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
+                 self.unit, self.shape, self.index, self.array, self.start) ==
+                (other.component, other.name, other.vr, other.type, other.fmi_type, other.causality,
+                 other.variability, other.unit, other.shape, other.index, other.array, other.start))
+
+    def __hash__(self):
+        return hash((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
+                     self.unit, self.shape, self.index, self.array, self.start))
+
+    def __repr__(self):
+        d = self.__dict__
+        return f"Var({', '.join(f'{f}={d[f]!r}' for f in _VAR_FIELDS)})"
+
+    def __setattr__(self, name, value):
+        from dataclasses import FrozenInstanceError     # the frozen dataclass's error, imported when it is raised
+        raise FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __delattr__(self, name):
+        from dataclasses import FrozenInstanceError
+        raise FrozenInstanceError(f"cannot delete field {name!r}")
 
     @property
     def qualified(self) -> str:
@@ -130,8 +163,8 @@ class ComponentVariables(Mapping):
 
 
 def _renamed(v: Var, component: str) -> Var:
-    """``replace(v, component=component)`` without dataclasses.replace's field-by-field construction (a run makes
-    a few hundred of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
+    """``v.changed(component=component)`` without the construction argument by argument (a run makes a few hundred
+    of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
     out = object.__new__(Var)
     d = out.__dict__
     d.update(v.__dict__)

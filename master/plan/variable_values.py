@@ -3,7 +3,6 @@ against its integer type's range and for finiteness."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 from ..errors import ScenarioError
 from ..fmi.slave import INTEGER_BASES
@@ -61,5 +60,5 @@ def _parse_array(v: Var, raw, where: str, allow_nonfinite: bool) -> list:
     if len(items) != size:
         raise ScenarioError(f"{v.qualified} has {size} elements (shape {list(v.shape)}), {len(items)} were given",
                             element=f"--param {where}")
-    element = replace(v, shape=(), index=None)
+    element = v.changed(shape=(), index=None)
     return [parse_value(element, x, where, allow_nonfinite) for x in items]

@@ -3,8 +3,6 @@ elements), described once per model description and shared by every component of
 dependencies on inputs."""
 from __future__ import annotations
 
-from dataclasses import replace
-
 from ..fmi.cache import LoadedFmu
 from ..fmi.slave import OBJECT_FILL, array_shape, base_type
 from .model import ComponentVariables, Var, element_names
@@ -42,9 +40,9 @@ def _describe_variables(comp: str, fmu: LoadedFmu) -> dict[str, Var]:
             continue
         names = element_names(v.name, shape)
         start = _array_start(v, mv.start, len(names))
-        out[v.name] = replace(v, shape=shape, start=start)
+        out[v.name] = v.changed(shape=shape, start=start)
         for k, name in enumerate(names):
-            out[name] = replace(v, name=name, shape=shape, index=k, array=v.name, start=start[k])
+            out[name] = v.changed(name=name, shape=shape, index=k, array=v.name, start=start[k])
     return out
 
 

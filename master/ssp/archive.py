@@ -6,18 +6,20 @@ import os
 import shutil
 import tempfile
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 from ..cache_paths import cache_root, file_sha256 as _plain_sha256
 from ..errors import ScenarioError
+from ..records import Record
 
 SSD_NAME = "SystemStructure.ssd"
 
 
-@dataclass(frozen=True)
-class MemoryArchive:
-    """An archive this process wrote, read from what the writer kept instead of a folder unpacked from it."""
+class MemoryArchive(NamedTuple):
+    """An archive this process wrote, read from what the writer kept instead of a folder unpacked from it.  A named
+    tuple, immutable as the frozen dataclass it was (a dataclass's methods are compiled from source in every
+    process that defines it: ``master.records``)."""
     ssd: bytes              # the SystemStructure.ssd as written
     members: dict           # member name ("resources/X.fmu") -> the file holding its bytes (the FMU store's copy)
     validated: bool         # the writer validated the SSD against the schema
@@ -29,13 +31,15 @@ class MemoryArchive:
 UNPACK_DIR: str | None = None
 
 
-@dataclass
-class ScenarioSource:
-    path: Path          # what the user named
-    ssd_path: Path      # the SSD file on disk (in memory: where it would be, under the archive's path)
-    root: Path          # folder that component sources are relative to (in memory: the archive's path)
-    tempdir: Path | None = None
-    memory: MemoryArchive | None = None
+class ScenarioSource(Record):
+    """A plain class, not a dataclass (``master.records`` says why)."""
+    def __init__(self, path: Path, ssd_path: Path, root: Path, tempdir: Path | None = None,
+                 memory: MemoryArchive | None = None):
+        self.path = path            # what the user named
+        self.ssd_path = ssd_path    # the SSD file on disk (in memory: where it would be, under the archive's path)
+        self.root = root            # folder that component sources are relative to (in memory: the archive's path)
+        self.tempdir = tempdir
+        self.memory = memory
 
     @property
     def shown_root(self) -> str:
@@ -139,16 +143,17 @@ def _place_fmu(sha: str, copy, link: Path) -> bool:
     return True
 
 
-@dataclass
-class _Written:
+class _Written(Record):
     """An archive this process wrote (or opened before): what it holds, and the file it was written to."""
-    stat: tuple | None      # (device, inode, size, mtime, ctime) right after it was written; None: kept in memory
-                            # only (not written to disk, see remember_written)
-    sha256: str | None      # of the archive's bytes (None: not hashed yet)
-    files: dict             # member name -> bytes (SSD, parameter files; None: a folder)
-    fmus: dict              # member name -> (SHA-256, bytes; None: in the store of linked FMUs only)
-    validated: bool = True  # the writer validated its SSD (an archive only opened before: not known)
-    shape: int | None = None    # the writer's number of the SSD's shape (MemoryArchive.shape)
+    def __init__(self, stat: tuple | None, sha256: str | None, files: dict, fmus: dict, validated: bool = True,
+                 shape: int | None = None):
+        self.stat = stat        # (device, inode, size, mtime, ctime) right after it was written; None: kept in
+                                # memory only (not written to disk, see remember_written)
+        self.sha256 = sha256    # of the archive's bytes (None: not hashed yet)
+        self.files = files      # member name -> bytes (SSD, parameter files; None: a folder)
+        self.fmus = fmus        # member name -> (SHA-256, bytes; None: in the store of linked FMUs only)
+        self.validated = validated  # the writer validated its SSD (an archive only opened before: not known)
+        self.shape = shape      # the writer's number of the SSD's shape (MemoryArchive.shape)
 
 
 # archives written by this process (master.ssp.writer) by absolute path: a campaign run writes its archive and

@@ -8,9 +8,9 @@ from __future__ import annotations
 import copy
 import hashlib
 import os
-from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
+from typing import NamedTuple
 from urllib.parse import unquote, urlparse
 
 from lxml import etree
@@ -187,7 +187,7 @@ class _Reader:
     def place_component(self, el, known: Component, shown_as, ssd_dir):
         """A component of a structure read before: the run's own copy, with its file where this run has it."""
         fmu_path = self.component_file(known.source, known.type, f"Component {known.name}", el, shown_as, ssd_dir)
-        self.components[known.name] = replace(known, fmu_path=fmu_path)
+        self.components[known.name] = _clone(known, fmu_path=fmu_path)
         self.read_bindings(el, known.name, shown_as, ssd_dir, is_component=True)
 
     def component_file(self, source, ctype, where, el, shown_as, ssd_dir) -> Path:
@@ -491,10 +491,10 @@ def _compose(first: Transformation | None, second: Transformation | None) -> Tra
     raise ScenarioError("cannot chain a linear and a mapping transformation through a system connector")
 
 
-@dataclass(frozen=True)
-class _Structure:
+class _Structure(NamedTuple):
     """What an SSD's structure key determines: read once, shared by every run of that structure (never modified:
-    a run gets copies of the components and connections, and the connectors as read-only mappings)."""
+    a run gets copies of the components and connections, and the connectors as read-only mappings).  A named
+    tuple, immutable as the frozen dataclass it was (``master.records`` says why it is not a dataclass)."""
     units: dict                 # the SSD's top-level units (a parameter set may add its own)
     components: dict            # name -> Component, fmu_path as the first run found it
     connections: tuple
@@ -581,11 +581,14 @@ def _keep_parameters(key: tuple, read: tuple) -> tuple:
     return read
 
 
-def _clone(obj):
-    """A shallow copy of a plain dataclass instance (faster than copy.copy, which a run would call for every
-    connection)."""
+def _clone(obj, **changes):
+    """A shallow copy of a record of the model (``model.Component``, ``model.Connection``) with ``changes``: what
+    ``dataclasses.replace`` made of the dataclasses they were, as their ``__init__`` only stores its arguments
+    (faster than copy.copy, which a run would call for every connection)."""
     out = object.__new__(type(obj))
-    out.__dict__.update(obj.__dict__)
+    d = out.__dict__
+    d.update(obj.__dict__)
+    d.update(changes)
     return out
 
 
@@ -603,7 +606,7 @@ def _keep_structure(key: str, known: _Structure) -> _Structure:
 
 
 def _frozen(components: dict) -> dict:
-    return {name: replace(c, connectors=MappingProxyType(dict(c.connectors))) for name, c in components.items()}
+    return {name: _clone(c, connectors=MappingProxyType(dict(c.connectors))) for name, c in components.items()}
 
 
 def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True,

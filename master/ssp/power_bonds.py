@@ -21,21 +21,21 @@ Real; the effort ends where the flow starts (X = A) and starts where the flow en
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from lxml import etree
 
 from ..errors import ScenarioError
+from ..records import Record
 
 POWER_BONDS_TYPE = "org.cosim-master.power-bonds"
 POWER_BONDS_NS = "https://cosim-master.org/ssp/power-bonds"
 
 
-@dataclass
-class PowerBond:
-    name: str
-    effort: object       # plan.Link: Y's effort output -> X's effort input
-    flow: object         # plan.Link: X's flow output -> Y's flow input
+class PowerBond(Record):
+    """A plain class, not a dataclass (``master.records`` says why)."""
+    def __init__(self, name: str, effort, flow):
+        self.name = name
+        self.effort = effort    # plan.Link: Y's effort output -> X's effort input
+        self.flow = flow        # plan.Link: X's flow output -> Y's flow input
 
 
 def _local(el) -> str:

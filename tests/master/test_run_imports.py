@@ -22,7 +22,7 @@ def note_subprocesses_and_imports(event, args):
     elif event == "import" and os.getpid() != parent:
         os.write(2, f"child imports {{args[0]}} {{'pyarrow' in sys.modules}}\\n".encode())   # one line, whole
 sys.addaudithook(note_subprocesses_and_imports)
-os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'json', 'logging', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
+os.register_at_fork(before=lambda: os.write(2, f"forks with {{sorted({{'dataclasses', 'json', 'logging', 'multiprocessing', 'socket'}} & set(sys.modules))}}\\n".encode()))
 from master.cli import main
 for extra in ([], ["--no-supervise"]):
     code = main(["run", {ssp!r}, "--stop-time", "1", "--step", "0.1", "--record", "d.*", "-o",
@@ -60,21 +60,16 @@ def test_a_run_imports_only_what_it_uses_in_either_process(tmp_path, reference_f
     assert ["fmpy", "False"] in child_imports       # fmpy is the child's own import (not made before the fork)
     assert not [m for m, loaded in child_imports if loaded == "True" or m.startswith("master.sinks.")]
     assert "logging" not in [m for m, _ in child_imports]
+    assert "dataclasses" not in [m for m, _ in child_imports]     # no dataclass left to define (see below)
     for out in ("out", "out--no-supervise"):
         assert json.loads((tmp_path / out / "run.json").read_text())["platform"] == platform.platform()
 
 
-#: the dataclasses a run of one FMU still defines. Python 3.11 compiles each generated method of a dataclass from
+#: the dataclasses a run of one FMU defines: none. Python 3.11 compiles each generated method of a dataclass from
 #: source with its own ``exec`` in every process (~3 M instructions a class, ~0.4 % of a short run's start-up
-#: each); the run path's other records are plain classes or named tuples. These remain: Var, frozen and rebuilt
-#: with ``dataclasses.replace`` where a plan is made; the SSP model's are master/ssp's own.
-RUN_PATH_DATACLASSES = {
-    "master.plan.model.Var",
-    "master.ssp.archive.MemoryArchive", "master.ssp.archive.ScenarioSource", "master.ssp.archive._Written",
-    "master.ssp.model.Component", "master.ssp.model.Connection", "master.ssp.model.Connector",
-    "master.ssp.model.MasterSettings", "master.ssp.model.ParameterValue", "master.ssp.model.SystemModel",
-    "master.ssp.model.Transformation", "master.ssp.parser._Structure", "master.ssp.power_bonds.PowerBond",
-}
+#: each); the run path's records are plain classes (``master.records.Record``) or named tuples, the last being
+#: ``plan.model.Var`` and the SSP model's (bench/results/startup_2026-11-29b.md, "ssp6").
+RUN_PATH_DATACLASSES = set()
 
 DATACLASSES = """
 import dataclasses, sys

@@ -14,7 +14,6 @@ import os
 import random
 import sys
 import zipfile
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -256,14 +255,16 @@ def test_the_connectors_element_serialises_as_built_in_place():
 
 
 # ------------------------------------------------------------------------------------------ plan Vars
-def test_a_renamed_var_is_dataclasses_replace():
+def test_a_renamed_var_is_the_var_made_with_its_component():
     rng = random.Random(11)
     for _ in range(200):
-        v = Var("", rng.choice("abc"), rng.randint(0, 99), "Real", "Float64", rng.choice(["input", "output"]),
-                "continuous", rng.choice([None, "m"]), shape=rng.choice([(), (2,)]), index=rng.choice([None, 1]),
-                start=rng.choice([None, 1.5, (1.0, math.nan)]))
+        fields = dict(name=rng.choice("abc"), vr=rng.randint(0, 99), type="Real", fmi_type="Float64",
+                      causality=rng.choice(["input", "output"]), variability="continuous",
+                      unit=rng.choice([None, "m"]), shape=rng.choice([(), (2,)]), index=rng.choice([None, 1]),
+                      start=rng.choice([None, 1.5, (1.0, math.nan)]))
+        v = Var("", **fields)
         comp = rng.choice(["uav1_dyn", "x.y"])
-        a, b = replace(v, component=comp), _renamed(v, comp)
+        a, b = Var(comp, **fields), _renamed(v, comp)
         assert a == b and hash(a) == hash(b) and repr(a) == repr(b) and a.qualified == b.qualified
         assert v.component == ""                     # the description's Var is left as it was
 

@@ -34,7 +34,7 @@ def _model_view(m, root: Path) -> dict:
         "components": {n: (c.source, c.type, c.implementation, c.line, here(c.fmu_path),
                            [(k, v.name, v.kind, v.type, v.unit, v.line) for k, v in c.connectors.items()])
                        for n, c in m.components.items()},
-        "connections": [(c.src, c.dst, c.transformation and dataclasses.astuple(c.transformation),
+        "connections": [(c.src, c.dst, c.transformation and tuple(vars(c.transformation).values()),
                          c.suppress_unit_conversion, c.line, c.extrapolation) for c in m.connections],
         "parameters": [(p.component, p.variable, p.type, repr(p.value), p.origin, getattr(p, "unit", None))
                        for p in m.parameters],
@@ -55,7 +55,7 @@ def _plan_view(p, root: Path) -> dict:
         "feedthrough": {c: {o: None if d is None else sorted(d) for o, d in outs.items()}
                         for c, outs in p.feedthrough.items()},
         "variables": {c: len(vs) for c, vs in p.variables.items()},
-        "connected": {ln.dst.qualified: dataclasses.asdict(ln.dst) for ln in p.links},
+        "connected": {ln.dst.qualified: dict(vars(ln.dst)) for ln in p.links},
     }
 
 

@@ -3,7 +3,6 @@ folder, no FMU links, the SSD parsed from the writer's bytes.  What a run reads 
 the archive unpacked (the parse result, the messages), and what a user keeps must be the archive byte for byte."""
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import io
 import os
@@ -62,9 +61,9 @@ def _annotation(text: str):
 def _model_facts(model) -> dict:
     """Everything a run takes from the parsed SSD, the FMUs by their content."""
     comps = {name: (c.source, c.type, c.line, c.implementation, hashlib.sha256(c.fmu_path.read_bytes()).hexdigest(),
-                    {k: dataclasses.astuple(v) for k, v in c.connectors.items()})
+                    {k: tuple(vars(v).values()) for k, v in c.connectors.items()})
              for name, c in model.components.items()}
-    conns = [dataclasses.astuple(c) for c in model.connections]
+    conns = [tuple(vars(c).values()) for c in model.connections]
     params = [(p.component, p.variable, p.type, p.value, p.origin, p.unit) for p in model.parameters]
     anns = {k: pickle.dumps(str(v.attrib)) for k, v in model.annotations.items()}
     return {"name": model.name, "version": model.version, "components": comps, "connections": conns,
