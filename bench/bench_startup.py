@@ -14,7 +14,10 @@ whose speed drifts affects all alike:
   run.json;
 - the same with ``--no-supervise``;
 - ``fmpy simulate FMU --stop-time 10 --output-interval 0.1 --output-file OUT.csv`` (fmpy extracts the FMU into a
-  temporary folder, simulates and writes one CSV).
+  temporary folder, simulates and writes one CSV);
+- the same with ``OPENBLAS_NUM_THREADS=1``: NumPy's OpenBLAS threads spin on the other cores after the import, which
+  adds CPU time (and instructions under valgrind, by a varying amount) but no work; the ratios are against fmpy as a
+  user runs it, and the instruction table adds the ratio against this steadier count.
 
 cosim-master is started as its console script is (``from master.cli import entry; sys.exit(entry())``) with
 ``PYTHONPATH`` set to this checkout, and with ``--before DIR`` also to that one (the same interpreter and packages:
@@ -54,6 +57,7 @@ STOP, STEP = 10.0, 0.1
 
 
 ENTRY = "import sys; from master.cli import entry; sys.exit(entry())"     # what the console script runs
+ONE_THREAD = "fmpy simulate, OPENBLAS_NUM_THREADS=1"
 
 
 def _fmpy() -> list[str]:
@@ -112,6 +116,10 @@ def main() -> None:
                                                                tree_env)
     commands["fmpy simulate"] = ([*_fmpy(), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
                                   f"{STEP:g}", "--output-file", str(tmp / "fmpy.csv")], env)
+    # NumPy's OpenBLAS starts a thread per core at import, which spins on the second core: fmpy's CPU and its
+    # instruction count under valgrind (646-765 M across sessions) move with it, its count on one thread does not
+    commands[ONE_THREAD] = ([*_fmpy(), "simulate", str(fmu), "--stop-time", f"{STOP:g}", "--output-interval",
+                             f"{STEP:g}", "--output-file", str(tmp / "fmpy1.csv")], dict(env, OPENBLAS_NUM_THREADS="1"))
     names = list(commands)
     try:
         _measure(names, commands, tmp, args.rounds, args.environment_bytecode)
@@ -162,8 +170,8 @@ def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
     print()
     print("Instructions executed (valgrind cachegrind, one run each; millions):")
     print()
-    print("| command | the process that runs the FMU | the supervisor | / fmpy's |")
-    print("|---|---|---|---|")
+    print("| command | the process that runs the FMU | the supervisor | / fmpy's | / fmpy's on one thread |")
+    print("|---|---|---|---|---|")
     counted = {}
     for name in names:
         cmd, env = commands[name]
@@ -177,11 +185,11 @@ def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
         started = min(counts)           # the process started here (its children's ids come after it)
         forked = [n for pid, n in counts.items() if pid != started]
         counted[name] = (max(forked) if forked else counts[started], counts[started] if forked else None)
-    ref = counted["fmpy simulate"][0]
+    ref, ref_one = counted["fmpy simulate"][0], counted[ONE_THREAD][0]
     for name in names:
         runs, supervisor = counted[name]
         print(f"| {name} | {runs / 1e6:.1f} | {'' if supervisor is None else f'{supervisor / 1e6:.1f}'} | "
-              f"{runs / ref:.3f} |")
+              f"{runs / ref:.3f} | {runs / ref_one:.3f} |")
 
 
 def _summary(path: Path) -> int:
