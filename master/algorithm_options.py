@@ -18,7 +18,7 @@ from .errors import CosimError
 
 class AlgorithmOption(NamedTuple):
     """One setting. A named tuple, immutable as the frozen dataclass it was, not a dataclass
-    (``execution.Options`` says why)."""
+    (``master.records`` says why)."""
     name: str                   # Options field, campaign key
     kind: str                   # "int", "float", "choice"
     default: object             # None: derived (see help)

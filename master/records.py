@@ -17,3 +17,15 @@ class Record:
 
     def __eq__(self, other):
         return vars(self) == vars(other) if other.__class__ is self.__class__ else NotImplemented
+
+
+def replaced(record, **changes):
+    """A shallow copy of ``record`` with ``changes``: what ``dataclasses.replace`` made, by the instance's
+    ``__dict__`` instead of a construction argument by argument (copy.copy's reduce protocol cost more still) --
+    the plan and the parser copy a few hundred records a run. Only for classes whose ``__init__`` stores its
+    arguments and nothing else (the records here, ``plan.model.Var``); the names in ``changes`` are not checked."""
+    out = object.__new__(type(record))
+    d = out.__dict__
+    d.update(record.__dict__)
+    d.update(changes)
+    return out

@@ -10,7 +10,7 @@ from .records import Record
 
 class Result(Record):
     """What ``run`` returns: the output folder (None: kept in memory), run.json's facts and the events. A plain
-    class, not a dataclass (``execution.Options`` says why)."""
+    class, not a dataclass (``master.records`` says why)."""
     def __init__(self, output_dir: Path | None, metadata: dict, events: list | None = None, _table=None):
         self.output_dir, self.metadata = output_dir, metadata
         self.events = [] if events is None else events

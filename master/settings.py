@@ -17,7 +17,7 @@ DEFAULT_STEPS = 500
 
 class Settings(Record):
     """The resolved settings of a run. A plain class, not a dataclass: Python 3.11 compiles a dataclass's methods
-    from source in every process, a cost every run's start-up paid (``execution.Options`` says more)."""
+    from source in every process, a cost every run's start-up paid (``master.records`` says more)."""
     def __init__(self, start: float, stop: float, step: float, steps: int, algorithm: str, record_every: int,
                  step_multiples: dict, step_source: str, last_step: float | None = None,
                  tolerance: float | None = None, sources: dict | None = None, final_steps: dict | None = None):

@@ -8,7 +8,7 @@ BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 
 class Unit(Record):
     """A unit as SSP (ssc:Unit) and FMI (UnitDefinitions) define it: SI value = factor * value + offset. A plain
-    class, not a dataclass (``execution.Options`` says why)."""
+    class, not a dataclass (``master.records`` says why)."""
     def __init__(self, name: str, factor: float = 1.0, offset: float = 0.0,
                  exponents: tuple = (0, 0, 0, 0, 0, 0, 0, 0)):     # kg m s A K mol cd rad
         self.name, self.factor, self.offset, self.exponents = name, factor, offset, exponents

@@ -310,8 +310,9 @@ class InputExtrapolation:
         - an FMU that enforces the rule: an error status, which ends the run with one line naming it.
         Only runs that ask for it pay this (extrapolation K > 0, per-output orders, input derivatives; the
         adaptive algorithm with extrapolation or an error estimate that reads held inputs; iterative coupling
-        with interpolated inputs); plain fixed-step runs, every shipped SSP among them, never call it. Kept because without it a feedthrough output's sample is half a step off
-        and the extrapolation's order drops to 1."""
+        with interpolated inputs); plain fixed-step runs, every shipped SSP among them, never call it. Kept
+        because without it a feedthrough output's sample is half a step off and the extrapolation's order drops
+        to 1."""
         for i, (transfers, setters, _, getters, _) in self.refreshed:
             for x in transfers:
                 x()

@@ -9,7 +9,7 @@ from ..records import Record
 
 
 class StepOrder(Record):
-    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    """A plain class, not a dataclass (``master.records`` says why)."""
     def __init__(self, order: list[int], broken: list[tuple[str, str]] | None = None):
         self.order = order                                      # component indices in stepping order
         self.broken = [] if broken is None else broken          # connections that read a value of the previous step

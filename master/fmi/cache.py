@@ -21,7 +21,7 @@ CSV_KIND = "CsvSource"
 
 
 class LoadedFmu(Record):
-    """An FMU read and unpacked. A plain class, not a dataclass (``execution.Options`` says why)."""
+    """An FMU read and unpacked. A plain class, not a dataclass (``master.records`` says why)."""
     def __init__(self, path: Path, sha256: str, unzip_dir: Path, md, kind: str | None = None):
         self.path, self.sha256, self.unzip_dir = path, sha256, unzip_dir
         self.md = md                # fmpy ModelDescription

@@ -23,7 +23,7 @@ DEFAULT_RTOL = 1e-10       # when neither the command line nor the FMU's Default
 class SolverChoice(NamedTuple):
     """What the run asks of every model-exchange component's integrator (``Options.solver``, ``solver_step``).
     ``step``: Euler's largest internal step; None takes each communication step whole. A named tuple, immutable
-    as the frozen dataclass it was, not a dataclass (``execution.Options`` says why)."""
+    as the frozen dataclass it was, not a dataclass (``master.records`` says why)."""
     name: str = "cvode-bdf"
     step: float | None = None
 

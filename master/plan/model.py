@@ -3,17 +3,19 @@ runtime, the observers and the algorithms read them.  Made by :mod:`.build`."""
 from __future__ import annotations
 
 import itertools
+import operator
 from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import ScenarioError
 from ..fmi.cache import LoadedFmu
-from ..records import Record
+from ..records import Record, replaced
 from ..ssp.model import SystemModel
 
 
 _VAR_FIELDS = ("component", "name", "vr", "type", "fmi_type", "causality", "variability", "unit", "shape", "index",
                "array", "start")
+_var_key = operator.attrgetter(*_VAR_FIELDS)
 
 
 class Var:
@@ -38,18 +40,15 @@ class Var:
         TypeError)."""
         return Var(**{**self.__dict__, **fields})
 
-    # equality and hash as the dataclass made them: the fields in order, spelled out (no call per comparison)
+    # equality and hash as the dataclass made them: the fields in order (one C call reads them, no Python call per
+    # comparison: a plan compares and hashes Vars in its dictionaries)
     def __eq__(self, other):
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return ((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
-                 self.unit, self.shape, self.index, self.array, self.start) ==
-                (other.component, other.name, other.vr, other.type, other.fmi_type, other.causality,
-                 other.variability, other.unit, other.shape, other.index, other.array, other.start))
+        return _var_key(self) == _var_key(other)
 
     def __hash__(self):
-        return hash((self.component, self.name, self.vr, self.type, self.fmi_type, self.causality, self.variability,
-                     self.unit, self.shape, self.index, self.array, self.start))
+        return hash(_var_key(self))
 
     def __repr__(self):
         d = self.__dict__
@@ -78,7 +77,7 @@ def element_names(name: str, shape: tuple) -> list[str]:
 
 
 class Link(Record):
-    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    """A plain class, not a dataclass (``master.records`` says why)."""
     def __init__(self, src: Var, dst: Var, factor: float = 1.0, offset: float = 0.0, mapping: dict | None = None,
                  line: int | None = None):
         self.src, self.dst, self.factor, self.offset, self.mapping, self.line = src, dst, factor, offset, mapping, line
@@ -89,7 +88,7 @@ class Link(Record):
 
 
 class Plan(Record):
-    """A plain class, not a dataclass (``execution.Options`` says why)."""
+    """A plain class, not a dataclass (``master.records`` says why)."""
     def __init__(self, model: SystemModel, shown_as: str, fmus: dict[str, LoadedFmu], links: list[Link],
                  params: list[tuple[Var, object, str]], feedthrough: dict[str, dict[str, set | None]],
                  variables: dict[str, dict[str, Var]] | None = None):
@@ -140,7 +139,7 @@ class ComponentVariables(Mapping):
     def __getitem__(self, name: str) -> Var:
         v = self._made.get(name)
         if v is None:
-            v = self._made[name] = _renamed(self._described[name], self.component)
+            v = self._made[name] = replaced(self._described[name], component=self.component)
         return v
 
     def __contains__(self, name) -> bool:
@@ -160,16 +159,6 @@ class ComponentVariables(Mapping):
         """The FMU's variables with no component (shared by every component of the FMU, never modified): what
         a per-process cache may key on by identity."""
         return self._described
-
-
-def _renamed(v: Var, component: str) -> Var:
-    """``v.changed(component=component)`` without the construction argument by argument (a run makes a few hundred
-    of them; a Var is a frozen record of plain fields, so its copy is its __dict__)."""
-    out = object.__new__(Var)
-    d = out.__dict__
-    d.update(v.__dict__)
-    d["component"] = component
-    return out
 
 
 def shown_source(shown_as: str, source: str) -> str:

@@ -7,6 +7,7 @@ from typing import NamedTuple
 
 from ..errors import CosimError
 from ..fmi.cache import load_fmu
+from ..records import replaced
 from ..ssp.model import CSV_SOURCE_TYPE, SystemModel
 from .model import shown_source
 
@@ -14,7 +15,7 @@ from .model import shown_source
 class _PlanStructure(NamedTuple):
     """The value-free part of a plan (``build._plan_structure``) kept for later runs of the same structure and FMUs;
     never handed out itself: each run gets its own links, dependency sets and dictionaries. A named tuple, not a
-    frozen dataclass (``execution.Options`` says why)."""
+    frozen dataclass (``master.records`` says why)."""
     kinds: dict             # component -> the FMI kind it runs as
     variables: dict         # component -> ComponentVariables (read-only mappings of frozen Vars)
     feedthrough: dict
@@ -26,7 +27,7 @@ class _PlanStructure(NamedTuple):
         fmus = {name: loaded[comp.fmu_path].as_kind(self.kinds[name])
                 for name, comp in model.components.items()}
         return fmus, dict(self.variables), _copied_feedthrough(self.feedthrough), dict(self.units), \
-            [_clone(ln) for ln in self.links]
+            [replaced(ln) for ln in self.links]
 
 
 # (structure key, each component's FMU content and kind asked for, lenient, units) -> _PlanStructure: a campaign
@@ -76,15 +77,7 @@ def keep_plan(key: tuple, fmus: dict, variables: dict, feed: dict, units: dict, 
     if len(links) > _MAX_KEPT_LINKS:
         return
     _PLANS[key] = _PlanStructure({name: f.kind for name, f in fmus.items()}, dict(variables),
-                                 _copied_feedthrough(feed), dict(units), tuple(_clone(ln) for ln in links))
-
-
-def _clone(obj):
-    """A shallow copy of a plain dataclass instance (copy.copy's reduce protocol cost more than the rest of a reused
-    plan)."""
-    out = object.__new__(type(obj))
-    out.__dict__.update(obj.__dict__)
-    return out
+                                 _copied_feedthrough(feed), dict(units), tuple(replaced(ln) for ln in links))
 
 
 def _copied_feedthrough(feed: dict) -> dict:

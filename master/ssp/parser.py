@@ -16,6 +16,7 @@ from urllib.parse import unquote, urlparse
 from lxml import etree
 
 from ..errors import ScenarioError
+from ..records import replaced
 from . import xsd
 from .archive import MemoryArchive, schema_checked
 from .connection_extrapolation import read_connection_order
@@ -187,7 +188,7 @@ class _Reader:
     def place_component(self, el, known: Component, shown_as, ssd_dir):
         """A component of a structure read before: the run's own copy, with its file where this run has it."""
         fmu_path = self.component_file(known.source, known.type, f"Component {known.name}", el, shown_as, ssd_dir)
-        self.components[known.name] = _clone(known, fmu_path=fmu_path)
+        self.components[known.name] = replaced(known, fmu_path=fmu_path)
         self.read_bindings(el, known.name, shown_as, ssd_dir, is_component=True)
 
     def component_file(self, source, ctype, where, el, shown_as, ssd_dir) -> Path:
@@ -581,17 +582,6 @@ def _keep_parameters(key: tuple, read: tuple) -> tuple:
     return read
 
 
-def _clone(obj, **changes):
-    """A shallow copy of a record of the model (``model.Component``, ``model.Connection``) with ``changes``: what
-    ``dataclasses.replace`` made of the dataclasses they were, as their ``__init__`` only stores its arguments
-    (faster than copy.copy, which a run would call for every connection)."""
-    out = object.__new__(type(obj))
-    d = out.__dict__
-    d.update(obj.__dict__)
-    d.update(changes)
-    return out
-
-
 def _size(components: dict, connections) -> int:
     return sum(len(c.connectors) for c in components.values()) + len(connections)
 
@@ -606,7 +596,7 @@ def _keep_structure(key: str, known: _Structure) -> _Structure:
 
 
 def _frozen(components: dict) -> dict:
-    return {name: _clone(c, connectors=MappingProxyType(dict(c.connectors))) for name, c in components.items()}
+    return {name: replaced(c, connectors=MappingProxyType(dict(c.connectors))) for name, c in components.items()}
 
 
 def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = True,
@@ -656,7 +646,7 @@ def read_ssd(ssd_path: Path, root: Path, shown_root: str = "", validate: bool = 
                                                     frozenset(reader.system_connectors), MappingProxyType(reach)))
             reader.components = {name: copy.copy(c) for name, c in known.components.items()}
     if known is not None:
-        connections = [_clone(c) for c in known.connections]
+        connections = [replaced(c) for c in known.connections]
         reach = known.reach
     model.structure = key
     model.components = reader.components

@@ -22,7 +22,8 @@ from lxml import etree
 from master.execution import prepare
 from master.observers import recording
 from master.observers.recording import select_variables
-from master.plan.model import Var, _renamed
+from master.plan.model import Var
+from master.records import replaced
 from master.ssp import archive, writer
 from master.ssp.archive import _extract_ssp, file_sha256, open_scenario
 from uavsim.strategy import ZoneMap
@@ -264,7 +265,7 @@ def test_a_renamed_var_is_the_var_made_with_its_component():
                       start=rng.choice([None, 1.5, (1.0, math.nan)]))
         v = Var("", **fields)
         comp = rng.choice(["uav1_dyn", "x.y"])
-        a, b = Var(comp, **fields), _renamed(v, comp)
+        a, b = Var(comp, **fields), replaced(v, component=comp)
         assert a == b and hash(a) == hash(b) and repr(a) == repr(b) and a.qualified == b.qualified
         assert v.component == ""                     # the description's Var is left as it was
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from master.ssp import archive, model, parser, power_bonds
+from master.records import replaced
 from master.units import Unit
 
 
@@ -229,10 +230,10 @@ def test_a_connection_names_its_ends():
     assert (c.src, c.dst) == ("a.b.y", "c.u")
 
 
-def test_the_parser_copies_a_component_with_its_file_changed():
+def test_a_component_copied_with_its_file_changed():
     comp = model.Component("c", "resources/c.fmu", Path("/a/c.fmu"), "application/x-fmu-sharedlibrary",
                            {"u": model.Connector("u", "input", "Real")}, 3, "CoSimulation")
-    moved = parser._clone(comp, fmu_path=Path("/b/c.fmu"))
+    moved = replaced(comp, fmu_path=Path("/b/c.fmu"))
     ref = dataclasses.replace(Component(**vars(comp)), fmu_path=Path("/b/c.fmu"))
     assert repr(moved) == repr(ref) and moved.fmu_path == Path("/b/c.fmu")
     assert comp.fmu_path == Path("/a/c.fmu") and moved.connectors is comp.connectors
