@@ -1,7 +1,7 @@
 """Build the chain benchmark's FMUs and SSPs.
 
 * ``build_c_fmu(out_dir)``: bench/chain/lag.c compiled with gcc against the FMI 2.0 headers shipped with
-  fmpy (``<fmpy>/c-code``) and bench/recording/fmi2_common.h (the stubs it shares with the recording
+  fmpy (``<fmpy>/c-code``) and bench/fmi2_stubs/fmi2_common.h (the stubs it shares with the recording
   benchmark's FMUs) into ``out_dir/Lag.fmu`` (FMI 2.0 Co-Simulation, binaries/linux64/Lag.so; both sources
   in sources/).
 * ``build_python_fmu(out_dir)``: bench/chain/Lag.py through ``pythonfmu build``; its modelDescription.xml is
@@ -26,7 +26,7 @@ from xml.etree import ElementTree as ET
 
 HERE = Path(__file__).resolve().parent
 # the FMI 2.0 life cycle and unsupported-function stubs lag.c shares with the recording benchmark's FMUs
-COMMON_HEADER = HERE.parent / "recording" / "fmi2_common.h"
+COMMON_HEADER = HERE.parent / "fmi2_stubs" / "fmi2_common.h"
 
 # name, causality, variability, initial, start, description -- value reference = position (see lag.c)
 VARIABLES = [

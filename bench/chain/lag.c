@@ -12,7 +12,7 @@
  * Written from the FMI 2.0.4 specification; every fmi2* function is exported
  * (masters look all of them up when loading). The life cycle and the functions
  * this model does not support (they return fmi2Error) are the recording
- * benchmark's shared block, bench/recording/fmi2_common.h (build.py passes its
+ * benchmarks' shared block, bench/fmi2_stubs/fmi2_common.h (build.py passes its
  * folder to the compiler and ships it in sources/ beside this file). No global
  * state: any number of instances.
  *

@@ -136,7 +136,7 @@ def build_fmu(out_dir, workload: str = "harsh") -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     source, ident, _ = WORKLOADS[workload]
     src = HERE / source
-    common = HERE / "fmi2_common.h"
+    common = HERE.parent / "fmi2_stubs" / "fmi2_common.h"
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "cosim-master-bench-recording/" + src.read_text()
                                 + common.read_text())) + "}"
     with tempfile.TemporaryDirectory(prefix="recording_fmu_") as tmp:
@@ -145,7 +145,7 @@ def build_fmu(out_dir, workload: str = "harsh") -> Path:
         bindir.mkdir(parents=True)
         (root / "sources").mkdir()
         cmd = [os.environ.get("CC", "cc"), "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra",
-               "-ffp-contract=off", f"-I{fmi_headers_dir()}", str(src), "-lm", "-o", str(bindir / f"{ident}.so")]
+               "-ffp-contract=off", f"-I{fmi_headers_dir()}", f"-I{common.parent}", str(src), "-lm", "-o", str(bindir / f"{ident}.so")]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"the C compiler failed:\n{' '.join(cmd)}\n{proc.stderr}")

@@ -1,10 +1,10 @@
-/* What the recording benchmark's two stand-in FMUs (controlled_temperature.c, controlled_temperature_20sim.c)
- * share, in one copy: the error log, the instance's life cycle and the FMI 2.0 functions they do not support (no
- * Integer or String variables, no FMU state, no derivatives, no Model Exchange). The including file defines
- * Model (with cb, name and initialized), reset(Model *) and evaluate(Model *, double t) first, and
- * HAS_NO_BOOLEANS when it has no Boolean variables. */
-#ifndef RECORDING_FMI2_COMMON_H
-#define RECORDING_FMI2_COMMON_H
+/* What the benchmarks' hand-written FMI 2.0 FMUs (bench/recording's two ControlledTemperature stand-ins and
+ * bench/chain/lag.c) share, in one copy: the error log, the instance's life cycle and the FMI 2.0 functions
+ * they do not support (no Integer or String variables, no FMU state, no derivatives, no Model Exchange). The
+ * including file defines Model (with cb, name and initialized), reset(Model *) and evaluate(Model *, double t)
+ * first, and HAS_NO_BOOLEANS when it has no Boolean variables. */
+#ifndef BENCH_FMI2_COMMON_H
+#define BENCH_FMI2_COMMON_H
 
 static void log_error(Model *c, const char *msg)
 {
