@@ -26,6 +26,7 @@ import argparse
 import os
 import resource
 import shutil
+import signal
 import statistics
 import sys
 import tempfile
@@ -171,6 +172,9 @@ def main(argv=None) -> int:
             configs.update({f"{w}: before: {name}": (w, args, env, [a.before])
                             for name, (args, env) in configs_of(w).items()})
     checks = []
+    # a run's folder holds ~0.7 GB of results: a SIGTERM (a job's timeout, kill) unwinds like Ctrl-C, so the
+    # temporary folder below is removed rather than left in /tmp
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
     with tempfile.TemporaryDirectory(prefix="bench_recording_") as tmp:
         tmp = Path(tmp)
         if not a.environment_bytecode:
