@@ -198,11 +198,16 @@ class _PipeSink(Sink):
     def __init__(self, conn, header):
         self.conn, self.header = conn, header
         self.sent = 0
+        self.last = False       # the recording's last block: nothing fills the shared block after it
+        self.untaken = False    # the parent's word for the last block is still to be read
 
     def write(self, block):
         _send(self.conn, ("block", block.num_rows))
         self.sent += 1
-        _wait_taken(self.conn)
+        if self.last:           # not filled again: the child goes on to its end at once
+            self.untaken = True
+        else:
+            _wait_taken(self.conn)
         # order matters for the parent's recovery: the rows left in shared memory count only once the block
         # count says they are not the block just sent
         self.header[H_FILL] = 0
@@ -279,11 +284,14 @@ class _ChildRecording(Recording):
         # the simulation is over: no component's call is running now (the probe would still name the last one)
         if self.header is not None:
             self.header[H_PHASE], self.header[H_COMPONENT], self.header[H_NATIVE] = 0, -1, -1
+            self.group.sinks[0].last = True
         info = super().finish(out_dir, outcome)
         # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete; a run
         # with nothing that finishes after the recording goes on (one hand-over between the processes fewer)
         _send(self.conn, ("close", self.results_read_after))
         if self.results_read_after:
+            if self.header is not None and self.group.sinks[0].untaken:
+                _wait_taken(self.conn)      # (the parent answers in order: the last block's word comes first)
             reply = self.conn.recv()
             info.update(reply[1])
         return info
@@ -551,7 +559,10 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
         try:
             signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)       # from here on the parent is asked, not told
             if not orphaned():
-                _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else []))
+                _chores_of_the_end(ex.metadata)
+                # with the status this process is about to exit with: the parent writes run.json while the kernel
+                # tears this process down (_Supervisor.run), and corrects it if the status turns out otherwise
+                _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else [], status))
                 conn.close()
         except BaseException:   # noqa: BLE001 - a dying parent: its pipe breaks before the kernel reparents us
             deadline = time.monotonic() + 2.0
@@ -564,6 +575,23 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
             stack.close()
             # no exit-time destructors: some FMU binaries (pythonfmu 0.7) crash in them after the run is done
             os._exit(status)
+
+
+def _chores_of_the_end(meta: dict) -> None:
+    """What neither process's start waits for, done here once the simulation has ended: run.json's platform name
+    (``uname -p`` in a subprocess, 2-17 ms) and the sweep of what killed runs left in the shared-memory and temporary
+    folders (a listing of the temporary folder: ~3 ms with the ~7,000 entries of a shared machine's). On a short
+    run the supervisor is the later of the two processes (importing pyarrow and its Parquet writer takes longer
+    than this process's setup), so that they cost no wall time here, where they did there. A child that does not
+    get here (a crash, a kill) leaves them to the supervisor (``_Supervisor.run``)."""
+    try:
+        if meta.get("platform", "") is None:
+            import platform
+            meta["platform"] = platform.platform()
+        _sweep_left_blocks()
+        _sweep_left_scratch()
+    except Exception:   # noqa: BLE001 - housekeeping: the run's own account must still be sent
+        pass
 
 
 # ----------------------------------------------------------------------------------------------- parent
@@ -616,13 +644,9 @@ _sweep_left = scratch.sweep_left      # the sweep a campaign's workers share (ma
 
 def _prepare_while_the_child_starts() -> None:
     """Imports what the sinks need when they open (the Parquet writer: pyarrow.parquet with pyarrow.fs, ~20-60 ms)
-    and when they write side by side (a thread pool), and asks the platform's name for run.json, while the child
-    starts: it imports and sets up for longer, so a short run no longer waits for these at its end (on two cores
-    the two overlap; the child's shared block is made as soon as it asks). Shared blocks left behind by killed
-    runs go too."""
-    platform_name()
-    _sweep_left_blocks()
-    _sweep_left_scratch()
+    and when they write side by side (a thread pool) while the child starts, so that a short run does not wait for
+    these at its end (on two cores the two overlap; the child's shared block is made as soon as it asks). The
+    platform's name and the sweeps are the child's, at its end (``_chores_of_the_end``)."""
     import concurrent.futures.thread  # noqa: F401 - the pool's module, imported when the pool is first made
     try:
         import pyarrow.parquet  # noqa: F401
@@ -647,6 +671,7 @@ class _Supervisor:
         self.blocks_received = 0
         self.events: list = []
         self.meta: dict | None = None
+        self.announced_exit: int | None = None     # the status the child said it exits with, after its meta
         self.names: list[str] = []
         self.step_lines: dict = {}
         self.stop_reason: str | None = None        # why this process ended the child
@@ -721,7 +746,7 @@ class _Supervisor:
         elif kind == "native_loop":
             self.native_loop = True
         elif kind == "meta":
-            self.meta, self.events = msg[1], list(msg[2])
+            self.meta, self.events, self.announced_exit = msg[1], list(msg[2]), msg[3]
 
     def stop(self, reason: str, kill: bool = False):
         if self.stop_reason is None:
@@ -741,7 +766,13 @@ class _Supervisor:
             self.kill_at = max(self.kill_at, time.monotonic() + FINISH_S)
 
     # the run --------------------------------------------------------------------------------------------
-    def run(self) -> dict:
+    def run(self, settle=None) -> dict:
+        """The run, to the child's end; ``settle(meta)`` (run_supervised's) completes run.json and the output folder
+        and says whether the folder went back to the earlier run. A child that has announced how it exits (its
+        last message) is settled while the kernel tears its process down, and run.json is corrected if it then
+        exits otherwise (a crash in its teardown, a kill): the tail of a short run is the teardown of the two
+        processes, which then overlap."""
+        settle = settle or (lambda meta: False)
         parent, child = _channel_pair()
         options = self.options.as_dict()
         unpack_dir = scratch.make(SCRATCH_PREFIX)
@@ -761,6 +792,7 @@ class _Supervisor:
             previous[s] = signal.signal(s, on_signal)
         t0 = time.monotonic()
         killed = False
+        meta = None
         try:
             proc.start()
             child.close()
@@ -768,6 +800,9 @@ class _Supervisor:
             _prepare_while_the_child_starts()
             open_conn = True
             while True:
+                if not open_conn and meta is None and self.announced_exit is not None and not killed:
+                    meta = self._finish(self.announced_exit, killed)
+                    restored = settle(meta)
                 ready = _ready([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
                 if open_conn and parent in ready:
                     # a bounded turn: a child streaming rows keeps the pipe full, and the stop checks below must
@@ -803,12 +838,24 @@ class _Supervisor:
                 except Exception:   # noqa: BLE001 - a message cut short by the child's death
                     break
         finally:
+            if meta is not None and proc.exitcode is None:     # settled, then stopped by an error: still reaped
+                proc.join()
             for s, h in previous.items():
                 signal.signal(s, h)
             parent.close()
             if proc.exitcode is not None or proc.pid is None:      # the child is gone (or never started)
                 shutil.rmtree(unpack_dir, ignore_errors=True)
-        return self._finish(proc.exitcode, killed)
+        if meta is None:
+            meta = self._finish(proc.exitcode, killed)
+            settle(meta)
+            if self.announced_exit is None:     # the child did not get to its chores
+                _sweep_left_blocks()
+                _sweep_left_scratch()
+        elif proc.exitcode != self.announced_exit:
+            meta["supervised"]["child_exit"] = proc.exitcode
+            if not restored:        # (else the folder holds the earlier run again, with its own run.json)
+                _write_run_files(self.out_dir, meta, self.events)
+        return meta
 
     def _open_sinks(self, proc):
         """The sinks, made while the child starts: importing them imports pyarrow (~30-40 ms), which the child
@@ -967,12 +1014,14 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
     try:
         t0 = time.perf_counter()
         sup = _Supervisor(scenario, opts, timeout)
-        meta = sup.run()
-        if meta.get("wall_time_s") is None:
-            meta["wall_time_s"] = time.perf_counter() - t0
-            _write_run_files(out_dir, meta, sup.events)
-        # the earlier run in the folder goes now that this one has rows, or comes back if it has none
-        settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+
+        def settle(meta: dict) -> bool:
+            if meta.get("wall_time_s") is None:
+                meta["wall_time_s"] = time.perf_counter() - t0
+                _write_run_files(out_dir, meta, sup.events)
+            # the earlier run in the folder goes now that this one has rows, or comes back if it has none
+            return settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+        meta = sup.run(settle)
     finally:
         release_output_folder(out_dir)
     result = Result(out_dir, meta, sup.events)
