@@ -26,6 +26,7 @@ parent maps it and removes the name, and sweeps the names that killed runs left 
 from __future__ import annotations
 
 import faulthandler
+import gc
 import mmap
 import os
 import pickle
@@ -62,6 +63,9 @@ FINISH_S = 120.0                 # how long a child that has ended its simulatio
 TURN_S = 0.05                    # the most time the supervisor spends on messages before its stop checks
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
+#: this process is the command's own (set by the CLI, ``cli._import_command``): the supervisor may freeze what it
+#: imports (``gc.freeze``), which a caller's process (the API, a test) must not have done to its objects
+OWN_PROCESS = False
 
 
 # ------------------------------------------------------------------------------------- the two processes
@@ -796,8 +800,20 @@ class _Supervisor:
         try:
             proc.start()
             child.close()
-            self._open_sinks(proc)
-            _prepare_while_the_child_starts()
+            # what is imported here lives as long as the process: in a process of the command's own the cyclic
+            # collector stays off while it loads and it is then frozen (never examined again), as the CLI does
+            # before the fork (cli._import_command); the ~15 collections pyarrow's import set off took ~3 ms of
+            # this process's start, which on a short run is the longer of the two
+            frozen = OWN_PROCESS and gc.isenabled()
+            if frozen:
+                gc.disable()
+            try:
+                self._open_sinks(proc)
+                _prepare_while_the_child_starts()
+            finally:
+                if frozen:
+                    gc.freeze()
+                    gc.enable()
             open_conn = True
             while True:
                 if not open_conn and meta is None and self.announced_exit is not None and not killed:
