@@ -563,7 +563,6 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
         try:
             signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)       # from here on the parent is asked, not told
             if not orphaned():
-                _chores_of_the_end(ex.metadata)
                 # with the status this process is about to exit with: the parent writes run.json while the kernel
                 # tears this process down (_Supervisor.run), and corrects it if the status turns out otherwise
                 _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else [], status))
@@ -579,23 +578,6 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
             stack.close()
             # no exit-time destructors: some FMU binaries (pythonfmu 0.7) crash in them after the run is done
             os._exit(status)
-
-
-def _chores_of_the_end(meta: dict) -> None:
-    """What neither process's start waits for, done here once the simulation has ended: run.json's platform name
-    (``uname -p`` in a subprocess, 2-17 ms) and the sweep of what killed runs left in the shared-memory and temporary
-    folders (a listing of the temporary folder: ~3 ms with the ~7,000 entries of a shared machine's). On a short
-    run the supervisor is the later of the two processes (importing pyarrow and its Parquet writer takes longer
-    than this process's setup), so that they cost no wall time here, where they did there. A child that does not
-    get here (a crash, a kill) leaves them to the supervisor (``_Supervisor.run``)."""
-    try:
-        if meta.get("platform", "") is None:
-            import platform
-            meta["platform"] = platform.platform()
-        _sweep_left_blocks()
-        _sweep_left_scratch()
-    except Exception:   # noqa: BLE001 - housekeeping: the run's own account must still be sent
-        pass
 
 
 # ----------------------------------------------------------------------------------------------- parent
@@ -650,8 +632,8 @@ def _prepare_while_the_child_starts(sink_names) -> None:
     """Imports what the sinks need when they open (the Parquet writer: pyarrow.parquet with pyarrow.fs, ~20-60 ms)
     and when they write side by side (a thread pool), and loads the CSV sink's C formatter (~2 ms with its tables),
     while the child starts, so that a short run does not wait for these at its end (on two cores the two overlap;
-    the child's shared block is made as soon as it asks). The platform's name and the sweeps are the child's, at
-    its end (``_chores_of_the_end``)."""
+    the child's shared block is made as soon as it asks). What no step waits for is left to the supervisor's idle
+    moments (``IDLE_CHORES``)."""
     import concurrent.futures.thread  # noqa: F401 - the pool's module, imported when the pool is first made
     try:
         import pyarrow.parquet  # noqa: F401
@@ -660,6 +642,15 @@ def _prepare_while_the_child_starts(sink_names) -> None:
     if "csv" in sink_names:
         from .sinks.csv_native import formatter
         formatter()         # else built or loaded at the first block
+
+
+#: what the supervisor does when it would otherwise wait for its child (``_Supervisor.run``), one at a time, and
+#: whatever is left once the child is gone: run.json's platform name (``uname -p`` in a subprocess, 2-17 ms), and the
+#: sweeps of the shared blocks and scratch folders that killed runs left (a listing of the temporary folder, ~3 ms
+#: with the ~7,000 entries of a shared machine's). On a short run the supervisor's start (pyarrow and its Parquet
+#: writer, ~45 ms) is the longer of the two processes', and these came first in it; now they fill its waits (for
+#: the child's columns, its account, its exit), or, with none, its end.
+IDLE_CHORES = (platform_name, _sweep_left_blocks, _sweep_left_scratch)
 
 
 class _Supervisor:
@@ -801,6 +792,7 @@ class _Supervisor:
         t0 = time.monotonic()
         killed = False
         meta = None
+        chores = list(IDLE_CHORES)
         try:
             proc.start()
             child.close()
@@ -823,7 +815,11 @@ class _Supervisor:
                 if not open_conn and meta is None and self.announced_exit is not None and not killed:
                     meta = self._finish(self.announced_exit, killed)
                     restored = settle(meta)
-                ready = _ready([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
+                waited_for = [parent, proc.sentinel] if open_conn else [proc.sentinel]
+                if chores and not _ready(waited_for, 0.0):
+                    chores.pop(0)()         # nothing to handle: a chore, then the messages and checks again
+                    continue
+                ready = _ready(waited_for, timeout=0.2)
                 if open_conn and parent in ready:
                     # a bounded turn: a child streaming rows keeps the pipe full, and the stop checks below must
                     # still run (a timeout, an interrupt to pass on, a kill that is due)
@@ -868,13 +864,12 @@ class _Supervisor:
         if meta is None:
             meta = self._finish(proc.exitcode, killed)
             settle(meta)
-            if self.announced_exit is None:     # the child did not get to its chores
-                _sweep_left_blocks()
-                _sweep_left_scratch()
         elif proc.exitcode != self.announced_exit:
             meta["supervised"]["child_exit"] = proc.exitcode
             if not restored:        # (else the folder holds the earlier run again, with its own run.json)
                 _write_run_files(self.out_dir, meta, self.events)
+        for chore in chores:        # no idle moment came for these
+            chore()
         return meta
 
     def _open_sinks(self, proc):

@@ -44,7 +44,7 @@ def test_a_child_that_exits_as_announced_leaves_run_json_as_first_written(tmp_pa
     meta = json.loads((out / "run.json").read_text())
     assert meta["outcome"] == "completed" and meta["supervised"] == {"child_exit": 0}
     assert result.metadata == meta
-    # the platform's name, asked by the child at its end, is the one this interpreter gives
+    # the platform's name, asked by the supervisor while it waits for its child, is the one this interpreter gives
     import platform
     assert meta["platform"] == platform.platform()
 
