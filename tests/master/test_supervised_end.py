@@ -62,3 +62,13 @@ def test_a_rerun_into_the_folder_replaces_the_earlier_run_while_the_child_ends(t
     assert len((out / "results.csv").read_text().splitlines()) == 22
     from master.results import LOCK_NAME
     assert sorted(p.name for p in out.iterdir() if p.name != LOCK_NAME) == sorted(meta["products"])
+
+
+def test_an_api_callers_objects_are_not_frozen(tmp_path, reference_fmus):
+    """The supervisor freezes what it imports after the fork (``gc.freeze``) only in the CLI's own process: a
+    caller's process (this test's) keeps every object collectable."""
+    import gc
+    ssp = _dahlquist(tmp_path, reference_fmus)
+    frozen = gc.get_freeze_count()
+    run_supervised(ssp, stop_time=1.0, step=0.1, output=str(tmp_path / "out"), record=["d.x"])
+    assert gc.get_freeze_count() == frozen and gc.isenabled()
