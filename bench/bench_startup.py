@@ -22,26 +22,31 @@ whose speed drifts affects all alike:
 cosim-master is started as its console script is (``from master.cli import entry; sys.exit(entry())``) with
 ``PYTHONPATH`` set to this checkout, and with ``--before DIR`` also to that one (the same interpreter and packages:
 only ``master`` differs). Each is a fresh process, timed from its start to its exit (wall clock) with the CPU time
-of the process and its children (``getrusage``). One warm-up round is not counted (Python's bytecode caches, the
+of the process and its children (``getrusage``), and their page faults. One warm-up round is not counted (Python's bytecode caches, the
 page cache, our FMU cache). Every command runs from bytecode compiled once into the bench's own folder
 (``PYTHONPYCACHEPREFIX``; ``PYTHONDONTWRITEBYTECODE`` is removed from the children's environment), as an installed
 package does: a checkout with ``__pycache__`` folders and one without (``PYTHONDONTWRITEBYTECODE=1`` on this
 machine) would start ~0.1 s apart; ``--environment-bytecode`` keeps the environment's setting. The table gives the median and best
 wall time, the median CPU time, and the median over the rounds of each command's wall time divided by fmpy's in
-the same round; the load average is printed before and after.
+the same round, and the same ratio of CPU time; the load average is printed before and after.
 Each command's result is checked: cosim-master's last x against fmpy's.
 
 ``--instructions`` adds a measure that the machine's load does not change: each command once more under
 valgrind's cachegrind (``--cache-sim=no``, ``PYTHONHASHSEED=0``), the instructions executed by the process that
 runs the FMU, from its start to its exit. A forked process's count includes what its parent executed before the
 fork, so for the supervised run this is the serial path (interpreter, imports, the fork, the simulation), and
-the supervisor's own count is shown beside it. Needs valgrind; the run takes ~15 s a command.
+the supervisor's own count is shown beside it (it too includes what was executed before the fork). Each process
+ends with its share of the work after the fork (the child simulates, the supervisor imports pyarrow and writes
+the files), and the run ends when the later one does: the ratios are of the longer of the two, the run's critical
+path in instructions (before 2026-11-29c the child's count alone; the supervisor's was already ~10 M longer).
+Needs valgrind; the run takes ~15 s a command.
 """
 from __future__ import annotations
 
 import argparse
 import csv
 import os
+import resource
 import shutil
 import statistics
 import sys
@@ -66,11 +71,15 @@ def _fmpy() -> list[str]:
     return [str(script)] if script.is_file() else [sys.executable, "-m", "fmpy.cli"]
 
 
-def _timed(cmd: list[str], env: dict, cwd: Path) -> tuple[float, float]:
+def _timed(cmd: list[str], env: dict, cwd: Path) -> tuple[float, float, int]:
+    """(wall s, CPU s, page faults) of the command and every process it started (minor and major faults, as
+    ``perf stat -e page-faults`` counts them: the kernel's work that the instruction counts below leave out)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc, wall, cpu = run_timed(cmd, env=env, cwd=cwd)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
-    return wall, cpu
+    return wall, cpu, (after.ru_minflt - before.ru_minflt) + (after.ru_majflt - before.ru_majflt)
 
 
 def _last(path: Path, column: str) -> float:
@@ -141,11 +150,13 @@ def _measure(names: list[str], commands: dict, tmp: Path, rounds: int, environme
 
     wall: dict[str, list[float]] = {n: [] for n in names}
     cpu: dict[str, list[float]] = {n: [] for n in names}
+    faults: dict[str, list[int]] = {n: [] for n in names}
     for r in range(rounds):
         for name in names[r % len(names):] + names[:r % len(names)]:
-            w, c = _timed(*commands[name], tmp)
+            w, c, f = _timed(*commands[name], tmp)
             wall[name].append(w)
             cpu[name].append(c)
+            faults[name].append(f)
     load_after = os.getloadavg()
     ref = wall["fmpy simulate"]
 
@@ -154,12 +165,16 @@ def _measure(names: list[str], commands: dict, tmp: Path, rounds: int, environme
           f"{' '.join(f'{x:.2f}' for x in load_after)} after; bytecode: "
           + ("the environment's" if environment_bytecode else "compiled once into the bench's folder"))
     print()
-    print("| command | wall median (s) | wall best (s) | CPU median (s) | wall / fmpy's (median of rounds) |")
-    print("|---|---|---|---|---|")
+    print("| command | wall median (s) | wall best (s) | CPU median (s) | page faults (median) "
+          "| wall / fmpy's (median of rounds) | CPU / fmpy's (median of rounds) |")
+    print("|---|---|---|---|---|---|---|")
+    ref_cpu = cpu["fmpy simulate"]
     for name in names:
         ratio = statistics.median(w / f for w, f in zip(wall[name], ref))
+        cpu_ratio = statistics.median(c / f for c, f in zip(cpu[name], ref_cpu))
         print(f"| {name} | {statistics.median(wall[name]):.3f} | {min(wall[name]):.3f} | "
-              f"{statistics.median(cpu[name]):.3f} | {ratio:.2f} |")
+              f"{statistics.median(cpu[name]):.3f} | {statistics.median(faults[name]):.0f} | {ratio:.2f} | "
+              f"{cpu_ratio:.2f} |")
 
 
 def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
@@ -170,7 +185,8 @@ def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
     print()
     print("Instructions executed (valgrind cachegrind, one run each; millions):")
     print()
-    print("| command | the process that runs the FMU | the supervisor | / fmpy's | / fmpy's on one thread |")
+    print("| command | the process that runs the FMU | the supervisor | the longer of the two / fmpy's "
+          "| / fmpy's on one thread |")
     print("|---|---|---|---|---|")
     counted = {}
     for name in names:
@@ -188,8 +204,9 @@ def _instructions(names: list[str], commands: dict, tmp: Path) -> None:
     ref, ref_one = counted["fmpy simulate"][0], counted[ONE_THREAD][0]
     for name in names:
         runs, supervisor = counted[name]
+        longer = max(runs, supervisor or 0)
         print(f"| {name} | {runs / 1e6:.1f} | {'' if supervisor is None else f'{supervisor / 1e6:.1f}'} | "
-              f"{runs / ref:.3f} | {runs / ref_one:.3f} |")
+              f"{longer / ref:.3f} | {longer / ref_one:.3f} |")
 
 
 def _summary(path: Path) -> int:

@@ -473,6 +473,8 @@ def _import_command(command: str, own_process: bool = False) -> None:
         import gc
         gc.freeze()
         gc.enable()
+        if command == "run":        # and the supervisor's imports after the fork too
+            sys.modules["master.supervise"].OWN_PROCESS = True
     started()
 
 

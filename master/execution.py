@@ -57,8 +57,9 @@ PLATFORM_FROM_PARENT = False
 
 def platform_name() -> str | None:
     """``platform.platform()`` for run.json. It runs ``uname -p`` in a subprocess the first time in a process
-    (2-17 ms): in a supervised run the parent asks it while its child starts, and the child, whose start is the
-    run's, does not (None, which the parent fills in)."""
+    (2-17 ms): in a supervised run the parent asks it when it would otherwise wait for its child
+    (``supervise.IDLE_CHORES``), and the child, whose start is the run's, does not (None, which the parent fills
+    in)."""
     return None if PLATFORM_FROM_PARENT else platform.platform()
 
 

@@ -26,6 +26,7 @@ parent maps it and removes the name, and sweeps the names that killed runs left 
 from __future__ import annotations
 
 import faulthandler
+import gc
 import mmap
 import os
 import pickle
@@ -43,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from . import execution, scratch
+from .cache_paths import fmpy_validator
 from .errors import CosimError, Terminated
 from .execution import Execution, Options, platform_name, write_run_files
 from .observers.recording import Recording, block_table, schema_of
@@ -62,6 +64,9 @@ FINISH_S = 120.0                 # how long a child that has ended its simulatio
 TURN_S = 0.05                    # the most time the supervisor spends on messages before its stop checks
 CRASH_FILE = ".cosim-master.stack"
 SIGNAL_NAMES = {int(s): s.name for s in signal.Signals}
+#: this process is the command's own (set by the CLI, ``cli._import_command``): the supervisor may freeze what it
+#: imports (``gc.freeze``), which a caller's process (the API, a test) must not have done to its objects
+OWN_PROCESS = False
 
 
 # ------------------------------------------------------------------------------------- the two processes
@@ -198,11 +203,16 @@ class _PipeSink(Sink):
     def __init__(self, conn, header):
         self.conn, self.header = conn, header
         self.sent = 0
+        self.last = False       # the recording's last block: nothing fills the shared block after it
+        self.untaken = False    # the parent's word for the last block is still to be read
 
     def write(self, block):
         _send(self.conn, ("block", block.num_rows))
         self.sent += 1
-        _wait_taken(self.conn)
+        if self.last:           # not filled again: the child goes on to its end at once
+            self.untaken = True
+        else:
+            _wait_taken(self.conn)
         # order matters for the parent's recovery: the rows left in shared memory count only once the block
         # count says they are not the block just sent
         self.header[H_FILL] = 0
@@ -279,11 +289,14 @@ class _ChildRecording(Recording):
         # the simulation is over: no component's call is running now (the probe would still name the last one)
         if self.header is not None:
             self.header[H_PHASE], self.header[H_COMPONENT], self.header[H_NATIVE] = 0, -1, -1
+            self.group.sinks[0].last = True
         info = super().finish(out_dir, outcome)
         # monitors read results.parquet when they finish (e.g. the UAV trajectory): wait until it is complete; a run
         # with nothing that finishes after the recording goes on (one hand-over between the processes fewer)
         _send(self.conn, ("close", self.results_read_after))
         if self.results_read_after:
+            if self.header is not None and self.group.sinks[0].untaken:
+                _wait_taken(self.conn)      # (the parent answers in order: the last block's word comes first)
             reply = self.conn.recv()
             info.update(reply[1])
         return info
@@ -515,6 +528,7 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
     def orphaned():
         return _parent_died or os.getppid() != parent_pid
     try:
+        _import_fmpy_frozen()
         ex.setup()
         rec = _ChildRecording(ex.recording, conn, out_dir)
         ex.observers[ex.observers.index(ex.recording)] = rec
@@ -551,7 +565,9 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
         try:
             signal.signal(PARENT_DEATH_SIGNAL, signal.SIG_IGN)       # from here on the parent is asked, not told
             if not orphaned():
-                _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else []))
+                # with the status this process is about to exit with: the parent writes run.json while the kernel
+                # tears this process down (_Supervisor.run), and corrects it if the status turns out otherwise
+                _send(conn, ("meta", ex.metadata, ex.events[:] if isinstance(ex.events, list) else [], status))
                 conn.close()
         except BaseException:   # noqa: BLE001 - a dying parent: its pipe breaks before the kernel reparents us
             deadline = time.monotonic() + 2.0
@@ -564,6 +580,23 @@ def _child(conn, parent_end, parent_pid: int, scenario, options: dict, scratch: 
             stack.close()
             # no exit-time destructors: some FMU binaries (pythonfmu 0.7) crash in them after the run is done
             os._exit(status)
+
+
+def _import_fmpy_frozen() -> None:
+    """fmpy, which every run imports first (it reads the FMUs and names the validator of the validation records,
+    ``cache_paths.fmpy_validator``), imported with the cyclic collector off and then frozen, as the CLI does with
+    the engine before the fork: its modules live as long as this process, and the ~10 collections its import set
+    off (~2-3 ms, on a short run's critical path) examined them over and over."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        fmpy_validator()
+    except ImportError:     # the run says what is missing where it needs it
+        pass
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
 
 
 # ----------------------------------------------------------------------------------------------- parent
@@ -614,20 +647,29 @@ class ScratchFolder:
 _sweep_left = scratch.sweep_left      # the sweep a campaign's workers share (master/scratch.py)
 
 
-def _prepare_while_the_child_starts() -> None:
+def _prepare_while_the_child_starts(sink_names) -> None:
     """Imports what the sinks need when they open (the Parquet writer: pyarrow.parquet with pyarrow.fs, ~20-60 ms)
-    and when they write side by side (a thread pool), and asks the platform's name for run.json, while the child
-    starts: it imports and sets up for longer, so a short run no longer waits for these at its end (on two cores
-    the two overlap; the child's shared block is made as soon as it asks). Shared blocks left behind by killed
-    runs go too."""
-    platform_name()
-    _sweep_left_blocks()
-    _sweep_left_scratch()
+    and when they write side by side (a thread pool), and loads the CSV sink's C formatter (~2 ms with its tables),
+    while the child starts, so that a short run does not wait for these at its end (on two cores the two overlap;
+    the child's shared block is made as soon as it asks). What no step waits for is left to the supervisor's idle
+    moments (``IDLE_CHORES``)."""
     import concurrent.futures.thread  # noqa: F401 - the pool's module, imported when the pool is first made
     try:
         import pyarrow.parquet  # noqa: F401
     except ImportError:     # the sink that needs it says so when it opens
         pass
+    if "csv" in sink_names:
+        from .sinks.csv_native import formatter
+        formatter()         # else built or loaded at the first block
+
+
+#: what the supervisor does when it would otherwise wait for its child (``_Supervisor.run``), one at a time, and
+#: whatever is left once the child is gone: run.json's platform name (``uname -p`` in a subprocess, 2-17 ms), and the
+#: sweeps of the shared blocks and scratch folders that killed runs left (a listing of the temporary folder, ~3 ms
+#: with the ~7,000 entries of a shared machine's). On a short run the supervisor's start (pyarrow and its Parquet
+#: writer, ~45 ms) is the longer of the two processes', and these came first in it; now they fill its waits (for
+#: the child's columns, its account, its exit), or, with none, its end.
+IDLE_CHORES = (platform_name, _sweep_left_blocks, _sweep_left_scratch)
 
 
 class _Supervisor:
@@ -647,6 +689,7 @@ class _Supervisor:
         self.blocks_received = 0
         self.events: list = []
         self.meta: dict | None = None
+        self.announced_exit: int | None = None     # the status the child said it exits with, after its meta
         self.names: list[str] = []
         self.step_lines: dict = {}
         self.stop_reason: str | None = None        # why this process ended the child
@@ -721,7 +764,7 @@ class _Supervisor:
         elif kind == "native_loop":
             self.native_loop = True
         elif kind == "meta":
-            self.meta, self.events = msg[1], list(msg[2])
+            self.meta, self.events, self.announced_exit = msg[1], list(msg[2]), msg[3]
 
     def stop(self, reason: str, kill: bool = False):
         if self.stop_reason is None:
@@ -741,7 +784,13 @@ class _Supervisor:
             self.kill_at = max(self.kill_at, time.monotonic() + FINISH_S)
 
     # the run --------------------------------------------------------------------------------------------
-    def run(self) -> dict:
+    def run(self, settle=None) -> dict:
+        """The run, to the child's end; ``settle(meta)`` (run_supervised's) completes run.json and the output folder
+        and says whether the folder went back to the earlier run. A child that has announced how it exits (its
+        last message) is settled while the kernel tears its process down, and run.json is corrected if it then
+        exits otherwise (a crash in its teardown, a kill): the tail of a short run is the teardown of the two
+        processes, which then overlap."""
+        settle = settle or (lambda meta: False)
         parent, child = _channel_pair()
         options = self.options.as_dict()
         unpack_dir = scratch.make(SCRATCH_PREFIX)
@@ -761,14 +810,35 @@ class _Supervisor:
             previous[s] = signal.signal(s, on_signal)
         t0 = time.monotonic()
         killed = False
+        meta = None
+        chores = list(IDLE_CHORES)
         try:
             proc.start()
             child.close()
-            self._open_sinks(proc)
-            _prepare_while_the_child_starts()
+            # what is imported here lives as long as the process: in a process of the command's own the cyclic
+            # collector stays off while it loads and it is then frozen (never examined again), as the CLI does
+            # before the fork (cli._import_command); the ~15 collections pyarrow's import set off took ~3 ms of
+            # this process's start, which on a short run is the longer of the two
+            frozen = OWN_PROCESS and gc.isenabled()
+            if frozen:
+                gc.disable()
+            try:
+                self._open_sinks(proc)
+                _prepare_while_the_child_starts(self.sink_names)
+            finally:
+                if frozen:
+                    gc.freeze()
+                    gc.enable()
             open_conn = True
             while True:
-                ready = _ready([parent, proc.sentinel] if open_conn else [proc.sentinel], timeout=0.2)
+                if not open_conn and meta is None and self.announced_exit is not None and not killed:
+                    meta = self._finish(self.announced_exit, killed)
+                    restored = settle(meta)
+                waited_for = [parent, proc.sentinel] if open_conn else [proc.sentinel]
+                if chores and not _ready(waited_for, 0.0):
+                    chores.pop(0)()         # nothing to handle: a chore, then the messages and checks again
+                    continue
+                ready = _ready(waited_for, timeout=0.2)
                 if open_conn and parent in ready:
                     # a bounded turn: a child streaming rows keeps the pipe full, and the stop checks below must
                     # still run (a timeout, an interrupt to pass on, a kill that is due)
@@ -803,12 +873,23 @@ class _Supervisor:
                 except Exception:   # noqa: BLE001 - a message cut short by the child's death
                     break
         finally:
+            if meta is not None and proc.exitcode is None:     # settled, then stopped by an error: still reaped
+                proc.join()
             for s, h in previous.items():
                 signal.signal(s, h)
             parent.close()
             if proc.exitcode is not None or proc.pid is None:      # the child is gone (or never started)
                 shutil.rmtree(unpack_dir, ignore_errors=True)
-        return self._finish(proc.exitcode, killed)
+        if meta is None:
+            meta = self._finish(proc.exitcode, killed)
+            settle(meta)
+        elif proc.exitcode != self.announced_exit:
+            meta["supervised"]["child_exit"] = proc.exitcode
+            if not restored:        # (else the folder holds the earlier run again, with its own run.json)
+                _write_run_files(self.out_dir, meta, self.events)
+        for chore in chores:        # no idle moment came for these
+            chore()
+        return meta
 
     def _open_sinks(self, proc):
         """The sinks, made while the child starts: importing them imports pyarrow (~30-40 ms), which the child
@@ -967,12 +1048,14 @@ def run_supervised(scenario, *, timeout: float | None = None, **options):
     try:
         t0 = time.perf_counter()
         sup = _Supervisor(scenario, opts, timeout)
-        meta = sup.run()
-        if meta.get("wall_time_s") is None:
-            meta["wall_time_s"] = time.perf_counter() - t0
-            _write_run_files(out_dir, meta, sup.events)
-        # the earlier run in the folder goes now that this one has rows, or comes back if it has none
-        settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+
+        def settle(meta: dict) -> bool:
+            if meta.get("wall_time_s") is None:
+                meta["wall_time_s"] = time.perf_counter() - t0
+                _write_run_files(out_dir, meta, sup.events)
+            # the earlier run in the folder goes now that this one has rows, or comes back if it has none
+            return settle_output_folder(out_dir, bool(meta.get("rows_recorded")))
+        meta = sup.run(settle)
     finally:
         release_output_folder(out_dir)
     result = Result(out_dir, meta, sup.events)

@@ -3,8 +3,9 @@ pandas nor pyarrow.compute (~0.3 s in each process, for nothing a run needs), no
 packages' entry points: the SSD names no monitor) nor the UAV study, none of the algorithms it does not run, not the
 SSP writer (bare FMUs only), the input tables' reader nor the in-process pythonfmu slave. And what the simulation
 process, whose start is the run's, does not do: ask the platform's name (``uname -p`` in a subprocess), which its
-parent does for run.json while the child starts, nor import pyarrow (~40 ms): it records into shared memory and
-names its columns as plain data; its parent, which writes the files, imports pyarrow and the sinks meanwhile."""
+parent does for run.json when it would otherwise wait for the child, nor import pyarrow (~40 ms): it records into
+shared memory and names its columns as plain data; its parent, which writes the files, imports pyarrow and the
+sinks meanwhile."""
 import json
 import platform
 import subprocess
