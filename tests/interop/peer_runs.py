@@ -63,8 +63,16 @@ def absent(peer: str) -> str | None:
     return None
 
 
+# The child runs on one CPU (COSIM_TEST_PEER_ONE_CPU=0: on all): Ecos steps the instances with
+# std::execution::par (TBB) and libcosim with its worker pool, and our pythonfmu FMUs serialise those threads on the
+# GIL anyway; with a second CPU the hand-offs and TBB's spinning workers cost more CPU than the steps (Ecos's whole
+# one-UAV mission: 0.7-0.8 s on one CPU, 0.7 or 4.8 s on two, by chance), and the SITL firmware, which inherits the
+# mask, lock-steps with its FMU on the same CPU.  The threads are the peers' own business: every instance steps from
+# the inputs of the step before (Jacobi), so the frames are the same bit for bit either way (checked when written).
 _CHILD = r"""
-import json, sys
+import json, os, sys
+if os.environ.get("COSIM_TEST_PEER_ONE_CPU", "1") != "0":
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 sys.path.insert(0, sys.argv[1])
 peer, jobs, folder = sys.argv[2], json.loads(sys.argv[3]), sys.argv[4]
 for i, job in enumerate(jobs):
