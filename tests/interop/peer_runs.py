@@ -4,7 +4,7 @@ A peer runs FMUs in its own native code (and pythonfmu FMUs re-enter the interpr
 must not take the test session with it, and OMSimulator's library must be loaded in the process that uses it.
 ``run_jobs(peer, jobs, folder)`` runs every job of one peer in one child and returns one DataFrame per job:
 ``time`` and ``"<component>.<variable>"`` after initialisation and after every step (tests/peers/*_runner.py say
-what each peer does).
+what each peer does).  The child runs on one CPU (tests/peers/one_cpu.py: the same frames at a fraction of the CPU).
 
 Where the peers are: ecospy and libcosimpy in the venv; OMSimulator in ``<repo>/../shared/omsimulator`` or
 ``$COSIM_OMSIMULATOR_LIB`` (tests/peers/omsimulator_runner.py); the SITL firmware in ``$ARDUPILOT_SITL`` or
@@ -63,17 +63,11 @@ def absent(peer: str) -> str | None:
     return None
 
 
-# The child runs on one CPU (COSIM_TEST_PEER_ONE_CPU=0: on all): Ecos steps the instances with
-# std::execution::par (TBB) and libcosim with its worker pool, and our pythonfmu FMUs serialise those threads on the
-# GIL anyway; with a second CPU the hand-offs and TBB's spinning workers cost more CPU than the steps (Ecos's whole
-# one-UAV mission: 0.7-0.8 s on one CPU, 0.7 or 4.8 s on two, by chance), and the SITL firmware, which inherits the
-# mask, lock-steps with its FMU on the same CPU.  The threads are the peers' own business: every instance steps from
-# the inputs of the step before (Jacobi), so the frames are the same bit for bit either way (checked when written).
 _CHILD = r"""
-import json, os, sys
-if os.environ.get("COSIM_TEST_PEER_ONE_CPU", "1") != "0":
-    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+import json, sys
 sys.path.insert(0, sys.argv[1])
+from peers.one_cpu import pin
+pin()                                   # before the peer's library loads (tests/peers/one_cpu.py says why)
 peer, jobs, folder = sys.argv[2], json.loads(sys.argv[3]), sys.argv[4]
 for i, job in enumerate(jobs):
     ssp, step, n, variables = job["ssp"], job["step"], job["n_steps"], [tuple(v) for v in job["variables"]]
