@@ -14,5 +14,5 @@ import os
 
 
 def pin() -> None:
-    if os.environ.get("COSIM_TEST_PEER_ONE_CPU", "1") != "0":
+    if os.environ.get("COSIM_TEST_PEER_ONE_CPU", "1") != "0" and hasattr(os, "sched_setaffinity"):   # Linux
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
