@@ -4,7 +4,7 @@ A peer runs FMUs in its own native code (and pythonfmu FMUs re-enter the interpr
 must not take the test session with it, and OMSimulator's library must be loaded in the process that uses it.
 ``run_jobs(peer, jobs, folder)`` runs every job of one peer in one child and returns one DataFrame per job:
 ``time`` and ``"<component>.<variable>"`` after initialisation and after every step (tests/peers/*_runner.py say
-what each peer does).
+what each peer does).  The child runs on one CPU (tests/peers/one_cpu.py: the same frames at a fraction of the CPU).
 
 Where the peers are: ecospy and libcosimpy in the venv; OMSimulator in ``<repo>/../shared/omsimulator`` or
 ``$COSIM_OMSIMULATOR_LIB`` (tests/peers/omsimulator_runner.py); the SITL firmware in ``$ARDUPILOT_SITL`` or
@@ -66,6 +66,8 @@ def absent(peer: str) -> str | None:
 _CHILD = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
+from peers.one_cpu import pin
+pin()                                   # before the peer's library loads (tests/peers/one_cpu.py says why)
 peer, jobs, folder = sys.argv[2], json.loads(sys.argv[3]), sys.argv[4]
 for i, job in enumerate(jobs):
     ssp, step, n, variables = job["ssp"], job["step"], job["n_steps"], [tuple(v) for v in job["variables"]]
@@ -84,8 +86,50 @@ for i, job in enumerate(jobs):
 """
 
 
+#: peers that step a run one step at a time and are never told where it ends (tests/peers/ecos_runner.py: ``init``
+#: and ``step(1)``; tests/peers/libcosim_runner.py: ``step(1)``, no stop time to ``fmi2SetupExperiment``)
+PREFIX_PEERS = ("ecos", "libcosim")
+
+
+def _flight(peer: str, job: Job) -> tuple:
+    """What a run of ``peer`` depends on, but for its length and the variables read (reads do not step anything)."""
+    return str(Path(job.ssp).resolve()), job.step, job.options.get("parameter_set", "scenario") if peer == "ecos" else ""
+
+
+def shared_flights(peer: str, jobs: list[Job]) -> tuple[list[Job], list[int]]:
+    """The runs that give every job of ``peer`` (each the longest of its flight, recording the union of the
+    variables) and, per job, the index of its run.  In a peer of ``PREFIX_PEERS`` the first n steps of a longer
+    run are the calls that a run of n steps makes, as our FMUs read no stop time either (UavWind's
+    ``setup_experiment`` keeps the start only; the others keep pythonfmu's, which does nothing): a job that is a
+    prefix of a longer one is served from it.  Other peers (OMSimulator sets a stop time) run every job."""
+    runs: list[Job] = []
+    where: list[int] = []
+    keys: dict = {}
+    for job in jobs:
+        key = _flight(peer, job) if peer in PREFIX_PEERS else len(runs)
+        types = {(c, v): t for c, v, t in (runs[keys[key]].variables if key in keys else [])}
+        if key in keys and all(types.get((c, v), t) == t for c, v, t in job.variables):
+            run = runs[keys[key]]
+            run.n_steps = max(run.n_steps, job.n_steps)
+            run.variables += [list(v) for v in job.variables if (v[0], v[1]) not in types]
+        else:
+            keys[key] = len(runs)
+            runs.append(Job(job.ssp, job.step, job.n_steps, [list(v) for v in job.variables], job.set_strings,
+                            dict(job.options)))
+        where.append(keys[key])
+    return runs, where
+
+
 def run_jobs(peer: str, jobs: list[Job], folder: Path, timeout: float = 900) -> list[pd.DataFrame]:
-    """Every job in one child process of ``peer``; its DataFrames in the order of ``jobs``."""
+    """Every job in one child process of ``peer``; its DataFrames in the order of ``jobs`` (a job that is the
+    beginning of a longer one is served from it, see ``shared_flights``)."""
+    runs, where = shared_flights(peer, jobs)
+    frames = _run_in_child(peer, runs, folder, timeout)
+    return [frames[k].iloc[:job.n_steps + 1][["time", *(f"{c}.{v}" for c, v, _ in job.variables)]].copy()
+            for job, k in zip(jobs, where)]
+
+
+def _run_in_child(peer: str, jobs: list[Job], folder: Path, timeout: float) -> list[pd.DataFrame]:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, TMPDIR=str(folder))          # OMSimulator and Ecos unpack into the temporary folder

@@ -73,6 +73,8 @@ pytestmark = [
 _LIBCOSIM_SCRIPT = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
+from peers.one_cpu import pin
+pin()
 from peers.libcosim_runner import run_libcosim
 for ssp, step, stop, out, variables in json.loads(sys.argv[2]):
     run_libcosim(ssp, step, stop, [tuple(v) for v in variables]).to_parquet(out)

@@ -203,3 +203,21 @@ def test_the_whole_mission_with_its_strings_set(request, uav_peer_runs, record_p
     record_property("max_abs_diff", json.dumps(diff))
     assert theirs["uav1_strat.photo_count"].iloc[-1] == 24 and theirs["uav1_strat.mission_state"].iloc[-1] == 7
     assert max(diff.values()) < 1e-8, diff
+
+
+def test_a_shorter_flight_is_the_beginning_of_a_longer_one(request, uav_peer_runs):
+    """OMSimulator is told where each run ends (``setStopTime``), and it flies paper_free_1uav_B with its Strings set
+    twice a session: the 20 s window of test_uav_peers and the whole mission here.  Where they overlap they are
+    the same bit for bit: no FMU of the mission reads the stop time.  That, and Ecos and libcosim never being told
+    it, is why a window of theirs is served from a longer flight of the same SSP (peer_runs.shared_flights)."""
+    import test_uav_peers
+    window = uav_peer_runs("omsimulator", test_uav_peers).get(("paper_free_1uav_B", True))
+    if window is None:
+        pytest.skip("test_uav_peers is not in this session")
+    whole = uav_peer_runs("omsimulator", request.module)["whole_mission"]
+    common = [c for c in window.columns if c in whole.columns]
+    assert len(whole) > len(window) == test_uav_peers.N + 1 and len(common) >= 7, common
+    head = whole.iloc[:len(window)]
+    for c in common:
+        a, b = head[c].to_numpy(), window[c].to_numpy()
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), c
