@@ -69,6 +69,6 @@ def test_an_api_callers_objects_are_not_frozen(tmp_path, reference_fmus):
     caller's process (this test's) keeps every object collectable."""
     import gc
     ssp = _dahlquist(tmp_path, reference_fmus)
-    frozen = gc.get_freeze_count()
+    frozen, collecting = gc.get_freeze_count(), gc.isenabled()
     run_supervised(ssp, stop_time=1.0, step=0.1, output=str(tmp_path / "out"), record=["d.x"])
-    assert gc.get_freeze_count() == frozen and gc.isenabled()
+    assert (gc.get_freeze_count(), gc.isenabled()) == (frozen, collecting)
