@@ -25,6 +25,7 @@ parent maps it and removes the name, and sweeps the names that killed runs left 
 """
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import gc
 import mmap
@@ -587,16 +588,29 @@ def _import_fmpy_frozen() -> None:
     ``cache_paths.fmpy_validator``), imported with the cyclic collector off and then frozen, as the CLI does with
     the engine before the fork: its modules live as long as this process, and the ~10 collections its import set
     off (~2-3 ms, on a short run's critical path) examined them over and over."""
-    enabled = gc.isenabled()
-    gc.disable()
+    with _loaded_frozen():
+        try:
+            fmpy_validator()
+        except ImportError:     # the run says what is missing where it needs it
+            pass
+
+
+@contextlib.contextmanager
+def _loaded_frozen(active: bool = True):
+    """What is made inside (modules that live as long as the process) with the cyclic collector off, then frozen
+    (``gc.freeze``: never examined again) and the collector back as it was, as the CLI does with its imports before
+    the fork (``cli._import_command``); nothing happens unless ``active``. The collections an import sets off go
+    over the same long-lived objects again and again, and on a short run they are on its critical path."""
+    collecting = gc.isenabled()
+    if active:
+        gc.disable()
     try:
-        fmpy_validator()
-    except ImportError:     # the run says what is missing where it needs it
-        pass
+        yield
     finally:
-        gc.freeze()
-        if enabled:
-            gc.enable()
+        if active:
+            gc.freeze()
+            if collecting:
+                gc.enable()
 
 
 # ----------------------------------------------------------------------------------------------- parent
@@ -815,20 +829,11 @@ class _Supervisor:
         try:
             proc.start()
             child.close()
-            # what is imported here lives as long as the process: in a process of the command's own the cyclic
-            # collector stays off while it loads and it is then frozen (never examined again), as the CLI does
-            # before the fork (cli._import_command); the ~15 collections pyarrow's import set off took ~3 ms of
-            # this process's start, which on a short run is the longer of the two
-            frozen = OWN_PROCESS and gc.isenabled()
-            if frozen:
-                gc.disable()
-            try:
+            # only in a process of the command's own (an API caller's objects are not frozen): the ~15 collections
+            # pyarrow's import set off took ~3 ms of this process's start, which on a short run is the longer one
+            with _loaded_frozen(active=OWN_PROCESS and gc.isenabled()):
                 self._open_sinks(proc)
                 _prepare_while_the_child_starts(self.sink_names)
-            finally:
-                if frozen:
-                    gc.freeze()
-                    gc.enable()
             open_conn = True
             while True:
                 if not open_conn and meta is None and self.announced_exit is not None and not killed:
